@@ -1,0 +1,60 @@
+"""Tune every engine x task x space on the real qrg2019 recordings and print the table.
+
+    python benchmarks/qrg2019_tuning.py [--data ../shared/datasets/qrg2019/mocap] [--max-seconds 300]
+        [--workers 2] [--engines mujoco,pybullet] [--tasks single,cube] [--spaces shared,individual,extended]
+        [--out runs/qrg2019]
+
+Each run is a normal run folder (resumable); a finished one is read, not redone.
+Prints a Markdown table of generic and tuned fitness (the README's table).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from simtune.runs import RunConfig, start_run
+from simtune.store import RunStore
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", default=str(Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"))
+    ap.add_argument("--max-seconds", type=float, default=300.0)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--engines", default="mujoco,pybullet")
+    ap.add_argument("--tasks", default="single,cube")
+    ap.add_argument("--spaces", default="shared,individual,extended")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default="runs/qrg2019")
+    args = ap.parse_args()
+    rows = []
+    for engine in args.engines.split(","):
+        for task in args.tasks.split(","):
+            for space in args.spaces.split(","):
+                run_dir = Path(args.out) / f"{engine}-{task}-{space}"
+                if not (run_dir / "run.sqlite").exists() or RunStore(run_dir).get("status") != "finished":
+                    if run_dir.exists():
+                        import shutil
+
+                        shutil.rmtree(run_dir)
+                    t0 = time.time()
+                    start_run(RunConfig(engine=engine, tasks=task, space=space, data=args.data, seed=args.seed,
+                                        workers=args.workers, max_seconds=args.max_seconds), run_dir,
+                              show_progress=False)
+                    print(f"{engine} {task} {space}: {time.time() - t0:.0f} s", flush=True)
+                store = RunStore(run_dir)
+                best = store.best_evaluation()["score"]
+                rows.append((engine, task, space, store.get("generic")["fitness"], best["fitness"],
+                             best["wrist_error"], best["object_error"], store.count_evaluations(),
+                             store.get("elapsed_s")))
+    print("\n| engine | task | space | generic | tuned | wrist | object | evaluations | wall [s] |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for e, t, s, g, f, w, o, n, wall in rows:
+        obj = "-" if o is None else f"{o:.4f}"
+        print(f"| {e} | {t} | {s} | {g:.4f} | {f:.4f} | {w:.4f} | {obj} | {n} | {wall:.0f} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,22 @@
+"""Motion-capture recordings: loading, writing, and per-task reference data.
+
+Formats are described in docs/recordings.md.
+"""
+
+from simtune.data.csvformat import write_csv
+from simtune.data.loaders import RECORDING_SUFFIXES, load_recording
+from simtune.data.qualisys import write_qualisys_tsv
+from simtune.data.recording import QRG2019_BODIES, Recording
+from simtune.data.task import TaskData, load_task_data, resample
+
+__all__ = [
+    "QRG2019_BODIES",
+    "RECORDING_SUFFIXES",
+    "Recording",
+    "TaskData",
+    "load_recording",
+    "load_task_data",
+    "resample",
+    "write_csv",
+    "write_qualisys_tsv",
+]

@@ -1,0 +1,196 @@
+"""The reference a simulation is scored against: all repeats of one task on a common clock."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from simtune.data._table import display_name
+from simtune.data.loaders import is_recording_file, load_recording
+from simtune.data.recording import Recording
+from simtune.errors import ConfigError, RecordingError, RecordingWarning
+
+
+@dataclass
+class TaskData:
+    """Repeats of one task resampled to ``times`` = arange(n) / rate (0 = recording start)."""
+
+    task: str
+    rate: float
+    times: np.ndarray
+    wrist_mean: np.ndarray
+    wrist_repeats: np.ndarray
+    object_final: np.ndarray | None
+    object_start: np.ndarray | None
+    sources: list[Path]
+
+    @property
+    def object_final_mean(self) -> np.ndarray | None:
+        """Mean final object position over the kept repeats, (3,), or None."""
+        return None if self.object_final is None else self.object_final.mean(axis=0)
+
+    @property
+    def repeat_spread(self) -> float:
+        """Mean over repeats of the mean 3-D distance between a repeat and ``wrist_mean`` [m]."""
+        dist = np.linalg.norm(self.wrist_repeats - self.wrist_mean[None], axis=2)
+        return float(dist.mean(axis=1).mean())
+
+    @property
+    def duration(self) -> float:
+        """Length of the common time axis in seconds (last sample time)."""
+        return float(self.times[-1])
+
+
+def resample(time: np.ndarray, values: np.ndarray, rate: float, n: int) -> np.ndarray:
+    """Linearly interpolate ``values`` (m,) or (m, k) sampled at ``time`` onto arange(n)/rate.
+
+    ``time`` must increase and ``values`` be NaN-free; outside ``time`` the end
+    values are held.
+    """
+    if not (math.isfinite(rate) and rate > 0):
+        raise ConfigError(f"resample: rate must be a positive number, got {rate!r}")
+    time = np.asarray(time, dtype=float)
+    values = np.asarray(values, dtype=float)
+    target = np.arange(int(n)) / rate
+    if values.ndim == 1:
+        return np.interp(target, time, values)
+    out = np.empty((target.size,) + values.shape[1:])
+    flat_in = values.reshape(values.shape[0], -1)
+    flat_out = out.reshape(target.size, -1)
+    for k in range(flat_in.shape[1]):
+        flat_out[:, k] = np.interp(target, time, flat_in[:, k])
+    return out
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(start, stop) index pairs, stop exclusive, of the True runs in ``mask``."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
+
+
+def _fill_gaps(
+    time: np.ndarray, xyz: np.ndarray, max_gap_s: float
+) -> tuple[np.ndarray, tuple[int, int, float] | None]:
+    """Bridge NaN runs of at most ``max_gap_s`` linearly (ends: nearest valid sample).
+
+    Returns the filled positions, or None and the longest gap (start, stop,
+    seconds) when a gap is too long.  A gap lasts (missing frames) x (frame period).
+    """
+    lost = np.isnan(xyz).any(axis=1)
+    if not lost.any():
+        return xyz, None
+    period = float(np.median(np.diff(time)))
+    longest: tuple[int, int, float] | None = None
+    for start, stop in _runs(lost):
+        length = float(time[stop - 1] - time[start]) + period
+        if longest is None or length > longest[2]:
+            longest = (start, stop, length)
+    assert longest is not None
+    # Small tolerance: a gap of exactly max_gap_s must not fail on float rounding.
+    if longest[2] > max_gap_s + 1e-9 or lost.all():
+        return xyz, longest
+    ok = ~lost
+    filled = np.empty_like(xyz)
+    for k in range(3):
+        filled[:, k] = np.interp(time, time[ok], xyz[ok, k])
+    return filled, None
+
+
+def _find_body(rec: Recording, body: str, display: str) -> np.ndarray:
+    if body not in rec.positions:
+        raise RecordingError(
+            f"{display}: no body {body!r} (bodies: {', '.join(rec.positions) or 'none'})"
+        )
+    return rec.positions[body]
+
+
+def load_task_data(
+    folder: Path | str,
+    task: str,
+    wrist_body: str,
+    object_body: str | None = None,
+    rate: float = 20.0,
+    body_names: list[str] | None = None,
+    max_gap_s: float = 0.25,
+) -> TaskData:
+    """Load every repeat in ``folder`` (sorted by name) and put them on a common clock.
+
+    Short marker drop-outs are interpolated; a repeat whose wrist or object is
+    lost for longer than ``max_gap_s`` is left out with a RecordingWarning.
+    """
+    if not (math.isfinite(rate) and rate > 0):
+        raise ConfigError(f"rate must be a positive number of samples per second, got {rate!r}")
+    if not (math.isfinite(max_gap_s) and max_gap_s >= 0):
+        raise ConfigError(f"max_gap_s must be a non-negative number of seconds, got {max_gap_s!r}")
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise RecordingError(f"no recordings (*.tsv, *.csv) in {folder}: no such folder")
+    files = sorted(
+        (p for p in folder.iterdir() if p.is_file() and is_recording_file(p)),
+        key=lambda p: p.name,
+    )
+    if not files:
+        raise RecordingError(f"no recordings (*.tsv, *.csv) in {folder}")
+
+    times_list: list[np.ndarray] = []
+    wrists: list[np.ndarray] = []
+    finals: list[np.ndarray] = []
+    starts: list[np.ndarray] = []
+    kept: list[Path] = []
+    for path in files:
+        display = display_name(path)
+        rec = load_recording(path, body_names)
+        # The common clock starts at each recording's own first frame.
+        t = rec.time - rec.time[0]
+        bodies = [wrist_body] + ([object_body] if object_body is not None else [])
+        filled: dict[str, np.ndarray] = {}
+        dropped = False
+        for body in bodies:
+            xyz = _find_body(rec, body, display)
+            result, gap = _fill_gaps(t, xyz, max_gap_s)
+            if gap is not None:
+                start, stop, length = gap
+                warnings.warn(
+                    f"{display}: left out: {body!r} lost for {length:.2f} s "
+                    f"(frames {start + 1}-{stop}, {t[start]:.2f}-{t[stop - 1]:.2f} s), "
+                    f"longer than max_gap_s={max_gap_s:g}",
+                    RecordingWarning,
+                    stacklevel=2,
+                )
+                dropped = True
+                break
+            filled[body] = result
+        if dropped:
+            continue
+        times_list.append(t)
+        wrists.append(filled[wrist_body])
+        if object_body is not None:
+            raw = rec.positions[object_body]
+            seen = np.flatnonzero(~np.isnan(raw).any(axis=1))
+            starts.append(raw[seen[0]].copy())
+            finals.append(raw[seen[-1]].copy())
+        kept.append(path)
+
+    if not kept:
+        raise RecordingError(
+            f"no usable repeats in {folder}: all {len(files)} left out "
+            f"(markers lost for longer than max_gap_s={max_gap_s:g} s)"
+        )
+    shortest = min(float(t[-1]) for t in times_list)
+    # floor(duration * rate) + 1 samples: every repeat covers the last one.
+    n = int(math.floor(shortest * rate + 1e-9)) + 1
+    repeats = np.stack([resample(t, w, rate, n) for t, w in zip(times_list, wrists)])
+    return TaskData(
+        task=task,
+        rate=float(rate),
+        times=np.arange(n) / rate,
+        wrist_mean=repeats.mean(axis=0),
+        wrist_repeats=repeats,
+        object_final=np.stack(finals) if object_body is not None else None,
+        object_start=np.stack(starts) if object_body is not None else None,
+        sources=kept,
+    )

@@ -1,0 +1,168 @@
+"""The one small interface every physics engine implements.
+
+An engine builds its scene for one task once, then runs any number of
+rollouts: reset with a parameter dict, step, read joint angles and the wrist
+and object poses.  The control loop, the 20 Hz sampling and the detection of
+unstable simulations live here, once, so every engine runs the same protocol.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from simtune.controller import CONTROL_PERIOD, CONTROLLER_PARAMETERS, JointController
+from simtune.tasks.spec import MATERIALS, SHAPES, TaskSpec
+
+#: Parameters applied outside the engine (controller and marker model): every engine has them.
+COMMON_PARAMETERS = CONTROLLER_PARAMETERS | {f"marker_offset_{a}" for a in "xyz"}
+
+#: Rigid-body parameters any engine with masses, motors and joint damping maps;
+#: engines add their contact and damping parameters to these.
+RIGID_BODY_PARAMETERS = frozenset(
+    {"timestep"}
+    | {f"mass_link_{i}" for i in range(1, 7)}
+    | {f"mass_{shape}_{material}" for shape in SHAPES for material in MATERIALS}
+    | {f"max_torque_joint_{i}" for i in range(1, 7)}
+    | {f"joint_damping_{i}" for i in range(1, 7)}
+)
+
+#: A simulation whose wrist leaves this radius [m] around the base, or whose object flies
+#: further than this from its start, has exploded.
+WRIST_LIMIT = 2.0
+OBJECT_LIMIT = 5.0
+
+
+@dataclass
+class Rollout:
+    """What one simulated run of a task produced, sampled at the control rate."""
+
+    times: np.ndarray  # (n,) seconds
+    wrist_pos: np.ndarray  # (n, 3) world position of the wrist (link_6 origin) [m]
+    wrist_rot: np.ndarray  # (n, 3, 3) world rotation of the wrist frame
+    joint_angles: np.ndarray  # (n, 6) [rad]
+    object_pos: np.ndarray | None  # (n, 3) or None for tasks without an object
+    stable: bool = True
+    message: str = ""
+    steps: int = 0  # physics steps taken
+
+
+class Engine(ABC):
+    """A physics engine with the arm and one task's object loaded."""
+
+    name: ClassVar[str]
+    #: engine-specific parameter names this engine maps onto its API
+    engine_parameters: ClassVar[frozenset[str]]
+
+    def __init__(self, task: TaskSpec):
+        self.task = task
+
+    @classmethod
+    def supported(cls) -> frozenset[str]:
+        return cls.engine_parameters | COMMON_PARAMETERS
+
+    @classmethod
+    def version(cls) -> str:
+        return "unknown"
+
+    # --- what each engine implements -------------------------------------------------
+    @abstractmethod
+    def defaults(self) -> dict[str, float]:
+        """The engine's own (generic) values of its engine-specific parameters."""
+
+    @abstractmethod
+    def reset(self, params: dict[str, float]) -> None:
+        """Apply ``params`` (missing ones take generic values) and put the scene in its start state."""
+
+    @property
+    @abstractmethod
+    def timestep(self) -> float:
+        """The physics time step in force after the last reset [s]."""
+
+    @abstractmethod
+    def set_joint_velocities(self, velocities: np.ndarray) -> None:
+        """Velocity targets [rad/s] for the six arm joints' motors."""
+
+    @abstractmethod
+    def step(self, n: int) -> None:
+        """Advance the physics by ``n`` time steps."""
+
+    @abstractmethod
+    def joint_angles(self) -> np.ndarray:
+        """The six arm joint angles [rad]."""
+
+    @abstractmethod
+    def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """World position and 3x3 rotation of the wrist (link_6 frame origin)."""
+
+    @abstractmethod
+    def object_position(self) -> np.ndarray | None:
+        """World position of the object's origin, or None if the task has none."""
+
+    def diverged(self) -> str:
+        """A reason if the engine itself reports the simulation as broken, else ''."""
+        return ""
+
+    def close(self) -> None:
+        """Release engine resources."""
+
+    # --- the protocol, shared by all engines ---------------------------------------------
+    def rollout(self, params: dict[str, float], n_samples: int, rate: float = 1.0 / CONTROL_PERIOD) -> Rollout:
+        """Run the task for ``n_samples`` control periods and sample the state at each.
+
+        Sample ``k`` is the state at ``k / rate`` seconds, taken just before the
+        controller's update at that instant.  The number of physics steps per
+        period is chosen so that simulated time stays within half a step of the
+        control clock whatever the time step.
+        """
+        period = 1.0 / rate
+        self.reset(params)
+        controller = JointController(self.task, params)
+        dt = self.timestep
+        times = np.arange(n_samples) * period
+        wrist_pos = np.zeros((n_samples, 3))
+        wrist_rot = np.tile(np.eye(3), (n_samples, 1, 1))
+        angles = np.zeros((n_samples, 6))
+        has_object = self.task.object is not None
+        object_pos = np.zeros((n_samples, 3)) if has_object else None
+        object_start = self.object_position() if has_object else None
+        t_sim, steps, stable, message = 0.0, 0, True, ""
+        for k in range(n_samples):
+            q = self.joint_angles()
+            pos, rot = self.wrist_pose()
+            obj = self.object_position() if has_object else None
+            reason = self.diverged() or _check_state(q, pos, rot, obj, object_start)
+            if reason:
+                stable, message = False, f"unstable at t={times[k]:.2f} s: {reason}"
+                if k:  # hold the last good sample for the rest: the rollout ends here
+                    wrist_pos[k:], wrist_rot[k:], angles[k:] = wrist_pos[k - 1], wrist_rot[k - 1], angles[k - 1]
+                    if has_object:
+                        object_pos[k:] = object_pos[k - 1]
+                break
+            wrist_pos[k], wrist_rot[k], angles[k] = pos, rot, q
+            if has_object:
+                object_pos[k] = obj
+            if k == n_samples - 1:
+                break
+            self.set_joint_velocities(controller.command(times[k], q))
+            n = max(1, int(round(((k + 1) * period - t_sim) / dt)))
+            self.step(n)
+            t_sim += n * dt
+            steps += n
+        return Rollout(times, wrist_pos, wrist_rot, angles, object_pos, stable, message, steps)
+
+
+def _check_state(q, pos, rot, obj, obj_start) -> str:
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(pos)) and np.all(np.isfinite(rot))):
+        return "non-finite arm state"
+    if np.linalg.norm(pos) > WRIST_LIMIT:
+        return f"wrist {np.linalg.norm(pos):.1f} m from the base"
+    if obj is not None:
+        if not np.all(np.isfinite(obj)):
+            return "non-finite object state"
+        if np.linalg.norm(obj - obj_start) > OBJECT_LIMIT:
+            return f"object thrown {np.linalg.norm(obj - obj_start):.1f} m"
+    return ""

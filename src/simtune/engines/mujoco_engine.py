@@ -1,0 +1,148 @@
+"""MuJoCo (DeepMind) behind the engine interface.
+
+The scene is compiled once per task; each rollout restores the compiled
+model's own values, writes the parameters into the model arrays and resets
+the data, so no state leaks from one evaluation into the next.
+
+Mapping (docs/parameters.md has the full table):
+- timestep -> ``opt.timestep``; masses -> ``body_mass`` (inertia scaled with it);
+- max torque -> the velocity servo's ``actuator_forcerange``;
+- joint damping -> ``dof_damping`` of the arm joints;
+- lateral / spinning / rolling friction -> the three ``geom_friction`` columns of
+  the group's geoms (MuJoCo takes the larger of two touching geoms' values);
+- linear / angular damping of an object -> ``dof_damping`` of the translational /
+  rotational degrees of freedom of its free joint.
+MuJoCo has no coefficient of restitution (its soft contacts have none), and no
+per-body velocity damping for the jointed arm or the static floor.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
+from simtune.errors import EngineUnavailable
+from simtune.robot.generate import FLOOR, OBJECT_BODY, scene_mjcf
+from simtune.robot.mico import ARM_JOINTS, LINKS, WRIST_LINK
+from simtune.tasks.spec import MATERIALS, TaskSpec
+
+try:
+    import mujoco
+except ImportError:  # pragma: no cover - depends on the machine
+    mujoco = None
+
+_FRICTION_COLUMN = {"lateral_friction": 0, "spinning_friction": 1, "rolling_friction": 2}
+_ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
+
+
+class MujocoEngine(Engine):
+    name = "mujoco"
+    engine_parameters = (
+        RIGID_BODY_PARAMETERS
+        | {f"{kind}_{g}" for kind in _FRICTION_COLUMN for g in ("gripper", "floor", "wood", "plastic")}
+        | {f"{kind}_{m}" for kind in ("linear_damping", "angular_damping") for m in MATERIALS}
+    )
+
+    @classmethod
+    def version(cls) -> str:
+        return mujoco.__version__ if mujoco else "not installed"
+
+    def __init__(self, task: TaskSpec):
+        if mujoco is None:
+            raise EngineUnavailable("engine 'mujoco' is not installed: pip install mujoco")
+        super().__init__(task)
+        self.model = mujoco.MjModel.from_xml_string(scene_mjcf(task.object))
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self._arm_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in ARM_JOINTS])
+        self._arm_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in ARM_JOINTS])
+        self._wrist = m.body(WRIST_LINK).id
+        self._object = m.body(OBJECT_BODY).id if task.object is not None else None
+        self._object_dof = m.jnt_dofadr[m.joint(OBJECT_BODY).id] if task.object is not None else None
+        self._groups = {"floor": [m.geom(FLOOR).id], "gripper": [
+            m.geom(g).id for link in LINKS if link.material == "gripper"
+            for g in range(m.ngeom) if m.geom_bodyid[g] == m.body(link.name).id
+        ]}
+        if task.object is not None:
+            self._groups[task.object.material] = [m.geom(OBJECT_BODY).id]
+        # the compiled model's own values: every reset starts from these
+        self._pristine = {
+            name: getattr(m, name).copy() if name != "timestep" else m.opt.timestep
+            for name in ("body_mass", "body_inertia", "actuator_forcerange", "dof_damping", "geom_friction", "timestep")
+        }
+
+    def defaults(self) -> dict[str, float]:
+        p, m = self._pristine, self.model
+        values = {"timestep": float(p["timestep"])}
+        for i, link in enumerate(_ARM_LINKS, start=1):
+            values[f"mass_link_{i}"] = float(p["body_mass"][m.body(link).id])
+            values[f"max_torque_joint_{i}"] = float(p["actuator_forcerange"][i - 1, 1])
+            values[f"joint_damping_{i}"] = float(p["dof_damping"][self._arm_dof[i - 1]])
+        if self.task.object is not None:
+            values[self.task.object.mass_parameter] = float(p["body_mass"][self._object])
+            values[f"linear_damping_{self.task.object.material}"] = float(p["dof_damping"][self._object_dof])
+            values[f"angular_damping_{self.task.object.material}"] = float(p["dof_damping"][self._object_dof + 3])
+        for group, geoms in self._groups.items():
+            for kind, col in _FRICTION_COLUMN.items():
+                values[f"{kind}_{group}"] = float(p["geom_friction"][geoms[0], col])
+        return values
+
+    @property
+    def timestep(self) -> float:
+        return float(self.model.opt.timestep)
+
+    def reset(self, params: dict[str, float]) -> None:
+        m, p = self.model, self._pristine
+        m.opt.timestep = params.get("timestep", p["timestep"])
+        for name in ("body_mass", "body_inertia", "actuator_forcerange", "dof_damping", "geom_friction"):
+            getattr(m, name)[:] = p[name]
+
+        def set_mass(body: int, mass: float) -> None:
+            m.body_inertia[body] = p["body_inertia"][body] * (mass / p["body_mass"][body])
+            m.body_mass[body] = mass
+
+        for i, link in enumerate(_ARM_LINKS, start=1):
+            if f"mass_link_{i}" in params:
+                set_mass(m.body(link).id, params[f"mass_link_{i}"])
+            if f"max_torque_joint_{i}" in params:
+                limit = params[f"max_torque_joint_{i}"]
+                m.actuator_forcerange[i - 1] = (-limit, limit)
+            if f"joint_damping_{i}" in params:
+                m.dof_damping[self._arm_dof[i - 1]] = params[f"joint_damping_{i}"]
+        obj = self.task.object
+        if obj is not None:
+            if obj.mass_parameter in params:
+                set_mass(self._object, params[obj.mass_parameter])
+            d0 = self._object_dof
+            if f"linear_damping_{obj.material}" in params:
+                m.dof_damping[d0:d0 + 3] = params[f"linear_damping_{obj.material}"]
+            if f"angular_damping_{obj.material}" in params:
+                m.dof_damping[d0 + 3:d0 + 6] = params[f"angular_damping_{obj.material}"]
+        for group, geoms in self._groups.items():
+            for kind, col in _FRICTION_COLUMN.items():
+                if f"{kind}_{group}" in params:
+                    m.geom_friction[geoms, col] = params[f"{kind}_{group}"]
+        mujoco.mj_resetData(m, self.data)
+        self.data.qpos[self._arm_qpos] = np.radians(self.task.start_pose_deg)
+        mujoco.mj_forward(m, self.data)
+
+    def set_joint_velocities(self, velocities: np.ndarray) -> None:
+        self.data.ctrl[:] = velocities
+
+    def step(self, n: int) -> None:
+        mujoco.mj_step(self.model, self.data, nstep=n)
+
+    def diverged(self) -> str:
+        # MuJoCo resets the state itself when accelerations blow up; that warning is the tell
+        if self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
+            return "MuJoCo reported bad accelerations (simulation exploded)"
+        return ""
+
+    def joint_angles(self) -> np.ndarray:
+        return self.data.qpos[self._arm_qpos].copy()
+
+    def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.data.xpos[self._wrist].copy(), self.data.xmat[self._wrist].reshape(3, 3).copy()
+
+    def object_position(self) -> np.ndarray | None:
+        return None if self._object is None else self.data.xpos[self._object].copy()

@@ -1,0 +1,229 @@
+"""PyBullet (Bullet 3 multibody) behind the engine interface.
+
+Each engine instance owns one DIRECT physics client.  A rollout resets the
+whole simulation and loads the scene again, so Bullet's contact caches and
+warm-started solver state never carry over between evaluations: the same
+parameters always give the same trajectory.
+
+Mapping (docs/parameters.md has the full table): timestep -> ``setTimeStep``;
+masses, frictions, restitution, damping -> ``changeDynamics`` on the group's
+bodies/links (Bullet multiplies the two touching bodies' friction and
+restitution); max torque -> the ``force`` of the velocity motors; joint damping
+-> ``changeDynamics(jointDamping=...)``.  The floor is static, so its velocity
+damping means nothing and is left out.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import hashlib
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
+from simtune.errors import EngineUnavailable
+from simtune.robot.generate import robot_urdf
+from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, LINKS, WRIST_LINK
+from simtune.tasks.spec import TaskSpec
+
+
+try:
+    import pybullet
+except ImportError:  # pragma: no cover - depends on the machine
+    pybullet = None
+
+
+@contextlib.contextmanager
+def _stdout_silenced():
+    """Keep C-level prints (pybullet's banner on connect) off stdout, which --json owns."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as devnull:
+            os.dup2(devnull.fileno(), 1)
+            try:
+                yield
+            finally:
+                ctypes.CDLL(None).fflush(None)  # C's stdio buffer holds the text until flushed
+                os.dup2(saved, 1)
+    finally:
+        os.close(saved)
+
+_GROUPS = ("gripper", "floor", "wood", "plastic")
+_CONTACT = {  # parameter kind -> changeDynamics keyword
+    "lateral_friction": "lateralFriction",
+    "spinning_friction": "spinningFriction",
+    "rolling_friction": "rollingFriction",
+    "restitution": "restitution",
+}
+_BODY_DAMPING = {"linear_damping": "linearDamping", "angular_damping": "angularDamping"}
+DEFAULT_TIMESTEP = 1.0 / 240.0  # Bullet's own default
+
+
+def _urdf_file() -> str:
+    """The generated URDF on disk (PyBullet loads URDF from files), written once per content."""
+    text = robot_urdf()
+    digest = hashlib.sha1(text.encode()).hexdigest()[:12]
+    path = Path(tempfile.gettempdir()) / f"simtune-mico-{digest}.urdf"
+    if not path.exists():
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)  # atomic: parallel workers never see half a file
+    return str(path)
+
+
+class PybulletEngine(Engine):
+    name = "pybullet"
+    engine_parameters = (
+        RIGID_BODY_PARAMETERS
+        | {f"{kind}_{g}" for kind in _CONTACT for g in _GROUPS}
+        | {f"{kind}_{g}" for kind in _BODY_DAMPING for g in ("gripper", "wood", "plastic")}
+    )
+
+    @classmethod
+    def version(cls) -> str:
+        if pybullet is None:
+            return "not installed"
+        from importlib.metadata import version
+
+        return version("pybullet")
+
+    def __init__(self, task: TaskSpec):
+        if pybullet is None:
+            raise EngineUnavailable("engine 'pybullet' is not installed: pip install pybullet (or simtune[pybullet])")
+        super().__init__(task)
+        with _stdout_silenced():
+            self.client = pybullet.connect(pybullet.DIRECT)
+        self._urdf = _urdf_file()
+        self._timestep = DEFAULT_TIMESTEP
+        self._load()
+        self._defaults = self._read_defaults()
+
+    # --- scene --------------------------------------------------------------------
+    def _load(self) -> None:
+        p, c = pybullet, self.client
+        p.resetSimulation(physicsClientId=c)
+        p.setGravity(0, 0, -9.81, physicsClientId=c)
+        p.setTimeStep(self._timestep, physicsClientId=c)
+        plane = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=c)
+        self.floor = p.createMultiBody(0, plane, physicsClientId=c)
+        self.robot = p.loadURDF(self._urdf, BASE_POSITION, useFixedBase=True, physicsClientId=c)
+        index = {p.getJointInfo(self.robot, j, physicsClientId=c)[12].decode(): j
+                 for j in range(p.getNumJoints(self.robot, physicsClientId=c))}  # child link name -> index
+        self._arm = [index[f"link_{i}"] for i in range(1, 7)]
+        self._wrist = index[WRIST_LINK]
+        self._gripper_links = [index[link.name] for link in LINKS if link.material == "gripper"]
+        # URDF joints start with a default velocity motor; switch them all to ours (zero target)
+        p.setJointMotorControlArray(self.robot, self._arm, p.VELOCITY_CONTROL,
+                                    targetVelocities=[0.0] * 6, forces=[100.0] * 6, physicsClientId=c)
+        self._forces = [100.0] * 6
+        self.object = None
+        obj = self.task.object
+        if obj is not None:
+            if obj.shape in ("cube", "cuboid"):
+                shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=[s / 2 for s in obj.size], physicsClientId=c)
+            elif obj.shape == "cylinder":
+                shape = p.createCollisionShape(p.GEOM_CYLINDER, radius=obj.size[0], height=obj.size[1], physicsClientId=c)
+            else:
+                shape = p.createCollisionShape(p.GEOM_MESH, vertices=obj.cone_vertices().tolist(), physicsClientId=c)
+            quat = p.getQuaternionFromEuler(obj.rpy)
+            self.object = p.createMultiBody(obj.mass, shape, basePosition=obj.start_position,
+                                            baseOrientation=quat, physicsClientId=c)
+
+    def _groups(self) -> dict[str, list[tuple[int, int]]]:
+        """Material group -> (body, link) pairs it covers."""
+        groups = {"floor": [(self.floor, -1)], "gripper": [(self.robot, link) for link in self._gripper_links]}
+        if self.object is not None:
+            groups[self.task.object.material] = [(self.object, -1)]
+        return groups
+
+    def _read_defaults(self) -> dict[str, float]:
+        p, c = pybullet, self.client
+        values = {"timestep": DEFAULT_TIMESTEP}
+        for i, link in enumerate(self._arm, start=1):
+            values[f"mass_link_{i}"] = p.getDynamicsInfo(self.robot, link, physicsClientId=c)[0]
+            values[f"max_torque_joint_{i}"] = 100.0
+            values[f"joint_damping_{i}"] = p.getJointInfo(self.robot, link, physicsClientId=c)[6]
+        if self.object is not None:
+            values[self.task.object.mass_parameter] = p.getDynamicsInfo(self.object, -1, physicsClientId=c)[0]
+        for group, members in self._groups().items():
+            body, link = members[0]
+            info = p.getDynamicsInfo(body, link, physicsClientId=c)
+            values[f"lateral_friction_{group}"] = info[1]
+            values[f"restitution_{group}"] = info[5]
+            values[f"rolling_friction_{group}"] = info[6]
+            values[f"spinning_friction_{group}"] = info[7]
+            if group != "floor":
+                # Bullet's default body damping (0.04); getDynamicsInfo does not report it
+                values[f"linear_damping_{group}"] = 0.04
+                values[f"angular_damping_{group}"] = 0.04
+        return values
+
+    # --- interface ------------------------------------------------------------------
+    def defaults(self) -> dict[str, float]:
+        return dict(self._defaults)
+
+    @property
+    def timestep(self) -> float:
+        return self._timestep
+
+    def reset(self, params: dict[str, float]) -> None:
+        p, c = pybullet, self.client
+        self._timestep = params.get("timestep", DEFAULT_TIMESTEP)
+        self._load()
+        for i, link in enumerate(self._arm, start=1):
+            if f"mass_link_{i}" in params:
+                p.changeDynamics(self.robot, link, mass=params[f"mass_link_{i}"], physicsClientId=c)
+            if f"joint_damping_{i}" in params:
+                p.changeDynamics(self.robot, link, jointDamping=params[f"joint_damping_{i}"], physicsClientId=c)
+        self._forces = [params.get(f"max_torque_joint_{i}", 100.0) for i in range(1, 7)]
+        obj = self.task.object
+        if obj is not None and obj.mass_parameter in params:
+            p.changeDynamics(self.object, -1, mass=params[obj.mass_parameter], physicsClientId=c)
+        for group, members in self._groups().items():
+            changes = {kw: params[f"{kind}_{group}"] for kind, kw in {**_CONTACT, **_BODY_DAMPING}.items()
+                       if f"{kind}_{group}" in params}
+            for body, link in members:
+                if changes:
+                    p.changeDynamics(body, link, physicsClientId=c, **changes)
+        for joint, angle in zip(self._arm, np.radians(self.task.start_pose_deg)):
+            p.resetJointState(self.robot, joint, angle, 0.0, physicsClientId=c)
+
+    def set_joint_velocities(self, velocities: np.ndarray) -> None:
+        pybullet.setJointMotorControlArray(self.robot, self._arm, pybullet.VELOCITY_CONTROL,
+                                           targetVelocities=list(velocities), forces=self._forces,
+                                           physicsClientId=self.client)
+
+    def step(self, n: int) -> None:
+        for _ in range(n):
+            pybullet.stepSimulation(physicsClientId=self.client)
+
+    def joint_angles(self) -> np.ndarray:
+        states = pybullet.getJointStates(self.robot, self._arm, physicsClientId=self.client)
+        return np.array([s[0] for s in states])
+
+    def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        state = pybullet.getLinkState(self.robot, self._wrist, computeForwardKinematics=True, physicsClientId=self.client)
+        rot = np.array(pybullet.getMatrixFromQuaternion(state[5])).reshape(3, 3)
+        return np.array(state[4]), rot
+
+    def object_position(self) -> np.ndarray | None:
+        if self.object is None:
+            return None
+        return np.array(pybullet.getBasePositionAndOrientation(self.object, physicsClientId=self.client)[0])
+
+    def close(self) -> None:
+        if pybullet is not None and self.client is not None and pybullet.isConnected(self.client):
+            pybullet.disconnect(self.client)
+        self.client = None
+
+    def __del__(self) -> None:  # engine handles must not leak across many evaluations
+        try:
+            self.close()
+        except Exception:
+            pass

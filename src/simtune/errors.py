@@ -1,0 +1,26 @@
+"""Errors and warnings that reach the user as one readable line.
+
+Anything raised as a :class:`SimtuneError` is caught by the CLI and printed as
+``error: <message>`` with a non-zero exit code, never as a traceback.  Messages
+name the file, line, body, field or option that is wrong.
+"""
+
+
+class SimtuneError(Exception):
+    """A problem with the user's input or request, explained in one line."""
+
+
+class RecordingError(SimtuneError):
+    """A recording file or folder cannot be used (corrupt, truncated, wrong units ...)."""
+
+
+class RecordingWarning(UserWarning):
+    """Recording data that is still usable but was changed or partly left out."""
+
+
+class ConfigError(SimtuneError):
+    """An unknown engine, task, space or parameter, or an invalid value for one."""
+
+
+class EngineUnavailable(SimtuneError):
+    """A physics engine that is not installed on this machine."""

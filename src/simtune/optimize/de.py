@@ -1,0 +1,186 @@
+"""Differential evolution as in the seed paper, on SciPy's implementation.
+
+best1bin, crossover 0.7, mutation dithered in [0.5, 1.0], population 1 x D,
+latin-hypercube start; stop when the population's fitness spread falls below
+1 % of its mean, after ``max_generations``, or when ``max_seconds`` have passed.
+
+The population is always updated once per generation ("deferred"), whether
+one process evaluates it or many: the same seed then gives the same run with
+any number of workers.  Evaluations go through :class:`Evaluator`, which takes
+finished ones from the run store and commits new ones as they finish.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import differential_evolution
+
+from simtune.fitness import Score
+from simtune.objective import Objective
+from simtune.store import RunStore
+
+DE_SETTINGS = dict(strategy="best1bin", recombination=0.7, mutation=(0.5, 1.0), popsize=1,
+                   init="latinhypercube", tol=0.01, atol=0.0, polish=False, updating="deferred")
+
+
+@dataclass
+class TuneResult:
+    """The outcome of a tuning run, in the spirit of SciPy's ``OptimizeResult``."""
+
+    x: np.ndarray
+    params: dict[str, float]
+    score: Score
+    generations: int
+    evaluations: int  # evaluations in the store (all sessions of this run)
+    new_evaluations: int  # evaluations simulated in this session
+    wall_s: float  # elapsed over all sessions of this run
+    message: str
+    converged: bool
+    history: list[float] = field(default_factory=list)  # best fitness per generation
+
+    @property
+    def fitness(self) -> float:
+        return self.score.fitness
+
+
+# --- worker processes ---------------------------------------------------------------------
+_WORKER_OBJECTIVE: Objective | None = None
+
+
+def _init_worker(objective: Objective) -> None:
+    global _WORKER_OBJECTIVE
+    _WORKER_OBJECTIVE = objective
+
+
+def _evaluate_in_worker(x: np.ndarray) -> tuple[dict, float]:
+    t0 = time.perf_counter()
+    score = _WORKER_OBJECTIVE.score_vector(x)
+    return score.to_dict(), time.perf_counter() - t0
+
+
+class Evaluator:
+    """A map-like callable for SciPy: scores a batch of vectors, from the store or by simulating.
+
+    ``workers`` > 1 evaluates in that many processes, each building its
+    engines once.  ``on_evaluation(score)`` is called for every result (for
+    progress display).
+    """
+
+    def __init__(self, objective: Objective, store: RunStore, workers: int = 1,
+                 on_evaluation: Callable[[Score, bool], None] | None = None):
+        self.objective = objective
+        self.store = store
+        self.workers = max(1, int(workers))
+        self.on_evaluation = on_evaluation
+        self.generation = 0
+        self.new_evaluations = 0
+        self._pool: ProcessPoolExecutor | None = None
+
+    def __enter__(self) -> "Evaluator":
+        if self.workers > 1:
+            # spawn: engines hold native handles that must not be shared through fork
+            self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
+                                             initializer=_init_worker, initargs=(self.objective,))
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(cancel_futures=True)
+            self._pool = None
+        self.objective.close()
+
+    def _finish(self, x, score: Score, wall_s: float) -> float:
+        self.store.record_evaluation(x, score, self.generation, wall_s)
+        self.new_evaluations += 1
+        if self.on_evaluation:
+            self.on_evaluation(score, False)
+        return score.fitness
+
+    def __call__(self, func, vectors) -> list[float]:
+        vectors = [np.asarray(x, dtype=float) for x in vectors]
+        fitness: list[float | None] = [None] * len(vectors)
+        todo = []
+        for i, x in enumerate(vectors):
+            known = self.store.lookup(x)
+            if known is not None:
+                fitness[i] = known.fitness
+                if self.on_evaluation:
+                    self.on_evaluation(known, True)
+            else:
+                todo.append(i)
+        if self._pool is None:
+            for i in todo:
+                t0 = time.perf_counter()
+                score = self.objective.score_vector(vectors[i])
+                fitness[i] = self._finish(vectors[i], score, time.perf_counter() - t0)
+        else:
+            futures = {self._pool.submit(_evaluate_in_worker, vectors[i]): i for i in todo}
+            for future in as_completed(futures):
+                i = futures[future]
+                score_dict, wall_s = future.result()
+                fitness[i] = self._finish(vectors[i], Score.from_dict(score_dict), wall_s)
+        self.generation += 1
+        return fitness  # type: ignore[return-value]
+
+
+def differential_evolution_tune(
+    objective: Objective,
+    store: RunStore,
+    *,
+    seed: int = 0,
+    workers: int = 1,
+    max_seconds: float | None = None,
+    max_generations: int = 1000,
+    elapsed_before: float = 0.0,
+    on_evaluation: Callable[[Score, bool], None] | None = None,
+    on_generation: Callable[[int, float], None] | None = None,
+) -> TuneResult:
+    """Tune ``objective`` over its parameter space; every evaluation lands in ``store``.
+
+    ``elapsed_before`` is the wall time earlier sessions of the same run spent
+    (it counts against ``max_seconds`` when a run is resumed).
+    """
+    space = objective.space
+    start = time.perf_counter()
+    history: list[float] = []
+    stopped_for_time = False
+
+    def elapsed() -> float:
+        return elapsed_before + time.perf_counter() - start
+
+    def checkpoint(intermediate_result) -> bool:
+        nonlocal stopped_for_time
+        generation = len(history) + 1
+        history.append(float(intermediate_result.fun))
+        store.record_generation(generation, intermediate_result.population, intermediate_result.population_energies,
+                                intermediate_result.x, intermediate_result.fun, store.count_evaluations(), elapsed())
+        store.set(elapsed_s=elapsed())
+        if on_generation:
+            on_generation(generation, float(intermediate_result.fun))
+        if max_seconds is not None and elapsed() >= max_seconds:
+            stopped_for_time = True
+            return True
+        return False
+
+    with Evaluator(objective, store, workers, on_evaluation) as evaluator:
+        result = differential_evolution(
+            lambda x: objective.score_vector(x).fitness,  # never called: the Evaluator does the work
+            bounds=space.bounds, maxiter=max_generations, rng=np.random.default_rng(seed),
+            workers=evaluator, callback=checkpoint, **DE_SETTINGS,
+        )
+        best_x = np.asarray(result.x, dtype=float)
+        best = store.lookup(best_x) or objective.score_vector(best_x)
+        new = evaluator.new_evaluations
+    if stopped_for_time:
+        message = f"stopped after {max_seconds:g} s"
+    else:
+        message = result.message
+    converged = (not stopped_for_time) and bool(result.success)
+    return TuneResult(best_x, space.to_dict(best_x), best, len(history), store.count_evaluations(), new,
+                      elapsed(), message, converged, history)

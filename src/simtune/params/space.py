@@ -1,0 +1,178 @@
+"""Parameter spaces: what is tuned, over which range.
+
+``shared`` (31 values) and ``individual`` (57) are the seed paper's Table I;
+``extended`` adds what the real recordings show the paper's set lacks: the
+delay between the start of the recording and the start of the commanded
+motion, and where the motion-capture marker sits on the hand.
+
+A space is engine independent.  Each engine declares which parameters its API
+really has (:attr:`simtune.engines.base.Engine.supported`); a parameter an engine
+lacks is left out of that engine's search space, never faked.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from simtune.errors import ConfigError
+
+GROUPS = ("gripper", "floor", "wood", "plastic")
+#: Nominal masses [kg] the seed paper's mass ranges are relative to (links 1..6, then objects).
+ARM_MASS_NOMINAL = (0.7477, 0.7477, 0.606, 0.1785, 0.1785, 0.727)
+OBJECT_MASS_NOMINAL = {
+    "cube": (0.07, 0.46),
+    "cylinder": (0.12, 0.78),
+    "cone": (0.04, 0.17),
+    "cuboid": (0.14, 0.85),
+}
+
+
+@dataclass(frozen=True)
+class Parameter:
+    name: str
+    low: float
+    high: float
+    unit: str
+    description: str
+
+    def check(self, value: float, where: str = "") -> float:
+        """``value`` as a float, or a ConfigError naming the parameter and its range."""
+        at = f"{where}: " if where else ""
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ConfigError(f"{at}parameter {self.name!r}: {value!r} is not a number") from None
+        if not math.isfinite(v) or v < self.low or v > self.high:
+            raise ConfigError(
+                f"{at}parameter {self.name!r} = {value!r} is outside its range [{self.low:g}, {self.high:g}] {self.unit}"
+            )
+        return v
+
+
+def _shared() -> list[Parameter]:
+    ps = [Parameter("timestep", 0.001, 0.05, "s", "physics time step")]
+    for i, m in enumerate(ARM_MASS_NOMINAL, start=1):
+        what = "hand with gripper" if i == 6 else f"arm link {i}"
+        ps.append(Parameter(f"mass_link_{i}", 0.7 * m, 1.3 * m, "kg", f"mass of {what}"))
+    for shape, (plastic, wood) in OBJECT_MASS_NOMINAL.items():
+        for material, m in (("plastic", plastic), ("wood", wood)):
+            ps.append(Parameter(f"mass_{shape}_{material}", 0.7 * m, 1.3 * m, "kg", f"mass of the {material} {shape}"))
+    for i in range(1, 7):
+        ps.append(Parameter(f"max_torque_joint_{i}", 100.0, 9000.0, "N m", f"motor force limit of joint {i}"))
+    for i in range(1, 7):
+        ps.append(Parameter(f"max_velocity_joint_{i}", 10.0, 40.0, "deg/s", f"velocity clamp of joint {i}'s controller"))
+    for g in GROUPS:
+        ps.append(Parameter(f"lateral_friction_{g}", 0.0001, 1.25, "", f"sliding friction coefficient of the {g}"))
+    return ps
+
+
+def _individual_extra() -> list[Parameter]:
+    ps = [Parameter(f"joint_damping_{i}", 0.0001, 0.9, "N m s/rad", f"viscous damping of joint {i}") for i in range(1, 7)]
+    for kind, high, unit, what in (
+        ("rolling_friction", 1.25, "", "rolling friction"),
+        ("spinning_friction", 1.25, "", "spinning (torsional) friction"),
+        ("restitution", 0.9, "", "restitution (bounciness)"),
+        ("linear_damping", 0.9, "", "linear velocity damping"),
+        ("angular_damping", 0.9, "", "angular velocity damping"),
+    ):
+        for g in GROUPS:
+            ps.append(Parameter(f"{kind}_{g}", 0.0001, high, unit, f"{what} of the {g}"))
+    return ps
+
+
+def _extended_extra() -> list[Parameter]:
+    return [
+        Parameter("command_delay", 0.0, 3.0, "s", "delay from the start of the recording to the first command"),
+        *(Parameter(f"marker_offset_{a}", -0.05, 0.05, "m", f"motion-capture marker offset from the wrist, hand frame {a}")
+          for a in "xyz"),
+    ]
+
+
+_SHARED = _shared()
+_INDIVIDUAL = _SHARED + _individual_extra()
+_EXTENDED = _INDIVIDUAL + _extended_extra()
+
+SPACES: dict[str, tuple[Parameter, ...]] = {
+    "shared": tuple(_SHARED),
+    "individual": tuple(_INDIVIDUAL),
+    "extended": tuple(_EXTENDED),
+}
+PARAMETERS: dict[str, Parameter] = {p.name: p for p in _EXTENDED}
+
+
+@dataclass(frozen=True)
+class ParameterSpace:
+    """An ordered set of parameters, with conversion between vectors and name -> value dicts."""
+
+    name: str
+    parameters: tuple[Parameter, ...]
+
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.parameters]
+
+    @property
+    def bounds(self) -> list[tuple[float, float]]:
+        return [(p.low, p.high) for p in self.parameters]
+
+    def __len__(self) -> int:
+        return len(self.parameters)
+
+    def to_dict(self, x) -> dict[str, float]:
+        return {p.name: float(v) for p, v in zip(self.parameters, np.asarray(x, dtype=float))}
+
+    def to_vector(self, values: dict[str, float]) -> np.ndarray:
+        return np.array([values[p.name] for p in self.parameters], dtype=float)
+
+
+def get_space(name: str, supported: frozenset[str] | None = None, only: list[str] | None = None) -> ParameterSpace:
+    """The space ``name``, restricted to the parameters in ``supported`` (an engine's) and to ``only``."""
+    try:
+        params = SPACES[name]
+    except KeyError:
+        raise ConfigError(f"unknown parameter space {name!r} (known: {', '.join(SPACES)})") from None
+    if supported is not None:
+        params = tuple(p for p in params if p.name in supported)
+    if only:
+        names = {p.name for p in params}
+        for wanted in only:
+            if wanted not in names:
+                why = "unknown parameter" if wanted not in PARAMETERS else f"not in space {name!r} for this engine"
+                raise ConfigError(f"--only: {wanted!r}: {why} (see `simtune params`)")
+        params = tuple(p for p in params if p.name in only)
+    return ParameterSpace(name, params)
+
+
+def validate_params(values: dict, supported: frozenset[str], engine: str, where: str = "") -> dict[str, float]:
+    """Check a name -> value mapping against the known parameters and what ``engine`` supports."""
+    at = f"{where}: " if where else ""
+    out = {}
+    for name, value in values.items():
+        if name not in PARAMETERS:
+            raise ConfigError(f"{at}unknown parameter {name!r} (see `simtune params`)")
+        if name not in supported:
+            raise ConfigError(f"{at}engine {engine!r} has no parameter {name!r} (see docs/parameters.md)")
+        out[name] = PARAMETERS[name].check(value, where)
+    return out
+
+
+def read_params_file(path: Path) -> dict:
+    """Parameter values from a JSON file: ``{"params": {...}}`` as ``tune`` writes it, or a flat mapping."""
+    try:
+        data = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such parameter file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read ({exc})") from None
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"{path} line {exc.lineno}: not valid JSON ({exc.msg})") from None
+    if isinstance(data, dict) and isinstance(data.get("params"), dict):
+        data = data["params"]
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: expected a JSON object of parameter names and values")
+    return data

@@ -1,0 +1,72 @@
+"""A live progress line for tuning: generation, best fitness, evaluations per second."""
+
+from __future__ import annotations
+
+import time
+
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+from simtune.fitness import Score
+
+
+class TuneProgress:
+    """Rich progress bar (on stderr) fed by the tuner's per-evaluation and per-generation callbacks.
+
+    With a time budget the bar fills with elapsed time; otherwise it only counts.
+    """
+
+    def __init__(self, enabled: bool = True, max_seconds: float | None = None):
+        self.enabled = enabled
+        self.max_seconds = max_seconds
+        self.generation_no = 0
+        self.best = float("inf")
+        self.simulated = 0
+        self.reused = 0
+        self._start = time.perf_counter()
+        self._progress = Progress(
+            TextColumn("[bold]tuning[/]"),
+            BarColumn(),
+            TextColumn("gen {task.fields[gen]:>4}  best {task.fields[best]}  {task.fields[rate]} eval/s"
+                       "  {task.fields[evals]} evals{task.fields[reused]}"),
+            TimeElapsedColumn(),
+            console=Console(stderr=True),
+            disable=not enabled,
+            transient=False,
+        )
+        self._task = None
+
+    def __enter__(self) -> "TuneProgress":
+        self._progress.__enter__()
+        self._task = self._progress.add_task("tune", total=self.max_seconds, gen=0, best="-", rate="-",
+                                             evals=0, reused="")
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._refresh()
+        self._progress.__exit__(*exc)
+
+    def _refresh(self) -> None:
+        if self._task is None:
+            return
+        elapsed = time.perf_counter() - self._start
+        rate = self.simulated / elapsed if elapsed > 0 else 0.0
+        self._progress.update(
+            self._task, completed=min(elapsed, self.max_seconds) if self.max_seconds else None,
+            gen=self.generation_no, best=f"{self.best:.4f}" if self.best < float("inf") else "-",
+            rate=f"{rate:.1f}", evals=self.simulated + self.reused,
+            reused=f" ({self.reused} from store)" if self.reused else "",
+        )
+
+    def evaluation(self, score: Score, reused: bool) -> None:
+        if reused:
+            self.reused += 1
+        else:
+            self.simulated += 1
+        self.best = min(self.best, score.fitness)
+        self._refresh()
+
+    def generation(self, number: int, best: float) -> None:
+        self.generation_no = number
+        self.best = min(self.best, best)
+        self._refresh()

@@ -1,0 +1,84 @@
+"""Make the reference recordings simtune ships: a simulation with hidden parameters.
+
+The recording stands in for a real one in the demo and in tests that must run
+without the qrg2019 data: MuJoCo runs the ``cube`` task with parameter values
+the demo does not know (including a command delay and a marker offset), and
+each repeat gets motion-capture-like noise (2 mm, 100 Hz) and a little
+start-time jitter, like real repeats.  Files are written in the Qualisys TSV
+format so the demo exercises the same loader as real data.
+
+Regenerate with ``python -m simtune.reference.make`` (deterministic).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from simtune.data import Recording, write_qualisys_tsv
+from simtune.engines import make_engine
+from simtune.fitness import marker_positions
+from simtune.reference import REFERENCE_DIR
+from simtune.tasks import TaskSpec, get_task
+from simtune.tasks.spec import BASE_BODY
+
+TRUTH_FILE = REFERENCE_DIR / "truth.json"
+TASK = "cube"
+RATE = 100.0  # Hz, as the real motion-capture system
+
+#: The hidden parameter values (engine-specific ones are MuJoCo's names).
+TRUTH = {
+    "command_delay": 1.4,
+    "max_velocity_joint_2": 26.0,
+    "max_velocity_joint_3": 33.0,
+    "lateral_friction_plastic": 0.35,
+    "lateral_friction_floor": 0.6,
+    "marker_offset_x": 0.008,
+    "marker_offset_y": -0.01,
+    "marker_offset_z": 0.012,
+}
+
+
+def synthesize(engine: str, task: TaskSpec, truth: dict[str, float], *, repeats: int, noise_m: float,
+               jitter_s: float, seed: int, rate: float = RATE) -> list[Recording]:
+    """Recordings of ``task`` simulated by ``engine`` with parameters ``truth``, plus mocap-like noise."""
+    rng = np.random.default_rng(seed)
+    sim = make_engine(engine, task)
+    duration = task.duration
+    recordings = []
+    for r in range(repeats):
+        params = dict(truth)
+        params["command_delay"] = max(0.0, truth.get("command_delay", 0.0) + rng.uniform(-jitter_s, jitter_s))
+        n20 = int(round(duration * 20)) + 1
+        rollout = sim.rollout(params, n20)
+        t = np.arange(int(round(duration * rate)) + 1) / rate
+        marker = marker_positions(rollout, params)
+
+        def up(values: np.ndarray) -> np.ndarray:  # 20 Hz -> recording rate
+            return np.stack([np.interp(t, rollout.times, values[:, i]) for i in range(values.shape[1])], axis=1)
+
+        positions = {BASE_BODY: np.zeros((len(t), 3)) + rng.normal(0, noise_m / 4, (len(t), 3)),
+                     task.wrist_body: up(marker) + rng.normal(0, noise_m, (len(t), 3))}
+        nearest = np.minimum(np.round(t * 20).astype(int), n20 - 1)
+        rotations = {BASE_BODY: np.tile(np.eye(3), (len(t), 1, 1)), task.wrist_body: rollout.wrist_rot[nearest]}
+        if task.object is not None:
+            positions[task.object.mocap_body] = up(rollout.object_pos) + rng.normal(0, noise_m / 4, (len(t), 3))
+            rotations[task.object.mocap_body] = np.tile(np.eye(3), (len(t), 1, 1))
+        recordings.append(Recording(Path(f"{task.name}{r + 1:04d}.tsv.gz"), t, positions, rotations))
+    sim.close()
+    return recordings
+
+
+def make(out: Path = REFERENCE_DIR, repeats: int = 3) -> None:
+    task = get_task(TASK)
+    folder = out / TASK
+    folder.mkdir(parents=True, exist_ok=True)
+    for rec in synthesize("mujoco", task, TRUTH, repeats=repeats, noise_m=0.002, jitter_s=0.05, seed=2021):
+        write_qualisys_tsv(folder / rec.source.name, rec, header=True)
+    TRUTH_FILE.write_text(json.dumps({"engine": "mujoco", "task": TASK, "noise_m": 0.002, "params": TRUTH}, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    make()

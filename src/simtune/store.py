@@ -1,0 +1,156 @@
+"""The run store: one SQLite file per run folder, holding every evaluation.
+
+Tables
+- ``meta``: key -> JSON value (the run's configuration, versions, command line, status);
+- ``evaluations``: one row per finished evaluation: the parameter vector, its
+  fitness and parts, generation, wall time, and whether the simulation was stable;
+- ``generations``: one checkpoint per generation: the population, its energies,
+  the best member and the run's elapsed time.
+
+Every evaluation is committed as soon as it finishes (WAL journal), so a kill
+loses at most the evaluations still running.  Evaluations are keyed by the
+exact bytes of their parameter vector: a resumed run replays the optimiser
+with the same seed and takes every evaluation it already has from here
+instead of simulating it again.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sqlite3
+import time
+from pathlib import Path
+
+import numpy as np
+
+from simtune.errors import SimtuneError
+from simtune.fitness import Score
+
+STORE_FILE = "run.sqlite"
+SCHEMA_VERSION = 1
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS evaluations (
+    id INTEGER PRIMARY KEY,
+    key TEXT UNIQUE NOT NULL,
+    x TEXT NOT NULL,
+    fitness REAL NOT NULL,
+    wrist_error REAL,
+    object_error REAL,
+    stable INTEGER NOT NULL,
+    score TEXT NOT NULL,
+    generation INTEGER NOT NULL,
+    wall_s REAL NOT NULL,
+    finished_at REAL NOT NULL
+);
+CREATE TABLE IF NOT EXISTS generations (
+    generation INTEGER PRIMARY KEY,
+    best_fitness REAL NOT NULL,
+    best_x TEXT NOT NULL,
+    population TEXT NOT NULL,
+    energies TEXT NOT NULL,
+    evaluations INTEGER NOT NULL,
+    elapsed_s REAL NOT NULL,
+    finished_at REAL NOT NULL
+);
+"""
+
+
+def vector_key(x) -> str:
+    """A key for a parameter vector: the hash of its exact float64 bytes."""
+    return hashlib.sha1(np.ascontiguousarray(x, dtype=np.float64).tobytes()).hexdigest()
+
+
+class RunStore:
+    """SQLite store of one run.  Only the coordinating process writes to it."""
+
+    def __init__(self, run_dir: Path, create: bool = False):
+        self.run_dir = Path(run_dir)
+        self.path = self.run_dir / STORE_FILE
+        if create:
+            try:
+                self.run_dir.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise SimtuneError(f"cannot create run folder {self.run_dir}: {exc.strerror}") from None
+        elif not self.path.exists():
+            raise SimtuneError(f"{self.run_dir} is not a run folder (no {STORE_FILE})")
+        try:
+            self.db = sqlite3.connect(self.path, timeout=30)
+            self.db.execute("PRAGMA journal_mode=WAL")
+            self.db.execute("PRAGMA synchronous=NORMAL")
+            self.db.executescript(_SCHEMA)
+        except sqlite3.Error as exc:
+            raise SimtuneError(f"{self.path}: cannot open run store ({exc})") from None
+        if create and self.get("schema_version") is None:
+            self.set(schema_version=SCHEMA_VERSION)
+        version = self.get("schema_version")
+        if version != SCHEMA_VERSION:
+            raise SimtuneError(f"{self.path}: run store version {version}, this simtune reads version {SCHEMA_VERSION}")
+
+    # --- meta ------------------------------------------------------------------------------
+    def set(self, **values) -> None:
+        with self.db:
+            self.db.executemany("INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                                [(k, json.dumps(v)) for k, v in values.items()])
+
+    def get(self, key: str, default=None):
+        row = self.db.execute("SELECT value FROM meta WHERE key = ?", (key,)).fetchone()
+        return json.loads(row[0]) if row else default
+
+    # --- evaluations --------------------------------------------------------------------------
+    def lookup(self, x) -> Score | None:
+        row = self.db.execute("SELECT score FROM evaluations WHERE key = ?", (vector_key(x),)).fetchone()
+        return Score.from_dict(json.loads(row[0])) if row else None
+
+    def record_evaluation(self, x, score: Score, generation: int, wall_s: float) -> None:
+        with self.db:
+            self.db.execute(
+                "INSERT OR IGNORE INTO evaluations (key, x, fitness, wrist_error, object_error, stable, score,"
+                " generation, wall_s, finished_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                (vector_key(x), json.dumps([float(v) for v in x]), score.fitness, score.wrist_error,
+                 score.object_error, int(score.stable), json.dumps(score.to_dict()), generation, wall_s, time.time()),
+            )
+
+    def count_evaluations(self) -> int:
+        return self.db.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0]
+
+    def evaluations(self) -> list[dict]:
+        rows = self.db.execute(
+            "SELECT x, fitness, wrist_error, object_error, stable, generation, wall_s FROM evaluations ORDER BY id"
+        ).fetchall()
+        return [dict(x=json.loads(r[0]), fitness=r[1], wrist_error=r[2], object_error=r[3], stable=bool(r[4]),
+                     generation=r[5], wall_s=r[6]) for r in rows]
+
+    def best_evaluation(self) -> dict | None:
+        row = self.db.execute("SELECT x, score FROM evaluations ORDER BY fitness, id LIMIT 1").fetchone()
+        return None if row is None else {"x": json.loads(row[0]), "score": json.loads(row[1])}
+
+    # --- generation checkpoints ---------------------------------------------------------------
+    def record_generation(self, generation: int, population, energies, best_x, best_fitness: float,
+                          evaluations: int, elapsed_s: float) -> None:
+        with self.db:
+            self.db.execute(
+                "INSERT OR REPLACE INTO generations VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                (generation, float(best_fitness), json.dumps([float(v) for v in best_x]),
+                 json.dumps(np.asarray(population, dtype=float).tolist()),
+                 json.dumps([float(e) for e in energies]), evaluations, elapsed_s, time.time()),
+            )
+
+    def generations(self) -> list[dict]:
+        rows = self.db.execute(
+            "SELECT generation, best_fitness, evaluations, elapsed_s FROM generations ORDER BY generation").fetchall()
+        return [dict(generation=r[0], best_fitness=r[1], evaluations=r[2], elapsed_s=r[3]) for r in rows]
+
+    def last_checkpoint(self) -> dict | None:
+        row = self.db.execute(
+            "SELECT generation, population, energies, elapsed_s FROM generations ORDER BY generation DESC LIMIT 1"
+        ).fetchone()
+        if row is None:
+            return None
+        return dict(generation=row[0], population=np.array(json.loads(row[1])),
+                    energies=np.array(json.loads(row[2])), elapsed_s=row[3])
+
+    def close(self) -> None:
+        self.db.close()

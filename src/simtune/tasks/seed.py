@@ -1,0 +1,75 @@
+"""The ten tasks of the seed paper (Collins et al., ACRA 2021).
+
+Their recordings are not public; ``simtune synth`` can make recordings of them
+from a simulation.  Odd tasks push the plastic object, even tasks its wooden
+replica; objects start at (0.6, 0) resting on the floor.
+"""
+
+from math import pi
+
+from simtune.tasks.spec import ObjectSpec, Phase, TaskSpec
+
+_MASSES = {  # nominal masses [kg]: plastic, wood
+    "cube": (0.07, 0.46),
+    "cylinder": (0.12, 0.78),
+    "cone": (0.04, 0.17),
+    "cuboid": (0.14, 0.85),
+}
+_SIZES = {
+    "cube": (0.075, 0.075, 0.075),
+    "cylinder": (0.0375, 0.150),
+    "cone": (0.0375, 0.100),
+    "cuboid": (0.075, 0.075, 0.150),
+}
+_POSES = {  # how each object lies on the floor
+    "cube": (0.0, 0.0, 0.0),
+    "cylinder": (pi / 2, 0.0, 0.0),  # lying on its side
+    "cone": (0.0, 1.92957, 0.0),  # on its side, a generator line on the floor
+    "cuboid": (0.0, 0.0, 0.0),  # standing
+}
+
+
+def _object(shape: str, material: str) -> ObjectSpec:
+    mass = _MASSES[shape][0 if material == "plastic" else 1]
+    return ObjectSpec(shape, material, mass, _SIZES[shape], (0.6, 0.0), _POSES[shape])
+
+
+def _phases(*rows) -> tuple[Phase, ...]:
+    return tuple(Phase(float(t), tuple(float(a) for a in targets)) for t, targets in rows)
+
+
+_SCHEDULES = {
+    1: (10.0, None, _phases((0, (0, -90, 0, 0, 0, 0)), (3, (0, 0, 90, 0, 0, 0)), (6, (0, -90, 0, 0, 90, 0)))),
+    2: (14.0, None, _phases(
+        (0, (-2, -3, -8, 10, -2, 0)), (3, (47, -20, 34, 8, -19, 0)), (5, (46, -23, 70, 13, -42, 0)),
+        (7, (19, -37, 83, 0, -63, 0)), (9, (-23, -26, 104, -88, -47, 0)), (11, (-32, -20, 34, 2, -21, 0)))),
+    3: (13.0, "cube", _phases(
+        (0, (-3, -30, 101, 97, -4, -11)), (3, (-3, -57, 73, 101, -4, -12)), (5, (-3, -66, 44, 101, -4, -12)),
+        (7, (15, -60, 49, 107, -3, -96)), (9, (15, -84, 28, 107, -4, -96)), (11, (-20, -84, 28, 107, -4, -96)))),
+    5: (79.0, "cylinder", _phases(
+        (0, (0, -11, 105, 87, -4, 1)), (3, (0, -40, 94, 87, -4, 1)), (6, (2, -57, 70, 87, -4, 1)),
+        (9, (0, -57, 63, 87, -5, 1)))),
+    7: (69.0, "cone", _phases((0, (-11, -66, 5, 11, -58, 100)), (3, (2, -88, 5, 11, -49, 100)), (6, (9, -88, 8, 11, -49, 100)))),
+    9: (9.0, "cuboid", _phases((0, (-5, -14, 110, 91, 0, 0)), (3, (-2, -40, 85, 91, 0, 0)), (6, (-2, -50, 20, 91, 0, 0)))),
+}
+
+
+def _seed_task(number: int) -> TaskSpec:
+    odd = number if number % 2 else number - 1
+    duration, shape, phases = _SCHEDULES[odd]
+    if shape is None:  # tasks 1 and 2 are two different kinematic schedules
+        duration, shape, phases = _SCHEDULES[number]
+    material = "plastic" if number % 2 else "wood"
+    obj = _object(shape, material) if shape else None
+    what = f"push the {material} {shape}" if obj else "move the arm (no object)"
+    return TaskSpec(
+        name=f"seed-{number}",
+        description=f"seed paper task {number}: {what}",
+        duration=duration,
+        phases=phases,
+        kp=4.0,
+        object=obj,
+    )
+
+
+TASKS = tuple(_seed_task(n) for n in range(1, 11))

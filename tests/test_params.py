@@ -1,0 +1,58 @@
+import pytest
+
+from simtune.engines import engine_class
+from simtune.errors import ConfigError
+from simtune.params import SPACES, get_space, read_params_file, validate_params
+
+
+def test_space_sizes_match_the_paper():
+    assert len(SPACES["shared"]) == 31
+    assert len(SPACES["individual"]) == 57
+    assert len(SPACES["extended"]) == 61
+
+
+def test_ranges_of_table_one():
+    p = {x.name: x for x in SPACES["extended"]}
+    assert (p["timestep"].low, p["timestep"].high) == (0.001, 0.05)
+    assert p["mass_link_1"].low == pytest.approx(0.7 * 0.7477)
+    assert p["mass_cube_wood"].high == pytest.approx(1.3 * 0.46)
+    assert (p["max_torque_joint_3"].low, p["max_torque_joint_3"].high) == (100, 9000)
+    assert (p["max_velocity_joint_6"].low, p["max_velocity_joint_6"].high) == (10, 40)
+    assert p["restitution_wood"].high == 0.9 and p["rolling_friction_floor"].high == 1.25
+    assert (p["command_delay"].low, p["command_delay"].high) == (0, 3)
+
+
+def test_engines_leave_out_what_they_lack():
+    mujoco_space = get_space("individual", engine_class("mujoco").supported())
+    assert "restitution_plastic" not in mujoco_space.names
+    assert "lateral_friction_plastic" in mujoco_space.names
+    bullet_space = get_space("individual", engine_class("pybullet").supported())
+    assert "restitution_plastic" in bullet_space.names
+    assert "linear_damping_floor" not in bullet_space.names
+    assert len(get_space("shared", engine_class("pybullet").supported())) == 31
+
+
+def test_only_restricts_and_checks_names():
+    assert get_space("extended", None, ["command_delay", "timestep"]).names == ["timestep", "command_delay"]
+    with pytest.raises(ConfigError, match="not in space"):
+        get_space("shared", None, ["command_delay"])
+    with pytest.raises(ConfigError, match="unknown parameter"):
+        get_space("shared", None, ["gravity"])
+
+
+def test_validation_names_the_problem(tmp_path):
+    supported = engine_class("mujoco").supported()
+    with pytest.raises(ConfigError, match="unknown parameter 'gravity'"):
+        validate_params({"gravity": 1.0}, supported, "mujoco")
+    with pytest.raises(ConfigError, match="no parameter 'restitution_wood'"):
+        validate_params({"restitution_wood": 0.5}, supported, "mujoco")
+    with pytest.raises(ConfigError, match=r"outside its range \[0.001, 0.05\]"):
+        validate_params({"timestep": 0.5}, supported, "mujoco")
+    with pytest.raises(ConfigError, match="not a number"):
+        validate_params({"timestep": "fast"}, supported, "mujoco")
+    bad = tmp_path / "p.json"
+    bad.write_text('{"timestep": 0.01,\n "x": }')
+    with pytest.raises(ConfigError, match="p.json line 2"):
+        read_params_file(bad)
+    with pytest.raises(ConfigError, match="no such parameter file"):
+        read_params_file(tmp_path / "missing.json")
