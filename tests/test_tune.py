@@ -81,3 +81,14 @@ def test_a_folder_with_a_run_is_not_overwritten(tmp_path):
 
     with pytest.raises(SimtuneError, match="already holds a run"):
         start_run(config(max_generations=1), tmp_path / "r", show_progress=False)
+
+
+def test_short_tune_on_real_recordings_improves_on_generic(mocap_root, tmp_path):
+    """A few generations on the real `single` repeats already find the command delay."""
+    cfg = RunConfig(engine="mujoco", tasks="single", space="extended", data=str(mocap_root), seed=0,
+                    max_generations=5, only=["command_delay", "max_velocity_joint_2", "marker_offset_z"])
+    result = start_run(cfg, tmp_path / "real", show_progress=False)
+    generic = RunStore(tmp_path / "real").get("generic")["fitness"]
+    assert generic > 0.1
+    assert result.fitness < 0.5 * generic
+    assert 0.8 < result.params["command_delay"] < 2.0

@@ -30,6 +30,10 @@ try:
     import mujoco
 except ImportError:  # pragma: no cover - depends on the machine
     mujoco = None
+else:
+    # MuJoCo prints warnings to stdout (which --json owns) and to MUJOCO_LOG.TXT in the
+    # working folder; simtune reads the same events from data.warning (see diverged()).
+    mujoco.set_mju_user_warning(lambda message: None)
 
 _FRICTION_COLUMN = {"lateral_friction": 0, "spinning_friction": 1, "rolling_friction": 2}
 _ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
