@@ -184,6 +184,94 @@ def demo(
     run_demo(out_dir, workers=workers, max_seconds=max_seconds, console=out)
 
 
+def _split(text: str) -> list[str]:
+    return [part.strip() for part in text.split(",") if part.strip()]
+
+
+@app.command()
+def grid(
+    engines: Annotated[str, typer.Option(help="Engines, comma-separated.")] = "mujoco,pybullet",
+    tasks: Annotated[str, typer.Option(help="Experiments, comma-separated; join tasks tuned together with '+' "
+                                       "(single+cube), or name a group (seed-11).")] = "single,cube",
+    spaces: Annotated[str, typer.Option(help="Parameter spaces, comma-separated.")] = "shared,individual",
+    repeats: Annotated[int, typer.Option(min=1, help="Optimisations per engine x task x space (seeds 0..N-1).")]
+    = 10,
+    data: DataOpt = None,
+    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Grid folder: grid.sqlite index and runs/.")]
+    = Path("runs/grid"),
+    executor: Annotated[str, typer.Option(help="local (process pool here) or dask (a distributed cluster).")]
+    = "local",
+    scheduler: Annotated[Optional[str], typer.Option(help="Dask scheduler address (tcp://host:8786); "
+                                                     "default: a LocalCluster on this machine.")] = None,
+    workers: Annotated[int, typer.Option("--workers", "-w", min=1, help="Local processes / LocalCluster workers "
+                                         "(one optimisation each, one core each).")] = 2,
+    max_seconds_per_run: Annotated[Optional[float], typer.Option(help="Wall-time limit of each optimisation [s].")]
+    = None,
+    max_generations: Annotated[int, typer.Option(min=1, help="Generation limit of each optimisation.")] = 1000,
+    only: Annotated[Optional[str], typer.Option(help="Tune only these parameters (comma-separated).")] = None,
+    plan: Annotated[bool, typer.Option("--plan", help="Print the grid's size and cost estimate; run nothing.")]
+    = False,
+    cluster_cores: Annotated[int, typer.Option(help="With --plan: cores of the cluster to estimate for.")] = 100,
+) -> None:
+    """Run an experiment grid (engines x tasks x spaces x repeats), resumably, locally or on Dask.
+
+    Running the same command again skips finished optimisations and resumes
+    unfinished ones; `--plan` prints the grid's size and its estimated
+    core-hours from measured evaluation costs.
+    """
+    import os
+
+    from rich.live import Live
+
+    from simtune.grid import GridSpec, iter_best, plan_grid, run_grid
+
+    spec = GridSpec(engines=_split(engines), tasks=_split(tasks), spaces=_split(spaces), repeats=repeats,
+                    data=str(_data_root(data)), max_seconds_per_run=max_seconds_per_run,
+                    max_generations=max_generations, only=_split(only) if only else None)
+    if plan:
+        rows = plan_grid(spec)
+        table = Table(title=f"grid plan: {len(spec.units())} optimisations")
+        for col in ("engine", "tasks", "space", "params", "s / eval", "evals / run", "h / run", "core-hours"):
+            table.add_column(col)
+        for r in rows:
+            table.add_row(r["engine"], r["tasks"], r["space"], str(r["parameters"]), f"{r['eval_s']:.3f}",
+                          str(r["evaluations_per_run"]), f"{r['run_hours']:.2f}", f"{r['core_hours']:.1f}")
+        out.print(table)
+        total = sum(r["core_hours"] for r in rows)
+        here = os.cpu_count() or 1
+        out.print(f"total {total:.1f} core-hours (upper bound: {max_generations} generations per run unless "
+                  f"--max-seconds-per-run caps it): {total / here:.1f} h on this machine ({here} cores), "
+                  f"{total / cluster_cores:.1f} h on a {cluster_cores}-core cluster")
+        return
+
+    started = time.time()
+
+    def view(index) -> Table:
+        counts = index.counts()
+        done, total = counts.get("done", 0), sum(counts.values())
+        elapsed = time.time() - started
+        eta = f"{elapsed / done * (total - done) / 60:.1f} min" if done else "-"
+        table = Table(title=f"grid {out_dir}: {done}/{total} done, {counts.get('running', 0)} running, "
+                      f"{counts.get('failed', 0)} failed, {counts.get('pending', 0)} pending; ETA {eta}")
+        table.add_column("engine")
+        table.add_column("tasks")
+        table.add_column("best fitness")
+        for engine_name, task_names, best in iter_best(index):
+            table.add_row(engine_name, task_names, f"{best:.4f}")
+        return table
+
+    with Live(console=err, auto_refresh=False) as live:
+        index = run_grid(spec, out_dir, executor=executor, workers=workers, scheduler=scheduler,
+                         on_event=lambda idx: live.update(view(idx), refresh=True))
+    counts = index.counts()
+    out.print(f"{counts.get('done', 0)} done, {counts.get('failed', 0)} failed; index: {out_dir / 'grid.sqlite'}")
+    for row in index.rows():
+        if row["status"] == "failed":
+            err.print(f"[red]failed:[/] {row['id']}: {row['error']}", soft_wrap=True)
+    if counts.get("failed"):
+        raise typer.Exit(1)
+
+
 @app.command()
 def engines() -> None:
     """List the physics engines, their versions, and how to install a missing one."""

@@ -1,0 +1,242 @@
+"""Load finished tuning runs into plain records, and group them into repeats.
+
+A *run dir* holds ``run.sqlite`` (made by ``simtune tune``); a *grid dir* is
+any folder with run dirs somewhere below it.  Stores are opened read-only, so
+a report never changes a run, not even a broken one.  A run that is not
+finished, or whose store cannot be read, is returned as a :class:`Skipped`
+entry naming the folder and the reason: the report warns about it and leaves
+it out, it never merges it silently.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from simtune.errors import SimtuneError
+from simtune.store import SCHEMA_VERSION, STORE_FILE, RunStore
+from simtune.tasks import parse_tasks
+
+
+class ReadOnlyStore(RunStore):
+    """A run store opened for reading only: the query methods of :class:`RunStore`, no writes.
+
+    The connection is read-write at the file level but ``query_only``: SQLite
+    can then tidy its ``-wal``/``-shm`` side files when it closes, leaving the
+    run folder as it found it, while the report can change nothing in it.
+    """
+
+    def __init__(self, run_dir: Path):  # noqa: D107 - replaces RunStore.__init__, which may write
+        self.run_dir = Path(run_dir)
+        self.path = self.run_dir / STORE_FILE
+        if not self.path.is_file():
+            raise SimtuneError(f"{self.run_dir} is not a run folder (no {STORE_FILE})")
+        self.db = sqlite3.connect(self.path.resolve().as_uri() + "?mode=rw", uri=True, timeout=30)
+        self.db.execute("PRAGMA query_only = 1")
+        version = self.get("schema_version")
+        if version != SCHEMA_VERSION:
+            self.db.close()
+            raise SimtuneError(f"run store version {version}, this simtune reads version {SCHEMA_VERSION}")
+
+    def initial_fitness(self) -> list[float]:
+        """Fitness of every evaluation of the initial population (generation 0), in store order."""
+        rows = self.db.execute("SELECT fitness FROM evaluations WHERE generation = 0 ORDER BY id").fetchall()
+        return [float(r[0]) for r in rows]
+
+
+@dataclass
+class RunRecord:
+    """Everything the report needs from one finished run, as plain data."""
+
+    path: Path
+    label: str  # the folder, as shown in the report
+    engine: str
+    tasks: str  # as configured: "cube" or "single,cube"
+    task_names: list[str]
+    space: str
+    data: str
+    seed: int
+    config: dict
+    parameters: list[str]
+    bounds: list[tuple[float, float]]
+    generic: dict  # Score.to_dict() of the engine's generic parameters
+    best_x: list[float]
+    best_score: dict  # Score.to_dict() of the best evaluation
+    generations: list[dict]  # store.generations()
+    initial_fitness: list[float]  # fitness of each generation-0 evaluation
+    evaluations: int
+    elapsed_s: float
+    message: str
+    versions: dict = field(default_factory=dict)
+
+    @property
+    def best_fitness(self) -> float:
+        return float(self.best_score["fitness"])
+
+    @property
+    def best_params(self) -> dict[str, float]:
+        return dict(zip(self.parameters, (float(v) for v in self.best_x)))
+
+    @property
+    def generic_fitness(self) -> float:
+        return float(self.generic["fitness"])
+
+    def task_score(self, score: dict, task: str) -> dict | None:
+        """The part of ``score`` (a Score dict) that belongs to ``task``."""
+        for part in score.get("tasks", []):
+            if part.get("task") == task:
+                return part
+        return None
+
+    @property
+    def group_key(self) -> tuple[str, str, str]:
+        return (self.engine, self.tasks, self.space)
+
+
+@dataclass
+class Skipped:
+    """A run folder left out of the report, and why."""
+
+    path: Path
+    label: str
+    reason: str
+
+
+@dataclass
+class Group:
+    """The repeats (different seeds) of one configuration: engine x tasks x space."""
+
+    engine: str
+    tasks: str
+    space: str
+    runs: list[RunRecord]
+
+    @property
+    def key(self) -> tuple[str, str, str]:
+        return (self.engine, self.tasks, self.space)
+
+    @property
+    def task_names(self) -> list[str]:
+        return self.runs[0].task_names
+
+    @property
+    def best_run(self) -> RunRecord:
+        return min(self.runs, key=lambda r: (r.best_fitness, r.seed))
+
+    @property
+    def parameters(self) -> list[str]:
+        """Union of the tuned parameter names of the repeats, in first-seen order."""
+        names: list[str] = []
+        for run in self.runs:
+            names.extend(n for n in run.parameters if n not in names)
+        return names
+
+    def bounds(self, name: str) -> tuple[float, float]:
+        for run in self.runs:
+            if name in run.parameters:
+                low, high = run.bounds[run.parameters.index(name)]
+                return float(low), float(high)
+        raise KeyError(name)
+
+    def values(self, name: str) -> list[float]:
+        """Tuned value of ``name`` in each repeat that tuned it (best evaluation)."""
+        return [r.best_params[name] for r in self.runs if name in r.parameters]
+
+    @property
+    def label(self) -> str:
+        return f"{self.engine} / {self.tasks} / {self.space}"
+
+
+def find_run_dirs(paths: list[Path]) -> list[Path]:
+    """Run folders named by ``paths``: each is a run folder, or a folder searched recursively for them."""
+    found: list[Path] = []
+    for path in paths:
+        path = Path(path)
+        if not path.exists():
+            raise SimtuneError(f"{path}: no such run or grid folder")
+        if path.is_file():
+            raise SimtuneError(f"{path}: not a folder (give a run folder or a folder of runs)")
+        if (path / STORE_FILE).exists():
+            candidates = [path]
+        else:
+            candidates = sorted(p.parent for p in path.rglob(STORE_FILE))
+            if not candidates:
+                raise SimtuneError(f"{path}: no run folders ({STORE_FILE}) in it or below it")
+        for c in candidates:
+            if c.resolve() not in {f.resolve() for f in found}:
+                found.append(c)
+    return found
+
+
+def _require(store: ReadOnlyStore, key: str):
+    value = store.get(key)
+    if value is None:
+        raise SimtuneError(f"store has no {key!r} (not written by `simtune tune`?)")
+    return value
+
+
+def load_run(run_dir: Path, label: str | None = None) -> RunRecord | Skipped:
+    """A finished run as a :class:`RunRecord`, or a :class:`Skipped` saying why it cannot be used."""
+    run_dir = Path(run_dir)
+    label = label or str(run_dir)
+    store = None
+    try:
+        store = ReadOnlyStore(run_dir)
+        config = _require(store, "config")
+        if not isinstance(config, dict):
+            raise SimtuneError("stored config is not a mapping")
+        missing = [k for k in ("engine", "tasks", "space", "data", "seed") if k not in config]
+        if missing:
+            raise SimtuneError(f"stored config lacks {', '.join(missing)}")
+        status = store.get("status")
+        if status != "finished":
+            return Skipped(run_dir, label, f"incomplete run (status {status!r}, not 'finished'): "
+                           f"`simtune resume {run_dir}` finishes it")
+        parameters = list(_require(store, "parameters"))
+        bounds = [(float(lo), float(hi)) for lo, hi in _require(store, "bounds")]
+        if len(bounds) != len(parameters):
+            raise SimtuneError(f"{len(parameters)} parameter names but {len(bounds)} bounds")
+        generic = _require(store, "generic")
+        best = store.best_evaluation()
+        if best is None:
+            raise SimtuneError("no evaluations in the store")
+        if len(best["x"]) != len(parameters):
+            raise SimtuneError(f"best vector has {len(best['x'])} values for {len(parameters)} parameters")
+        task_names = [t.name for t in parse_tasks(str(config["tasks"]))]
+        return RunRecord(
+            path=run_dir, label=label, engine=str(config["engine"]), tasks=str(config["tasks"]),
+            task_names=task_names, space=str(config["space"]), data=str(config["data"]), seed=int(config["seed"]),
+            config=config, parameters=parameters, bounds=bounds, generic=generic,
+            best_x=[float(v) for v in best["x"]], best_score=best["score"], generations=store.generations(),
+            initial_fitness=store.initial_fitness(), evaluations=store.count_evaluations(),
+            elapsed_s=float(store.get("elapsed_s", 0.0) or 0.0), message=str(store.get("message", "")),
+            versions=store.get("versions", {}) or {},
+        )
+    except sqlite3.Error as exc:
+        return Skipped(run_dir, label, f"corrupt run store ({exc})")
+    except SimtuneError as exc:
+        return Skipped(run_dir, label, f"unusable run store: {exc}")
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+        return Skipped(run_dir, label, f"unusable run store: {type(exc).__name__}: {exc}")
+    finally:
+        if store is not None:
+            store.db.close()
+
+
+def group_runs(runs: list[RunRecord]) -> tuple[list[Group], list[Skipped]]:
+    """Group runs by (engine, tasks, space); a second run with the same seed is left out (not a new repeat)."""
+    by_key: dict[tuple[str, str, str], list[RunRecord]] = defaultdict(list)
+    duplicates: list[Skipped] = []
+    for run in runs:
+        same = [r for r in by_key[run.group_key] if r.seed == run.seed]
+        if same:
+            duplicates.append(Skipped(run.path, run.label, f"same engine, tasks, space and seed {run.seed} as "
+                                      f"{same[0].label}: not a new repeat, left out"))
+            continue
+        by_key[run.group_key].append(run)
+    groups = [Group(*key, runs=sorted(rs, key=lambda r: r.seed)) for key, rs in by_key.items()]
+    groups.sort(key=lambda g: (g.tasks, g.space, g.engine))
+    return groups, duplicates
