@@ -136,6 +136,9 @@ def tune(
     max_generations: Annotated[int, typer.Option(min=1, help="Stop after this many generations.")] = 1000,
     only: Annotated[Optional[str], typer.Option(help="Tune only these parameters of the space (comma-separated); "
                                                 "the rest keep their generic values.")] = None,
+    eval_timeout: Annotated[float, typer.Option(help="With --workers 2+: an evaluation still running after this "
+                                                "many seconds is abandoned, stored as failed, its worker replaced.")]
+    = 600.0,
     out_dir: Annotated[Path, typer.Option("--out", "-o", help="Run folder to create (store, best_params.json).")]
     = Path("runs/latest"),
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
@@ -151,7 +154,7 @@ def tune(
 
     config = RunConfig(engine=engine, tasks=task, space=space, data=str(_data_root(data)), seed=seed,
                        workers=workers, max_seconds=max_seconds, max_generations=max_generations,
-                       only=[n.strip() for n in only.split(",") if n.strip()] if only else None)
+                       only=_split(only) if only else None, eval_timeout=eval_timeout)
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
     _report_tune(result, out_dir, config, RunStore(out_dir).get("generic"), as_json)
 

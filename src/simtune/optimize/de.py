@@ -15,13 +15,16 @@ from __future__ import annotations
 import multiprocessing
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import TimeoutError as FutureTimeout
+from concurrent.futures import as_completed
 from dataclasses import dataclass, field
 
 import numpy as np
+from pebble import ProcessExpired, ProcessPool
 from scipy.optimize import differential_evolution
 
-from simtune.fitness import Score
+from simtune.errors import SimtuneError
+from simtune.fitness import PENALTY, Score, TaskScore
 from simtune.objective import Objective
 from simtune.store import RunStore
 
@@ -64,36 +67,51 @@ def _evaluate_in_worker(x: np.ndarray) -> tuple[dict, float]:
     return score.to_dict(), time.perf_counter() - t0
 
 
+def failed_score(reason: str) -> Score:
+    """The score recorded for an evaluation whose worker crashed or hung: a flagged penalty."""
+    return Score(PENALTY, PENALTY, None, [TaskScore("all", PENALTY, PENALTY, None, False, reason)])
+
+
 class Evaluator:
     """A map-like callable for SciPy: scores a batch of vectors, from the store or by simulating.
 
     ``workers`` > 1 evaluates in that many processes, each building its
-    engines once.  ``on_evaluation(score)`` is called for every result (for
-    progress display).
+    engines once.  In worker processes an evaluation that crashes its process
+    (a segfault inside an engine) or runs past ``eval_timeout`` seconds costs
+    only itself: the worker is replaced, the evaluation is stored as failed with
+    a penalty fitness, and the run goes on.  ``on_evaluation(score, reused)`` is
+    called for every result (for progress display).
     """
 
     def __init__(self, objective: Objective, store: RunStore, workers: int = 1,
-                 on_evaluation: Callable[[Score, bool], None] | None = None):
+                 on_evaluation: Callable[[Score, bool], None] | None = None, eval_timeout: float | None = None):
         self.objective = objective
         self.store = store
         self.workers = max(1, int(workers))
         self.on_evaluation = on_evaluation
+        self.eval_timeout = eval_timeout
         self.generation = 0
         self.new_evaluations = 0
-        self._pool: ProcessPoolExecutor | None = None
+        self.failed_evaluations = 0
+        self._pool: ProcessPool | None = None
 
     def __enter__(self) -> "Evaluator":
         if self.workers > 1:
             # spawn: engines hold native handles that must not be shared through fork
-            self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                             initializer=_init_worker, initargs=(self.objective,))
+            self._pool = ProcessPool(self.workers, initializer=_init_worker, initargs=(self.objective,),
+                                     context=multiprocessing.get_context("spawn"))
         return self
 
     def __exit__(self, *exc) -> None:
         if self._pool is not None:
-            self._pool.shutdown(cancel_futures=True)
+            self._pool.stop()
+            self._pool.join()
             self._pool = None
         self.objective.close()
+
+    def _failed(self, reason: str) -> Score:
+        self.failed_evaluations += 1
+        return failed_score(reason)
 
     def _finish(self, x, score: Score, wall_s: float) -> float:
         self.store.record_evaluation(x, score, self.generation, wall_s)
@@ -117,14 +135,32 @@ class Evaluator:
         if self._pool is None:
             for i in todo:
                 t0 = time.perf_counter()
-                score = self.objective.score_vector(vectors[i])
+                try:
+                    score = self.objective.score_vector(vectors[i])
+                except SimtuneError:
+                    raise
+                except Exception as exc:  # an engine error at a corner of the space costs this evaluation only
+                    score = self._failed(f"{type(exc).__name__}: {exc}")
                 fitness[i] = self._finish(vectors[i], score, time.perf_counter() - t0)
         else:
-            futures = {self._pool.submit(_evaluate_in_worker, vectors[i]): i for i in todo}
+            futures = {self._pool.schedule(_evaluate_in_worker, (vectors[i],), timeout=self.eval_timeout): i
+                       for i in todo}
+            started = time.perf_counter()
             for future in as_completed(futures):
                 i = futures[future]
-                score_dict, wall_s = future.result()
-                fitness[i] = self._finish(vectors[i], Score.from_dict(score_dict), wall_s)
+                wall_s = time.perf_counter() - started
+                try:
+                    score_dict, wall_s = future.result()
+                    score = Score.from_dict(score_dict)
+                except FutureTimeout:
+                    score = self._failed(f"evaluation ran past {self.eval_timeout:g} s; worker replaced")
+                except ProcessExpired as exc:
+                    score = self._failed(f"worker process died (exit code {exc.exitcode}); worker replaced")
+                except SimtuneError:
+                    raise
+                except Exception as exc:
+                    score = self._failed(f"{type(exc).__name__}: {exc}")
+                fitness[i] = self._finish(vectors[i], score, wall_s)
         self.generation += 1
         return fitness  # type: ignore[return-value]
 
@@ -138,6 +174,7 @@ def differential_evolution_tune(
     max_seconds: float | None = None,
     max_generations: int = 1000,
     elapsed_before: float = 0.0,
+    eval_timeout: float | None = None,
     on_evaluation: Callable[[Score, bool], None] | None = None,
     on_generation: Callable[[int, float], None] | None = None,
 ) -> TuneResult:
@@ -168,7 +205,7 @@ def differential_evolution_tune(
             return True
         return False
 
-    with Evaluator(objective, store, workers, on_evaluation) as evaluator:
+    with Evaluator(objective, store, workers, on_evaluation, eval_timeout) as evaluator:
         result = differential_evolution(
             lambda x: objective.score_vector(x).fitness,  # never called: the Evaluator does the work
             bounds=space.bounds, maxiter=max_generations, rng=np.random.default_rng(seed),
