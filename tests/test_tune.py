@@ -46,33 +46,48 @@ def test_same_seed_same_result_with_one_or_two_workers(tmp_path):
     np.testing.assert_array_equal(one.x, two.x)
 
 
-def test_kill_minus_9_then_resume_loses_and_repeats_nothing(tmp_path):
-    reference = start_run(config(), tmp_path / "uninterrupted", show_progress=False)
-    run_dir = tmp_path / "killed"
-    cmd = [sys.executable, "-m", "simtune.cli", "tune", "--engine", "mujoco", "--task", "cube",
-           "--data", str(REFERENCE_DIR), "--space", "extended", "--seed", "3", "--max-generations", "4",
-           "--only", ",".join(ONLY), "--out", str(run_dir), "--quiet"]
+def _kill_when(cmd, run_dir, at_count, limit_s=120):
+    """Start ``cmd``, SIGKILL it once the run store holds ``at_count`` evaluations; the count then."""
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.time() + 120
-    done_before_kill = 0
-    while time.time() < deadline:
+    deadline = time.time() + limit_s
+    count = 0
+    while time.time() < deadline and proc.poll() is None:
         if (run_dir / "run.sqlite").exists():
             try:
-                done_before_kill = RunStore(run_dir).count_evaluations()
-            except Exception:
-                done_before_kill = 0
-            if done_before_kill >= 15:
+                count = RunStore(run_dir).count_evaluations()
+            except Exception:  # the store is being created
+                count = 0
+            if count >= at_count:
                 break
-        time.sleep(0.05)
+        time.sleep(0.02)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
-    assert 15 <= done_before_kill < reference.evaluations, "the kill must land mid-run"
-    kept = RunStore(run_dir).count_evaluations()
+    return RunStore(run_dir).count_evaluations()
+
+
+def test_repeated_kill_minus_9_then_resume_loses_and_repeats_nothing(tmp_path):
+    import random
+
+    reference = start_run(config(), tmp_path / "uninterrupted", show_progress=False)
+    run_dir = tmp_path / "killed"
+    tune = [sys.executable, "-m", "simtune.cli", "tune", "--engine", "mujoco", "--task", "cube",
+            "--data", str(REFERENCE_DIR), "--space", "extended", "--seed", "3", "--max-generations", "4",
+            "--only", ",".join(ONLY), "--out", str(run_dir), "--quiet"]
+    resume = [sys.executable, "-m", "simtune.cli", "resume", str(run_dir), "--quiet"]
+    points = sorted(random.Random(7).sample(range(5, reference.evaluations - 5), 3))
+    kept = _kill_when(tune, run_dir, points[0])
+    for point in points[1:]:
+        assert kept < reference.evaluations, "each kill must land mid-run"
+        kept = _kill_when(resume, run_dir, point)
+    assert kept < reference.evaluations
     resumed = resume_run(run_dir, show_progress=False)
     assert resumed.new_evaluations == reference.evaluations - kept  # nothing simulated twice
     assert resumed.evaluations == reference.evaluations  # nothing lost
     assert resumed.fitness == reference.fitness
     np.testing.assert_array_equal(resumed.x, reference.x)
+    store = RunStore(run_dir)
+    assert len({tuple(r["x"]) for r in store.evaluations()}) == reference.evaluations
+    assert store.get("status") == "finished"
 
 
 def test_a_folder_with_a_run_is_not_overwritten(tmp_path):
@@ -92,3 +107,37 @@ def test_short_tune_on_real_recordings_improves_on_generic(mocap_root, tmp_path)
     assert generic > 0.1
     assert result.fitness < 0.5 * generic
     assert 0.8 < result.params["command_delay"] < 2.0
+
+
+def test_params_file_reproduces_the_stored_best_fitness_exactly(tmp_path):
+    import subprocess
+
+    start_run(config(max_generations=2), tmp_path / "run", show_progress=False)
+    best = json.loads((tmp_path / "run" / "best_params.json").read_text())
+    proc = subprocess.run([sys.executable, "-m", "simtune.cli", "evaluate", "--engine", "mujoco", "--task", "cube",
+                           "--params-file", str(tmp_path / "run" / "best_params.json"), "--json"],
+                          capture_output=True, text=True, check=True)
+    assert abs(json.loads(proc.stdout)["fitness"] - best["fitness"]) < 1e-9
+
+
+def test_params_file_with_a_missing_or_extra_value_is_refused(tmp_path):
+    from simtune.errors import ConfigError
+    from simtune.params import read_params_file
+
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps({"parameters": ["timestep", "command_delay"], "params": {"timestep": 0.01}}))
+    with pytest.raises(ConfigError, match="no value for parameter 'command_delay'"):
+        read_params_file(path)
+    path.write_text(json.dumps({"parameters": ["timestep"], "params": {"timestep": 0.01, "command_delay": 1}}))
+    with pytest.raises(ConfigError, match="'command_delay' is not among"):
+        read_params_file(path)
+
+
+def test_run_store_from_another_version_is_refused(tmp_path):
+    from simtune.errors import SimtuneError
+
+    store = RunStore(tmp_path / "r", create=True)
+    store.set(schema_version=99)
+    store.close()
+    with pytest.raises(SimtuneError, match="run store version 99"):
+        RunStore(tmp_path / "r")

@@ -103,7 +103,7 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
         "engine": config.engine, "tasks": config.tasks, "space": config.space,
         "fitness": result.score.fitness, "wrist_error": result.score.wrist_error,
         "object_error": result.score.object_error, "generic_fitness": generic["fitness"],
-        "params": result.params,
+        "parameters": list(result.params), "params": result.params,
     })
     store.set(status="finished", message=result.message, best_fitness=result.score.fitness)
     store.close()

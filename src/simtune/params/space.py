@@ -171,8 +171,15 @@ def read_params_file(path: Path) -> dict:
         raise ConfigError(f"{path}: cannot read ({exc})") from None
     except json.JSONDecodeError as exc:
         raise ConfigError(f"{path} line {exc.lineno}: not valid JSON ({exc.msg})") from None
-    if isinstance(data, dict) and isinstance(data.get("params"), dict):
-        data = data["params"]
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: expected a JSON object of parameter names and values")
+    if isinstance(data.get("params"), dict):
+        listed, data = data.get("parameters"), data["params"]
+        if isinstance(listed, list):  # a run's file says which parameters it holds: all of them, no others
+            for name in listed:
+                if name not in data:
+                    raise ConfigError(f"{path}: no value for parameter {name!r}, which the file lists")
+            for name in data:
+                if name not in listed:
+                    raise ConfigError(f"{path}: parameter {name!r} is not among those the file lists")
     return data
