@@ -141,3 +141,18 @@ def test_run_store_from_another_version_is_refused(tmp_path):
     store.close()
     with pytest.raises(SimtuneError, match="run store version 99"):
         RunStore(tmp_path / "r")
+
+
+def test_pruning_saves_simulation_without_changing_the_search(tmp_path):
+    pruned = start_run(config(max_generations=6), tmp_path / "pruned", show_progress=False)
+    full = start_run(config(max_generations=6, prune=False), tmp_path / "full", show_progress=False)
+    assert pruned.fitness == full.fitness
+    np.testing.assert_array_equal(pruned.x, full.x)
+    assert pruned.evaluations == full.evaluations and pruned.generations == full.generations
+    assert full.pruned_evaluations == 0 < pruned.pruned_evaluations
+    assert pruned.steps < full.steps
+    # every pruned trial really was worse than what the full run measured for it
+    exact = {tuple(r["x"]): r["fitness"] for r in RunStore(tmp_path / "full").evaluations()}
+    for row in RunStore(tmp_path / "pruned").evaluations():
+        if row["pruned"]:
+            assert row["fitness"] <= exact[tuple(row["x"])] + 1e-12

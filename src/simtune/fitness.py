@@ -33,6 +33,9 @@ class TaskScore:
     object_error: float | None
     stable: bool = True
     message: str = ""
+    #: stopped early because it could no longer beat its parent: fitness is a lower bound
+    pruned: bool = False
+    steps: int = 0  # physics steps simulated
 
 
 @dataclass
@@ -47,6 +50,10 @@ class Score:
     @property
     def stable(self) -> bool:
         return all(t.stable for t in self.tasks)
+
+    @property
+    def pruned(self) -> bool:
+        return any(t.pruned for t in self.tasks)
 
     @classmethod
     def combine(cls, scores: list[TaskScore]) -> "Score":
@@ -81,11 +88,18 @@ def score_rollout(rollout: Rollout, reference: TaskData, params: dict[str, float
     if len(rollout.times) != n:
         raise ValueError(f"rollout has {len(rollout.times)} samples, the reference {n}")
     marker = marker_positions(rollout, params)
-    wrist_error = float(np.mean(np.linalg.norm(marker - reference.wrist_mean, axis=1)))
+    distances = np.linalg.norm(marker - reference.wrist_mean, axis=1)
+    if rollout.pruned:
+        # only the simulated samples count: a lower bound of the full wrist error
+        bound = float(distances[:rollout.samples_run].sum() / n)
+        message = f"pruned at t={rollout.times[rollout.samples_run - 1]:.2f} s: cannot beat its parent"
+        return TaskScore(reference.task, bound, bound, None, True, message, pruned=True, steps=rollout.steps)
+    wrist_error = float(np.mean(distances))
     object_error = None
     if reference.object_final is not None and rollout.object_pos is not None:
         object_error = float(np.linalg.norm(rollout.object_pos[-1] - reference.object_final_mean))
     fitness = wrist_error + (object_error or 0.0)
     if not rollout.stable:
         fitness = PENALTY
-    return TaskScore(reference.task, fitness, wrist_error, object_error, rollout.stable, rollout.message)
+    return TaskScore(reference.task, fitness, wrist_error, object_error, rollout.stable, rollout.message,
+                     steps=rollout.steps)

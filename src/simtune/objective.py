@@ -10,10 +10,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from simtune.data import TaskData, load_task_data
 from simtune.engines import Engine, engine_class, make_engine
 from simtune.errors import SimtuneError
-from simtune.fitness import Score, score_rollout
+from simtune.fitness import Score, TaskScore, score_rollout
 from simtune.params import ParameterSpace
 from simtune.tasks import TaskSpec
 
@@ -61,13 +63,42 @@ class Objective:
         """Each task's rollout for ``params``, as long as its recordings."""
         return {t.name: self._engine(t).rollout(params, len(self.references[t.name].times)) for t in self.tasks}
 
-    def score(self, params: dict[str, float]) -> Score:
-        rollouts = self.rollouts(params)
-        return Score.combine([score_rollout(rollouts[t.name], self.references[t.name], params) for t in self.tasks])
+    def score(self, params: dict[str, float], bound: float | None = None) -> Score:
+        """Fitness of ``params`` over all tasks.
 
-    def score_vector(self, x) -> Score:
+        With ``bound``, simulation stops as soon as the error accumulated so far
+        proves the fitness will exceed ``bound`` (every remaining sample can only
+        add to it); the score is then a flagged lower bound that still exceeds
+        ``bound``.  The optimiser passes a trial's parent fitness: a trial that
+        cannot beat its parent is rejected either way, so the search is unchanged.
+        """
+        scores: list[TaskScore] = []
+        spent = 0.0
+        offset = np.array([params.get(f"marker_offset_{a}", 0.0) for a in "xyz"])
+        for task in self.tasks:
+            reference = self.references[task.name]
+            n = len(reference.times)
+            monitor = None
+            if bound is not None:
+                # the summed marker error that proves the bound exceeded (with a margin far above
+                # rounding, so the rescored lower bound is sure to exceed it too)
+                budget = (bound - spent) * n * (1 + 1e-9) + 1e-12
+                accumulated = [0.0]
+
+                def monitor(k, pos, rot, reference=reference, budget=budget, accumulated=accumulated):
+                    accumulated[0] += float(np.linalg.norm(pos + rot @ offset - reference.wrist_mean[k]))
+                    return accumulated[0] > budget
+
+            rollout = self._engine(task).rollout(params, n, monitor=monitor)
+            scores.append(score_rollout(rollout, reference, params))
+            spent += scores[-1].fitness
+            if bound is not None and spent > bound:
+                break  # the remaining tasks cannot lower the sum
+        return Score.combine(scores)
+
+    def score_vector(self, x, bound: float | None = None) -> Score:
         assert self.space is not None, "score_vector needs a parameter space"
-        return self.score(self.space.to_dict(x))
+        return self.score(self.space.to_dict(x), bound)
 
     def close(self) -> None:
         for engine in self._engines.values():

@@ -3,7 +3,9 @@
 Tables
 - ``meta``: key -> JSON value (the run's configuration, versions, command line, status);
 - ``evaluations``: one row per finished evaluation: the parameter vector, its
-  fitness and parts, generation, wall time, and whether the simulation was stable;
+  fitness and parts, generation, wall time, whether the simulation was stable,
+  and whether it was pruned (stopped once it could not beat its parent: its
+  fitness is then a lower bound);
 - ``generations``: one checkpoint per generation: the population, its energies,
   the best member and the run's elapsed time.
 
@@ -40,6 +42,7 @@ CREATE TABLE IF NOT EXISTS evaluations (
     wrist_error REAL,
     object_error REAL,
     stable INTEGER NOT NULL,
+    pruned INTEGER NOT NULL DEFAULT 0,
     score TEXT NOT NULL,
     generation INTEGER NOT NULL,
     wall_s REAL NOT NULL,
@@ -107,10 +110,11 @@ class RunStore:
     def record_evaluation(self, x, score: Score, generation: int, wall_s: float) -> None:
         with self.db:
             self.db.execute(
-                "INSERT OR IGNORE INTO evaluations (key, x, fitness, wrist_error, object_error, stable, score,"
-                " generation, wall_s, finished_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                "INSERT OR IGNORE INTO evaluations (key, x, fitness, wrist_error, object_error, stable, pruned, score,"
+                " generation, wall_s, finished_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 (vector_key(x), json.dumps([float(v) for v in x]), score.fitness, score.wrist_error,
-                 score.object_error, int(score.stable), json.dumps(score.to_dict()), generation, wall_s, time.time()),
+                 score.object_error, int(score.stable), int(score.pruned), json.dumps(score.to_dict()), generation,
+                 wall_s, time.time()),
             )
 
     def count_evaluations(self) -> int:
@@ -118,10 +122,10 @@ class RunStore:
 
     def evaluations(self) -> list[dict]:
         rows = self.db.execute(
-            "SELECT x, fitness, wrist_error, object_error, stable, generation, wall_s FROM evaluations ORDER BY id"
-        ).fetchall()
+            "SELECT x, fitness, wrist_error, object_error, stable, pruned, generation, wall_s FROM evaluations"
+            " ORDER BY id").fetchall()
         return [dict(x=json.loads(r[0]), fitness=r[1], wrist_error=r[2], object_error=r[3], stable=bool(r[4]),
-                     generation=r[5], wall_s=r[6]) for r in rows]
+                     pruned=bool(r[5]), generation=r[6], wall_s=r[7]) for r in rows]
 
     def best_evaluation(self) -> dict | None:
         row = self.db.execute("SELECT x, score FROM evaluations ORDER BY fitness, id LIMIT 1").fetchone()

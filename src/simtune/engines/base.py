@@ -9,6 +9,7 @@ unstable simulations live here, once, so every engine runs the same protocol.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -48,6 +49,8 @@ class Rollout:
     stable: bool = True
     message: str = ""
     steps: int = 0  # physics steps taken
+    samples_run: int = 0  # samples actually simulated (fewer if stopped early)
+    pruned: bool = False  # stopped early by the monitor: the rest could not change the outcome
 
 
 class Engine(ABC):
@@ -110,13 +113,16 @@ class Engine(ABC):
         """Release engine resources."""
 
     # --- the protocol, shared by all engines ---------------------------------------------
-    def rollout(self, params: dict[str, float], n_samples: int, rate: float = 1.0 / CONTROL_PERIOD) -> Rollout:
+    def rollout(self, params: dict[str, float], n_samples: int, rate: float = 1.0 / CONTROL_PERIOD,
+                monitor: Callable[[int, np.ndarray, np.ndarray], bool] | None = None) -> Rollout:
         """Run the task for ``n_samples`` control periods and sample the state at each.
 
         Sample ``k`` is the state at ``k / rate`` seconds, taken just before the
         controller's update at that instant.  The number of physics steps per
         period is chosen so that simulated time stays within half a step of the
-        control clock whatever the time step.
+        control clock whatever the time step.  ``monitor(k, wrist_pos, wrist_rot)``,
+        if given, sees every sample and may stop the rollout by returning True
+        (the rollout is then marked ``pruned``).
         """
         period = 1.0 / rate
         self.reset(params)
@@ -129,7 +135,7 @@ class Engine(ABC):
         has_object = self.task.object is not None
         object_pos = np.zeros((n_samples, 3)) if has_object else None
         object_start = self.object_position() if has_object else None
-        t_sim, steps, stable, message = 0.0, 0, True, ""
+        t_sim, steps, stable, message, samples_run, pruned = 0.0, 0, True, "", 0, False
         for k in range(n_samples):
             q = self.joint_angles()
             pos, rot = self.wrist_pose()
@@ -137,22 +143,25 @@ class Engine(ABC):
             reason = self.diverged() or _check_state(q, pos, rot, obj, object_start)
             if reason:
                 stable, message = False, f"unstable at t={times[k]:.2f} s: {reason}"
-                if k:  # hold the last good sample for the rest: the rollout ends here
-                    wrist_pos[k:], wrist_rot[k:], angles[k:] = wrist_pos[k - 1], wrist_rot[k - 1], angles[k - 1]
-                    if has_object:
-                        object_pos[k:] = object_pos[k - 1]
                 break
             wrist_pos[k], wrist_rot[k], angles[k] = pos, rot, q
             if has_object:
                 object_pos[k] = obj
+            samples_run = k + 1
             if k == n_samples - 1:
+                break
+            if monitor is not None and monitor(k, pos, rot):
+                pruned = True
                 break
             self.set_joint_velocities(controller.command(times[k], q))
             n = max(1, int(round(((k + 1) * period - t_sim) / dt)))
             self.step(n)
             t_sim += n * dt
             steps += n
-        return Rollout(times, wrist_pos, wrist_rot, angles, object_pos, stable, message, steps)
+        if 0 < samples_run < n_samples:  # ended early: hold the last good sample for the rest
+            for samples in (wrist_pos, wrist_rot, angles, *([object_pos] if has_object else [])):
+                samples[samples_run:] = samples[samples_run - 1]
+        return Rollout(times, wrist_pos, wrist_rot, angles, object_pos, stable, message, steps, samples_run, pruned)
 
 
 def _check_state(q, pos, rot, obj, obj_start) -> str:

@@ -46,6 +46,8 @@ class TuneResult:
     message: str
     converged: bool
     history: list[float] = field(default_factory=list)  # best fitness per generation
+    pruned_evaluations: int = 0  # evaluations of this session stopped early (could not beat their parent)
+    steps: int = 0  # physics steps simulated in this session
 
     @property
     def fitness(self) -> float:
@@ -61,9 +63,9 @@ def _init_worker(objective: Objective) -> None:
     _WORKER_OBJECTIVE = objective
 
 
-def _evaluate_in_worker(x: np.ndarray) -> tuple[dict, float]:
+def _evaluate_in_worker(x: np.ndarray, bound: float | None) -> tuple[dict, float]:
     t0 = time.perf_counter()
-    score = _WORKER_OBJECTIVE.score_vector(x)
+    score = _WORKER_OBJECTIVE.score_vector(x, bound)
     return score.to_dict(), time.perf_counter() - t0
 
 
@@ -84,7 +86,8 @@ class Evaluator:
     """
 
     def __init__(self, objective: Objective, store: RunStore, workers: int = 1,
-                 on_evaluation: Callable[[Score, bool], None] | None = None, eval_timeout: float | None = None):
+                 on_evaluation: Callable[[Score, bool], None] | None = None, eval_timeout: float | None = None,
+                 prune: bool = True):
         self.objective = objective
         self.store = store
         self.workers = max(1, int(workers))
@@ -93,6 +96,11 @@ class Evaluator:
         self.generation = 0
         self.new_evaluations = 0
         self.failed_evaluations = 0
+        self.pruned_evaluations = 0
+        self.steps = 0
+        #: fitness of each trial's parent, in SciPy's population order (None: no pruning)
+        self.parent_energies: np.ndarray | None = None
+        self.prune = prune
         self._pool: ProcessPool | None = None
 
     def __enter__(self) -> "Evaluator":
@@ -116,6 +124,8 @@ class Evaluator:
     def _finish(self, x, score: Score, wall_s: float) -> float:
         self.store.record_evaluation(x, score, self.generation, wall_s)
         self.new_evaluations += 1
+        self.pruned_evaluations += score.pruned
+        self.steps += sum(t.steps for t in score.tasks)
         if self.on_evaluation:
             self.on_evaluation(score, False)
         return score.fitness
@@ -123,6 +133,10 @@ class Evaluator:
     def __call__(self, func, vectors) -> list[float]:
         vectors = [np.asarray(x, dtype=float) for x in vectors]
         fitness: list[float | None] = [None] * len(vectors)
+        parents = self.parent_energies
+        bounds = [None] * len(vectors)
+        if self.prune and parents is not None and len(parents) == len(vectors):
+            bounds = [float(e) for e in parents]  # trial i competes with population member i
         todo = []
         for i, x in enumerate(vectors):
             known = self.store.lookup(x)
@@ -136,15 +150,15 @@ class Evaluator:
             for i in todo:
                 t0 = time.perf_counter()
                 try:
-                    score = self.objective.score_vector(vectors[i])
+                    score = self.objective.score_vector(vectors[i], bounds[i])
                 except SimtuneError:
                     raise
                 except Exception as exc:  # an engine error at a corner of the space costs this evaluation only
                     score = self._failed(f"{type(exc).__name__}: {exc}")
                 fitness[i] = self._finish(vectors[i], score, time.perf_counter() - t0)
         else:
-            futures = {self._pool.schedule(_evaluate_in_worker, (vectors[i],), timeout=self.eval_timeout): i
-                       for i in todo}
+            futures = {self._pool.schedule(_evaluate_in_worker, (vectors[i], bounds[i]),
+                                           timeout=self.eval_timeout): i for i in todo}
             started = time.perf_counter()
             for future in as_completed(futures):
                 i = futures[future]
@@ -161,6 +175,12 @@ class Evaluator:
                 except Exception as exc:
                     score = self._failed(f"{type(exc).__name__}: {exc}")
                 fitness[i] = self._finish(vectors[i], score, wall_s)
+        if self.generation == 0:
+            # the initial population: SciPy then swaps its best member to the front
+            energies = np.array(fitness, dtype=float)
+            best = int(np.argmin(energies))
+            energies[[0, best]] = energies[[best, 0]]
+            self.parent_energies = energies
         self.generation += 1
         return fitness  # type: ignore[return-value]
 
@@ -175,6 +195,7 @@ def differential_evolution_tune(
     max_generations: int = 1000,
     elapsed_before: float = 0.0,
     eval_timeout: float | None = None,
+    prune: bool = True,
     on_evaluation: Callable[[Score, bool], None] | None = None,
     on_generation: Callable[[int, float], None] | None = None,
 ) -> TuneResult:
@@ -195,6 +216,7 @@ def differential_evolution_tune(
         nonlocal stopped_for_time
         generation = len(history) + 1
         history.append(float(intermediate_result.fun))
+        evaluator.parent_energies = np.array(intermediate_result.population_energies, dtype=float)
         store.record_generation(generation, intermediate_result.population, intermediate_result.population_energies,
                                 intermediate_result.x, intermediate_result.fun, store.count_evaluations(), elapsed())
         store.set(elapsed_s=elapsed())
@@ -205,7 +227,8 @@ def differential_evolution_tune(
             return True
         return False
 
-    with Evaluator(objective, store, workers, on_evaluation, eval_timeout) as evaluator:
+    evaluator = Evaluator(objective, store, workers, on_evaluation, eval_timeout, prune)
+    with evaluator:
         result = differential_evolution(
             lambda x: objective.score_vector(x).fitness,  # never called: the Evaluator does the work
             bounds=space.bounds, maxiter=max_generations, rng=np.random.default_rng(seed),
@@ -213,11 +236,10 @@ def differential_evolution_tune(
         )
         best_x = np.asarray(result.x, dtype=float)
         best = store.lookup(best_x) or objective.score_vector(best_x)
-        new = evaluator.new_evaluations
     if stopped_for_time:
         message = f"stopped after {max_seconds:g} s"
     else:
         message = result.message
     converged = (not stopped_for_time) and bool(result.success)
-    return TuneResult(best_x, space.to_dict(best_x), best, len(history), store.count_evaluations(), new,
-                      elapsed(), message, converged, history)
+    return TuneResult(best_x, space.to_dict(best_x), best, len(history), store.count_evaluations(), evaluator.new_evaluations,
+                      elapsed(), message, converged, history, evaluator.pruned_evaluations, evaluator.steps)
