@@ -20,13 +20,13 @@ class FaultyObjective(Objective):
     Fault injection for the test: the physics of every other evaluation is real.
     """
 
-    def score_vector(self, x):
+    def score_vector(self, x, bound=None):
         delay = self.space.to_dict(x)["command_delay"]
         if delay > 2.4:  # command_delay in its top fifth (latin hypercube puts one member there): the worker dies as on a segfault
             os.kill(os.getpid(), signal.SIGKILL)
         if delay < 0.6:  # in its bottom fifth: the worker hangs
             time.sleep(120)
-        return super().score_vector(x)
+        return super().score_vector(x, bound)
 
 
 def test_crashing_and_hanging_evaluations_are_recorded_and_the_run_goes_on(tmp_path):

@@ -119,6 +119,7 @@ class Evaluator:
 
     def _failed(self, reason: str) -> Score:
         self.failed_evaluations += 1
+        self._batch_failures.append(reason)
         return failed_score(reason)
 
     def _finish(self, x, score: Score, wall_s: float) -> float:
@@ -133,6 +134,7 @@ class Evaluator:
     def __call__(self, func, vectors) -> list[float]:
         vectors = [np.asarray(x, dtype=float) for x in vectors]
         fitness: list[float | None] = [None] * len(vectors)
+        self._batch_failures: list[str] = []
         parents = self.parent_energies
         bounds = [None] * len(vectors)
         if self.prune and parents is not None and len(parents) == len(vectors):
@@ -175,6 +177,9 @@ class Evaluator:
                 except Exception as exc:
                     score = self._failed(f"{type(exc).__name__}: {exc}")
                 fitness[i] = self._finish(vectors[i], score, wall_s)
+        if todo and len(self._batch_failures) == len(todo):
+            # nothing could be simulated at all: a broken set-up, not a corner of the space
+            raise SimtuneError(f"every evaluation of generation {self.generation} failed: {self._batch_failures[0]}")
         if self.generation == 0:
             # the initial population: SciPy then swaps its best member to the front
             energies = np.array(fitness, dtype=float)
