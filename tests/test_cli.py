@@ -16,7 +16,7 @@ def simtune(*args, check=False):
     return proc
 
 
-@pytest.mark.parametrize("command", ["evaluate", "tune", "resume", "demo", "engines", "tasks", "params"])
+@pytest.mark.parametrize("command", ["evaluate", "tune", "resume", "demo", "engines", "tasks", "params", "grid", "report"])
 def test_every_command_has_help(command):
     proc = simtune(command, "--help", check=True)
     assert "Usage" in proc.stdout

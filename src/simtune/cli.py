@@ -19,6 +19,7 @@ from rich.console import Console
 from rich.table import Table
 
 from simtune.errors import SimtuneError
+from simtune.report.command import report
 
 app = typer.Typer(
     help="Tune physics-engine parameters until a simulated robot reproduces its motion-capture recordings.\n\n"
@@ -134,6 +135,11 @@ def tune(
     workers: Annotated[int, typer.Option("--workers", "-w", min=1, help="Processes evaluating the population.")] = 1,
     max_seconds: Annotated[Optional[float], typer.Option(help="Stop after this much wall time [s].")] = None,
     max_generations: Annotated[int, typer.Option(min=1, help="Stop after this many generations.")] = 1000,
+    target_fitness: Annotated[Optional[float], typer.Option(help="Stop once the best fitness reaches this.")]
+    = None,
+    no_prune: Annotated[bool, typer.Option("--no-prune", help="Simulate every trial to the end (by default a "
+                                           "trial that can no longer beat its parent stops early: same search, "
+                                           "its stored fitness a lower bound).")] = False,
     only: Annotated[Optional[str], typer.Option(help="Tune only these parameters of the space (comma-separated); "
                                                 "the rest keep their generic values.")] = None,
     eval_timeout: Annotated[float, typer.Option(help="With --workers 2+: an evaluation still running after this "
@@ -154,7 +160,8 @@ def tune(
 
     config = RunConfig(engine=engine, tasks=task, space=space, data=str(_data_root(data)), seed=seed,
                        workers=workers, max_seconds=max_seconds, max_generations=max_generations,
-                       only=_split(only) if only else None, eval_timeout=eval_timeout)
+                       only=_split(only) if only else None, eval_timeout=eval_timeout,
+                       target_fitness=target_fitness, prune=not no_prune)
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
     _report_tune(result, out_dir, config, RunStore(out_dir).get("generic"), as_json)
 
@@ -181,7 +188,7 @@ def demo(
     workers: Annotated[int, typer.Option("--workers", "-w", min=1)] = 2,
     max_seconds: Annotated[float, typer.Option(help="Time budget of the tuning run [s].")] = 120.0,
 ) -> None:
-    """Tune MuJoCo to the shipped reference recording and print generic vs tuned error (about 2 minutes)."""
+    """Tune MuJoCo to the shipped reference recording and print generic vs tuned error (about a minute)."""
     from simtune.reference import run_demo
 
     run_demo(out_dir, workers=workers, max_seconds=max_seconds, console=out)
@@ -325,6 +332,9 @@ def params(
     for p in sp.parameters:
         table.add_row(p.name, f"{p.low:g}", f"{p.high:g}", p.unit, p.description)
     out.print(table)
+
+
+app.command()(report)  # defined beside the report package it drives
 
 
 def main() -> None:

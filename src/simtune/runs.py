@@ -43,6 +43,7 @@ class RunConfig:
     only: list[str] | None = None  # tune just these parameters of the space
     eval_timeout: float | None = None  # seconds before a worker's evaluation is abandoned
     prune: bool = True  # stop trials that can no longer beat their parent (same search, less simulation)
+    target_fitness: float | None = None  # stop once the best fitness reaches this
 
 
 def versions(engine: str) -> dict[str, str]:
@@ -96,7 +97,7 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
         result = differential_evolution_tune(
             objective, store, seed=config.seed, workers=config.workers, max_seconds=config.max_seconds,
             max_generations=config.max_generations, elapsed_before=store.get("elapsed_s", 0.0),
-            eval_timeout=config.eval_timeout, prune=config.prune,
+            eval_timeout=config.eval_timeout, prune=config.prune, target_fitness=config.target_fitness,
             on_evaluation=progress.evaluation, on_generation=progress.generation,
         )
     generic = store.get("generic")

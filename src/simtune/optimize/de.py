@@ -201,6 +201,7 @@ def differential_evolution_tune(
     elapsed_before: float = 0.0,
     eval_timeout: float | None = None,
     prune: bool = True,
+    target_fitness: float | None = None,
     on_evaluation: Callable[[Score, bool], None] | None = None,
     on_generation: Callable[[int, float], None] | None = None,
 ) -> TuneResult:
@@ -212,13 +213,12 @@ def differential_evolution_tune(
     space = objective.space
     start = time.perf_counter()
     history: list[float] = []
-    stopped_for_time = False
+    stop_reason: str | None = None
 
     def elapsed() -> float:
         return elapsed_before + time.perf_counter() - start
 
     def checkpoint(intermediate_result) -> bool:
-        nonlocal stopped_for_time
         generation = len(history) + 1
         history.append(float(intermediate_result.fun))
         evaluator.parent_energies = np.array(intermediate_result.population_energies, dtype=float)
@@ -227,10 +227,12 @@ def differential_evolution_tune(
         store.set(elapsed_s=elapsed())
         if on_generation:
             on_generation(generation, float(intermediate_result.fun))
+        nonlocal stop_reason
         if max_seconds is not None and elapsed() >= max_seconds:
-            stopped_for_time = True
-            return True
-        return False
+            stop_reason = f"stopped after {max_seconds:g} s"
+        elif target_fitness is not None and intermediate_result.fun <= target_fitness:
+            stop_reason = f"reached the target fitness {target_fitness:g}"
+        return stop_reason is not None
 
     evaluator = Evaluator(objective, store, workers, on_evaluation, eval_timeout, prune)
     with evaluator:
@@ -241,10 +243,7 @@ def differential_evolution_tune(
         )
         best_x = np.asarray(result.x, dtype=float)
         best = store.lookup(best_x) or objective.score_vector(best_x)
-    if stopped_for_time:
-        message = f"stopped after {max_seconds:g} s"
-    else:
-        message = result.message
-    converged = (not stopped_for_time) and bool(result.success)
+    message = stop_reason or result.message
+    converged = stop_reason is None and bool(result.success)
     return TuneResult(best_x, space.to_dict(best_x), best, len(history), store.count_evaluations(), evaluator.new_evaluations,
                       elapsed(), message, converged, history, evaluator.pruned_evaluations, evaluator.steps)

@@ -29,7 +29,7 @@ class ReadOnlyStore(RunStore):
     run folder as it found it, while the report can change nothing in it.
     """
 
-    def __init__(self, run_dir: Path):  # noqa: D107 - replaces RunStore.__init__, which may write
+    def __init__(self, run_dir: Path):  # replaces RunStore.__init__, which may write
         self.run_dir = Path(run_dir)
         self.path = self.run_dir / STORE_FILE
         if not self.path.is_file():

@@ -1,0 +1,182 @@
+"""How fast simtune evaluates, against what the engines themselves allow.
+
+    python benchmarks/speed.py [--engines mujoco,pybullet] [--repeats 5] [--evals 1000]
+        [--data ../shared/datasets/qrg2019/mocap] [--target 0.05] [--seeds 3] [--skip-target]
+
+Prints, per engine, on the `cube` task at the engine's generic time step:
+1. raw engine throughput: physics steps per second and simulated seconds per wall
+   second of a bare stepping loop (same scene, same contacts, no control, no sampling);
+2. one full fitness evaluation, and the overhead ratio evaluation time / bare
+   stepping time for the same number of steps (target <= 1.15);
+3. tuning throughput: evaluations per second with 1 and 2 worker processes on the
+   same batch of parameter vectors, and the scaling efficiency (target >= 0.85);
+4. pruning: the share of physics steps that stopping hopeless trials saves in a
+   short tune (same search, same result);
+5. memory: resident memory of a 2-worker tune (main process + workers) after 100
+   evaluations and after --evals evaluations (target: flat);
+6. time to target: wall time for `tune --engine mujoco --task cube --space extended`
+   to reach fitness --target on the real data, median of --seeds seeds.
+Figures are medians over --repeats runs with [min, max]: the machine is shared and noisy.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from simtune.engines import engine_class, make_engine
+from simtune.objective import Objective, load_references
+from simtune.optimize.de import Evaluator
+from simtune.params import get_space
+from simtune.reference import REFERENCE_DIR
+from simtune.runs import RunConfig, start_run
+from simtune.store import RunStore
+from simtune.tasks import get_task
+
+DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"
+
+
+def stats(values: list[float]) -> str:
+    return f"{statistics.median(values):.4g} [{min(values):.4g}, {max(values):.4g}]"
+
+
+def bare_stepping(engine: str, steps: int, repeats: int) -> list[float]:
+    """Seconds for ``steps`` physics steps of the cube scene with no control or sampling."""
+    sim = make_engine(engine, get_task("cube"))
+    times = []
+    for _ in range(repeats):
+        sim.reset({})
+        sim.set_joint_velocities(np.zeros(6))
+        t0 = time.perf_counter()
+        sim.step(steps)
+        times.append(time.perf_counter() - t0)
+    sim.close()
+    return times
+
+
+def rss_mb(pid: int) -> float:
+    with open(f"/proc/{pid}/status") as fh:
+        for line in fh:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    return 0.0
+
+
+def family_rss_mb() -> float:
+    """Resident memory of this process and all its descendants [MB]."""
+    total, stack = 0.0, [os.getpid()]
+    while stack:
+        pid = stack.pop()
+        try:
+            total += rss_mb(pid)
+            with open(f"/proc/{pid}/task/{pid}/children") as fh:
+                stack += [int(c) for c in fh.read().split()]
+        except OSError:
+            continue
+    return total
+
+
+def throughput(objective: Objective, vectors: np.ndarray, workers: int) -> float:
+    """Evaluations per second of ``vectors`` with ``workers`` processes (engines built beforehand)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        store = RunStore(Path(tmp), create=True)
+        with Evaluator(objective, store, workers) as evaluator:
+            evaluator(None, vectors[: workers * 2])  # warm-up: start workers, build engines
+            t0 = time.perf_counter()
+            evaluator(None, vectors[workers * 2:])
+            rate = (len(vectors) - workers * 2) / (time.perf_counter() - t0)
+        store.close()
+    return rate
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--engines", default="mujoco,pybullet")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--evals", type=int, default=1000)
+    ap.add_argument("--data", default=str(DEFAULT_DATA))
+    ap.add_argument("--target", type=float, default=0.05)
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--skip-target", action="store_true", help="skip the time-to-target runs (minutes)")
+    args = ap.parse_args()
+    data = Path(args.data) if Path(args.data).is_dir() else REFERENCE_DIR
+    task = get_task("cube")
+    refs = load_references(data, [task])
+    print(f"simtune speed benchmark, cube task, data {data}, {os.cpu_count()} cores, {time.strftime('%Y-%m-%d')}")
+    for engine in args.engines.split(","):
+        objective = Objective(engine, [task], refs)
+        objective.score({})  # build the engine
+        evals, steps = [], 0
+        for _ in range(args.repeats):
+            t0 = time.perf_counter()
+            score = objective.score({})
+            evals.append(time.perf_counter() - t0)
+            steps = score.tasks[0].steps
+        bare = bare_stepping(engine, steps, args.repeats)
+        dt = make_engine(engine, task).timestep
+        ratio = [e / statistics.median(bare) for e in evals]
+        print(f"\n== {engine} (generic time step {dt:.4g} s, {steps} steps per evaluation)")
+        print(f"  1. bare stepping: {stats([steps / b for b in bare])} steps/s, "
+              f"{stats([steps * dt / b for b in bare])} simulated s per wall s")
+        print(f"  2. one evaluation: {stats(evals)} s; overhead ratio {stats(ratio)} (target <= 1.15)")
+
+        space = get_space("extended", engine_class(engine).supported())
+        lo, hi = np.array(space.bounds).T
+        rng = np.random.default_rng(0)
+        vectors = lo + rng.random((24, len(space))) * (hi - lo)
+        vectors[:, space.names.index("timestep")] = dt  # the generic step: comparable to 1. and 2.
+        tuned = Objective(engine, [task], refs, space)
+        one = [throughput(tuned, vectors, 1) for _ in range(max(1, args.repeats // 2))]
+        two = [throughput(tuned, vectors, 2) for _ in range(max(1, args.repeats // 2))]
+        eff = [t / (2 * statistics.median(one)) for t in two]
+        print(f"  3. tuning throughput: {stats(one)} eval/s with 1 worker, {stats(two)} with 2; "
+              f"scaling efficiency {stats(eff)} (target >= 0.85)")
+
+        with tempfile.TemporaryDirectory() as tmp:
+            cfg = dict(engine=engine, tasks="cube", space="extended", data=str(REFERENCE_DIR), seed=1,
+                       max_generations=8)
+            full = start_run(RunConfig(**cfg, prune=False), Path(tmp) / "full", show_progress=False)
+            pruned = start_run(RunConfig(**cfg), Path(tmp) / "pruned", show_progress=False)
+            same = "same result" if pruned.fitness == full.fitness else "DIFFERENT RESULT"
+            print(f"  4. pruning (8 generations, {full.evaluations} evaluations): "
+                  f"{pruned.pruned_evaluations} trials stopped early, physics steps {full.steps} -> {pruned.steps} "
+                  f"({100 * (1 - pruned.steps / full.steps):.0f} % saved), wall {full.wall_s:.1f} -> "
+                  f"{pruned.wall_s:.1f} s, {same}")
+
+        memory = []
+        with tempfile.TemporaryDirectory() as tmp:
+            store = RunStore(Path(tmp), create=True)
+            with Evaluator(tuned, store, 2) as evaluator:
+                done = 0
+                for batch in range(0, args.evals, 50):
+                    xs = lo + rng.random((50, len(space))) * (hi - lo)
+                    xs[:, space.names.index("timestep")] = np.maximum(xs[:, space.names.index("timestep")], 0.01)
+                    evaluator(None, xs)
+                    done += 50
+                    if done in (100, args.evals):
+                        memory.append((done, family_rss_mb()))
+            store.close()
+        print("  5. memory (main + 2 workers): " + ", ".join(f"{mb:.0f} MB after {n} evaluations" for n, mb in memory)
+              + f" (growth {memory[-1][1] - memory[0][1]:+.0f} MB)")
+
+    if not args.skip_target and "mujoco" in args.engines and data != REFERENCE_DIR:
+        times = []
+        for seed in range(args.seeds):
+            with tempfile.TemporaryDirectory() as tmp:
+                res = start_run(RunConfig(engine="mujoco", tasks="cube", space="extended", data=str(data), seed=seed,
+                                          workers=2, max_seconds=900, target_fitness=args.target),
+                                Path(tmp) / "run", show_progress=False)
+                times.append(res.wall_s if res.fitness <= args.target else float("inf"))
+                print(f"  6. seed {seed}: fitness {res.fitness:.4f} after {res.wall_s:.0f} s", flush=True)
+        print(f"  6. time to fitness {args.target} (mujoco, cube, extended, 2 workers, real data): "
+              f"median {statistics.median(times):.0f} s [{min(times):.0f}, {max(times):.0f}]")
+
+
+if __name__ == "__main__":
+    main()

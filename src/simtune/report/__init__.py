@@ -1,0 +1,31 @@
+"""``simtune report``: tables, figures and domain-randomisation ranges from finished tuning runs.
+
+:func:`make_report` reads run folders (or folders of them), groups the runs by
+engine x tasks x parameter space (repeats = seeds), and writes a
+self-contained ``index.html`` with every figure also as PNG and SVG, every
+table also as CSV and Markdown, and ``dr_ranges.yaml``.  See docs/report.md.
+
+matplotlib and the engines are imported only when a report is made, so that
+importing the command costs the CLI nothing.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def make_report(paths, out, published_sims=None, *, show_progress: bool = True) -> Path:
+    """Write the report for the runs under ``paths`` into folder ``out``; return its ``index.html``.
+
+    ``paths``: run folders (holding run.sqlite) or folders searched recursively
+    for them.  ``published_sims``: optional folder of ``<task>_<Engine>.csv``
+    published simulations to score next to the engines' generic fitness.
+    Unfinished or unreadable runs are skipped with a
+    :class:`simtune.report.builder.ReportWarning` naming them.
+    """
+    from simtune.report.builder import make_report as _make
+
+    return _make(paths, out, published_sims, show_progress=show_progress)
+
+
+__all__ = ["make_report"]

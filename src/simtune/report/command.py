@@ -1,0 +1,35 @@
+"""The ``simtune report`` command (registered in the CLI with ``app.command()(report)``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+
+def report(
+    runs: Annotated[list[Path], typer.Argument(
+        help="Run folders (made by `simtune tune`) or folders holding run folders at any depth "
+        "(a grid); every run.sqlite below them is read.", show_default=False)],
+    out: Annotated[Path, typer.Option(
+        "--out", "-o", help="Report folder to write: index.html, figures/ (PNG, SVG), tables/ (CSV, Markdown), "
+        "dr_ranges.yaml.", show_default=False)],
+    published_sims: Annotated[Optional[Path], typer.Option(
+        "--published-sims", help="Folder of published simulations <task>_<Engine>.csv (e.g. "
+        "qrg2019/published_sims), scored with simtune's fitness next to the engines' generic fitness.")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+) -> None:
+    """Write an HTML report of tuning runs: fitness tables, convergence, parameters, trajectories.
+
+    Runs are grouped by engine, tasks and parameter space; runs that
+    differ only in their seed are repeats.  An unfinished or unreadable
+    run folder is named in a warning and left out.  index.html is
+    self-contained (figures embedded) and opens offline; see docs/report.md.
+    """
+    from rich.console import Console
+
+    from simtune.report import make_report
+
+    index = make_report(runs, out, published_sims, show_progress=not quiet)
+    Console().print(f"report: {index}", highlight=False, soft_wrap=True)

@@ -1,0 +1,107 @@
+"""Re-simulation for the report: untuned and tuned rollouts, recordings, nominal parameter values."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from simtune.data import TaskData
+from simtune.engines import make_engine
+from simtune.errors import SimtuneError
+from simtune.fitness import TaskScore, marker_positions, score_rollout
+from simtune.objective import Objective, load_references
+from simtune.report.collect import Group, RunRecord
+from simtune.tasks import get_task
+
+
+class References:
+    """Recordings per (data folder, task), loaded once."""
+
+    def __init__(self) -> None:
+        self._cache: dict[tuple[str, str], TaskData | SimtuneError] = {}
+
+    def get(self, data: str, task: str) -> TaskData:
+        key = (str(Path(data).resolve()), task)
+        if key not in self._cache:
+            try:
+                self._cache[key] = load_references(Path(data), [get_task(task)])[task]
+            except SimtuneError as exc:
+                self._cache[key] = exc
+        value = self._cache[key]
+        if isinstance(value, SimtuneError):
+            raise value
+        return value
+
+    def for_run(self, run: RunRecord) -> dict[str, TaskData]:
+        return {t: self.get(run.data, t) for t in run.task_names}
+
+
+@dataclass
+class TaskTrajectory:
+    """One task of one group: the recordings and the untuned and tuned simulations of the marker."""
+
+    task: str
+    reference: TaskData
+    untuned_marker: np.ndarray  # (n, 3)
+    tuned_marker: np.ndarray
+    untuned_object: np.ndarray | None  # (n, 3) or None
+    tuned_object: np.ndarray | None
+    untuned_score: TaskScore
+    tuned_score: TaskScore
+
+
+@dataclass
+class GroupSimulation:
+    group: Group
+    run: RunRecord  # the group's best run, whose parameters are simulated
+    params: dict[str, float]
+    tasks: dict[str, TaskTrajectory]
+
+    @property
+    def tuned_fitness(self) -> float:
+        return float(sum(t.tuned_score.fitness for t in self.tasks.values()))
+
+
+def simulate_group(group: Group, references: References) -> GroupSimulation:
+    """Re-simulate the group's best run with generic and with its tuned parameters, on each of its tasks."""
+    run = group.best_run
+    refs = references.for_run(run)
+    tasks = [get_task(t) for t in run.task_names]
+    objective = Objective(run.engine, tasks, refs)
+    params = run.best_params
+    try:
+        untuned = objective.rollouts({})
+        tuned = objective.rollouts(params)
+    finally:
+        objective.close()
+    out = {}
+    for task in run.task_names:
+        ref = refs[task]
+        out[task] = TaskTrajectory(
+            task=task, reference=ref,
+            untuned_marker=marker_positions(untuned[task], {}), tuned_marker=marker_positions(tuned[task], params),
+            untuned_object=untuned[task].object_pos, tuned_object=tuned[task].object_pos,
+            untuned_score=score_rollout(untuned[task], ref, {}), tuned_score=score_rollout(tuned[task], ref, params),
+        )
+    return GroupSimulation(group, run, params, out)
+
+
+def nominal_values(engine: str, task_names: list[str]) -> dict[str, float]:
+    """Generic value of every parameter ``engine`` has on these tasks: its own defaults and the controller's."""
+    values: dict[str, float] = {}
+    for name in task_names:
+        task = get_task(name)
+        sim = make_engine(engine, task)
+        try:
+            for key, value in sim.defaults().items():
+                values.setdefault(key, float(value))
+        finally:
+            sim.close()
+        for i in range(1, 7):
+            values.setdefault(f"max_velocity_joint_{i}", float(task.max_velocity_deg))
+    values.setdefault("command_delay", 0.0)
+    for axis in "xyz":
+        values.setdefault(f"marker_offset_{axis}", 0.0)
+    return values

@@ -1,0 +1,358 @@
+"""`simtune report` on a small real grid: 2 engines x 2 tasks x 3 seeds, plus broken run folders.
+
+The grid is tuned once per session (short runs, a few parameters); every test
+then checks the report's files against the run stores themselves.
+"""
+
+import base64
+import csv
+import math
+import re
+import shutil
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from simtune.data import write_qualisys_tsv
+from simtune.engines import make_engine
+from simtune.errors import SimtuneError
+from simtune.reference import REFERENCE_DIR
+from simtune.reference.make import synthesize
+from simtune.report import make_report
+from simtune.report.builder import ReportWarning
+from simtune.report.figures import aggregate_curves
+from simtune.report.published import PublishedSim, published_rollout, quaternion_matrices
+from simtune.runs import RunConfig, start_run
+from simtune.store import RunStore
+from simtune.tasks import get_task
+
+ENGINES = ("mujoco", "pybullet")
+TASKS = ("single", "cube")
+SEEDS = (0, 1, 2)
+ONLY = ["command_delay", "max_velocity_joint_2", "lateral_friction_plastic"]
+FIGURES = {"fitness_overview", "convergence_generation", "convergence_evaluations", "convergence_time",
+           "parameters_cube_extended", "parameters_single_extended"} | {
+    f"trajectory_{e}_{t}_extended_{t}" for e in ENGINES for t in TASKS}
+TABLES = {"generic_fitness", "best_tuned", "tuned_by_group", "parameter_importance", "parameter_importance_top",
+          "mann_whitney",
+          "object_final", "compute", "dr_ranges", "runs"}
+
+
+def _make_data(root: Path) -> Path:
+    data = root / "data"
+    (data / "cube").mkdir(parents=True)
+    (data / "single").mkdir(parents=True)
+    for f in sorted((REFERENCE_DIR / "cube").iterdir()):
+        shutil.copy(f, data / "cube" / f.name)
+    for rec in synthesize("mujoco", get_task("single"), {"command_delay": 1.2}, repeats=2, noise_m=0.002,
+                          jitter_s=0.05, seed=1):
+        write_qualisys_tsv(data / "single" / rec.source.name, rec, header=True)
+    return data
+
+
+def _write_published(folder: Path, data: Path) -> None:
+    """A "published" file made from simtune's own generic MuJoCo rollout, one truncated file, one broken."""
+    from simtune.objective import load_references
+
+    folder.mkdir()
+    task = get_task("cube")
+    n = len(load_references(data, [task])["cube"].times)
+    sim = make_engine("mujoco", task)
+    r = sim.rollout({}, n)
+    sim.close()
+    quat = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+    rows = np.hstack([r.wrist_pos, quat, r.object_pos, quat])
+    np.savetxt(folder / "cube_Simtune.csv", rows, fmt="%.17g")
+    np.savetxt(folder / "cube_Short.csv", rows[: n // 2], fmt="%.17g")
+    (folder / "cube_Broken.csv").write_text("1 2 3\n4 5 6\n")
+    (folder / "README.txt").write_text("not a simulation")
+
+
+@pytest.fixture(scope="session")
+def grid(tmp_path_factory):
+    root = tmp_path_factory.mktemp("report")
+    data = _make_data(root)
+    runs = root / "grid"
+    for engine in ENGINES:
+        for task in TASKS:
+            for seed in SEEDS:
+                config = RunConfig(engine=engine, tasks=task, space="extended", data=str(data), seed=seed,
+                                   max_generations=2, only=ONLY)
+                start_run(config, runs / f"{engine}-{task}" / f"seed{seed}", show_progress=False)
+    # broken run folders, each must be named in a warning and left out
+    shutil.copytree(runs / "mujoco-cube" / "seed0", runs / "broken" / "incomplete")
+    store = RunStore(runs / "broken" / "incomplete")
+    store.set(status="running")
+    store.close()
+    (runs / "broken" / "corrupt").mkdir()
+    (runs / "broken" / "corrupt" / "run.sqlite").write_bytes(b"this is not an sqlite file" * 100)
+    RunStore(runs / "broken" / "noconfig", create=True).close()
+    _write_published(root / "published", data)
+    return root
+
+
+@pytest.fixture(scope="session")
+def report(grid):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        index = make_report([grid / "grid"], grid / "out", published_sims=grid / "published", show_progress=False)
+    messages = [str(w.message) for w in caught if issubclass(w.category, ReportWarning)]
+    return index, messages
+
+
+def _table(report, name: str) -> list[dict]:
+    with open(report[0].parent / "tables" / f"{name}.csv", newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _num(text: str) -> float | None:
+    return None if text == "" else float(text)
+
+
+def _store(path) -> RunStore:
+    return RunStore(Path(path))
+
+
+def _good_runs(grid) -> list[Path]:
+    return [grid / "grid" / f"{e}-{t}" / f"seed{s}" for e in ENGINES for t in TASKS for s in SEEDS]
+
+
+def test_html_embeds_and_links_every_figure(report):
+    index, _ = report
+    page = index.read_text()
+    figures = index.parent / "figures"
+    stems = {p.stem for p in figures.glob("*.png")}
+    assert stems == FIGURES
+    for stem in stems:
+        assert (figures / f"{stem}.svg").read_text().lstrip().startswith(("<?xml", "<svg"))
+        assert f'href="figures/{stem}.png"' in page and f'href="figures/{stem}.svg"' in page
+        assert base64.b64encode((figures / f"{stem}.png").read_bytes()).decode() in page
+    # self-contained: nothing is loaded from elsewhere
+    assert not re.search(r'src="(?!data:)', page)
+    assert "<link" not in page and "<script" not in page
+
+
+def test_every_table_is_written_as_csv_and_markdown_and_shown(report):
+    index, _ = report
+    page = index.read_text()
+    tables = index.parent / "tables"
+    assert {p.stem for p in tables.glob("*.csv")} == TABLES == {p.stem for p in tables.glob("*.md")}
+    for name in TABLES:
+        assert f'href="tables/{name}.csv"' in page and f'href="tables/{name}.md"' in page
+        header = (tables / f"{name}.csv").read_text().splitlines()[0].split(",")
+        md = (tables / f"{name}.md").read_text().splitlines()
+        assert md[0].startswith("## ") and any(line.startswith("| " + header[0]) for line in md)
+        assert len([r for r in md if r.startswith("| ")]) == len(_table(report, name)) + 1
+
+
+def test_runs_table_matches_every_store(report, grid):
+    rows = {Path(r["run"]).resolve(): r for r in _table(report, "runs")}
+    assert set(rows) == {p.resolve() for p in _good_runs(grid)}
+    for run in _good_runs(grid):
+        row, store = rows[run.resolve()], _store(run)
+        best = store.best_evaluation()
+        assert float(row["best fitness"]) == best["score"]["fitness"]
+        assert float(row["generic fitness"]) == store.get("generic")["fitness"]
+        assert int(row["evaluations"]) == store.count_evaluations()
+        assert int(row["generations"]) == len(store.generations()) == 2
+        assert float(row["wall time [s]"]) == store.get("elapsed_s")
+        store.close()
+
+
+def test_tuned_tables_match_stores(report, grid):
+    best = {}
+    for run in _good_runs(grid):
+        store = _store(run)
+        cfg = store.get("config")
+        best.setdefault((cfg["engine"], cfg["tasks"]), []).append(store.best_evaluation()["score"]["fitness"])
+        store.close()
+    for row in _table(report, "tuned_by_group"):
+        values = best[(row["engine"], row["tasks"])]
+        assert int(row["repeats"]) == 3 and row["seeds"] == "0 1 2"
+        assert float(row["tuned best"]) == min(values) and float(row["tuned worst"]) == max(values)
+        assert float(row["tuned mean"]) == pytest.approx(np.mean(values))
+    generic = {(r["engine"], t): float(r[f"{t} fitness"]) for r in _table(report, "generic_fitness") for t in TASKS
+               if r["source"] == "simtune"}
+    for row in _table(report, "best_tuned"):
+        task = row["tasks"]
+        tuned = min(v for (e, t), vs in best.items() if t == task for v in vs)
+        assert float(row["best tuned fitness"]) == tuned
+        assert tuned in best[(row["engine"], task)]
+        g = min(generic[(e, task)] for e in ENGINES)
+        assert float(row["best generic fitness"]) == g
+        assert float(row["improvement [%]"]) == pytest.approx(100 * (g - tuned) / g)
+
+
+def test_generic_table_and_published_sims_use_the_same_fitness(report, grid):
+    rows = {(r["engine"], r["source"]): r for r in _table(report, "generic_fitness")}
+    for engine in ENGINES:
+        for task in TASKS:
+            store = _store(grid / "grid" / f"{engine}-{task}" / "seed0")
+            assert float(rows[(engine, "simtune")][f"{task} fitness"]) == store.get("generic")["fitness"]
+            store.close()
+    # the "published" file is simtune's own generic MuJoCo rollout: same fitness as the MuJoCo row
+    ours, published = rows[("mujoco", "simtune")], rows[("Simtune", "published")]
+    for column in ("cube fitness", "cube wrist error [m]", "cube object error [m]"):
+        assert float(published[column]) == pytest.approx(float(ours[column]), abs=1e-9)
+    assert published["single fitness"] == ""  # no file for single
+    short = rows[("Short", "published")]  # half the samples: the rest hold the last row
+    assert math.isfinite(float(short["cube fitness"])) and float(short["cube fitness"]) > float(ours["cube fitness"])
+    assert ("Broken", "published") not in rows
+
+
+def test_dr_ranges_span_the_tuned_values(report, grid):
+    ranges = yaml.safe_load((report[0].parent / "dr_ranges.yaml").read_text())
+    assert set(ranges) == set(ENGINES)
+    for engine in ENGINES:
+        tuned = {name: [] for name in ONLY}
+        for task in TASKS:
+            for seed in SEEDS:
+                store = _store(grid / "grid" / f"{engine}-{task}" / f"seed{seed}")
+                for name, value in zip(store.get("parameters"), store.best_evaluation()["x"]):
+                    tuned[name].append(value)
+                store.close()
+        assert set(ranges[engine]) == set(ONLY)
+        for name, values in tuned.items():
+            entry = ranges[engine][name]
+            assert entry["min"] == min(values) and entry["max"] == max(values) and entry["runs"] == 6
+        assert ranges[engine]["command_delay"]["nominal"] == 0.0
+        assert ranges[engine]["max_velocity_joint_2"]["nominal"] == 30.0
+        defaults = make_engine(engine, get_task("cube")).defaults()
+        assert ranges[engine]["lateral_friction_plastic"]["nominal"] == defaults["lateral_friction_plastic"]
+    csv_rows = _table(report, "dr_ranges")
+    assert {(r["engine"], r["parameter"]) for r in csv_rows} == {(e, n) for e in ENGINES for n in ONLY}
+
+
+def test_importance_and_mann_whitney_follow_the_stores(report, grid):
+    from scipy.stats import mannwhitneyu
+
+    importance = _table(report, "parameter_importance")
+    mw = {(r["engine"], r["tasks"]): r for r in _table(report, "mann_whitney")}
+    for engine in ENGINES:
+        for task in TASKS:
+            values, bests, initial = {n: [] for n in ONLY}, [], []
+            for seed in SEEDS:
+                store = _store(grid / "grid" / f"{engine}-{task}" / f"seed{seed}")
+                best = store.best_evaluation()
+                bests.append(best["score"]["fitness"])
+                bounds = dict(zip(store.get("parameters"), store.get("bounds")))
+                for name, value in zip(store.get("parameters"), best["x"]):
+                    values[name].append(value)
+                initial += [e["fitness"] for e in store.evaluations() if e["generation"] == 0]
+                store.close()
+            rows = [r for r in importance if (r["engine"], r["tasks"]) == (engine, task)]
+            assert [int(r["rank"]) for r in rows] == [1, 2, 3]
+            spreads = [float(r["std / range"]) for r in rows]
+            assert spreads == sorted(spreads)
+            for r in rows:
+                low, high = bounds[r["parameter"]]
+                v = np.asarray(values[r["parameter"]])
+                assert float(r["std / range"]) == pytest.approx(v.std(ddof=1) / (high - low))
+                assert float(r["(max - min) / range"]) == pytest.approx(np.ptp(v) / (high - low))
+            row = mw[(engine, task)]
+            assert int(row["tuned n"]) == 3 and int(row["untuned n"]) == len(initial) >= 15
+            assert float(row["p two-sided"]) == pytest.approx(
+                mannwhitneyu(bests, initial, alternative="two-sided").pvalue)
+            assert 0 < float(row["p tuned < untuned"]) <= 1
+
+
+def test_trajectories_resimulate_the_stored_best(report, grid):
+    rows = _table(report, "object_final")
+    recorded = [r for r in rows if r["source"].startswith("recorded")]
+    assert len(recorded) == 1 and recorded[0]["task"] == "cube"  # single has no object
+    for engine in ENGINES:
+        best = min((_store(grid / "grid" / f"{engine}-cube" / f"seed{s}").best_evaluation() for s in SEEDS),
+                   key=lambda b: b["score"]["fitness"])
+        tuned = next(r for r in rows if (r["source"], r["engine"]) == ("tuned", engine))
+        assert float(tuned["distance to recorded mean [m]"]) == pytest.approx(best["score"]["object_error"], abs=1e-9)
+    assert {r["engine"] for r in rows if r["source"] == "published"} == {"Simtune", "Short"}
+
+
+def test_broken_run_folders_are_named_and_left_out(report, grid):
+    index, messages = report
+    page = index.read_text()
+    for name, why in (("incomplete", "status 'running'"), ("corrupt", "corrupt run store"),
+                      ("noconfig", "no 'config'")):
+        hits = [m for m in messages if str(grid / "grid" / "broken" / name) in m]
+        assert len(hits) == 1 and why in hits[0] and "skipped" in hits[0], messages
+        assert f"broken/{name}: skipped" in page
+    assert any("cube_Broken.csv" in m for m in messages)
+    assert not any("broken" in r["run"] for r in _table(report, "runs"))
+
+
+def test_report_leaves_run_folders_untouched(report, grid):
+    for run in _good_runs(grid)[:2] + [grid / "grid" / "broken" / "corrupt"]:
+        assert sorted(p.name for p in run.iterdir()) in (["best_params.json", "run.sqlite"], ["run.sqlite"])
+
+
+def test_single_run_folder_and_no_usable_run(grid, tmp_path):
+    run = grid / "grid" / "mujoco-cube" / "seed1"
+    # an earlier report in the same folder: its figures and tables go, other files stay
+    (tmp_path / "one" / "figures").mkdir(parents=True)
+    (tmp_path / "one" / "index.html").write_text("old report")
+    (tmp_path / "one" / "figures" / "trajectory_old.png").write_bytes(b"old")
+    (tmp_path / "one" / "figures" / "notes.txt").write_text("mine")
+    index = make_report(run, tmp_path / "one", show_progress=False)
+    assert not (tmp_path / "one" / "figures" / "trajectory_old.png").exists()
+    assert (tmp_path / "one" / "figures" / "notes.txt").exists() and "old report" not in index.read_text()
+    rows = list(csv.DictReader((tmp_path / "one" / "tables" / "runs.csv").read_text().splitlines()))
+    assert len(rows) == 1 and Path(rows[0]["run"]) == run
+    assert "published" not in (tmp_path / "one" / "tables" / "generic_fitness.csv").read_text()
+    assert index.exists()
+    with pytest.warns(ReportWarning, match="corrupt"), pytest.raises(SimtuneError, match="no finished runs"):
+        make_report(grid / "grid" / "broken" / "corrupt", tmp_path / "none", show_progress=False)
+    with pytest.raises(SimtuneError, match="no run folders"):
+        make_report(tmp_path / "one", tmp_path / "none", show_progress=False)
+    with pytest.raises(SimtuneError, match="no such run or grid folder"):
+        make_report(tmp_path / "missing", tmp_path / "none", show_progress=False)
+
+
+def test_command_line(grid, tmp_path):
+    import typer
+    from typer.testing import CliRunner
+
+    from simtune.report.command import report as report_command
+
+    app = typer.Typer()
+    app.command()(report_command)
+    runner = CliRunner()
+    assert "--published-sims" in runner.invoke(app, ["--help"]).output
+    run = grid / "grid" / "pybullet-single" / "seed0"
+    result = runner.invoke(app, [str(run), "--out", str(tmp_path / "r"), "--quiet"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "r" / "index.html").exists() and "index.html" in result.output
+    result = runner.invoke(app, [str(tmp_path / "nothing"), "--out", str(tmp_path / "r2")])
+    assert isinstance(result.exception, SimtuneError)
+
+
+def test_convergence_aggregation_holds_and_starts_together():
+    a = (np.array([0.0, 1.0, 2.0]), np.array([3.0, 2.0, 1.0]))
+    b = (np.array([0.5, 1.5]), np.array([4.0, 0.5]))  # starts later, stops earlier
+    x, mean, lo, hi = aggregate_curves([a, b])
+    np.testing.assert_array_equal(x, [0.5, 1.0, 1.5, 2.0])
+    np.testing.assert_allclose(mean, [3.5, 3.0, 1.25, 0.75])
+    np.testing.assert_array_equal(lo, [3.0, 2.0, 0.5, 0.5])
+    np.testing.assert_array_equal(hi, [4.0, 4.0, 2.0, 1.0])
+
+
+def test_published_rollout_holds_cuts_and_reads_quaternions():
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # 90 deg about z
+    s = math.sqrt(0.5)
+    np.testing.assert_allclose(quaternion_matrices(np.array([[0, 0, s, s]]))[0], turn, atol=1e-12)
+    np.testing.assert_allclose(quaternion_matrices(np.array([[s, 0, 0, s]]), "wxyz")[0], turn, atol=1e-12)
+    rows = np.zeros((4, 14))
+    rows[:, 0] = np.arange(4)
+    rows[:, 6] = rows[:, 13] = 1.0  # identity in x y z w
+    rows[:, 7] = 10 + np.arange(4)
+    long = published_rollout(PublishedSim("cube", "Mujoco", Path("x"), rows), 6)
+    np.testing.assert_array_equal(long.wrist_pos[:, 0], [0, 1, 2, 3, 3, 3])
+    np.testing.assert_array_equal(long.object_pos[:, 0], [10, 11, 12, 13, 13, 13])
+    np.testing.assert_allclose(long.times, np.arange(6) * 0.05)
+    short = published_rollout(PublishedSim("cube", "Mujoco", Path("x"), rows), 2)
+    np.testing.assert_array_equal(short.wrist_pos[:, 0], [0, 1])
+    # PyBullet files put w first: the same numbers mean another rotation
+    pyb = published_rollout(PublishedSim("cube", "PyBullet", Path("x"), rows), 1)
+    np.testing.assert_allclose(pyb.wrist_rot[0], np.diag([-1.0, -1.0, 1.0]), atol=1e-12)  # w=0, axis z: half turn
