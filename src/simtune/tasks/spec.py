@@ -8,6 +8,7 @@ spec through the same controller (:mod:`simtune.controller`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 import numpy as np
 
 from simtune.robot.mico import rpy_matrix
@@ -108,11 +109,13 @@ class TaskSpec:
 
     def targets_deg(self, t: float) -> np.ndarray:
         """Joint targets [deg] in force at time ``t`` (the start pose before the first phase)."""
-        current = np.asarray(self.start_pose_deg, dtype=float)
-        for phase in self.phases:
-            if t + 1e-12 >= phase.start:
-                current = np.asarray(phase.targets_deg, dtype=float)
-            else:
-                break
-        return current
+        starts, table = self._schedule
+        return table[int(np.searchsorted(starts, t + 1e-12, side="right"))]
+
+    @cached_property
+    def _schedule(self) -> tuple[np.ndarray, np.ndarray]:
+        """Phase start times, and the target rows: the start pose, then each phase's targets."""
+        starts = np.array([p.start for p in self.phases])
+        table = np.array([self.start_pose_deg, *(p.targets_deg for p in self.phases)], dtype=float)
+        return starts, table
 
