@@ -24,7 +24,7 @@ def test_delay_holds_the_start_pose_and_velocity_limit_is_per_joint():
 def test_engines_follow_the_clamped_velocity_profile():
     """A joint stepped to a far target moves at v_max, then slows exponentially (kp) near it."""
     task = get_task("single")
-    for name in ("mujoco", "pybullet"):
+    for name in ("mujoco", "pybullet", "ode", "dart", "drake"):
         sim = make_engine(name, task)
         roll = sim.rollout({}, 121)
         j2 = np.degrees(roll.joint_angles[:, 1])

@@ -8,7 +8,7 @@ from simtune.errors import ConfigError
 from simtune.params import get_space
 from simtune.tasks import TASKS, get_task
 
-ENGINES = ["mujoco", "pybullet"]
+ENGINES = ["mujoco", "pybullet", "ode", "dart", "drake"]
 
 
 @pytest.mark.parametrize("engine", ENGINES)
@@ -25,9 +25,15 @@ def test_every_task_runs_with_generic_parameters(engine):
 
 @pytest.mark.parametrize("engine", ENGINES)
 def test_cube_rollout_is_deterministic(engine):
+    """Same parameters, same trajectory, whatever the engine simulated before (no state
+    such as cached contacts may leak from one rollout into the next)."""
     sim = make_engine(engine, get_task("cube"))
     params = {"timestep": 0.004, "lateral_friction_plastic": 0.8, "command_delay": 0.5}
     a = sim.rollout(params, 401)
+    space = get_space("extended", sim.supported())
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        sim.rollout({p.name: rng.uniform(p.low, p.high) for p in space.parameters}, 81)
     b = sim.rollout(params, 401)
     np.testing.assert_array_equal(a.wrist_pos, b.wrist_pos)
     np.testing.assert_array_equal(a.object_pos, b.object_pos)
@@ -50,6 +56,26 @@ def test_generic_defaults_are_the_engines_own():
     assert mj["timestep"] == 0.002 and mj["lateral_friction_plastic"] == 1.0
     pb = make_engine("pybullet", get_task("cube")).defaults()
     assert pb["timestep"] == pytest.approx(1 / 240) and pb["lateral_friction_plastic"] == 0.5
+    # ODE has neither a default step nor a default surface: simtune's generic values
+    ode = make_engine("ode", get_task("cube")).defaults()
+    assert ode["timestep"] == 0.005 and ode["lateral_friction_plastic"] == 1.0 and ode["restitution_floor"] == 0.0
+    dart = make_engine("dart", get_task("cube")).defaults()  # World's step, DynamicsAspect's friction
+    assert dart["timestep"] == 0.001 and dart["lateral_friction_plastic"] == 1.0 and dart["restitution_floor"] == 0.0
+    drake = make_engine("drake", get_task("cube")).defaults()  # MultibodyPlantConfig, the parser's friction
+    assert drake["timestep"] == 0.001 and drake["lateral_friction_gripper"] == 1.0
+
+
+@pytest.mark.parametrize("engine", ["pybullet", "ode", "dart", "drake"])
+def test_max_torque_limits_the_motor(engine):
+    """With a 2 N m limit the shoulder cannot hold the arm: it falls ahead of the command.
+
+    (MuJoCo is left out: its gravity compensation acts outside the servo's force range.)
+    """
+    sim = make_engine(engine, get_task("single"))
+    free = np.degrees(sim.rollout({}, 61).joint_angles[-1, 1])
+    weak = np.degrees(sim.rollout({"max_torque_joint_2": 2.0}, 61).joint_angles[-1, 1])
+    assert free == pytest.approx(-90.0, abs=1.5)
+    assert weak < -100.0, f"{engine}: joint 2 at {weak:.1f} deg with a 2 N m motor"
 
 
 def test_explosion_ends_rollout_with_a_flag_not_a_crash():

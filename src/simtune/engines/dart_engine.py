@@ -1,0 +1,231 @@
+"""DART (Dynamic Animation and Robotics Toolkit) through ``dartpy``.
+
+The arm is the generated URDF, read by DART's own URDF loader with a fixed
+root joint moved to the base position.  Each arm joint gets a SERVO actuator:
+DART's velocity servo is a constraint in its LCP solver that drives the joint
+to the commanded velocity with at most the joint's force limits (the maximum
+torque), a hard motor like PyBullet's.  The floor is a static skeleton with a
+plane, the object a skeleton on a free joint with a box, cylinder or cone.
+Contacts go through DART's own constraint solver (boxed LCP), with DART's
+Bullet collision detector (DART's default FCL detector, with its meshed
+primitives, drops the cone through the floor and lets a pushed box sink).
+
+Mapping (docs/parameters.md has the full table): timestep -> ``World.setTimeStep``;
+masses -> ``BodyNode.setMass`` (inertia scaled with it); max torque -> the joint's
+force limits; joint damping -> ``Joint.setDampingCoefficient``; lateral friction
+and restitution -> each shape node's ``DynamicsAspect`` (DART combines two
+shapes' friction with the minimum and restitution with the product); an object's
+linear / angular damping -> the damping coefficients of its free joint's
+translational / rotational coordinates.  DART 6 has no rolling or spinning
+friction, and no per-body velocity damping for the jointed hand or the static
+floor: those parameters are left out.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from simtune.engines._shapes import object_mass_properties
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
+from simtune.errors import EngineUnavailable
+from simtune.robot.generate import robot_urdf
+from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, LINKS, WRIST_LINK
+from simtune.tasks.spec import MATERIALS, TaskSpec
+
+try:
+    import dartpy
+except ImportError:  # pragma: no cover - depends on the machine
+    dartpy = None
+
+INSTALL_HINT = "pip install dartpy"
+DEFAULT_MAX_TORQUE = 100.0
+_ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
+
+
+def _urdf_file() -> str:
+    """The generated URDF on disk, written once per content (DART's loader reads files)."""
+    text = robot_urdf()
+    digest = hashlib.sha1(text.encode()).hexdigest()[:12]
+    path = Path(tempfile.gettempdir()) / f"simtune-mico-{digest}.urdf"
+    if not path.exists():
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)  # atomic: parallel workers never see half a file
+    return str(path)
+
+
+def _isometry(pos, rot=None):
+    t = dartpy.math.Isometry3()
+    t.set_identity()
+    t.set_translation(np.asarray(pos, dtype=float))
+    if rot is not None:
+        t.set_rotation(np.asarray(rot, dtype=float))
+    return t
+
+
+class DartEngine(Engine):
+    name = "dart"
+    engine_parameters = (
+        RIGID_BODY_PARAMETERS
+        | {f"{kind}_{g}" for kind in ("lateral_friction", "restitution") for g in ("gripper", "floor", *MATERIALS)}
+        | {f"{kind}_{m}" for kind in ("linear_damping", "angular_damping") for m in MATERIALS}
+    )
+
+    @classmethod
+    def version(cls) -> str:
+        return dartpy.__version__ if dartpy is not None else "not installed"
+
+    def __init__(self, task: TaskSpec):
+        if dartpy is None:
+            raise EngineUnavailable(f"engine 'dart' is not installed: {INSTALL_HINT}")
+        super().__init__(task)
+        d = dartpy
+        self.world = d.simulation.World()
+        self.world.setGravity(np.array([0.0, 0.0, -9.81]))
+        # Bullet's collision detection: DART's default (FCL with meshed primitives) loses the
+        # cone and lets a pushed box sink into the floor plane
+        self.world.setCollisionDetector(d.simulation.CollisionDetectorType.BULLET)
+
+        loader = d.utils.DartLoader()
+        options = d.utils.DartLoader.Options()
+        options.mDefaultRootJointType = d.utils.DartLoaderRootJointType.FIXED
+        loader.setOptions(options)
+        self.robot = loader.parseSkeleton(_urdf_file())
+        self.robot.getRootJoint().setTransformFromParentBodyNode(_isometry(BASE_POSITION))
+        self._arm = [self.robot.getJoint(j) for j in ARM_JOINTS]
+        for joint in self._arm:
+            joint.setActuatorType(d.dynamics.ActuatorType.SERVO)
+            joint.setLimitEnforcement(True)  # joint_2/3 stops (the others are unlimited)
+        self._links = [self.robot.getBodyNode(link) for link in _ARM_LINKS]
+        self._wrist = self.robot.getBodyNode(WRIST_LINK)
+        self.world.addSkeleton(self.robot)  # self-collision stays off: arm shapes never touch each other
+
+        floor = d.dynamics.Skeleton("floor")
+        _, floor_body = floor.createWeldJointAndBodyNodePair(None)
+        floor_shape = floor_body.createShapeNode(d.dynamics.PlaneShape(np.array([0.0, 0.0, 1.0]), 0.0))
+        floor_shape.createCollisionAspect()
+        floor_shape.createDynamicsAspect()
+        floor.setMobile(False)
+        self.world.addSkeleton(floor)
+
+        self._shapes = {
+            "floor": [floor_shape],
+            "gripper": [s for link in LINKS if link.material == "gripper"
+                        for s in self.robot.getBodyNode(link.name).getShapeNodes()],
+        }
+        self.object = None
+        self._object_com = np.zeros(3)
+        obj = task.object
+        if obj is not None:
+            skel = d.dynamics.Skeleton("object")
+            self._free, self.object = skel.createFreeJointAndBodyNodePair(None)
+            if obj.shape in ("cube", "cuboid"):
+                shape = d.dynamics.BoxShape(np.asarray(obj.size, dtype=float))
+            elif obj.shape == "cylinder":
+                shape = d.dynamics.CylinderShape(obj.size[0], obj.size[1])
+            else:  # DART's cone: axis z, origin at the middle of its height, like simtune's
+                shape = d.dynamics.ConeShape(obj.size[0], obj.size[1])
+            node = self.object.createShapeNode(shape)
+            node.createCollisionAspect()
+            node.createDynamicsAspect()
+            self._object_com, _ = object_mass_properties(obj)
+            self._set_object_mass(obj.mass)
+            self._shapes[obj.material] = [node]
+            self.world.addSkeleton(skel)
+        self._defaults = self._read_defaults()
+
+    def _set_object_mass(self, mass: float) -> None:
+        com, inertia = object_mass_properties(self.task.object, mass)
+        self.object.setInertia(dartpy.dynamics.Inertia(mass, com, inertia))
+
+    def _read_defaults(self) -> dict[str, float]:
+        values = {"timestep": float(self.world.getTimeStep())}
+        for i, (joint, link) in enumerate(zip(self._arm, self._links), start=1):
+            values[f"mass_link_{i}"] = float(link.getMass())
+            values[f"max_torque_joint_{i}"] = DEFAULT_MAX_TORQUE  # DART's own limit is infinite
+            values[f"joint_damping_{i}"] = float(joint.getDampingCoefficient(0))
+        self._link_mass = [float(link.getMass()) for link in self._links]
+        self._link_moment = [np.array(link.getInertia().getMoment()) for link in self._links]
+        for group, nodes in self._shapes.items():
+            aspect = nodes[0].getDynamicsAspect()
+            values[f"lateral_friction_{group}"] = float(aspect.getFrictionCoeff())
+            values[f"restitution_{group}"] = float(aspect.getRestitutionCoeff())
+        obj = self.task.object
+        if obj is not None:
+            values[obj.mass_parameter] = float(self.object.getMass())
+            values[f"angular_damping_{obj.material}"] = float(self._free.getDampingCoefficient(0))
+            values[f"linear_damping_{obj.material}"] = float(self._free.getDampingCoefficient(3))
+        return values
+
+    # --- interface ------------------------------------------------------------------
+    def defaults(self) -> dict[str, float]:
+        return dict(self._defaults)
+
+    @property
+    def timestep(self) -> float:
+        return float(self.world.getTimeStep())
+
+    def reset(self, params: dict[str, float]) -> None:
+        p = {**self._defaults, **params}
+        # a fresh collision detector: Bullet keeps contact manifolds from step to step, and
+        # the last rollout's must not shape this one (same parameters, same trajectory)
+        self.world.setCollisionDetector(dartpy.simulation.CollisionDetectorType.BULLET)
+        self.world.setTimeStep(p["timestep"])
+        for i, (joint, link) in enumerate(zip(self._arm, self._links), start=1):
+            mass = p[f"mass_link_{i}"]
+            inertia = link.getInertia()
+            link.setInertia(dartpy.dynamics.Inertia(
+                mass, inertia.getLocalCOM(), self._link_moment[i - 1] * (mass / self._link_mass[i - 1])))
+            limit = p[f"max_torque_joint_{i}"]
+            joint.setForceLowerLimit(0, -limit)
+            joint.setForceUpperLimit(0, limit)
+            joint.setDampingCoefficient(0, p[f"joint_damping_{i}"])
+        for group, nodes in self._shapes.items():
+            for node in nodes:
+                aspect = node.getDynamicsAspect()
+                aspect.setFrictionCoeff(p[f"lateral_friction_{group}"])
+                aspect.setRestitutionCoeff(p[f"restitution_{group}"])
+        self.robot.setPositions(np.radians(self.task.start_pose_deg))
+        self.robot.setVelocities(np.zeros(6))
+        self.robot.resetCommands()
+        self.robot.resetGeneralizedForces()
+        self.robot.clearExternalForces()
+        self.robot.clearConstraintImpulses()
+        obj = self.task.object
+        if obj is not None:
+            self._set_object_mass(p[obj.mass_parameter])
+            for k in range(3):
+                self._free.setDampingCoefficient(k, p[f"angular_damping_{obj.material}"])
+                self._free.setDampingCoefficient(k + 3, p[f"linear_damping_{obj.material}"])
+            self._free.setTransform(_isometry(obj.start_position, obj.rotation))
+            self._free.setVelocities(np.zeros(6))
+            skel = self.object.getSkeleton()
+            skel.resetGeneralizedForces()
+            skel.clearExternalForces()
+            skel.clearConstraintImpulses()
+        self.world.reset()  # time 0, recording cleared
+
+    def set_joint_velocities(self, velocities: np.ndarray) -> None:
+        self.robot.setCommands(np.asarray(velocities, dtype=float))
+
+    def step(self, n: int) -> None:
+        world = self.world
+        for _ in range(n):
+            world.step(False)  # False: keep the servo commands for the next step
+
+    def joint_angles(self) -> np.ndarray:
+        return np.array(self.robot.getPositions())
+
+    def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        t = self._wrist.getWorldTransform()
+        return np.array(t.translation()), np.array(t.rotation())
+
+    def object_position(self) -> np.ndarray | None:
+        if self.object is None:
+            return None
+        return np.array(self.object.getWorldTransform().translation())

@@ -1,0 +1,299 @@
+"""Drake's MultibodyPlant (``pydrake``) behind the engine interface.
+
+The arm is the generated URDF, parsed by Drake, with link_base welded at the
+base position.  The plant is discrete (time-stepping): its step is fixed when
+it is built, so simtune builds one plant/diagram per time step and keeps the
+last few (a tuning run asks for a new step on nearly every evaluation, so the
+cache is small).  Every other parameter lives in the plant's context and is
+set on reset.
+
+Velocity control: each arm joint has a JointActuator with Drake's
+PD-controlled actuator model (only the D term: ``kd * (v_cmd - v)``), solved
+implicitly in the contact solver and clamped to the actuator's effort limit
+(the maximum torque), plus gravity compensation as feed-forward torque updated
+at each control command (the arm's own controller compensates gravity; this
+is MuJoCo's gravcomp + velocity servo, kd = MuJoCo's kv = 100).
+
+Contact: Drake's hydroelastic model with point-contact fallback.  The object
+is a compliant hydroelastic box / cylinder / convex cone and the floor a rigid
+half space (Drake's point contact gives a box on a half space a single
+contact point, and the box rocks); the arm's URDF boxes touch through point
+contact.  Friction: ``CoulombFriction`` on each collision geometry, static =
+dynamic = the lateral friction (Drake combines two geometries as
+2 mu1 mu2 / (mu1 + mu2)).  Drake's contact has no coefficient of restitution
+(dissipation is Hunt-Crossley), no rolling or spinning friction, and no
+per-body velocity damping: those parameters are left out.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+
+from simtune.engines._shapes import object_mass_properties
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
+from simtune.errors import EngineUnavailable
+from simtune.robot.generate import robot_urdf
+from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, LINKS, WRIST_LINK
+from simtune.tasks.spec import TaskSpec
+
+try:
+    import pydrake  # noqa: F401
+    from pydrake.geometry import (
+        AddCompliantHydroelasticProperties,
+        AddContactMaterial,
+        AddRigidHydroelasticProperties,
+        Box,
+        CollisionFilterDeclaration,
+        Convex,
+        Cylinder,
+        GeometrySet,
+        HalfSpace,
+        ProximityProperties,
+        RoleAssign,
+        SceneGraphConfig,
+    )
+    from pydrake.math import RigidTransform, RotationMatrix
+    from pydrake.multibody.math import SpatialVelocity
+    from pydrake.multibody.parsing import Parser
+    from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlantConfig
+    from pydrake.multibody.tree import PdControllerGains, RotationalInertia, SpatialInertia
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+except ImportError:  # pragma: no cover - depends on the machine
+    pydrake = None
+else:
+    # Drake logs a warning that its rigid half space takes no part in deformable
+    # contact (there is none here); keep the log to errors
+    logging.getLogger("drake").setLevel(logging.ERROR)
+
+INSTALL_HINT = "pip install drake"
+DEFAULT_MAX_TORQUE = 100.0
+SERVO_KD = 100.0  # [N m s/rad] the velocity servo's gain, as MuJoCo's kv
+#: hydroelastic mesh resolution for the objects [m]: at 1 cm the faceted 37.5 mm cylinder rolls off a
+#: facet edge on its own and keeps rolling; at 5 mm it settles within 3 mm
+RESOLUTION_HINT = 0.005
+CACHED_PLANTS = 3
+_ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
+
+
+@dataclass
+class _System:
+    """One built diagram (plant + scene graph) for one time step."""
+
+    timestep: float
+    plant: object
+    scene_graph: object
+    simulator: object
+    context: object
+    plant_context: object
+    sg_context: object
+    arm: object  # model instance
+    joints: list
+    actuators: list
+    links: list
+    wrist: object
+    object_body: object | None
+    geometries: dict  # group -> [GeometryId]
+
+
+class DrakeEngine(Engine):
+    name = "drake"
+    engine_parameters = RIGID_BODY_PARAMETERS | {f"lateral_friction_{g}" for g in ("gripper", "floor", "wood", "plastic")}
+
+    @classmethod
+    def version(cls) -> str:
+        if pydrake is None:
+            return "not installed"
+        from importlib.metadata import version
+
+        return version("drake")
+
+    def __init__(self, task: TaskSpec):
+        if pydrake is None:
+            raise EngineUnavailable(f"engine 'drake' is not installed: {INSTALL_HINT}")
+        super().__init__(task)
+        self._systems: OrderedDict[float, _System] = OrderedDict()
+        self._urdf = robot_urdf()
+        self._sys = self._system(MultibodyPlantConfig().time_step)  # Drake's own default step
+        self._failed = ""
+        self._defaults = self._read_defaults()
+        self._sys.simulator.Initialize()
+
+    # --- building -------------------------------------------------------------------
+    def _system(self, timestep: float) -> _System:
+        if timestep in self._systems:
+            self._systems.move_to_end(timestep)
+            return self._systems[timestep]
+        system = self._build(timestep)
+        self._systems[timestep] = system
+        while len(self._systems) > CACHED_PLANTS:
+            self._systems.popitem(last=False)
+        return system
+
+    def _build(self, timestep: float) -> _System:
+        builder = DiagramBuilder()
+        sg_config = SceneGraphConfig()
+        plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=timestep), sg_config, builder)
+        arm, = Parser(plant).AddModelsFromString(self._urdf, "urdf")
+        plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("link_base", arm),
+                         RigidTransform(np.asarray(BASE_POSITION, dtype=float)))
+        joints = [plant.GetJointByName(j, arm) for j in ARM_JOINTS]
+        actuators = []
+        for joint in joints:
+            actuator = plant.AddJointActuator(f"{joint.name()}_servo", joint, DEFAULT_MAX_TORQUE)
+            actuator.set_controller_gains(PdControllerGains(p=0.0, d=SERVO_KD))
+            actuators.append(actuator)
+        inspector = scene_graph.model_inspector()
+        arm_geometries = [g for link in LINKS for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link.name, arm))]
+        # the parser's friction for geometries that name none: Drake's default material
+        default_friction = inspector.GetProximityProperties(arm_geometries[0]).GetProperty("material", "coulomb_friction")
+
+        floor_props = ProximityProperties()
+        AddContactMaterial(friction=default_friction, properties=floor_props)
+        AddRigidHydroelasticProperties(floor_props)
+        floor = plant.RegisterCollisionGeometry(plant.world_body(), RigidTransform(), HalfSpace(), "floor", floor_props)
+
+        geometries = {
+            "floor": [floor],
+            "gripper": [g for link in LINKS if link.material == "gripper"
+                        for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link.name, arm))],
+        }
+        body = None
+        obj = self.task.object
+        if obj is not None:
+            instance = plant.AddModelInstance("object")
+            body = plant.AddRigidBody("object", instance, self._object_inertia(obj.mass))
+            if obj.shape in ("cube", "cuboid"):
+                shape = Box(*obj.size)
+            elif obj.shape == "cylinder":
+                shape = Cylinder(obj.size[0], obj.size[1])
+            else:
+                shape = Convex(np.asarray(obj.cone_vertices()).T, "cone")  # the same hull as MuJoCo and PyBullet
+            props = ProximityProperties()
+            AddContactMaterial(friction=default_friction, properties=props)
+            AddCompliantHydroelasticProperties(RESOLUTION_HINT, sg_config.default_proximity_properties.hydroelastic_modulus,
+                                               props)
+            geometries[obj.material] = [plant.RegisterCollisionGeometry(body, RigidTransform(), shape, "object", props)]
+        plant.Finalize()
+        # arm shapes touch the floor and the object, never each other
+        scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().ExcludeWithin(GeometrySet(arm_geometries)))
+
+        diagram = builder.Build()
+        simulator = Simulator(diagram)
+        context = simulator.get_mutable_context()
+        plant_context = plant.GetMyMutableContextFromRoot(context)
+        system = _System(
+            timestep=timestep, plant=plant, scene_graph=scene_graph, simulator=simulator, context=context,
+            plant_context=plant_context, sg_context=scene_graph.GetMyMutableContextFromRoot(context), arm=arm,
+            joints=joints, actuators=actuators, links=[plant.GetBodyByName(link, arm) for link in _ARM_LINKS],
+            wrist=plant.GetBodyByName(WRIST_LINK, arm), object_body=body, geometries=geometries,
+        )
+        plant.get_desired_state_input_port(arm).FixValue(plant_context, np.zeros(12))
+        plant.get_actuation_input_port(arm).FixValue(plant_context, np.zeros(6))
+        self._pose(system, np.radians(self.task.start_pose_deg))
+        return system
+
+    def _object_inertia(self, mass: float):
+        com, inertia = object_mass_properties(self.task.object, mass)
+        central = RotationalInertia(inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2])
+        return SpatialInertia.MakeFromCentralInertia(mass, com, central)
+
+    def _read_defaults(self) -> dict[str, float]:
+        s = self._sys
+        values = {"timestep": float(s.plant.time_step())}
+        for i, (joint, link) in enumerate(zip(s.joints, s.links), start=1):
+            values[f"mass_link_{i}"] = float(link.default_mass())
+            values[f"max_torque_joint_{i}"] = DEFAULT_MAX_TORQUE  # Drake's own actuator has no limit
+            values[f"joint_damping_{i}"] = float(joint.default_damping())
+        obj = self.task.object
+        if obj is not None:
+            values[obj.mass_parameter] = float(s.object_body.default_mass())
+        inspector = s.scene_graph.model_inspector()
+        for group, ids in s.geometries.items():
+            friction = inspector.GetProximityProperties(ids[0]).GetProperty("material", "coulomb_friction")
+            values[f"lateral_friction_{group}"] = float(friction.dynamic_friction())
+        return values
+
+    def _pose(self, s: _System, q) -> None:
+        for joint, angle in zip(s.joints, q):
+            joint.set_angle(s.plant_context, float(angle))
+            joint.set_angular_rate(s.plant_context, 0.0)
+
+    # --- interface ------------------------------------------------------------------
+    def defaults(self) -> dict[str, float]:
+        return dict(self._defaults)
+
+    @property
+    def timestep(self) -> float:
+        return self._sys.timestep
+
+    def reset(self, params: dict[str, float]) -> None:
+        p = {**self._defaults, **params}
+        s = self._sys = self._system(float(p["timestep"]))
+        s.simulator.get_system().SetDefaultContext(s.context)  # state and parameters as built
+        ctx = s.plant_context
+        for i, (joint, link, actuator) in enumerate(zip(s.joints, s.links, s.actuators), start=1):
+            link.SetMass(ctx, p[f"mass_link_{i}"])  # scales the link's inertia with it
+            joint.SetDamping(ctx, p[f"joint_damping_{i}"])
+            actuator.set_effort_limit(p[f"max_torque_joint_{i}"])
+        inspector = s.scene_graph.model_inspector()
+        for group, ids in s.geometries.items():
+            mu = p[f"lateral_friction_{group}"]
+            for gid in ids:
+                props = ProximityProperties(inspector.GetProximityProperties(gid))
+                props.UpdateProperty("material", "coulomb_friction", CoulombFriction(mu, mu))
+                s.scene_graph.AssignRole(s.sg_context, s.plant.get_source_id(), gid, props, RoleAssign.kReplace)
+        obj = self.task.object
+        if obj is not None:
+            s.object_body.SetSpatialInertiaInBodyFrame(ctx, self._object_inertia(p[obj.mass_parameter]))
+            s.plant.SetFreeBodyPose(ctx, s.object_body, RigidTransform(RotationMatrix(obj.rotation), obj.start_position))
+            s.plant.SetFreeBodySpatialVelocity(ctx, s.object_body, SpatialVelocity(np.zeros(3), np.zeros(3)))
+        self._pose(s, np.radians(self.task.start_pose_deg))
+        s.context.SetTime(0.0)
+        self._steps = 0
+        self._failed = ""
+        self.set_joint_velocities(np.zeros(6))
+        s.simulator.Initialize()
+
+    def set_joint_velocities(self, velocities: np.ndarray) -> None:
+        s = self._sys
+        ctx = s.plant_context
+        s.plant.get_desired_state_input_port(s.arm).FixValue(ctx, np.concatenate([np.zeros(6), velocities]))
+        gravity = s.plant.CalcGravityGeneralizedForces(ctx)  # generalized forces of gravity
+        s.plant.get_actuation_input_port(s.arm).FixValue(
+            ctx, np.array([-gravity[joint.velocity_start()] for joint in s.joints]))
+
+    def step(self, n: int) -> None:
+        if self._failed:
+            return
+        s = self._sys
+        self._steps += n
+        try:
+            s.simulator.AdvanceTo(self._steps * s.timestep)
+        except RuntimeError as exc:  # e.g. the contact solver failing to converge
+            self._failed = str(exc).splitlines()[0]
+
+    def diverged(self) -> str:
+        return f"Drake: {self._failed}" if self._failed else ""
+
+    def joint_angles(self) -> np.ndarray:
+        s = self._sys
+        return np.array([joint.get_angle(s.plant_context) for joint in s.joints])
+
+    def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        s = self._sys
+        pose = s.plant.EvalBodyPoseInWorld(s.plant_context, s.wrist)
+        return np.array(pose.translation()), np.array(pose.rotation().matrix())
+
+    def object_position(self) -> np.ndarray | None:
+        s = self._sys
+        if s.object_body is None:
+            return None
+        return np.array(s.plant.EvalBodyPoseInWorld(s.plant_context, s.object_body).translation())
+
+    def close(self) -> None:
+        self._systems.clear()

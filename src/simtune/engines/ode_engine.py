@@ -1,0 +1,413 @@
+"""The Open Dynamics Engine (ODE) itself, through the ``ode-python`` ctypes binding.
+
+ODE works in maximal coordinates: every moving link is a free rigid body and
+joints are constraints between bodies.  The arm is built from the tables of
+:mod:`simtune.robot.mico`:
+
+- one body per arm link 1-6, its origin at the link's centre of mass (ODE's
+  rule), turned like the link frame; the fingers are welded open, so they ride
+  on the hand's body (one composite body: ODE's own fixed joints are soft
+  constraints, a single body is the exact weld);
+- ``link_base`` is static: its box is a body-less geom at the base pose, and
+  joint_1 attaches link_1 to the static environment;
+- each arm joint is a hinge with a velocity motor (``dParamVel`` = the
+  commanded joint velocity, ``dParamFMax`` = the maximum torque), a hard
+  constraint like PyBullet's motor; joint_2/3 have their position stops.
+
+Collision: boxes for the links, a plane for the floor, a box / cylinder for
+the objects and a convex hull for the cone; contact joints are made in the
+near callback with Coulomb friction (pyramid approximation, so ``mu`` is a
+coefficient), restitution (``dContactBounce``) and ODE's rolling friction
+(``dContactRolling``: ``rho`` about the tangent axes = rolling, ``rhoN`` about
+the normal = spinning).  ODE leaves combining two surfaces to the near
+callback: simtune takes the geometric mean of the two groups' values.
+
+The world is rebuilt on every reset, so no contact or solver state carries
+over: the same parameters always give the same trajectory.  Steps use
+``dWorldStep`` (ODE's exact LCP solver) rather than the iterative
+``dWorldQuickStep``, which lets a chain of hard motors drift.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from ctypes import POINTER, byref, c_int, c_void_p
+
+import numpy as np
+
+from simtune.engines._shapes import cone_hull, host_mass_properties, link_boxes_in_host, object_mass_properties
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
+from simtune.errors import EngineUnavailable
+from simtune.robot.mico import ARM_JOINTS, JOINTS, LINK_BY_NAME, WRIST_LINK, forward_kinematics
+from simtune.tasks.spec import MATERIALS, TaskSpec
+
+try:
+    import odepy as ode
+except Exception:  # pragma: no cover - ImportError, or odepy's OdePyError when libode is missing
+    ode = None
+
+INSTALL_HINT = "apt-get install libode8; pip install ode-python"
+_GROUPS = ("gripper", "floor", "wood", "plastic")
+_CONTACT_KINDS = ("lateral_friction", "rolling_friction", "spinning_friction", "restitution")
+_ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
+
+#: ODE has no default time step (dWorldStep takes one per call); simtune's generic choice.
+DEFAULT_TIMESTEP = 0.005
+#: ODE has no default surface either (every contact's parameters come from the near
+#: callback); generic: Coulomb friction 1, no bounce, no rolling friction.
+DEFAULT_CONTACT = {"lateral_friction": 1.0, "rolling_friction": 0.0, "spinning_friction": 0.0, "restitution": 0.0}
+DEFAULT_MAX_TORQUE = 100.0
+BOUNCE_VELOCITY = 0.01  # [m/s] slower impacts do not bounce (keeps resting contacts quiet)
+MAX_CONTACTS = 16  # per geom pair
+# collision categories: arm shapes touch the floor and the object, never each other
+_FLOOR, _ARM, _OBJECT = 1, 2, 4
+
+if ode is not None:
+    _lib_fn = ode.common.loadOde
+    _NearCallback = ctypes.CFUNCTYPE(None, c_void_p, c_void_p, c_void_p)
+    # hot functions with plain pointer arguments (odepy's wrappers build a new ctypes
+    # function object on every call for some of these)
+    _space_collide = _lib_fn("dSpaceCollide", None, c_void_p, c_void_p, _NearCallback)
+    _collide = _lib_fn("dCollide", c_int, c_void_p, c_void_p, c_int, POINTER(ode.dContactGeom), c_int)
+    _create_contact = _lib_fn("dJointCreateContact", c_void_p, c_void_p, c_void_p, POINTER(ode.dContact))
+    _attach = _lib_fn("dJointAttach", None, c_void_p, c_void_p, c_void_p)
+    _create_hinge = _lib_fn("dJointCreateHinge", c_void_p, c_void_p, c_void_p)
+    _world_step = _lib_fn("dWorldStep", c_int, c_void_p, ode.dReal)
+    _group_empty = _lib_fn("dJointGroupEmpty", None, c_void_p)
+    _hinge_anchor = _lib_fn("dJointSetHingeAnchor", None, c_void_p, ode.dReal, ode.dReal, ode.dReal)
+    _hinge_axis = _lib_fn("dJointSetHingeAxis", None, c_void_p, ode.dReal, ode.dReal, ode.dReal)
+    _hinge_param = _lib_fn("dJointSetHingeParam", None, c_void_p, c_int, ode.dReal)
+    _hinge_angle = _lib_fn("dJointGetHingeAngle", ode.dReal, c_void_p)
+    _hinge_rate = _lib_fn("dJointGetHingeAngleRate", ode.dReal, c_void_p)
+    _add_hinge_torque = _lib_fn("dJointAddHingeTorque", None, c_void_p, ode.dReal)
+    _body_pos = _lib_fn("dBodyGetPosition", POINTER(ode.dReal), c_void_p)
+    _body_rot = _lib_fn("dBodyGetRotation", POINTER(ode.dReal), c_void_p)
+
+    _messages: list[str] = []
+
+    @ctypes.CFUNCTYPE(None, c_int, POINTER(ctypes.c_char))
+    def _on_message(number, text):  # ODE prints these to stderr by default: remembered instead
+        if len(_messages) < 100:
+            _messages.append(ctypes.cast(text, ctypes.c_char_p).value.decode(errors="replace"))
+
+    ode.dInitODE2(0)
+    ode.dSetMessageHandler(_on_message)
+
+
+def _ode_matrix(rot: np.ndarray):
+    m = ode.dMatrix3()
+    for i in range(3):
+        for j in range(3):
+            m[4 * i + j] = float(rot[i, j])
+    return m
+
+
+def _link_poses(q) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """World pose of every arm link frame for joint angles ``q``."""
+    return {name: forward_kinematics(q, name) for name in ["link_base", *_ARM_LINKS]}
+
+
+class OdeEngine(Engine):
+    name = "ode"
+    engine_parameters = (
+        RIGID_BODY_PARAMETERS
+        | {f"{kind}_{g}" for kind in _CONTACT_KINDS for g in _GROUPS}
+        | {f"{kind}_{g}" for kind in ("linear_damping", "angular_damping") for g in ("gripper", *MATERIALS)}
+    )
+
+    @classmethod
+    def version(cls) -> str:
+        if ode is None:
+            return "not installed"
+        from importlib.metadata import version
+
+        lib = "libode"
+        try:  # the ODE library exports no version: name the file the binding loaded
+            with open("/proc/self/maps") as maps:
+                lib = next(line.split()[-1].rsplit("/", 1)[-1] for line in maps if "libode.so" in line)
+        except (OSError, StopIteration):
+            pass
+        return f"{lib} (ode-python {version('ode-python')})"
+
+    def __init__(self, task: TaskSpec):
+        if ode is None:
+            raise EngineUnavailable(f"engine 'ode' is not installed: {INSTALL_HINT}")
+        super().__init__(task)
+        self._world = None
+        self._callback = _NearCallback(self._near)  # kept alive as long as the engine
+        self._contact_geoms = (ode.dContactGeom * MAX_CONTACTS)()
+        self._contact = ode.dContact()
+        self._defaults = self._generic()
+        self._build(self._defaults)
+        self._pose_arm(np.radians(task.start_pose_deg))
+        self._defaults.update(
+            {f"{kind}_{g}": v for g, body in self._damped_bodies().items()
+             for kind, v in (("linear_damping", ode.dBodyGetLinearDamping(body)),
+                             ("angular_damping", ode.dBodyGetAngularDamping(body)))}
+        )
+
+    # --- generic values ------------------------------------------------------------
+    def _generic(self) -> dict[str, float]:
+        values = {"timestep": DEFAULT_TIMESTEP}
+        for i, link in enumerate(_ARM_LINKS, start=1):
+            values[f"mass_link_{i}"] = LINK_BY_NAME[link].mass
+            values[f"max_torque_joint_{i}"] = DEFAULT_MAX_TORQUE
+            values[f"joint_damping_{i}"] = 0.0  # ODE's hinge has no damping of its own
+        groups = ["gripper", "floor"]
+        if self.task.object is not None:
+            values[self.task.object.mass_parameter] = self.task.object.mass
+            groups.append(self.task.object.material)
+        for g in groups:
+            for kind, v in DEFAULT_CONTACT.items():
+                values[f"{kind}_{g}"] = v
+        return values
+
+    def defaults(self) -> dict[str, float]:
+        return dict(self._defaults)
+
+    # --- scene ----------------------------------------------------------------------
+    def _destroy(self) -> None:
+        if self._world is not None:
+            ode.dJointGroupDestroy(self._contacts)
+            ode.dSpaceDestroy(self._space)  # destroys its geoms (cleanup mode is on)
+            ode.dWorldDestroy(self._world)  # destroys bodies and joints
+            self._world = None
+
+    def _build(self, p: dict[str, float]) -> None:
+        """Create the world with parameters ``p`` (a complete set), the arm at angle 0."""
+        self._destroy()
+        _messages.clear()
+        self._failed = ""
+        ode.dRandSetSeed(0)
+        self._timestep = float(p["timestep"])
+        world = self._world = ode.dWorldCreate()
+        ode.dWorldSetGravity(world, 0.0, 0.0, -9.81)
+        self._space = ode.dSimpleSpaceCreate(0)  # simple space: pairs in a fixed order
+        self._contacts = ode.dJointGroupCreate(0)
+        self._world_ptr = ctypes.cast(world, c_void_p).value
+        self._contacts_ptr = ctypes.cast(self._contacts, c_void_p).value
+        self._geoms: dict[int, tuple[str, int | None]] = {}  # geom address -> (group, body address)
+        self._keep: list = []  # arrays ODE keeps pointers to (convex hull data)
+
+        poses = _link_poses(np.zeros(6))
+        masses = {link: p[f"mass_link_{i}"] for i, link in enumerate(_ARM_LINKS, start=1)}
+        mass_props = host_mass_properties(masses)
+        boxes = link_boxes_in_host()
+        self._bodies: dict[str, object] = {}
+        self._com: dict[str, np.ndarray] = {}
+        for host, (mass, com, inertia) in mass_props.items():
+            pos, rot = poses[host]
+            body = None
+            if host != "link_base":  # the base is static: geoms without a body
+                body = ode.dBodyCreate(world)
+                m = ode.dMass()
+                ode.dMassSetParameters(byref(m), mass, 0.0, 0.0, 0.0, inertia[0, 0], inertia[1, 1], inertia[2, 2],
+                                       inertia[0, 1], inertia[0, 2], inertia[1, 2])
+                ode.dBodySetMass(body, byref(m))
+                c = pos + rot @ com
+                ode.dBodySetPosition(body, *c)
+                ode.dBodySetRotation(body, _ode_matrix(rot))
+                self._bodies[host] = body
+                self._com[host] = com
+            group = "gripper" if LINK_BY_NAME[host].material == "gripper" else "arm"
+            for centre, box_rot, half, link in boxes[host]:
+                geom = ode.dCreateBox(self._space, *(2 * half))
+                member_group = "gripper" if LINK_BY_NAME[link].material == "gripper" else group
+                if body is not None:
+                    ode.dGeomSetBody(geom, body)
+                    ode.dGeomSetOffsetPosition(geom, *(centre - com))
+                    ode.dGeomSetOffsetRotation(geom, _ode_matrix(box_rot))
+                else:
+                    ode.dGeomSetPosition(geom, *(pos + rot @ centre))
+                    ode.dGeomSetRotation(geom, _ode_matrix(rot @ box_rot))
+                self._register(geom, member_group, body, _ARM, _FLOOR | _OBJECT)
+
+        floor = ode.dCreatePlane(self._space, 0.0, 0.0, 1.0, 0.0)
+        self._register(floor, "floor", None, _FLOOR, _ARM | _OBJECT)
+
+        self._joints = []
+        for i, name in enumerate(ARM_JOINTS, start=1):
+            joint = next(j for j in JOINTS if j.name == name)
+            parent = self._bodies.get(joint.parent)
+            child = self._bodies[joint.child]
+            hinge = _create_hinge(self._world_ptr, None)
+            _attach(hinge, ctypes.cast(child, c_void_p).value,
+                    ctypes.cast(parent, c_void_p).value if parent is not None else None)
+            pos, rot = poses[joint.child]
+            _hinge_anchor(hinge, *pos)
+            _hinge_axis(hinge, *rot[:, 2])  # the hinge's angle 0 is this pose
+            if joint.limit is not None:
+                _hinge_param(hinge, ode.dParamLoStop, -joint.limit)
+                _hinge_param(hinge, ode.dParamHiStop, joint.limit)
+            _hinge_param(hinge, ode.dParamVel, 0.0)
+            _hinge_param(hinge, ode.dParamFMax, float(p[f"max_torque_joint_{i}"]))
+            self._joints.append(hinge)
+        self._damping = np.array([p[f"joint_damping_{i}"] for i in range(1, 7)])
+
+        self._object = None
+        obj = self.task.object
+        if obj is not None:
+            mass = p[obj.mass_parameter]
+            com, inertia = object_mass_properties(obj, mass)
+            body = self._object = ode.dBodyCreate(world)
+            m = ode.dMass()
+            ode.dMassSetParameters(byref(m), mass, 0.0, 0.0, 0.0, inertia[0, 0], inertia[1, 1], inertia[2, 2],
+                                   inertia[0, 1], inertia[0, 2], inertia[1, 2])
+            ode.dBodySetMass(body, byref(m))
+            self._object_com = com
+            if obj.shape in ("cube", "cuboid"):
+                geom = ode.dCreateBox(self._space, *obj.size)
+            elif obj.shape == "cylinder":
+                geom = ode.dCreateCylinder(self._space, obj.size[0], obj.size[1])
+            else:
+                vertices, faces, planes = cone_hull(obj)
+                plane_arr = (ode.dReal * planes.size)(*planes.ravel())
+                point_arr = (ode.dReal * vertices.size)(*vertices.ravel())
+                polygons = [x for face in faces for x in (len(face), *face)]
+                poly_arr = (ctypes.c_uint32 * len(polygons))(*polygons)
+                self._keep += [plane_arr, point_arr, poly_arr]
+                geom = ode.dCreateConvex(self._space, plane_arr, len(planes), point_arr, len(vertices), poly_arr)
+            ode.dGeomSetBody(geom, body)
+            ode.dGeomSetOffsetPosition(geom, *(-com))
+            self._register(geom, obj.material, body, _OBJECT, _FLOOR | _ARM)
+            self._place_object()
+
+        for g, body in self._damped_bodies().items():
+            if f"linear_damping_{g}" in p:
+                ode.dBodySetLinearDamping(body, p[f"linear_damping_{g}"])
+            if f"angular_damping_{g}" in p:
+                ode.dBodySetAngularDamping(body, p[f"angular_damping_{g}"])
+
+        # contact surface of every pair of groups: geometric mean of the two groups' values
+        def surface(a: str, b: str):
+            def mean(kind):
+                va = p.get(f"{kind}_{a}", DEFAULT_CONTACT[kind])
+                vb = p.get(f"{kind}_{b}", DEFAULT_CONTACT[kind])
+                return float(np.sqrt(va * vb))
+
+            s = ode.dSurfaceParameters()
+            s.mode = ode.dContactApprox1  # friction pyramid: mu is a coefficient
+            s.mu = mean("lateral_friction")
+            rolling, spinning, bounce = mean("rolling_friction"), mean("spinning_friction"), mean("restitution")
+            if rolling > 0 or spinning > 0:
+                s.mode |= ode.dContactRolling
+                s.rho, s.rho2, s.rhoN = rolling, rolling, spinning
+            if bounce > 0:
+                s.mode |= ode.dContactBounce
+                s.bounce, s.bounce_vel = bounce, BOUNCE_VELOCITY
+            return s
+
+        names = {g for g, _ in self._geoms.values()}
+        self._surfaces = {(a, b): surface(a, b) for a in names for b in names}
+
+    def _register(self, geom, group: str, body, category: int, collide: int) -> None:
+        ode.dGeomSetCategoryBits(geom, category)
+        ode.dGeomSetCollideBits(geom, collide)
+        self._geoms[ctypes.cast(geom, c_void_p).value] = (group, ctypes.cast(body, c_void_p).value if body else None)
+
+    def _damped_bodies(self) -> dict[str, object]:
+        bodies = {"gripper": self._bodies["link_6"]}
+        if self._object is not None:
+            bodies[self.task.object.material] = self._object
+        return bodies
+
+    def _place_object(self) -> None:
+        obj = self.task.object
+        rot = obj.rotation
+        c = np.asarray(obj.start_position) + rot @ self._object_com
+        ode.dBodySetPosition(self._object, *c)
+        ode.dBodySetRotation(self._object, _ode_matrix(rot))
+        ode.dBodySetLinearVel(self._object, 0.0, 0.0, 0.0)
+        ode.dBodySetAngularVel(self._object, 0.0, 0.0, 0.0)
+
+    def _pose_arm(self, q) -> None:
+        """Place the arm's bodies at joint angles ``q`` with zero velocity (kinematic)."""
+        poses = _link_poses(q)
+        for host, body in self._bodies.items():
+            pos, rot = poses[host]
+            ode.dBodySetPosition(body, *(pos + rot @ self._com[host]))
+            ode.dBodySetRotation(body, _ode_matrix(rot))
+            ode.dBodySetLinearVel(body, 0.0, 0.0, 0.0)
+            ode.dBodySetAngularVel(body, 0.0, 0.0, 0.0)
+        self._angles = np.asarray(q, dtype=float).copy()
+
+    def _near(self, data, g1, g2) -> None:
+        group1, body1 = self._geoms[g1]
+        group2, body2 = self._geoms[g2]
+        if body1 is None and body2 is None:
+            return
+        n = _collide(g1, g2, MAX_CONTACTS, self._contact_geoms, ctypes.sizeof(ode.dContactGeom))
+        if not n:
+            return
+        contact = self._contact
+        contact.surface = self._surfaces[(group1, group2)]
+        for k in range(n):
+            contact.geom = self._contact_geoms[k]
+            joint = _create_contact(self._world_ptr, self._contacts_ptr, byref(contact))
+            _attach(joint, body1, body2)
+
+    # --- interface ------------------------------------------------------------------
+    @property
+    def timestep(self) -> float:
+        return self._timestep
+
+    def reset(self, params: dict[str, float]) -> None:
+        self._build({**self._defaults, **params})
+        self._pose_arm(np.radians(self.task.start_pose_deg))
+
+    def set_joint_velocities(self, velocities: np.ndarray) -> None:
+        for hinge, v in zip(self._joints, velocities):
+            _hinge_param(hinge, ode.dParamVel, float(v))
+
+    def step(self, n: int) -> None:
+        damped = [(j, d) for j, d in zip(self._joints, self._damping) if d > 0]
+        for _ in range(n):
+            for joint, d in damped:  # viscous joint damping as a joint torque (ODE has none built in)
+                _add_hinge_torque(joint, -d * _hinge_rate(joint))
+            _space_collide(ctypes.cast(self._space, c_void_p).value, None, self._callback)
+            ok = _world_step(self._world_ptr, self._timestep)
+            _group_empty(self._contacts_ptr)
+            if not ok and not self._failed:
+                self._failed = "dWorldStep failed"
+
+    def diverged(self) -> str:
+        # ODE's messages ("LCP internal error ...": one step's LCP solved inexactly) are
+        # notes, not failures: a step that really goes wrong shows in the state checks
+        return f"ODE: {self._failed}" if self._failed else ""
+
+    @property
+    def solver_messages(self) -> list[str]:
+        """ODE's messages since the last reset (kept for diagnosis, never printed)."""
+        return list(_messages)
+
+    def joint_angles(self) -> np.ndarray:
+        # ODE reports hinge angles in (-pi, pi]: unwrap against the last reading
+        raw = np.array([_hinge_angle(j) for j in self._joints])
+        self._angles = self._angles + (raw - self._angles + np.pi) % (2 * np.pi) - np.pi
+        return self._angles.copy()
+
+    def _body_pose(self, body) -> tuple[np.ndarray, np.ndarray]:
+        ptr = ctypes.cast(body, c_void_p).value
+        pos = np.ctypeslib.as_array(_body_pos(ptr), shape=(3,)).copy()
+        rot = np.ctypeslib.as_array(_body_rot(ptr), shape=(12,)).reshape(3, 4)[:, :3].copy()
+        return pos, rot
+
+    def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        pos, rot = self._body_pose(self._bodies[WRIST_LINK])
+        return pos - rot @ self._com[WRIST_LINK], rot
+
+    def object_position(self) -> np.ndarray | None:
+        if self._object is None:
+            return None
+        pos, rot = self._body_pose(self._object)
+        return pos - rot @ self._object_com
+
+    def close(self) -> None:
+        if ode is not None:
+            self._destroy()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:
+            pass
