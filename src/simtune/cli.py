@@ -287,6 +287,8 @@ def engines() -> None:
     """List the physics engines, their versions, and how to install a missing one."""
     import importlib
 
+    from rich.markup import escape
+
     from simtune.engines import ENGINES
 
     table = Table(title="physics engines")
@@ -295,7 +297,7 @@ def engines() -> None:
     for name, (module, cls, hint) in ENGINES.items():
         version = getattr(importlib.import_module(module), cls).version()
         installed = version != "not installed"
-        table.add_row(name, version if installed else "-", "yes" if installed else "[red]no[/]", hint)
+        table.add_row(name, version if installed else "-", "yes" if installed else "[red]no[/]", escape(hint))
     out.print(table)
 
 

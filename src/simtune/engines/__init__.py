@@ -16,10 +16,9 @@ from simtune.tasks.spec import TaskSpec
 ENGINES: dict[str, tuple[str, str, str]] = {
     "mujoco": ("simtune.engines.mujoco_engine", "MujocoEngine", "pip install mujoco"),
     "pybullet": ("simtune.engines.pybullet_engine", "PybulletEngine", "pip install 'simtune[pybullet]'"),
-    # the extras' own packages, so the hints print the same in Rich tables (no [brackets])
-    "ode": ("simtune.engines.ode_engine", "OdeEngine", "apt-get install libode8; pip install ode-python"),
-    "dart": ("simtune.engines.dart_engine", "DartEngine", "pip install dartpy"),
-    "drake": ("simtune.engines.drake_engine", "DrakeEngine", "pip install drake"),
+    "ode": ("simtune.engines.ode_engine", "OdeEngine", "apt-get install libode8; pip install 'simtune[ode]'"),
+    "dart": ("simtune.engines.dart_engine", "DartEngine", "pip install 'simtune[dart]'"),
+    "drake": ("simtune.engines.drake_engine", "DrakeEngine", "pip install 'simtune[drake]'"),
 }
 
 
