@@ -18,6 +18,9 @@ from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, JOINTS, LINKS, Joint, 
 if TYPE_CHECKING:  # tasks import the robot module; only the type is needed here
     from simtune.tasks.spec import ObjectSpec
 
+#: Gain of MuJoCo's joint velocity servos [N m s/rad].
+SERVO_KV = 50.0
+
 #: Name of the MuJoCo/URDF body that carries the task's object.
 OBJECT_BODY = "object"
 FLOOR = "floor"
@@ -93,9 +96,11 @@ def scene_mjcf(obj: ObjectSpec | None = None) -> str:
     base = next(x for x in LINKS if x.name == "link_base")
     arm = _mjcf_link(base, None, "    ")
     actuators = [
-        # A velocity servo; its force limit (max torque) is set per evaluation. kv = 100 stays
-        # stable at every time step of the search range even when the limit clips the force.
-        f'    <velocity name="{j}" joint="{j}" kv="100" forcerange="-100 100"/>' for j in ARM_JOINTS
+        # A velocity servo; its force limit (max torque) is set per evaluation.  kv is chosen so
+        # that the largest command step (-40 to +40 deg/s) asks for 70 N m, below the smallest
+        # limit of the search range (100): a clipped servo force on the light wrist links is
+        # not damped by the implicit integrator and sets them spinning (seen in seed-2).
+        f'    <velocity name="{j}" joint="{j}" kv="{SERVO_KV:g}" forcerange="-100 100"/>' for j in ARM_JOINTS
     ]
     return "\n".join([
         '<mujoco model="kinova_mico_scene">',
