@@ -356,3 +356,11 @@ def test_published_rollout_holds_cuts_and_reads_quaternions():
     # PyBullet files put w first: the same numbers mean another rotation
     pyb = published_rollout(PublishedSim("cube", "PyBullet", Path("x"), rows), 1)
     np.testing.assert_allclose(pyb.wrist_rot[0], np.diag([-1.0, -1.0, 1.0]), atol=1e-12)  # w=0, axis z: half turn
+
+
+def test_compute_table_shows_blow_ups_and_pruning_from_the_stores(report, grid):
+    for row in _table(report, "compute"):
+        runs = [p for p in _good_runs(grid) if p.parent.name == f"{row['engine']}-{row['tasks']}"]
+        counts = [_store(p).count_outcomes() for p in runs]
+        assert int(row["unstable or failed"]) == sum(c["unstable"] for c in counts)
+        assert int(row["pruned"]) == sum(c["pruned"] for c in counts)

@@ -156,3 +156,13 @@ def test_pruning_saves_simulation_without_changing_the_search(tmp_path):
     for row in RunStore(tmp_path / "pruned").evaluations():
         if row["pruned"]:
             assert row["fitness"] <= exact[tuple(row["x"])] + 1e-12
+
+
+def test_a_store_that_cannot_be_written_is_one_clear_error(tmp_path):
+    from simtune.errors import SimtuneError
+    from simtune.fitness import Score
+
+    store = RunStore(tmp_path / "r", create=True)
+    store.db.execute("PRAGMA query_only = 1")  # every write now fails, as on a full or read-only disk
+    with pytest.raises(SimtuneError, match="cannot write run store .*simtune resume"):
+        store.record_evaluation(np.zeros(2), Score(0.1, 0.1, None), 0, 0.1)

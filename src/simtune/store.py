@@ -7,7 +7,9 @@ Tables
   and whether it was pruned (stopped once it could not beat its parent: its
   fitness is then a lower bound);
 - ``generations``: one checkpoint per generation: the population, its energies,
-  the best member and the run's elapsed time.
+  the best member and the run's elapsed time;
+- ``residuals``: for the evaluations of a least-squares refinement, the residual
+  vector (float64 bytes), so a resumed refinement replays without simulating.
 
 Every evaluation is committed as soon as it finishes (WAL journal), so a kill
 loses at most the evaluations still running.  Evaluations are keyed by the
@@ -20,7 +22,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 import sqlite3
+from contextlib import contextmanager
 import time
 from pathlib import Path
 
@@ -31,6 +35,7 @@ from simtune.fitness import Score
 
 STORE_FILE = "run.sqlite"
 SCHEMA_VERSION = 1
+MIN_FREE_BYTES = 50_000_000
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -58,6 +63,7 @@ CREATE TABLE IF NOT EXISTS generations (
     elapsed_s REAL NOT NULL,
     finished_at REAL NOT NULL
 );
+CREATE TABLE IF NOT EXISTS residuals (key TEXT PRIMARY KEY, r BLOB NOT NULL);
 """
 
 
@@ -69,16 +75,20 @@ def vector_key(x) -> str:
 class RunStore:
     """SQLite store of one run.  Only the coordinating process writes to it."""
 
-    def __init__(self, run_dir: Path, create: bool = False):
+    def __init__(self, run_dir: Path, create: bool = False, filename: str = STORE_FILE):
         self.run_dir = Path(run_dir)
-        self.path = self.run_dir / STORE_FILE
+        self.path = self.run_dir / filename
         if create:
             try:
                 self.run_dir.mkdir(parents=True, exist_ok=True)
             except OSError as exc:
                 raise SimtuneError(f"cannot create run folder {self.run_dir}: {exc.strerror}") from None
+            free = shutil.disk_usage(self.run_dir).free
+            if free < MIN_FREE_BYTES:  # refuse before any compute is spent, not halfway through
+                raise SimtuneError(f"only {free / 1e6:.0f} MB free at {self.run_dir}: a run store needs "
+                                   f"{MIN_FREE_BYTES / 1e6:.0f} MB or more")
         elif not self.path.exists():
-            raise SimtuneError(f"{self.run_dir} is not a run folder (no {STORE_FILE})")
+            raise SimtuneError(f"{self.run_dir} is not a run folder (no {filename})")
         try:
             self.db = sqlite3.connect(self.path, timeout=30)
             self.db.execute("PRAGMA journal_mode=WAL")
@@ -92,9 +102,19 @@ class RunStore:
         if version != SCHEMA_VERSION:
             raise SimtuneError(f"{self.path}: run store version {version}, this simtune reads version {SCHEMA_VERSION}")
 
+    @contextmanager
+    def _writing(self):
+        """A committed transaction; a failed write (disk full, folder removed) is one clear error."""
+        try:
+            with self.db:
+                yield
+        except sqlite3.Error as exc:
+            raise SimtuneError(f"cannot write run store {self.path}: {exc} (disk full or not writable?); "
+                               f"finished evaluations are kept: `simtune resume {self.run_dir}`") from None
+
     # --- meta ------------------------------------------------------------------------------
     def set(self, **values) -> None:
-        with self.db:
+        with self._writing():
             self.db.executemany("INSERT OR REPLACE INTO meta VALUES (?, ?)",
                                 [(k, json.dumps(v)) for k, v in values.items()])
 
@@ -108,7 +128,7 @@ class RunStore:
         return Score.from_dict(json.loads(row[0])) if row else None
 
     def record_evaluation(self, x, score: Score, generation: int, wall_s: float) -> None:
-        with self.db:
+        with self._writing():
             self.db.execute(
                 "INSERT OR IGNORE INTO evaluations (key, x, fitness, wrist_error, object_error, stable, pruned, score,"
                 " generation, wall_s, finished_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
@@ -117,8 +137,23 @@ class RunStore:
                  wall_s, time.time()),
             )
 
+    def lookup_residuals(self, x) -> np.ndarray | None:
+        row = self.db.execute("SELECT r FROM residuals WHERE key = ?", (vector_key(x),)).fetchone()
+        return np.frombuffer(row[0], dtype=np.float64).copy() if row else None
+
+    def record_residuals(self, x, residuals) -> None:
+        with self.db:
+            self.db.execute("INSERT OR IGNORE INTO residuals VALUES (?, ?)",
+                            (vector_key(x), np.ascontiguousarray(residuals, dtype=np.float64).tobytes()))
+
     def count_evaluations(self) -> int:
         return self.db.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0]
+
+    def count_outcomes(self) -> dict[str, int]:
+        """How many evaluations blew up or failed (penalised) and how many were pruned."""
+        unstable, pruned = self.db.execute(
+            "SELECT COALESCE(SUM(1 - stable), 0), COALESCE(SUM(pruned), 0) FROM evaluations").fetchone()
+        return {"unstable": int(unstable), "pruned": int(pruned)}
 
     def evaluations(self) -> list[dict]:
         rows = self.db.execute(
@@ -134,7 +169,7 @@ class RunStore:
     # --- generation checkpoints ---------------------------------------------------------------
     def record_generation(self, generation: int, population, energies, best_x, best_fitness: float,
                           evaluations: int, elapsed_s: float) -> None:
-        with self.db:
+        with self._writing():
             self.db.execute(
                 "INSERT OR REPLACE INTO generations VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
                 (generation, float(best_fitness), json.dumps([float(v) for v in best_x]),

@@ -71,6 +71,7 @@ class RunRecord:
     elapsed_s: float
     message: str
     versions: dict = field(default_factory=dict)
+    outcomes: dict = field(default_factory=dict)  # store.count_outcomes(): unstable and pruned evaluations
 
     @property
     def best_fitness(self) -> float:
@@ -213,7 +214,7 @@ def load_run(run_dir: Path, label: str | None = None) -> RunRecord | Skipped:
             best_x=[float(v) for v in best["x"]], best_score=best["score"], generations=store.generations(),
             initial_fitness=store.initial_fitness(), evaluations=store.count_evaluations(),
             elapsed_s=float(store.get("elapsed_s", 0.0) or 0.0), message=str(store.get("message", "")),
-            versions=store.get("versions", {}) or {},
+            versions=store.get("versions", {}) or {}, outcomes=store.count_outcomes(),
         )
     except sqlite3.Error as exc:
         return Skipped(run_dir, label, f"corrupt run store ({exc})")

@@ -322,7 +322,8 @@ def compute_table(groups: list[Group]) -> Table:
     columns = [Column("engine"), Column("tasks"), Column("space"), Column("repeats", "d"),
                Column("evaluations (mean)", ".0f"), Column("evaluations (total)", "d"),
                Column("generations (mean)", ".1f"), Column("wall time mean [s]", ".1f"),
-               Column("wall time total [s]", ".1f"), Column("evaluations per second", ".2f"), Column("workers")]
+               Column("wall time total [s]", ".1f"), Column("evaluations per second", ".2f"), Column("workers"),
+               Column("unstable or failed", "d"), Column("pruned", "d")]
     rows = []
     for g in groups:
         evals = [r.evaluations for r in g.runs]
@@ -331,10 +332,14 @@ def compute_table(groups: list[Group]) -> Table:
         workers = sorted({int(r.config.get("workers", 1)) for r in g.runs})
         rows.append([g.engine, g.tasks, g.space, len(g.runs), float(np.mean(evals)), int(sum(evals)),
                      float(np.mean(gens)), float(np.mean(walls)), float(sum(walls)),
-                     sum(evals) / sum(walls) if sum(walls) > 0 else None, " ".join(map(str, workers))])
+                     sum(evals) / sum(walls) if sum(walls) > 0 else None, " ".join(map(str, workers)),
+                     sum(r.outcomes.get("unstable", 0) for r in g.runs),
+                     sum(r.outcomes.get("pruned", 0) for r in g.runs)])
     return Table("compute", "Table 7. Compute per engine, tasks and space", columns, rows,
                  note="Wall time is the run's elapsed time over all its sessions (meta elapsed_s); evaluations "
-                      "count the distinct parameter sets simulated.")
+                      "count the distinct parameter sets simulated. Unstable or failed: simulations that blew up "
+                      "(or whose worker crashed or hung) and scored the penalty fitness. Pruned: trials stopped "
+                      "once they could no longer beat their parent (their stored fitness is a lower bound).")
 
 
 # --- 8. domain-randomisation ranges ----------------------------------------------------------------------
