@@ -23,17 +23,13 @@ floor: those parameters are left out.
 
 from __future__ import annotations
 
-import hashlib
-import os
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
 from simtune.engines._shapes import object_mass_properties
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
 from simtune.errors import EngineUnavailable
-from simtune.robot.generate import robot_urdf
+from simtune.robot.generate import robot_urdf_file
 from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, LINKS, WRIST_LINK
 from simtune.tasks.spec import MATERIALS, TaskSpec
 
@@ -45,18 +41,6 @@ except ImportError:  # pragma: no cover - depends on the machine
 INSTALL_HINT = "pip install dartpy"
 DEFAULT_MAX_TORQUE = 100.0
 _ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
-
-
-def _urdf_file() -> str:
-    """The generated URDF on disk, written once per content (DART's loader reads files)."""
-    text = robot_urdf()
-    digest = hashlib.sha1(text.encode()).hexdigest()[:12]
-    path = Path(tempfile.gettempdir()) / f"simtune-mico-{digest}.urdf"
-    if not path.exists():
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(text)
-        os.replace(tmp, path)  # atomic: parallel workers never see half a file
-    return str(path)
 
 
 def _isometry(pos, rot=None):
@@ -95,7 +79,7 @@ class DartEngine(Engine):
         options = d.utils.DartLoader.Options()
         options.mDefaultRootJointType = d.utils.DartLoaderRootJointType.FIXED
         loader.setOptions(options)
-        self.robot = loader.parseSkeleton(_urdf_file())
+        self.robot = loader.parseSkeleton(robot_urdf_file())
         self.robot.getRootJoint().setTransformFromParentBodyNode(_isometry(BASE_POSITION))
         self._arm = [self.robot.getJoint(j) for j in ARM_JOINTS]
         for joint in self._arm:

@@ -17,18 +17,15 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
-import hashlib
 import os
 import sys
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
 from simtune.errors import EngineUnavailable
-from simtune.robot.generate import robot_urdf
-from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, LINKS, WRIST_LINK
+from simtune.robot.generate import robot_urdf_file
+from simtune.robot.mico import BASE_POSITION, LINKS, WRIST_LINK
 from simtune.tasks.spec import TaskSpec
 
 
@@ -65,18 +62,6 @@ _BODY_DAMPING = {"linear_damping": "linearDamping", "angular_damping": "angularD
 DEFAULT_TIMESTEP = 1.0 / 240.0  # Bullet's own default
 
 
-def _urdf_file() -> str:
-    """The generated URDF on disk (PyBullet loads URDF from files), written once per content."""
-    text = robot_urdf()
-    digest = hashlib.sha1(text.encode()).hexdigest()[:12]
-    path = Path(tempfile.gettempdir()) / f"simtune-mico-{digest}.urdf"
-    if not path.exists():
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(text)
-        os.replace(tmp, path)  # atomic: parallel workers never see half a file
-    return str(path)
-
-
 class PybulletEngine(Engine):
     name = "pybullet"
     engine_parameters = (
@@ -99,7 +84,7 @@ class PybulletEngine(Engine):
         super().__init__(task)
         with _stdout_silenced():
             self.client = pybullet.connect(pybullet.DIRECT)
-        self._urdf = _urdf_file()
+        self._urdf = robot_urdf_file()
         self._timestep = DEFAULT_TIMESTEP
         self._load()
         self._defaults = self._read_defaults()

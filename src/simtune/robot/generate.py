@@ -8,6 +8,10 @@ otherwise push the links apart).
 
 from __future__ import annotations
 
+import hashlib
+import os
+import tempfile
+from pathlib import Path
 from typing import TYPE_CHECKING
 from xml.sax.saxutils import quoteattr
 
@@ -177,3 +181,15 @@ def robot_urdf() -> str:
         lines += _urdf_joint(joint)
     lines.append("</robot>")
     return "\n".join(lines)
+
+
+def robot_urdf_file() -> str:
+    """Path of the generated URDF on disk, for engines whose loaders read files; written once per content."""
+    text = robot_urdf()
+    digest = hashlib.sha1(text.encode()).hexdigest()[:12]
+    path = Path(tempfile.gettempdir()) / f"simtune-mico-{digest}.urdf"
+    if not path.exists():
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)  # atomic: parallel workers never see half a file
+    return str(path)
