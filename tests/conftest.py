@@ -33,3 +33,36 @@ def two_task_data(tmp_path_factory) -> Path:
                           jitter_s=0.05, seed=1):
         write_qualisys_tsv(root / "single" / rec.source.name, rec, header=True)
     return root
+
+
+def stored_evaluations(run_dir: Path) -> int:
+    """Evaluations in a run store another process may be writing or creating right now (0 until it exists)."""
+    from simtune.errors import SimtuneError
+    from simtune.store import RunStore
+
+    if not (run_dir / "run.sqlite").exists():
+        return 0
+    try:
+        store = RunStore(run_dir)
+    except SimtuneError:  # created this instant: not yet versioned
+        return 0
+    try:
+        return store.count_evaluations()
+    finally:
+        store.close()
+
+
+def kill_when(cmd: list[str], run_dir: Path, at_count: int, limit_s: float = 120) -> int:
+    """Start ``cmd``, SIGKILL it once its run store holds ``at_count`` evaluations; the count it left."""
+    import os
+    import signal
+    import subprocess
+    import time
+
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + limit_s
+    while time.time() < deadline and proc.poll() is None and stored_evaluations(run_dir) < at_count:
+        time.sleep(0.02)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    return stored_evaluations(run_dir)

@@ -91,6 +91,23 @@ def test_explosion_ends_rollout_with_a_flag_not_a_crash():
     assert np.all(np.isfinite(roll.wrist_pos))
 
 
+def test_state_check_finds_the_first_broken_sample_of_a_block():
+    from simtune.engines.base import _first_bad
+
+    pos = np.tile([0.3, 0.0, 0.8], (10, 1))
+    rot = np.tile(np.eye(3), (10, 1, 1))
+    q = np.zeros((10, 6))
+    obj = np.tile([0.5, 0.0, 0.1], (10, 1))
+    assert _first_bad(pos, rot, q, obj, obj[0]) == (None, "")
+    pos[6] = [3.0, 0.0, 0.0]
+    q[4, 2] = np.nan
+    obj[2] = [9.0, 0.0, 0.1]
+    assert _first_bad(pos, rot, q, obj, obj[0]) == (2, "object thrown 8.5 m")
+    assert _first_bad(pos, rot, q, None, None) == (4, "non-finite arm state")
+    q[4, 2] = 0.0
+    assert _first_bad(pos, rot, q, None, None) == (6, "wrist 3.0 m from the base")
+
+
 def test_unknown_engine_is_a_clear_error():
     with pytest.raises(ConfigError, match="unknown engine 'ode2'.*mujoco"):
         engine_class("ode2")

@@ -7,6 +7,7 @@ import time
 import numpy as np
 
 from simtune.objective import Objective, load_references
+from simtune.optimize import TuneSettings
 from simtune.optimize.de import differential_evolution_tune
 from simtune.params import get_space
 from simtune.reference import REFERENCE_DIR
@@ -35,7 +36,8 @@ def test_crashing_and_hanging_evaluations_are_recorded_and_the_run_goes_on(tmp_p
     objective = FaultyObjective("mujoco", tasks, load_references(REFERENCE_DIR, tasks), space)
     store = RunStore(tmp_path / "run", create=True)
     t0 = time.time()
-    result = differential_evolution_tune(objective, store, seed=5, workers=2, max_generations=3, eval_timeout=4.0)
+    result = differential_evolution_tune(objective, store, TuneSettings(seed=5, workers=2, max_generations=3,
+                                                                      eval_timeout=4.0))
     assert time.time() - t0 < 100
     rows = store.evaluations()
     at = space.names.index("command_delay")

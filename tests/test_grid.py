@@ -10,6 +10,8 @@ import pytest
 from simtune.grid import GridIndex, GridSpec, Unit, plan_grid, run_grid
 from simtune.store import RunStore
 
+from conftest import stored_evaluations
+
 distributed = pytest.importorskip("distributed")
 
 
@@ -67,7 +69,7 @@ def test_dask_grid_with_a_killed_worker_matches_local(local_grid, two_task_data,
         deadline = time.time() + 120
         while time.time() < deadline:
             runs = list((grid_dir / "runs").glob("*/run.sqlite")) if (grid_dir / "runs").exists() else []
-            if runs and any(RunStore(p.parent).count_evaluations() >= 3 for p in runs):
+            if any(stored_evaluations(p.parent) >= 3 for p in runs):
                 break
             time.sleep(0.05)
         counts = GridIndex(grid_dir).counts()

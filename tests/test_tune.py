@@ -1,11 +1,7 @@
 """Tuning end to end on the shipped reference recording: improvement, store, kill and resume."""
 
 import json
-import os
-import signal
-import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -14,6 +10,8 @@ from simtune.reference import REFERENCE_DIR
 from simtune.reference.demo import DEMO_PARAMETERS
 from simtune.runs import RunConfig, resume_run, start_run
 from simtune.store import RunStore
+
+from conftest import kill_when
 
 ONLY = list(DEMO_PARAMETERS)
 
@@ -46,25 +44,6 @@ def test_same_seed_same_result_with_one_or_two_workers(tmp_path):
     np.testing.assert_array_equal(one.x, two.x)
 
 
-def _kill_when(cmd, run_dir, at_count, limit_s=120):
-    """Start ``cmd``, SIGKILL it once the run store holds ``at_count`` evaluations; the count then."""
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.time() + limit_s
-    count = 0
-    while time.time() < deadline and proc.poll() is None:
-        if (run_dir / "run.sqlite").exists():
-            try:
-                count = RunStore(run_dir).count_evaluations()
-            except Exception:  # the store is being created
-                count = 0
-            if count >= at_count:
-                break
-        time.sleep(0.02)
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
-    return RunStore(run_dir).count_evaluations()
-
-
 def test_repeated_kill_minus_9_then_resume_loses_and_repeats_nothing(tmp_path):
     import random
 
@@ -75,10 +54,10 @@ def test_repeated_kill_minus_9_then_resume_loses_and_repeats_nothing(tmp_path):
             "--only", ",".join(ONLY), "--out", str(run_dir), "--quiet"]
     resume = [sys.executable, "-m", "simtune.cli", "resume", str(run_dir), "--quiet"]
     points = sorted(random.Random(7).sample(range(5, reference.evaluations - 5), 3))
-    kept = _kill_when(tune, run_dir, points[0])
+    kept = kill_when(tune, run_dir, points[0])
     for point in points[1:]:
         assert kept < reference.evaluations, "each kill must land mid-run"
-        kept = _kill_when(resume, run_dir, point)
+        kept = kill_when(resume, run_dir, point)
     assert kept < reference.evaluations
     resumed = resume_run(run_dir, show_progress=False)
     assert resumed.new_evaluations == reference.evaluations - kept  # nothing simulated twice

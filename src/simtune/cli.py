@@ -39,6 +39,21 @@ DataOpt = Annotated[Optional[Path], typer.Option(
     "--data", "-d", help="Folder with one sub-folder of recordings per task (ROOT/<task>/*.tsv or *.csv). "
     "Default: the reference recordings shipped with simtune.")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
+SpaceOpt = Annotated[str, typer.Option("--space", "-s", help="Parameter space: shared (31, the paper's), "
+                                       "individual (57, the paper's), or extended (individual + command delay "
+                                       "and marker offset); an engine's lacks what it cannot map.")]
+OnlyOpt = Annotated[Optional[str], typer.Option(help="Only these parameters of the space (comma-separated); "
+                                                "the rest keep their generic values.")]
+WorkersOpt = Annotated[int, typer.Option("--workers", "-w", min=1, help="Processes evaluating in parallel.")]
+OptimizerOpt = Annotated[str, typer.Option(
+    "--optimizer", help="de: differential evolution as in the paper; cmaes: CMA-ES with restarts; bo: Bayesian "
+    "optimisation (Optuna TPE, batches of --workers trials); random: uniform random search. cmaes and bo need "
+    "`pip install 'simtune[opt]'`.")]
+MaxEvalsOpt = Annotated[Optional[int], typer.Option(
+    "--max-evaluations", min=1, help="Stop once this many evaluations were used (checked after each batch; DE "
+    "finishes its generation).")]
+EvalTimeoutOpt = Annotated[float, typer.Option(help="With --workers 2+: an evaluation still running after this "
+                                               "many seconds is abandoned, stored as failed, its worker replaced.")]
 
 
 def _data_root(data: Path | None) -> Path:
@@ -106,7 +121,7 @@ def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bo
     from simtune.runs import BEST_PARAMS_FILE
 
     payload = {
-        "engine": config.engine, "task": config.tasks, "space": config.space,
+        "engine": config.engine, "task": config.tasks, "space": config.space, "optimizer": config.optimizer,
         "fitness": result.score.fitness, "wrist_error": result.score.wrist_error,
         "object_error": result.score.object_error, "generic_fitness": store_generic["fitness"],
         "evaluations": result.evaluations, "generations": result.generations, "wall_s": result.wall_s,
@@ -115,7 +130,8 @@ def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bo
     if as_json:
         print(json.dumps(payload))
         return
-    out.print(f"[bold]{config.engine}[/] on [bold]{config.tasks}[/], space {config.space}: "
+    out.print(f"[bold]{config.engine}[/] on [bold]{config.tasks}[/], space {config.space}, optimizer "
+              f"{config.optimizer}{' + least squares' if config.refine else ''}: "
               f"fitness {store_generic['fitness']:.4f} (generic) -> [bold green]{result.score.fitness:.4f}[/] (tuned)")
     out.print(f"  wrist error {_fmt(result.score.wrist_error)} m, object error {_fmt(result.score.object_error)} m; "
               f"{result.evaluations} evaluations, {result.generations} generations, {result.wall_s:.0f} s "
@@ -128,32 +144,36 @@ def tune(
     engine: EngineOpt = "mujoco",
     task: TaskOpt = "cube",
     data: DataOpt = None,
-    space: Annotated[str, typer.Option("--space", "-s", help="Parameter space: shared (31, the paper's), "
-                                       "individual (57, the paper's), or extended (individual + command delay "
-                                       "and marker offset).")] = "extended",
+    space: SpaceOpt = "extended",
+    optimizer: OptimizerOpt = "de",
+    refine: Annotated[bool, typer.Option("--refine", help="Afterwards, polish the best point with bounded least "
+                                         "squares (SciPy) on the per-sample residuals; its evaluations are stored "
+                                         "too.")] = False,
     seed: Annotated[int, typer.Option(help="Random seed of the optimiser (same seed, same run).")] = 0,
-    workers: Annotated[int, typer.Option("--workers", "-w", min=1, help="Processes evaluating the population.")] = 1,
+    workers: WorkersOpt = 1,
     max_seconds: Annotated[Optional[float], typer.Option(help="Stop after this much wall time [s].")] = None,
-    max_generations: Annotated[int, typer.Option(min=1, help="Stop after this many generations.")] = 1000,
+    max_generations: Annotated[int, typer.Option(min=1, help="Stop after this many generations (bo and random: "
+                                                 "D evaluations count as one).")] = 1000,
+    max_evaluations: MaxEvalsOpt = None,
     target_fitness: Annotated[Optional[float], typer.Option(help="Stop once the best fitness reaches this.")]
     = None,
     no_prune: Annotated[bool, typer.Option("--no-prune", help="Simulate every trial to the end (by default a "
-                                           "trial that can no longer beat its parent stops early: same search, "
+                                           "DE trial that can no longer beat its parent stops early: same search, "
                                            "its stored fitness a lower bound).")] = False,
-    only: Annotated[Optional[str], typer.Option(help="Tune only these parameters of the space (comma-separated); "
-                                                "the rest keep their generic values.")] = None,
-    eval_timeout: Annotated[float, typer.Option(help="With --workers 2+: an evaluation still running after this "
-                                                "many seconds is abandoned, stored as failed, its worker replaced.")]
-    = 600.0,
+    only: OnlyOpt = None,
+    eval_timeout: EvalTimeoutOpt = 600.0,
     out_dir: Annotated[Path, typer.Option("--out", "-o", help="Run folder to create (store, best_params.json).")]
     = Path("runs/latest"),
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
 ) -> None:
-    """Tune an engine's parameters to recorded tasks with differential evolution.
+    """Tune an engine's parameters to recorded tasks (differential evolution by default; --optimizer).
 
     Every evaluation is stored in OUT/run.sqlite as it finishes; if the run is
-    killed, `simtune resume OUT` continues it without redoing any evaluation.
+    killed, `simtune resume OUT` continues it without redoing any evaluation
+    (every optimiser replays its search from its seed).
+
+    Example: simtune tune --engine mujoco --task cube --data DATA --optimizer cmaes --refine --max-evaluations 2000
     """
     from simtune.runs import RunConfig, start_run
     from simtune.store import RunStore
@@ -161,7 +181,8 @@ def tune(
     config = RunConfig(engine=engine, tasks=task, space=space, data=str(_data_root(data)), seed=seed,
                        workers=workers, max_seconds=max_seconds, max_generations=max_generations,
                        only=_split(only) if only else None, eval_timeout=eval_timeout,
-                       target_fitness=target_fitness, prune=not no_prune)
+                       target_fitness=target_fitness, prune=not no_prune, optimizer=optimizer, refine=refine,
+                       max_evaluations=max_evaluations)
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
     _report_tune(result, out_dir, config, RunStore(out_dir).get("generic"), as_json)
 
@@ -334,6 +355,205 @@ def params(
     for p in sp.parameters:
         table.add_row(p.name, f"{p.low:g}", f"{p.high:g}", p.unit, p.description)
     out.print(table)
+
+
+@app.command()
+def synth(
+    engine: EngineOpt = "mujoco",
+    task: Annotated[str, typer.Option("--task", "-t", help="Task(s) to record, comma-separated or a group "
+                                      "(seed-11 = seed-1 ... seed-10); see `simtune tasks`.")] = "cube",
+    truth: Annotated[Optional[Path], typer.Option(
+        "--truth", help="JSON of the true parameter values (a flat mapping or a params file such as "
+        "best_params.json), checked against the engine's parameters. Default: the engine's generic values "
+        "and a command delay.")] = None,
+    noise_mm: Annotated[float, typer.Option(help="Motion-capture noise: Gaussian, per axis, on every 100 Hz "
+                                            "sample of the wrist marker [mm] (a quarter of it on base and object).")]
+    = 2.0,
+    delay_s: Annotated[Optional[float], typer.Option(help="True command delay [s], overriding the truth file's "
+                                                     "(default without --truth: 1.5).")] = None,
+    jitter_s: Annotated[float, typer.Option(help="Each repeat's start moves by a uniform jitter within +- this [s], "
+                                            "as real repeats do.")] = 0.05,
+    repeats: Annotated[int, typer.Option(min=1, help="Recordings per task.")] = 10,
+    seed: Annotated[int, typer.Option(help="Seed of the noise (same seed, same files).")] = 0,
+    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Data root to write: OUT/<task>/*.tsv and "
+                                          "OUT/truth.json.", show_default=False)] = ...,
+) -> None:
+    """Make recordings with a known ground truth: simulate with chosen parameters, add mocap-like noise.
+
+    Writes Qualisys 6D TSV files (with header) to OUT/<task>/, read by every
+    command's --data OUT like real recordings, and OUT/truth.json (also a
+    --params-file). Tune on them to check that tuning recovers the truth.
+
+    Example: simtune synth --engine mujoco --task single,cube,double --delay-s 1.5 --out data/synthetic
+    """
+    from simtune.synth import load_truth, make_synthetic
+
+    values = load_truth(truth, engine, delay_s)
+    result = make_synthetic(engine, task, out_dir, truth=values, noise_m=noise_mm / 1000.0, repeats=repeats,
+                            seed=seed, jitter_s=jitter_s)
+    for name, files in result.files.items():
+        out.print(f"{name}: {len(files)} recordings in {out_dir / name}")
+    shown = ", ".join(f"{k}={v:g}" for k, v in values.items())
+    out.print(f"truth ({engine}): {shown}; noise {noise_mm:g} mm, jitter +-{jitter_s:g} s -> {out_dir / 'truth.json'}")
+
+
+@app.command()
+def compare(
+    optimizers: Annotated[str, typer.Option(help="Optimisers to compare, comma-separated: de, cmaes, bo, "
+                                            "random.")] = "de,cmaes,bo,random",
+    engine: EngineOpt = "mujoco",
+    task: TaskOpt = "cube",
+    data: DataOpt = None,
+    space: SpaceOpt = "extended",
+    budget_evals: Annotated[int, typer.Option("--budget-evals", min=1, help="Evaluations each run may use.")]
+    = 300,
+    seeds: Annotated[int, typer.Option(min=1, help="Runs per optimiser (seeds 0..N-1); medians are over them.")]
+    = 3,
+    target: Annotated[Optional[float], typer.Option(help="Fitness to reach: the table gives the evaluations each "
+                                                    "optimiser needed (median over seeds).")] = None,
+    workers: WorkersOpt = 1,
+    only: OnlyOpt = None,
+    eval_timeout: EvalTimeoutOpt = 600.0,
+    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Folder for the runs (OUT/<optimizer>/seed-<s>) and "
+                                          "compare.json; existing finished runs are reused.")] = Path("runs/compare"),
+    as_json: JsonOpt = False,
+) -> None:
+    """Compare optimisers on the same budget of evaluations: best fitness at 25/50/100 % of it, evaluations to a target.
+
+    Every optimiser x seed is an ordinary run; the table reads each run store's
+    evaluations in the order they were stored (the first --budget-evals of them).
+    Running the command again reuses finished runs and resumes unfinished ones.
+
+    Example: simtune compare --engine mujoco --task cube --data DATA --budget-evals 300 --seeds 3 --target 0.05
+    """
+    from simtune.compare import markdown_table, run_compare
+    from simtune.runs import RunConfig
+
+    base = RunConfig(engine=engine, tasks=task, space=space, data=str(_data_root(data)), workers=workers,
+                     only=_split(only) if only else None, eval_timeout=eval_timeout)
+
+    def note(name: str, seed: int, what: str) -> None:
+        if not as_json:
+            err.print(f"{what} {name} seed {seed} ...", highlight=False)
+
+    result = run_compare(base, _split(optimizers), seeds, budget_evals, out_dir, target, on_run=note)
+    if as_json:
+        print(json.dumps({k: v for k, v in result.items() if k != "runs"}))
+        return
+    text = markdown_table(result)
+    print(f"{engine} on {task}, space {space}: {budget_evals} evaluations x {seeds} seeds (median over seeds)\n")
+    print(text)
+    (out_dir / "compare.md").write_text(text)
+    out.print(f"runs and compare.json, compare.md in {out_dir}", highlight=False, soft_wrap=True)
+
+
+@app.command()
+def transfer(
+    engine: EngineOpt = "mujoco",
+    train: Annotated[str, typer.Option(help="Tasks to tune on together (comma-separated).")] = "single,cube",
+    test: Annotated[str, typer.Option(help="Unseen tasks to evaluate the tuned parameters on.")] = "double",
+    data: DataOpt = None,
+    test_data: Annotated[Optional[Path], typer.Option(help="Data root of the test tasks (default: --data).")]
+    = None,
+    space: SpaceOpt = "extended",
+    optimizer: OptimizerOpt = "de",
+    refine: Annotated[bool, typer.Option("--refine", help="Polish the tuned point with least squares.")] = False,
+    seed: Annotated[int, typer.Option(help="Random seed of the optimiser.")] = 0,
+    workers: WorkersOpt = 1,
+    max_seconds: Annotated[Optional[float], typer.Option(help="Tuning wall-time limit [s].")] = None,
+    max_generations: Annotated[int, typer.Option(min=1, help="Tuning generation limit.")] = 1000,
+    max_evaluations: MaxEvalsOpt = None,
+    only: OnlyOpt = None,
+    eval_timeout: EvalTimeoutOpt = 600.0,
+    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Folder for the tuning run (OUT/run) and "
+                                          "transfer.json.")] = Path("runs/transfer"),
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    as_json: JsonOpt = False,
+) -> None:
+    """Tune on some tasks, then test the tuned parameters on tasks never tuned on, against generic.
+
+    The tuning run is an ordinary run (resumable; OUT/run/best_params.json works
+    with `simtune evaluate --params-file` on any task). Running the command again
+    resumes or reuses it.
+
+    Example: simtune transfer --engine mujoco --train single,cube --test double --data DATA --max-evaluations 500
+    """
+    from simtune.runs import RunConfig
+    from simtune.transfer import run_transfer
+
+    config = RunConfig(engine=engine, tasks=train, space=space, data=str(_data_root(data)), seed=seed,
+                       workers=workers, max_seconds=max_seconds, max_generations=max_generations,
+                       max_evaluations=max_evaluations, only=_split(only) if only else None,
+                       eval_timeout=eval_timeout, optimizer=optimizer, refine=refine)
+    result = run_transfer(config, test, out_dir, test_data, show_progress=not quiet and not as_json)
+    if as_json:
+        print(json.dumps({k: v for k, v in result.items() if k != "params"}))
+        return
+    table = Table(title=f"{engine}: tuned on {train} ({space}, {optimizer}), tested on {test}")
+    for col in ("task", "set", "generic", "tuned", "change", "wrist [m]", "object [m]"):
+        table.add_column(col, justify="left" if col in ("task", "set") else "right")
+    for r in result["tasks"]:
+        table.add_row(r["task"], r["role"], _fmt(r["generic"]), _fmt(r["tuned"]), f"{r['change'] * 100:+.0f} %",
+                      _fmt(r["tuned_wrist"]), _fmt(r["tuned_object"]))
+    for role, t in result["totals"].items():
+        table.add_row(f"[bold]all {role}[/]", role, _fmt(t["generic"]), _fmt(t["tuned"]), f"{t['change'] * 100:+.0f} %",
+                      "", "")
+    out.print(table)
+    out.print(f"tuned parameters: {result['best_params_file']}; result: {out_dir / 'transfer.json'}")
+
+
+@app.command()
+def sensitivity(
+    engine: EngineOpt = "mujoco",
+    task: TaskOpt = "cube",
+    data: DataOpt = None,
+    space: SpaceOpt = "extended",
+    samples: Annotated[int, typer.Option(min=2, help="morris: trajectories (N (D+1) evaluations); sobol: base "
+                                         "samples, a power of two (N (D+2) evaluations).")] = 10,
+    method: Annotated[str, typer.Option(help="morris (elementary effects, cheap screening) or sobol (variance "
+                                        "shares S1 and ST).")] = "morris",
+    seed: Annotated[int, typer.Option(help="Seed of the sampling.")] = 0,
+    workers: WorkersOpt = 1,
+    only: OnlyOpt = None,
+    eval_timeout: EvalTimeoutOpt = 600.0,
+    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Folder for sensitivity.json/.csv/.md/.png and the "
+                                          "evaluation cache.")] = Path("runs/sensitivity"),
+    as_json: JsonOpt = False,
+) -> None:
+    """Global sensitivity of the fitness to each parameter (SALib Morris or Sobol), most influential first.
+
+    Evaluations run through the same process pool as tuning and are cached in
+    OUT/sensitivity.sqlite. `simtune report` picks up OUT/sensitivity.json when
+    OUT is under or next to its input folders.
+
+    Example: simtune sensitivity --engine mujoco --task cube --data DATA --samples 20 --workers 2 --out runs/sens
+    """
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from simtune.engines import engine_class
+    from simtune.params import get_space
+    from simtune.sensitivity import evaluation_count, run_sensitivity, sensitivity_table
+
+    dim = len(get_space(space, engine_class(engine).supported(), _split(only) if only else None))
+    total = evaluation_count(method, samples, dim)
+    with Progress(TextColumn("[bold]sensitivity[/]"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=err, disable=as_json) as bar:
+        job = bar.add_task("evaluate", total=total)
+        result = run_sensitivity(engine, task, _data_root(data), space, out_dir, samples=samples, method=method,
+                                 only=_split(only) if only else None, seed=seed, workers=workers,
+                                 eval_timeout=eval_timeout, on_evaluation=lambda score, reused: bar.advance(job))
+    if as_json:
+        print(json.dumps(result))
+        return
+    table = sensitivity_table(result)
+    view = Table(title=table.title)
+    for col in table.columns:
+        view.add_column(col.name, justify="left" if col.name == "parameter" else "right")
+    for row in table.rows:
+        view.add_row(*(table.cell(v, c) for v, c in zip(row, table.columns)))
+    out.print(view)
+    out.print(table.note, highlight=False, markup=False)
+    out.print(f"{result['new_evaluations']} new evaluations; files in {out_dir}: sensitivity.json, .csv, .md, .png")
 
 
 app.command()(report)  # defined beside the report package it drives

@@ -22,17 +22,32 @@ CONTROLLER_PARAMETERS = frozenset({f"max_velocity_joint_{i}" for i in range(1, 7
 
 
 class JointController:
-    """Clamped proportional velocity control towards the task's joint targets."""
+    """Clamped proportional velocity control towards the task's joint targets.
+
+    The gain is in (deg/s)/deg = 1/s, so the law holds unchanged in radians;
+    the controller works in radians throughout.
+    """
 
     def __init__(self, task: TaskSpec, params: dict[str, float] | None = None):
         params = params or {}
         self.task = task
-        self.kp = task.kp
-        self.v_max = np.array([params.get(f"max_velocity_joint_{i}", task.max_velocity_deg) for i in range(1, 7)])
+        self.kp = float(task.kp)
+        v_max = [params.get(f"max_velocity_joint_{i}", task.max_velocity_deg) for i in range(1, 7)]
+        self.v_max = np.radians(np.array(v_max, dtype=float))
         self.delay = float(params.get("command_delay", 0.0))
+
+    def targets(self, times: np.ndarray) -> np.ndarray:
+        """Joint targets [rad] in force at each simulated time of ``times`` (one row per time)."""
+        starts, table = self.task.schedule
+        rows = np.searchsorted(starts, np.asarray(times, dtype=float) - self.delay + 1e-12, side="right")
+        return np.radians(table[rows])
+
+    def velocity(self, target: np.ndarray, angles_rad: np.ndarray) -> np.ndarray:
+        """Joint velocity targets [rad/s] towards ``target`` [rad] from ``angles_rad``."""
+        # two ufuncs instead of np.clip: this runs at every control update of every rollout
+        velocity = np.multiply(target - angles_rad, self.kp)
+        return np.minimum(np.maximum(velocity, -self.v_max, out=velocity), self.v_max, out=velocity)
 
     def command(self, t: float, angles_rad: np.ndarray) -> np.ndarray:
         """Joint velocity targets [rad/s] at simulated time ``t`` for joint angles ``angles_rad``."""
-        target = self.task.targets_deg(t - self.delay)
-        velocity = np.clip(self.kp * (target - np.degrees(angles_rad)), -self.v_max, self.v_max)
-        return np.radians(velocity)
+        return self.velocity(self.targets([t])[0], angles_rad)

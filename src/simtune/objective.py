@@ -15,7 +15,7 @@ import numpy as np
 from simtune.data import TaskData, load_task_data
 from simtune.engines import Engine, engine_class, make_engine
 from simtune.errors import SimtuneError
-from simtune.fitness import Score, TaskScore, score_rollout
+from simtune.fitness import PENALTY, Score, TaskScore, marker_positions, score_rollout
 from simtune.params import ParameterSpace
 from simtune.tasks import TaskSpec
 
@@ -95,6 +95,49 @@ class Objective:
             if bound is not None and spent > bound:
                 break  # the remaining tasks cannot lower the sum
         return Score.combine(scores)
+
+    def _has_object_residual(self, task: TaskSpec) -> bool:
+        return task.object is not None and self.references[task.name].object_final is not None
+
+    @property
+    def residual_size(self) -> int:
+        """Length of :meth:`residuals`: 3 per 20 Hz sample of each task, plus 3 per task with an object."""
+        return sum(3 * len(self.references[t.name].times) + 3 * self._has_object_residual(t) for t in self.tasks)
+
+    def penalty_residuals(self) -> np.ndarray:
+        """The residuals of a simulation that blew up or failed: their squares sum to ``PENALTY**2``."""
+        m = self.residual_size
+        return np.full(m, PENALTY / np.sqrt(m))
+
+    def residuals_and_score(self, params: dict[str, float]) -> tuple[np.ndarray, Score]:
+        """Residual vector of ``params`` for least squares, and its score, from the same rollouts.
+
+        Per task: the simulated marker minus the mean recorded wrist at every
+        20 Hz sample (x, y, z), divided by sqrt(samples), then the simulated
+        minus the recorded final object position.  Their sum of squares is the
+        mean squared marker error plus the squared object error, summed over
+        the tasks: the fitness with squared instead of plain distances.  A
+        simulation that blew up gets :meth:`penalty_residuals`.
+        """
+        parts: list[np.ndarray] = []
+        scores: list[TaskScore] = []
+        for task in self.tasks:
+            reference = self.references[task.name]
+            n = len(reference.times)
+            rollout = self._engine(task).rollout(params, n)
+            scores.append(score_rollout(rollout, reference, params))
+            parts.append(((marker_positions(rollout, params) - reference.wrist_mean) / np.sqrt(n)).ravel())
+            if self._has_object_residual(task):
+                parts.append(rollout.object_pos[-1] - reference.object_final_mean)
+        score = Score.combine(scores)
+        residuals = np.concatenate(parts)
+        if not score.stable or not np.all(np.isfinite(residuals)):
+            residuals = self.penalty_residuals()
+        return residuals, score
+
+    def residuals(self, params: dict[str, float]) -> np.ndarray:
+        """The residual vector of :meth:`residuals_and_score` alone."""
+        return self.residuals_and_score(params)[0]
 
     def score_vector(self, x, bound: float | None = None) -> Score:
         assert self.space is not None, "score_vector needs a parameter space"

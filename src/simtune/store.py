@@ -142,7 +142,7 @@ class RunStore:
         return np.frombuffer(row[0], dtype=np.float64).copy() if row else None
 
     def record_residuals(self, x, residuals) -> None:
-        with self.db:
+        with self._writing():
             self.db.execute("INSERT OR IGNORE INTO residuals VALUES (?, ?)",
                             (vector_key(x), np.ascontiguousarray(residuals, dtype=np.float64).tobytes()))
 

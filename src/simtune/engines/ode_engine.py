@@ -176,6 +176,7 @@ class OdeEngine(Engine):
     def _build(self, p: dict[str, float]) -> None:
         """Create the world with parameters ``p`` (a complete set), the arm at angle 0."""
         self._destroy()
+        self._pose_views: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # id(body) -> views of its pose
         _messages.clear()
         self._failed = ""
         ode.dRandSetSeed(0)
@@ -387,10 +388,14 @@ class OdeEngine(Engine):
         return self._angles.copy()
 
     def _body_pose(self, body) -> tuple[np.ndarray, np.ndarray]:
-        ptr = ctypes.cast(body, c_void_p).value
-        pos = np.ctypeslib.as_array(_body_pos(ptr), shape=(3,)).copy()
-        rot = np.ctypeslib.as_array(_body_rot(ptr), shape=(12,)).reshape(3, 4)[:, :3].copy()
-        return pos, rot
+        # ODE keeps a body's position and rotation at fixed addresses: wrap them once per body
+        views = self._pose_views.get(id(body))
+        if views is None:
+            ptr = ctypes.cast(body, c_void_p).value
+            views = self._pose_views[id(body)] = (
+                np.ctypeslib.as_array(_body_pos(ptr), shape=(3,)),
+                np.ctypeslib.as_array(_body_rot(ptr), shape=(12,)).reshape(3, 4)[:, :3])
+        return views[0].copy(), views[1].copy()
 
     def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:
         pos, rot = self._body_pose(self._bodies[WRIST_LINK])

@@ -19,6 +19,7 @@ import numpy as np
 
 from simtune.data import Recording, write_qualisys_tsv
 from simtune.engines import make_engine
+from simtune.errors import SimtuneError
 from simtune.fitness import marker_positions
 from simtune.reference import REFERENCE_DIR
 from simtune.tasks import TaskSpec, get_task
@@ -42,8 +43,17 @@ TRUTH = {
 
 
 def synthesize(engine: str, task: TaskSpec, truth: dict[str, float], *, repeats: int, noise_m: float,
-               jitter_s: float, seed: int, rate: float = RATE) -> list[Recording]:
-    """Recordings of ``task`` simulated by ``engine`` with parameters ``truth``, plus mocap-like noise."""
+               jitter_s: float, seed: int, rate: float = RATE, suffix: str = ".tsv.gz") -> list[Recording]:
+    """Recordings of ``task`` simulated by ``engine`` with parameters ``truth``, plus mocap-like noise.
+
+    Each repeat shifts the command delay by a uniform jitter in +-``jitter_s``
+    (real repeats start at slightly different times), samples the simulation's
+    marker (wrist plus ``marker_offset_*``) at ``rate`` Hz with Gaussian noise of
+    ``noise_m`` per axis, the base marker and the object with a quarter of it.
+    Any engine and any task (with or without object) works; ``suffix`` names
+    the files ``<task><repeat:04d><suffix>``.  A truth whose simulation blows up
+    is refused with a SimtuneError.
+    """
     rng = np.random.default_rng(seed)
     sim = make_engine(engine, task)
     duration = task.duration
@@ -53,6 +63,10 @@ def synthesize(engine: str, task: TaskSpec, truth: dict[str, float], *, repeats:
         params["command_delay"] = max(0.0, truth.get("command_delay", 0.0) + rng.uniform(-jitter_s, jitter_s))
         n20 = int(round(duration * 20)) + 1
         rollout = sim.rollout(params, n20)
+        if not rollout.stable:
+            sim.close()
+            raise SimtuneError(f"{engine} on {task.name}: the simulation with these parameters is unstable "
+                               f"({rollout.message}); choose other true values")
         t = np.arange(int(round(duration * rate)) + 1) / rate
         marker = marker_positions(rollout, params)
 
@@ -66,7 +80,7 @@ def synthesize(engine: str, task: TaskSpec, truth: dict[str, float], *, repeats:
         if task.object is not None:
             positions[task.object.mocap_body] = up(rollout.object_pos) + rng.normal(0, noise_m / 4, (len(t), 3))
             rotations[task.object.mocap_body] = np.tile(np.eye(3), (len(t), 1, 1))
-        recordings.append(Recording(Path(f"{task.name}{r + 1:04d}.tsv.gz"), t, positions, rotations))
+        recordings.append(Recording(Path(f"{task.name}{r + 1:04d}{suffix}"), t, positions, rotations))
     sim.close()
     return recordings
 

@@ -260,9 +260,16 @@ def make_report(paths: Iterable[Path | str] | Path | str, out: Path | str, publi
             (out / "tables" / f"{table.name}.md").write_text(table.to_markdown())
         progress.step()
 
+        sensitivity = _sensitivity_items(paths, out, warn)
+
         # --- html -----------------------------------------------------------------------------------------------
         progress.describe("writing index.html")
         sections = _sections(tables, figs, published_sims is not None)
+        if sensitivity:
+            sections.insert(-1, Section("sensitivity", "9. Global sensitivity",
+                                        "Results of <code>simtune sensitivity</code> found in or next to the "
+                                        "input folders: how much the fitness changes with each parameter over the "
+                                        "whole space, to compare with the importance of section 5.", sensitivity))
         meta = [
             f"simtune {simtune.__version__}, {_dt.datetime.now().astimezone().strftime('%Y-%m-%d %H:%M %Z')}. "
             f"Inputs: {', '.join(str(p) for p in paths)}"
@@ -275,6 +282,28 @@ def make_report(paths: Iterable[Path | str] | Path | str, out: Path | str, publi
         index.write_text(render("simtune report: simulator tuning results", meta, problems, sections))
         progress.finish()
     return index
+
+
+def _sensitivity_items(paths: list[Path], out: Path, warn) -> list:
+    """Table and figure of each ``sensitivity.json`` under or next to the inputs (written into the report)."""
+    import json
+
+    from simtune.sensitivity import find_results, sensitivity_figure, sensitivity_table
+
+    items: list = []
+    for k, path in enumerate(find_results(paths), start=1):
+        try:
+            result = json.loads(path.read_text())
+            table = sensitivity_table(result, name=f"sensitivity_{k}")
+            fig = sensitivity_figure(result)
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            warn(f"{path}: skipped: not a readable sensitivity result ({type(exc).__name__}: {exc})")
+            continue
+        table.note = f"From {path}. " + table.note
+        (out / "tables" / f"{table.name}.csv").write_text(table.to_csv())
+        (out / "tables" / f"{table.name}.md").write_text(table.to_markdown())
+        items += [table, FigureRef(table.name, F.save(fig, out / "figures", table.name), table.title + ".")]
+    return items
 
 
 def _prepare(out: Path) -> None:

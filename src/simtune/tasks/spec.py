@@ -107,14 +107,12 @@ class TaskSpec:
     #: whether real recordings of this task exist in the qrg2019 data set
     has_public_recordings: bool = False
 
-    def targets_deg(self, t: float) -> np.ndarray:
-        """Joint targets [deg] in force at time ``t`` (the start pose before the first phase)."""
-        starts, table = self._schedule
-        return table[int(np.searchsorted(starts, t + 1e-12, side="right"))]
-
     @cached_property
-    def _schedule(self) -> tuple[np.ndarray, np.ndarray]:
-        """Phase start times, and the target rows: the start pose, then each phase's targets."""
+    def schedule(self) -> tuple[np.ndarray, np.ndarray]:
+        """Phase start times, and the target rows [deg]: the start pose, then each phase's targets.
+
+        Row ``searchsorted(starts, t, side="right")`` is in force at time ``t``.
+        """
         starts = np.array([p.start for p in self.phases])
         table = np.array([self.start_pose_deg, *(p.targets_deg for p in self.phases)], dtype=float)
         return starts, table

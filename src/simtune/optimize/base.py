@@ -1,0 +1,144 @@
+"""Budgets, checkpoints and the best point, for every optimiser that evaluates batches of vectors.
+
+An optimiser asks for a batch of vectors, :class:`BatchSearch` scores it
+through the :class:`~simtune.optimize.evaluator.Evaluator` (store cache,
+process pool), checkpoints it with ``store.record_generation`` and says
+whether a budget of its :class:`~simtune.optimize.evaluator.TuneSettings`
+is spent:
+
+- ``max_seconds``: wall time over all sessions of the run;
+- ``max_evaluations``: evaluations asked for (simulated or taken from the
+  store); ``remaining()`` lets an optimiser shorten its last batch to fit;
+- ``max_generations``: generations of the optimiser (``generation_size`` = 0),
+  or, for optimisers without generations, units of ``generation_size``
+  evaluations (1 x D, as DE's population);
+- ``target_fitness``: the best fitness so far reached it.
+
+Every optimiser built on it is deterministic given its seed and the fitness
+values, so resuming a run replays it with every stored evaluation reused.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from simtune.objective import Objective
+from simtune.optimize.evaluator import Evaluator, TuneResult, TuneSettings
+from simtune.store import RunStore
+
+
+class BatchSearch:
+    """Budget accounting and checkpoints for an optimiser that evaluates batches of vectors."""
+
+    def __init__(self, objective: Objective, store: RunStore, settings: TuneSettings, *, generation_size: int = 0,
+                 first_generation: int = 1, prune: bool = False):
+        self.objective = objective
+        self.store = store
+        self.settings = settings
+        self.space = objective.space
+        self.lows = np.array([lo for lo, _ in self.space.bounds], dtype=float)
+        self.highs = np.array([hi for _, hi in self.space.bounds], dtype=float)
+        self.generation_size = generation_size
+        self.evaluator = Evaluator(objective, store, settings.workers, settings.on_evaluation, settings.eval_timeout,
+                                   prune=prune and settings.prune)
+        self.evaluator.generation = first_generation
+        self.first_generation = first_generation
+        self.start = time.perf_counter()
+        self.history: list[float] = []
+        self.best_x: np.ndarray | None = None
+        self.best_fitness = float("inf")
+        self.stop_reason: str | None = None
+
+    # --- context: the process pool -----------------------------------------------------------------
+    def __enter__(self) -> "BatchSearch":
+        self.evaluator.__enter__()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.evaluator.__exit__(*exc)
+
+    # --- scaling: optimisers that work in the unit cube ---------------------------------------------
+    def from_unit(self, u) -> np.ndarray:
+        """Parameter vector(s) for point(s) of [0, 1]^D (clipped to the bounds)."""
+        x = self.lows + np.asarray(u, dtype=float) * (self.highs - self.lows)
+        return np.clip(x, self.lows, self.highs)
+
+    def to_unit(self, x) -> np.ndarray:
+        width = np.where(self.highs > self.lows, self.highs - self.lows, 1.0)
+        return (np.asarray(x, dtype=float) - self.lows) / width
+
+    # --- budgets ------------------------------------------------------------------------------------
+    def elapsed(self) -> float:
+        return self.settings.elapsed_before + time.perf_counter() - self.start
+
+    @property
+    def used(self) -> int:
+        """Evaluations asked for so far in this session's search (reused from the store or simulated)."""
+        return self.evaluator.requested
+
+    @property
+    def generations(self) -> int:
+        return len(self.history)
+
+    def remaining(self) -> int | None:
+        """Evaluations left in the budget (None: no evaluation budget)."""
+        s = self.settings
+        caps = [s.max_evaluations] if s.max_evaluations is not None else []
+        if self.generation_size and s.max_generations is not None:
+            caps.append(s.max_generations * self.generation_size)
+        return max(0, min(caps) - self.used) if caps else None
+
+    def _check(self) -> str | None:
+        s = self.settings
+        if s.max_seconds is not None and self.elapsed() >= s.max_seconds:
+            return f"stopped after {s.max_seconds:g} s"
+        if s.target_fitness is not None and self.best_fitness <= s.target_fitness:
+            return f"reached the target fitness {s.target_fitness:g}"
+        if s.max_evaluations is not None and self.used >= s.max_evaluations:
+            return f"used its budget of {s.max_evaluations} evaluations"
+        if s.max_generations is not None:
+            if not self.generation_size and self.generations >= s.max_generations:
+                return f"reached {s.max_generations} generations"
+            if self.generation_size and self.used >= s.max_generations * self.generation_size:
+                return f"used {s.max_generations} generations of {self.generation_size} evaluations"
+        return None
+
+    # --- one batch ----------------------------------------------------------------------------------
+    def evaluate(self, vectors) -> np.ndarray:
+        """Fitness of a batch; tracks the best point."""
+        vectors = np.atleast_2d(np.asarray(vectors, dtype=float))
+        fitness = self.evaluator.evaluate(vectors)
+        self.track(vectors, fitness)
+        return fitness
+
+    def track(self, vectors, fitness) -> None:
+        """Note scored vectors (the best point so far is kept)."""
+        i = int(np.argmin(fitness))
+        if fitness[i] < self.best_fitness:
+            self.best_fitness = float(fitness[i])
+            self.best_x = np.array(vectors[i], dtype=float)
+
+    def checkpoint(self, vectors, fitness) -> bool:
+        """Record a batch (or population) as a generation checkpoint; True when a budget says stop."""
+        generation = self.first_generation + len(self.history)
+        self.history.append(self.best_fitness)
+        elapsed = self.elapsed()
+        self.store.record_generation(generation, np.atleast_2d(vectors), fitness, self.best_x, self.best_fitness,
+                                     self.store.count_evaluations(), elapsed)
+        self.store.set(elapsed_s=elapsed)
+        if self.settings.on_generation:
+            self.settings.on_generation(generation, self.best_fitness)
+        self.stop_reason = self._check()
+        return self.stop_reason is not None
+
+    def result(self, message: str | None = None, converged: bool = False) -> TuneResult:
+        """The :class:`TuneResult` of the search so far (best point, with its stored score)."""
+        if self.best_x is None:
+            raise RuntimeError("no batch was evaluated")
+        best = self.store.lookup(self.best_x) or self.objective.score_vector(self.best_x)
+        return TuneResult(self.best_x, self.space.to_dict(self.best_x), best, self.generations,
+                          self.store.count_evaluations(), self.evaluator.new_evaluations, self.elapsed(),
+                          message or self.stop_reason or "stopped", converged, list(self.history),
+                          self.evaluator.pruned_evaluations, self.evaluator.steps, self.used)

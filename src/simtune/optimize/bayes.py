@@ -1,0 +1,57 @@
+"""Bayesian optimisation with Optuna's TPE sampler, seeded: ask/tell in batches of ``workers`` trials.
+
+Optuna keeps its study in memory; the run store is what persists.  Trials of
+one batch are asked before any is told (TPE's "constant liar" keeps them
+apart), and the sampler is seeded, so the same seed and the same fitness
+values give the same trials: a resumed run replays them from the store.
+Without generations of its own, D trials count as one generation for
+``max_generations``.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from simtune.errors import SimtuneError
+from simtune.objective import Objective
+from simtune.optimize.base import BatchSearch
+from simtune.optimize.evaluator import TuneResult, TuneSettings
+from simtune.store import RunStore
+
+
+def _optuna():
+    try:
+        import optuna
+    except ImportError:
+        raise SimtuneError("optimizer 'bo' needs the optuna package: pip install 'simtune[opt]'") from None
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    return optuna
+
+
+def bayesian_tune(objective: Objective, store: RunStore, settings: TuneSettings) -> TuneResult:
+    """TPE (multivariate, 10 random start-up trials) over the parameter ranges; batches of ``workers`` trials."""
+    optuna = _optuna()
+    space = objective.space
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        sampler = optuna.samplers.TPESampler(seed=settings.seed, multivariate=True, constant_liar=True,
+                                             n_startup_trials=10)
+    study = optuna.create_study(direction="minimize", sampler=sampler)
+    distributions = {p.name: optuna.distributions.FloatDistribution(p.low, p.high) for p in space.parameters}
+    search = BatchSearch(objective, store, settings, generation_size=len(space))
+    size = max(1, int(settings.workers))
+    with search:
+        while True:
+            left = search.remaining()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+                trials = [study.ask(distributions) for _ in range(size if left is None else min(size, left))]
+            batch = np.array([[t.params[name] for name in space.names] for t in trials], dtype=float)
+            fitness = search.evaluate(batch)
+            for trial, f in zip(trials, fitness):
+                study.tell(trial, float(f))
+            if search.checkpoint(batch, fitness):
+                break
+        return search.result()

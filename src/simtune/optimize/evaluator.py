@@ -1,0 +1,264 @@
+"""What every optimiser shares: its settings, its result, and the Evaluator that scores batches.
+
+The :class:`Evaluator` takes finished evaluations from the run store and
+simulates the rest, in this process or in a pool of worker processes (each
+builds its engines once).  In worker processes an evaluation that crashes its
+process (a segfault inside an engine) or runs past ``eval_timeout`` seconds
+costs only itself: the worker is replaced, the evaluation is stored as failed
+with a penalty fitness, and the run goes on.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import TimeoutError as FutureTimeout
+from concurrent.futures import as_completed
+from dataclasses import dataclass, field
+
+import numpy as np
+from pebble import ProcessExpired, ProcessPool
+
+from simtune.errors import SimtuneError
+from simtune.fitness import PENALTY, Score, TaskScore
+from simtune.objective import Objective
+from simtune.store import RunStore
+
+
+@dataclass
+class TuneSettings:
+    """How an optimiser runs: seed, processes and budgets (the same for every optimiser).
+
+    ``elapsed_before`` is the wall time earlier sessions of the same run spent
+    (it counts against ``max_seconds`` when a run is resumed).  Budgets are
+    checked after each batch (generation); ``max_evaluations`` counts the
+    evaluations the search asked for, simulated or taken from the store, so a
+    resumed run that replays its search stops where an uninterrupted one would.
+    """
+
+    seed: int = 0
+    workers: int = 1
+    max_seconds: float | None = None
+    max_generations: int | None = 1000
+    max_evaluations: int | None = None
+    elapsed_before: float = 0.0
+    eval_timeout: float | None = None
+    prune: bool = True  # only differential evolution has parents to prune against
+    target_fitness: float | None = None
+    on_evaluation: Callable[[Score, bool], None] | None = None  # (score, taken from the store)
+    on_generation: Callable[[int, float], None] | None = None  # (generation, best fitness)
+
+
+@dataclass
+class TuneResult:
+    """The outcome of a tuning run, in the spirit of SciPy's ``OptimizeResult``."""
+
+    x: np.ndarray
+    params: dict[str, float]
+    score: Score
+    generations: int
+    evaluations: int  # evaluations in the store (all sessions of this run)
+    new_evaluations: int  # evaluations simulated in this session
+    wall_s: float  # elapsed over all sessions of this run
+    message: str
+    converged: bool
+    history: list[float] = field(default_factory=list)  # best fitness per generation
+    pruned_evaluations: int = 0  # evaluations of this session stopped early (could not beat their parent)
+    steps: int = 0  # physics steps simulated in this session
+    used_evaluations: int = 0  # evaluations the search asked for (reused or simulated): what budgets count
+
+    @property
+    def fitness(self) -> float:
+        return self.score.fitness
+
+
+def failed_score(reason: str) -> Score:
+    """The score recorded for an evaluation whose worker crashed or hung: a flagged penalty."""
+    return Score(PENALTY, PENALTY, None, [TaskScore("all", PENALTY, PENALTY, None, False, reason)])
+
+
+# --- what one evaluation computes, in this process or a worker ------------------------------------------
+def _score(objective: Objective, x: np.ndarray, bound: float | None) -> tuple[None, Score]:
+    return None, objective.score_vector(x, bound)
+
+
+def _residuals(objective: Objective, x: np.ndarray) -> tuple[np.ndarray, Score]:
+    return objective.residuals_and_score(objective.space.to_dict(x))
+
+
+_WORKER_OBJECTIVE: Objective | None = None
+
+
+def _init_worker(objective: Objective) -> None:
+    global _WORKER_OBJECTIVE
+    _WORKER_OBJECTIVE = objective
+
+
+def _in_worker(work: Callable, *args) -> tuple[object, dict, float]:
+    t0 = time.perf_counter()
+    payload, score = work(_WORKER_OBJECTIVE, *args)
+    return payload, score.to_dict(), time.perf_counter() - t0
+
+
+class Evaluator:
+    """Scores batches of vectors, from the store or by simulating; a map-like callable for SciPy.
+
+    ``evaluate`` (or calling it, as SciPy's differential evolution does with its
+    ``workers`` map) gives the fitness of each vector; ``residuals`` gives each
+    vector's residual vector and score for a least-squares solver, keeping the
+    residuals in the store as well.  ``requested`` counts the vectors asked for
+    in this session, reused or simulated: on a deterministic replay it is the
+    same at the same point of the search, which is what an evaluation budget
+    must count.  ``on_evaluation(score, reused)`` is called for every result.
+    With ``prune``, trial i of a batch the size of ``parent_energies`` stops as
+    soon as it cannot beat parent i (differential evolution's selection).
+    """
+
+    def __init__(self, objective: Objective, store: RunStore, workers: int = 1,
+                 on_evaluation: Callable[[Score, bool], None] | None = None, eval_timeout: float | None = None,
+                 prune: bool = True):
+        self.objective = objective
+        self.store = store
+        self.workers = max(1, int(workers))
+        self.on_evaluation = on_evaluation
+        self.eval_timeout = eval_timeout
+        self.generation = 0
+        self.requested = 0
+        self.new_evaluations = 0
+        self.failed_evaluations = 0
+        self.pruned_evaluations = 0
+        self.steps = 0
+        #: fitness of each trial's parent, in SciPy's population order (None: no pruning)
+        self.parent_energies: np.ndarray | None = None
+        self.prune = prune
+        self._pool: ProcessPool | None = None
+        self._batch_failures: list[str] = []
+
+    def __enter__(self) -> "Evaluator":
+        if self.workers > 1:
+            # spawn: engines hold native handles that must not be shared through fork
+            self._pool = ProcessPool(self.workers, initializer=_init_worker, initargs=(self.objective,),
+                                     context=multiprocessing.get_context("spawn"))
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._pool is not None:
+            self._pool.stop()
+            self._pool.join()
+            self._pool = None
+        self.objective.close()
+
+    def _failed(self, reason: str) -> Score:
+        self.failed_evaluations += 1
+        self._batch_failures.append(reason)
+        return failed_score(reason)
+
+    def _record(self, x, score: Score, wall_s: float) -> None:
+        self.store.record_evaluation(x, score, self.generation, wall_s)
+        self.new_evaluations += 1
+        self.pruned_evaluations += score.pruned
+        self.steps += sum(t.steps for t in score.tasks)
+        if self.on_evaluation:
+            self.on_evaluation(score, False)
+
+    def _run(self, work: Callable, jobs: dict[int, tuple]) -> Iterator[tuple[int, object, Score, float]]:
+        """``(i, payload, score, wall_s)`` of ``work(objective, *jobs[i])`` for each job, as each finishes.
+
+        A failure of one evaluation (an engine error at a corner of the space, a
+        dead or hung worker) gives a failed score and no payload; a SimtuneError
+        (bad input, full disk) stops the run.
+        """
+        if self._pool is None:
+            for i, args in jobs.items():
+                t0 = time.perf_counter()
+                try:
+                    payload, score = work(self.objective, *args)
+                except SimtuneError:
+                    raise
+                except Exception as exc:
+                    payload, score = None, self._failed(f"{type(exc).__name__}: {exc}")
+                yield i, payload, score, time.perf_counter() - t0
+            return
+        futures = {self._pool.schedule(_in_worker, (work, *args), timeout=self.eval_timeout): i
+                   for i, args in jobs.items()}
+        started = time.perf_counter()
+        for future in as_completed(futures):
+            wall_s, payload = time.perf_counter() - started, None
+            try:
+                payload, score_dict, wall_s = future.result()
+                score = Score.from_dict(score_dict)
+            except FutureTimeout:
+                score = self._failed(f"evaluation ran past {self.eval_timeout:g} s; worker replaced")
+            except ProcessExpired as exc:
+                score = self._failed(f"worker process died (exit code {exc.exitcode}); worker replaced")
+            except SimtuneError:
+                raise
+            except Exception as exc:
+                score = self._failed(f"{type(exc).__name__}: {exc}")
+            yield futures[future], payload, score, wall_s
+
+    def _end_batch(self, simulated: int) -> None:
+        if simulated and len(self._batch_failures) == simulated:
+            raise SimtuneError(f"every evaluation of generation {self.generation} failed: {self._batch_failures[0]}")
+        self.generation += 1
+
+    def evaluate(self, vectors) -> np.ndarray:
+        """Fitness of each vector of a batch (one generation), from the store or simulated."""
+        return np.asarray(self(None, vectors), dtype=float)
+
+    def __call__(self, func, vectors) -> list[float]:
+        vectors = [np.asarray(x, dtype=float) for x in vectors]
+        self.requested += len(vectors)
+        self._batch_failures = []
+        parents = self.parent_energies
+        pruning = self.prune and parents is not None and len(parents) == len(vectors)
+        fitness: list[float] = [0.0] * len(vectors)
+        jobs = {}
+        for i, x in enumerate(vectors):
+            known = self.store.lookup(x)
+            if known is None:
+                jobs[i] = (x, float(parents[i]) if pruning else None)  # trial i competes with member i
+                continue
+            fitness[i] = known.fitness
+            if self.on_evaluation:
+                self.on_evaluation(known, True)
+        for i, _, score, wall_s in self._run(_score, jobs):
+            self._record(vectors[i], score, wall_s)
+            fitness[i] = score.fitness
+        self._end_batch(len(jobs))
+        return fitness
+
+    def residuals(self, vectors) -> list[tuple[np.ndarray, Score]]:
+        """Residual vector and score of each vector of a batch (for least squares), stored like any evaluation.
+
+        A vector whose score is in the store but whose residuals are not (e.g. the
+        best point of the search a refinement starts from) is simulated again for
+        them; its stored score is kept.  Failed or unstable simulations get the
+        objective's penalty residuals.
+        """
+        vectors = [np.asarray(x, dtype=float) for x in vectors]
+        self.requested += len(vectors)
+        self._batch_failures = []
+        results: list[tuple[np.ndarray, Score] | None] = [None] * len(vectors)
+        jobs = {}
+        for i, x in enumerate(vectors):
+            known, residuals = self.store.lookup(x), self.store.lookup_residuals(x)
+            if known is None or residuals is None:
+                jobs[i] = (x,)
+                continue
+            results[i] = (residuals, known)
+            if self.on_evaluation:
+                self.on_evaluation(known, True)
+        for i, residuals, score, wall_s in self._run(_residuals, jobs):
+            if residuals is None or not score.stable:
+                residuals = self.objective.penalty_residuals()
+            known = self.store.lookup(vectors[i])
+            if known is None:
+                self._record(vectors[i], score, wall_s)
+            else:
+                score = known  # simulated again only for its residuals: the stored evaluation stands
+            self.store.record_residuals(vectors[i], residuals)
+            results[i] = (residuals, score)
+        self._end_batch(len(jobs))
+        return results  # type: ignore[return-value]

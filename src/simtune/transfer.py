@@ -1,0 +1,91 @@
+"""``simtune transfer``: do parameters tuned on some tasks carry over to tasks never tuned on?
+
+Tunes the engine on the train tasks together (an ordinary, resumable run in
+``OUT/run``), then scores the tuned and the generic parameters on every train
+and every test task.  A transfer is good when the test tasks improve about as
+much as the train tasks did.  Parameters the test tasks do not use (e.g. the
+mass of an object they lack) have no effect there.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from simtune.errors import ConfigError, SimtuneError
+from simtune.objective import Objective, load_references
+from simtune.runs import RunConfig, resume_run, start_run
+from simtune.store import STORE_FILE, RunStore
+from simtune.tasks import parse_tasks
+
+RUN_FOLDER = "run"
+RESULT_FILE = "transfer.json"
+
+
+@dataclass
+class TaskResult:
+    task: str
+    role: str  # "train" or "test"
+    generic: float
+    tuned: float
+    tuned_wrist: float
+    tuned_object: float | None
+    stable: bool
+
+    @property
+    def change(self) -> float:
+        """Relative change of the fitness, tuned vs generic (negative: better)."""
+        return (self.tuned - self.generic) / self.generic if self.generic else 0.0
+
+
+def run_transfer(config: RunConfig, test: str, out: Path, test_data: Path | None = None,
+                 show_progress: bool = True) -> dict:
+    """Tune on ``config.tasks``, score on them and on ``test``; the result as a dict (also OUT/transfer.json)."""
+    train_tasks = parse_tasks(config.tasks)
+    test_tasks = parse_tasks(test)
+    overlap = {t.name for t in train_tasks} & {t.name for t in test_tasks}
+    if overlap:
+        raise ConfigError(f"--test: {', '.join(sorted(overlap))} also in --train: a transfer test needs unseen tasks")
+    test_root = Path(test_data) if test_data is not None else Path(config.data)
+    test_refs = load_references(test_root, test_tasks)  # fail on missing test data before tuning
+    out = Path(out)
+    run_dir = out / RUN_FOLDER
+    if (run_dir / STORE_FILE).exists():
+        store = RunStore(run_dir)
+        try:
+            same = store.get("config") == asdict(config)
+        finally:
+            store.close()
+        if not same:
+            raise SimtuneError(f"{run_dir} holds a tuning run with other settings: choose another --out")
+        tuned = resume_run(run_dir, show_progress=show_progress)
+    else:
+        tuned = start_run(config, run_dir, show_progress=show_progress)
+    train_refs = load_references(Path(config.data), train_tasks)
+    rows: list[TaskResult] = []
+    for role, tasks, refs in (("train", train_tasks, train_refs), ("test", test_tasks, test_refs)):
+        for task in tasks:
+            objective = Objective(config.engine, [task], {task.name: refs[task.name]})
+            try:
+                generic = objective.score({})
+                score = objective.score(tuned.params)
+            finally:
+                objective.close()
+            rows.append(TaskResult(task.name, role, generic.fitness, score.fitness, score.wrist_error,
+                                   score.object_error, score.stable))
+    totals = {}
+    for role in ("train", "test"):
+        mine = [r for r in rows if r.role == role]
+        generic, tuned_sum = sum(r.generic for r in mine), sum(r.tuned for r in mine)
+        totals[role] = {"generic": generic, "tuned": tuned_sum,
+                        "change": (tuned_sum - generic) / generic if generic else 0.0}
+    result = {
+        "engine": config.engine, "train": config.tasks, "test": test, "space": config.space,
+        "data": config.data, "test_data": str(test_root), "optimizer": config.optimizer,
+        "run": str(run_dir), "best_params_file": str(run_dir / "best_params.json"),
+        "evaluations": tuned.evaluations, "tasks": [{**asdict(r), "change": r.change} for r in rows],
+        "totals": totals, "params": tuned.params,
+    }
+    (out / RESULT_FILE).write_text(json.dumps(result, indent=1) + "\n")
+    return result
