@@ -153,7 +153,7 @@ def main() -> int:
         mj_generic = score("mujoco", pb_data, {})
         mj_delay_only = score("mujoco", pb_data, PYBULLET_TRUTH)
         cross = tune(pb_data, out / "pybullet-reality-mujoco-seed-0", 0, args)
-        print(f"\n### Cross-engine gap: PyBullet as reality, MuJoCo tuned towards it (seed 0)\n")
+        print("\n### Cross-engine gap: PyBullet as reality, MuJoCo tuned towards it (seed 0)\n")
         print("| simulation scored against PyBullet's data | fitness | wrist [m] | object [m] |")
         print("|---|---:|---:|---:|")
         for label, s in (("PyBullet, true parameters (noise floor)", pb_floor),

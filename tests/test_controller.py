@@ -34,3 +34,14 @@ def test_engines_follow_the_clamped_velocity_profile():
         # then within kp's reach: 10 deg left decays as exp(-kp t); after 2 s it is done
         np.testing.assert_allclose(j2[120], -100.0, atol=1.0, err_msg=name)
         assert np.all(np.diff(j2) <= 1e-6), f"{name}: joint 2 must move monotonically"
+
+
+def test_command_delay_is_continuous_not_whole_control_periods():
+    sim = make_engine("mujoco", get_task("single"))
+    wrist = {d: sim.rollout({"command_delay": d}, 120).wrist_pos for d in (1.45, 1.46, 1.48, 1.50)}
+    # within one 50 ms period the delay still moves the trajectory, monotonically
+    gap_small = np.abs(wrist[1.46] - wrist[1.45]).max()
+    gap_large = np.abs(wrist[1.48] - wrist[1.45]).max()
+    assert 1e-4 < gap_small < gap_large
+    # a whole period later is the same motion one sample later
+    np.testing.assert_allclose(wrist[1.50][1:], wrist[1.45][:-1], atol=1e-6)

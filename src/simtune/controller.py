@@ -8,7 +8,10 @@ sent as a joint velocity target with a motor force limit, held until the next
 update.  ``command_delay`` shifts the whole target schedule later in time (the
 arm holds its start pose until then): the real recordings start 1.2-2 s before
 the arm moves, and whether that is latency or a recording offset, a shift of the
-schedule reproduces it.
+schedule reproduces it.  The shift is continuous, not a whole number of control
+periods: the controller's 20 Hz clock runs ``phase`` = delay mod 50 ms after the
+recording's 20 Hz sample clock, as two free-running clocks do (otherwise the
+fit could not tell delays within one period apart).
 """
 
 from __future__ import annotations
@@ -35,6 +38,8 @@ class JointController:
         v_max = [params.get(f"max_velocity_joint_{i}", task.max_velocity_deg) for i in range(1, 7)]
         self.v_max = np.radians(np.array(v_max, dtype=float))
         self.delay = float(params.get("command_delay", 0.0))
+        #: how long after each 20 Hz sample instant the controller updates [s], in [0, CONTROL_PERIOD)
+        self.phase = self.delay % CONTROL_PERIOD
 
     def targets(self, times: np.ndarray) -> np.ndarray:
         """Joint targets [rad] in force at each simulated time of ``times`` (one row per time)."""

@@ -120,10 +120,11 @@ class Engine(ABC):
                 monitor: Callable[[int, np.ndarray, np.ndarray], bool] | None = None) -> Rollout:
         """Run the task for ``n_samples`` control periods and sample the state at each.
 
-        Sample ``k`` is the state at ``k / rate`` seconds, taken just before the
-        controller's update at that instant.  The number of physics steps per
-        period is chosen so that simulated time stays within half a step of the
-        control clock whatever the time step.  ``monitor(k, wrist_pos, wrist_rot)``,
+        Sample ``k`` is the state at ``k / rate`` seconds.  The controller updates
+        ``controller.phase`` later in each period (at once when the command delay
+        is a whole number of periods), from the state at that instant.  Physics
+        steps are counted so that simulated time stays within half a step of
+        both clocks whatever the time step.  ``monitor(k, wrist_pos, wrist_rot)``,
         if given, sees every sample and may stop the rollout by returning True
         (the rollout is then marked ``pruned``).
         """
@@ -132,7 +133,8 @@ class Engine(ABC):
         controller = JointController(self.task, params)
         dt = self.timestep
         times = np.arange(n_samples) * period
-        targets = controller.targets(times)
+        phase = controller.phase
+        targets = controller.targets(times + phase)  # at each update instant
         wrist_pos = np.zeros((n_samples, 3))
         wrist_rot = np.tile(np.eye(3), (n_samples, 1, 1))
         angles = np.zeros((n_samples, 6))
@@ -166,6 +168,13 @@ class Engine(ABC):
             if monitor is not None and monitor(k, wrist_pos[k], wrist_rot[k]):
                 pruned = True
                 break
+            if phase:  # run on to the controller's update instant, which reads the state there
+                n = int(round((k * period + phase - t_sim) / dt))
+                if n > 0:
+                    self.step(n)
+                    t_sim += n * dt
+                    steps += n
+                    q = self.joint_angles()
             self.set_joint_velocities(controller.velocity(targets[k], q))
             n = max(1, int(round(((k + 1) * period - t_sim) / dt)))
             self.step(n)
