@@ -109,12 +109,13 @@ def main() -> int:
     print(f"\n### MuJoCo tuned on MuJoCo `{TASK}` data with known parameters\n")
     print(f"Noise floor (the true parameters scored against the noisy data): fitness {floor['fitness']:.4f}, "
           f"wrist {floor['wrist']:.4f} m; generic MuJoCo: fitness {generic['fitness']:.4f}.\n")
-    print("| seed | fitness | wrist [m] | object [m] | wrist / floor | command_delay [s] | delay error [s] | "
-          "evaluations | wall [s] |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print(f"| seed | fitness | wrist [m] | object [m] | wrist / floor | wrist / noise ({NOISE_M * 1000:g} mm) | "
+          "command_delay [s] | delay error [s] | evaluations | wall [s] |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for s, r in enumerate(runs):
         delay = r["params"]["command_delay"]
         print(f"| {s} | {r['fitness']:.4f} | {r['wrist']:.4f} | {r['object']:.4f} | {r['wrist'] / floor['wrist']:.2f} | "
+              f"{r['wrist'] / NOISE_M:.2f} | "
               f"{delay:.3f} | {delay - TRUTH['command_delay']:+.3f} | {r['evaluations']} | {r['wall_s']:.0f} |")
 
     rows = []
