@@ -1,7 +1,8 @@
 """How fast simtune evaluates, against what the engines themselves allow.
 
     python benchmarks/speed.py [--engines mujoco,pybullet,ode,dart,drake] [--repeats 5] [--evals 1000]
-        [--data ../shared/datasets/qrg2019/mocap] [--target 0.05] [--seeds 3] [--skip-target]
+        [--section-seconds 15] [--data ../shared/datasets/qrg2019/mocap] [--target 0.05] [--seeds 3]
+        [--skip-target]
 
 Prints, per engine, on the `cube` task at the engine's generic time step:
 1. raw engine throughput: physics steps per second and simulated seconds per wall
@@ -14,15 +15,21 @@ Prints, per engine, on the `cube` task at the engine's generic time step:
 4. pruning: the share of physics steps that stopping hopeless trials saves in a
    short tune (same search, same result);
 5. memory: resident memory of a 2-worker tune (main process + workers) after 100
-   evaluations and after --evals evaluations (target: flat);
+   evaluations and after --evals evaluations (target: flat); these evaluations
+   simulate the first 2 s of the task only: engine handles leak per evaluation,
+   not per step;
 6. time to target: wall time for `tune --engine mujoco --task cube --space extended`
    to reach fitness --target on the real data, median of --seeds seeds.
 Figures are medians over --repeats runs with [min, max]: the machine is shared and noisy.
+The batch sizes of 3. and the generations of 4. are chosen from the engine's cost
+of one evaluation so that each takes about --section-seconds (an engine as slow as
+Drake gets smaller batches, never a different measurement).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import statistics
 import tempfile
@@ -81,6 +88,16 @@ class BareLoop:
         return time.perf_counter() - t0
 
 
+def first_seconds(refs: dict, seconds: float) -> dict:
+    """The recordings cut to their first ``seconds`` (the final object position kept)."""
+    cut = {}
+    for name, ref in refs.items():
+        n = int(round(seconds * ref.rate)) + 1
+        cut[name] = dataclasses.replace(ref, times=ref.times[:n], wrist_mean=ref.wrist_mean[:n],
+                                        wrist_repeats=ref.wrist_repeats[:, :n])
+    return cut
+
+
 def rss_mb(pid: int) -> float:
     with open(f"/proc/{pid}/status") as fh:
         for line in fh:
@@ -121,6 +138,8 @@ def main() -> None:
     ap.add_argument("--engines", default="mujoco,pybullet,ode,dart,drake")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--evals", type=int, default=1000)
+    ap.add_argument("--section-seconds", type=float, default=15.0,
+                    help="about how long the throughput and pruning measurements take per engine")
     ap.add_argument("--data", default=str(DEFAULT_DATA))
     ap.add_argument("--target", type=float, default=0.05)
     ap.add_argument("--seeds", type=int, default=3)
@@ -153,30 +172,35 @@ def main() -> None:
         space = get_space("extended", engine_class(engine).supported())
         lo, hi = np.array(space.bounds).T
         rng = np.random.default_rng(0)
-        vectors = lo + rng.random((24, len(space))) * (hi - lo)
+        per_eval = statistics.median(evals)
+        n_vectors = 2 * int(np.clip(args.section_seconds / per_eval / 2, 4, 12))
+        vectors = lo + rng.random((n_vectors, len(space))) * (hi - lo)
         vectors[:, space.names.index("timestep")] = dt  # the generic step: comparable to 1. and 2.
         tuned = Objective(engine, [task], refs, space)
         one = [throughput(tuned, vectors, 1) for _ in range(max(1, args.repeats // 2))]
         two = [throughput(tuned, vectors, 2) for _ in range(max(1, args.repeats // 2))]
         eff = [t / (2 * statistics.median(one)) for t in two]
-        print(f"  3. tuning throughput: {stats(one)} eval/s with 1 worker, {stats(two)} with 2; "
-              f"scaling efficiency {stats(eff)} (target >= 0.85)")
+        print(f"  3. tuning throughput ({n_vectors} evaluations, the first 2 per worker as warm-up): "
+              f"{stats(one)} eval/s with 1 worker, {stats(two)} with 2; scaling efficiency {stats(eff)} (target >= 0.85)")
 
         with tempfile.TemporaryDirectory() as tmp:
+            # a generation is about len(space) evaluations (population 1 x D), on 2 workers
+            generations = int(np.clip(2 * args.section_seconds / (per_eval * len(space) / 2), 1, 8))
             cfg = dict(engine=engine, tasks="cube", space="extended", data=str(REFERENCE_DIR), seed=1,
-                       max_generations=8)
+                       max_generations=generations, workers=2)
             full = start_run(RunConfig(**cfg, prune=False), Path(tmp) / "full", show_progress=False)
             pruned = start_run(RunConfig(**cfg), Path(tmp) / "pruned", show_progress=False)
             same = "same result" if pruned.fitness == full.fitness else "DIFFERENT RESULT"
-            print(f"  4. pruning (8 generations, {full.evaluations} evaluations): "
+            print(f"  4. pruning ({generations} generation(s), {full.evaluations} evaluations, 2 workers): "
                   f"{pruned.pruned_evaluations} trials stopped early, physics steps {full.steps} -> {pruned.steps} "
                   f"({100 * (1 - pruned.steps / full.steps):.0f} % saved), wall {full.wall_s:.1f} -> "
                   f"{pruned.wall_s:.1f} s, {same}")
 
         memory = []
+        short = Objective(engine, [task], first_seconds(refs, 2.0), space)
         with tempfile.TemporaryDirectory() as tmp:
             store = RunStore(Path(tmp), create=True)
-            with Evaluator(tuned, store, 2) as evaluator:
+            with Evaluator(short, store, 2) as evaluator:
                 done = 0
                 for batch in range(0, args.evals, 50):
                     xs = lo + rng.random((50, len(space))) * (hi - lo)

@@ -31,6 +31,7 @@ over: the same parameters always give the same trajectory.  Steps use
 from __future__ import annotations
 
 import ctypes
+import math
 from ctypes import POINTER, byref, c_int, c_void_p
 
 import numpy as np
@@ -82,6 +83,7 @@ if ode is not None:
     _add_hinge_torque = _lib_fn("dJointAddHingeTorque", None, c_void_p, ode.dReal)
     _body_pos = _lib_fn("dBodyGetPosition", POINTER(ode.dReal), c_void_p)
     _body_rot = _lib_fn("dBodyGetRotation", POINTER(ode.dReal), c_void_p)
+    _PARAM_VEL = ode.dParamVel
 
     _messages: list[str] = []
 
@@ -184,6 +186,7 @@ class OdeEngine(Engine):
         world = self._world = ode.dWorldCreate()
         ode.dWorldSetGravity(world, 0.0, 0.0, -9.81)
         self._space = ode.dSimpleSpaceCreate(0)  # simple space: pairs in a fixed order
+        self._space_ptr = ctypes.cast(self._space, c_void_p).value
         self._contacts = ode.dJointGroupCreate(0)
         self._world_ptr = ctypes.cast(world, c_void_p).value
         self._contacts_ptr = ctypes.cast(self._contacts, c_void_p).value
@@ -330,7 +333,7 @@ class OdeEngine(Engine):
             ode.dBodySetRotation(body, _ode_matrix(rot))
             ode.dBodySetLinearVel(body, 0.0, 0.0, 0.0)
             ode.dBodySetAngularVel(body, 0.0, 0.0, 0.0)
-        self._angles = np.asarray(q, dtype=float).copy()
+        self._angles = [float(a) for a in q]
 
     def _near(self, data, g1, g2) -> None:
         group1, body1 = self._geoms[g1]
@@ -357,15 +360,15 @@ class OdeEngine(Engine):
         self._pose_arm(np.radians(self.task.start_pose_deg))
 
     def set_joint_velocities(self, velocities: np.ndarray) -> None:
-        for hinge, v in zip(self._joints, velocities):
-            _hinge_param(hinge, ode.dParamVel, float(v))
+        for hinge, v in zip(self._joints, velocities.tolist()):
+            _hinge_param(hinge, _PARAM_VEL, v)
 
     def step(self, n: int) -> None:
         damped = [(j, d) for j, d in zip(self._joints, self._damping) if d > 0]
         for _ in range(n):
             for joint, d in damped:  # viscous joint damping as a joint torque (ODE has none built in)
                 _add_hinge_torque(joint, -d * _hinge_rate(joint))
-            _space_collide(ctypes.cast(self._space, c_void_p).value, None, self._callback)
+            _space_collide(self._space_ptr, None, self._callback)
             ok = _world_step(self._world_ptr, self._timestep)
             _group_empty(self._contacts_ptr)
             if not ok and not self._failed:
@@ -383,9 +386,9 @@ class OdeEngine(Engine):
 
     def joint_angles(self) -> np.ndarray:
         # ODE reports hinge angles in (-pi, pi]: unwrap against the last reading
-        raw = np.array([_hinge_angle(j) for j in self._joints])
-        self._angles = self._angles + (raw - self._angles + np.pi) % (2 * np.pi) - np.pi
-        return self._angles.copy()
+        last = self._angles
+        self._angles = [a + math.remainder(_hinge_angle(j) - a, 2 * math.pi) for j, a in zip(self._joints, last)]
+        return np.array(self._angles)
 
     def _body_pose(self, body) -> tuple[np.ndarray, np.ndarray]:
         # ODE keeps a body's position and rotation at fixed addresses: wrap them once per body
