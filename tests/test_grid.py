@@ -1,12 +1,19 @@
 """Experiment grids: local and Dask executors agree, a killed worker loses nothing."""
 
+import glob
 import os
+import pwd
+import shutil
 import signal
+import subprocess
+import tempfile
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
+from simtune.errors import SimtuneError
 from simtune.grid import GridIndex, GridSpec, Unit, plan_grid, run_grid
 from simtune.store import RunStore
 
@@ -102,3 +109,62 @@ def test_plan_measures_costs(two_task_data):
 
 def test_unit_ids_are_stable():
     assert Unit("mujoco", "single,cube", "shared", 3).id == "mujoco-single+cube-shared-s3"
+
+
+# --- a PostgreSQL index ------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def postgres_url():
+    """A throwaway PostgreSQL server on a Unix socket (Debian's postgresql package; .ci/run installs it)."""
+    pytest.importorskip("psycopg")
+    found = sorted(glob.glob("/usr/lib/postgresql/*/bin/initdb")) or ([shutil.which("initdb")] if shutil.which("initdb") else [])
+    if not found:
+        pytest.skip("PostgreSQL server programs not installed (apt-get install postgresql)")
+    bindir = Path(found[-1]).parent
+    root = Path(tempfile.mkdtemp(prefix="simtune-pg-"))
+    as_user: list[str] = []
+    if os.geteuid() == 0:  # PostgreSQL refuses to run as root
+        try:
+            owner = pwd.getpwnam("postgres")
+        except KeyError:
+            pytest.skip("running as root and there is no postgres user to run PostgreSQL as")
+        os.chown(root, owner.pw_uid, owner.pw_gid)
+        as_user = ["runuser", "-u", "postgres", "--"]
+    data = root / "data"
+    subprocess.run(as_user + [str(bindir / "initdb"), "-D", str(data), "-A", "trust", "-U", "simtune", "--no-sync"],
+                   check=True, capture_output=True)
+    subprocess.run(as_user + [str(bindir / "pg_ctl"), "-D", str(data), "-l", str(root / "log"), "-w", "-o",
+                              f"-k {root} -c listen_addresses='' -c fsync=off", "start"],
+                   check=True, capture_output=True)
+    try:
+        yield f"postgresql://simtune@/postgres?host={root}"
+    finally:
+        subprocess.run(as_user + [str(bindir / "pg_ctl"), "-D", str(data), "-m", "immediate", "stop"],
+                       capture_output=True)
+        shutil.rmtree(root, ignore_errors=True)
+
+
+def test_postgres_index_records_the_same_grid(local_grid, two_task_data, postgres_url, tmp_path):
+    grid_dir, expected = local_grid
+    # a fresh index for a finished grid: every unit resumes from its store, nothing is simulated again
+    before = {u: RunStore(grid_dir / "runs" / u).count_evaluations() for u in expected}
+    index = run_grid(small_spec(two_task_data), grid_dir, executor="local", workers=2, index_url=postgres_url)
+    assert index.location.startswith("postgresql://")
+    assert results(index) == expected
+    assert {u: RunStore(grid_dir / "runs" / u).count_evaluations() for u in expected} == before
+    assert dict(index.counts()) == {"done": 8}
+    assert len(list(index.best())) == 4
+    # again: finished units are skipped; another grid in the same database is kept apart
+    again = run_grid(small_spec(two_task_data), grid_dir, executor="local", workers=2, index_url=postgres_url)
+    assert results(again) == results(index)
+    other = GridIndex(tmp_path / "other", postgres_url)
+    other.add([Unit("mujoco", "cube", "shared", 0)])
+    assert [r["id"] for r in other.rows()] == ["mujoco-cube-shared-s0"]
+    assert len(GridIndex(grid_dir, postgres_url).rows()) == 8
+
+
+def test_bad_index_urls_are_named(tmp_path):
+    with pytest.raises(SimtuneError, match="not a postgresql:// URL"):
+        GridIndex(tmp_path, "mysql://someone@host/db")
+    pytest.importorskip("psycopg")
+    with pytest.raises(SimtuneError, match=r"cannot open grid index postgresql://bob:\*\*\*@"):
+        GridIndex(tmp_path, f"postgresql://bob:secret@/db?host={tmp_path}/nowhere")

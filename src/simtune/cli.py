@@ -236,6 +236,9 @@ def grid(
                                                      "default: a LocalCluster on this machine.")] = None,
     workers: Annotated[int, typer.Option("--workers", "-w", min=1, help="Local processes / LocalCluster workers "
                                          "(one optimisation each, one core each).")] = 2,
+    index_url: Annotated[Optional[str], typer.Option(
+        "--index", help="PostgreSQL URL (postgresql://user@host/db) for a long-lived index shared by many grids; "
+        "default: GRID/grid.sqlite. Needs pip install 'simtune[postgres]'.")] = None,
     max_seconds_per_run: Annotated[Optional[float], typer.Option(help="Wall-time limit of each optimisation [s].")]
     = None,
     max_generations: Annotated[int, typer.Option(min=1, help="Generation limit of each optimisation.")] = 1000,
@@ -254,7 +257,7 @@ def grid(
 
     from rich.live import Live
 
-    from simtune.grid import GridSpec, iter_best, plan_grid, run_grid
+    from simtune.grid import GridSpec, plan_grid, run_grid
 
     spec = GridSpec(engines=_split(engines), tasks=_split(tasks), spaces=_split(spaces), repeats=repeats,
                     data=str(_data_root(data)), max_seconds_per_run=max_seconds_per_run,
@@ -287,15 +290,15 @@ def grid(
         table.add_column("engine")
         table.add_column("tasks")
         table.add_column("best fitness")
-        for engine_name, task_names, best in iter_best(index):
+        for engine_name, task_names, best in index.best():
             table.add_row(engine_name, task_names, f"{best:.4f}")
         return table
 
     with Live(console=err, auto_refresh=False) as live:
         index = run_grid(spec, out_dir, executor=executor, workers=workers, scheduler=scheduler,
-                         on_event=lambda idx: live.update(view(idx), refresh=True))
+                         index_url=index_url, on_event=lambda idx: live.update(view(idx), refresh=True))
     counts = index.counts()
-    out.print(f"{counts.get('done', 0)} done, {counts.get('failed', 0)} failed; index: {out_dir / 'grid.sqlite'}")
+    out.print(f"{counts.get('done', 0)} done, {counts.get('failed', 0)} failed; index: {index.location}")
     for row in index.rows():
         if row["status"] == "failed":
             err.print(f"[red]failed:[/] {row['id']}: {row['error']}", soft_wrap=True)

@@ -2,8 +2,9 @@
 
 Each unit is an ordinary run folder (``GRID/runs/<engine>-<task>-<space>-s<seed>``)
 with its own run store, written only by the worker running it.  The grid's index
-(``GRID/grid.sqlite``) is written only by the coordinating process, so no
-store ever needs locking across machines.
+(``GRID/grid.sqlite``, or tables in a PostgreSQL database that many grids
+share) is written only by the coordinating process, so no store ever needs
+locking across machines.
 
 Running the same grid again skips finished units and resumes unfinished ones
 from their stores; a unit whose worker dies is retried (on another worker,
@@ -16,10 +17,12 @@ lost or counted twice.  Executors: ``local`` (a process pool here) or ``dask``
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import sqlite3
 import time
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict, dataclass
@@ -30,18 +33,24 @@ from simtune.errors import ConfigError, SimtuneError
 INDEX_FILE = "grid.sqlite"
 MAX_ATTEMPTS = 3
 
-_SCHEMA = """
-CREATE TABLE IF NOT EXISTS units (
-    id TEXT PRIMARY KEY,
-    engine TEXT NOT NULL, tasks TEXT NOT NULL, space TEXT NOT NULL, seed INTEGER NOT NULL,
-    run_dir TEXT NOT NULL,
-    status TEXT NOT NULL DEFAULT 'pending',   -- pending, running, done, failed
-    attempts INTEGER NOT NULL DEFAULT 0,
-    fitness REAL, generic_fitness REAL, evaluations INTEGER, generations INTEGER, wall_s REAL,
-    error TEXT, updated_at REAL
-);
-CREATE TABLE IF NOT EXISTS grid_meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-"""
+# One schema for both back ends (SQLite >= 3.24 and PostgreSQL share this SQL; PostgreSQL's REAL
+# would be single precision): rows are
+# keyed by grid, so one PostgreSQL database can index many grids.
+_SCHEMA = [
+    """CREATE TABLE IF NOT EXISTS grid_units (
+        grid TEXT NOT NULL, id TEXT NOT NULL,
+        engine TEXT NOT NULL, tasks TEXT NOT NULL, space TEXT NOT NULL, seed INTEGER NOT NULL,
+        run_dir TEXT NOT NULL,
+        status TEXT NOT NULL DEFAULT 'pending',   -- pending, running, done, failed
+        attempts INTEGER NOT NULL DEFAULT 0,
+        fitness DOUBLE PRECISION, generic_fitness DOUBLE PRECISION, evaluations INTEGER, generations INTEGER,
+        wall_s DOUBLE PRECISION, error TEXT, updated_at DOUBLE PRECISION,
+        PRIMARY KEY (grid, id))""",
+    """CREATE TABLE IF NOT EXISTS grid_meta (
+        grid TEXT NOT NULL, key TEXT NOT NULL, value TEXT NOT NULL, PRIMARY KEY (grid, key))""",
+]
+_UNIT_COLUMNS = ("id, engine, tasks, space, seed, run_dir, status, attempts, fitness, generic_fitness, "
+                 "evaluations, generations, wall_s, error, updated_at")
 
 
 @dataclass(frozen=True)
@@ -119,54 +128,121 @@ def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
 
 # --- the grid's index (coordinator only) -------------------------------------------------
 class GridIndex:
-    def __init__(self, grid_dir: Path):
+    """The grid's table of units: ``GRID/grid.sqlite``, or a PostgreSQL database given by URL.
+
+    A PostgreSQL index suits a long-lived, shared record of many grids (rows are
+    keyed by the grid folder's absolute path); it needs ``pip install
+    'simtune[postgres]'``.  Either way only the coordinating process writes it.
+    """
+
+    def __init__(self, grid_dir: Path, url: str | None = None):
         self.grid_dir = Path(grid_dir)
         try:
             self.grid_dir.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise SimtuneError(f"cannot create grid folder {self.grid_dir}: {exc.strerror}") from None
-        self.db = sqlite3.connect(self.grid_dir / INDEX_FILE, timeout=30)
-        self.db.execute("PRAGMA journal_mode=WAL")
-        self.db.executescript(_SCHEMA)
+        if url is None:
+            self.location = str(self.grid_dir / INDEX_FILE)
+            self.key = ""  # the file belongs to this grid alone
+            self.db = sqlite3.connect(self.location, timeout=30, isolation_level=None)
+            self.db.execute("PRAGMA journal_mode=WAL")
+            self._placeholder = "?"
+        else:
+            self.location = _redact(url)
+            self.key = str(self.grid_dir.resolve())
+            self.db = _connect_postgres(url)
+            self._placeholder = "%s"
+        with self._transaction():
+            for statement in _SCHEMA:
+                self._execute(statement)
+
+    def _execute(self, sql: str, params: tuple = ()):
+        return self.db.execute(sql.replace("?", self._placeholder), params)
+
+    @contextmanager
+    def _transaction(self):
+        if self._placeholder == "?":
+            self.db.execute("BEGIN IMMEDIATE")
+            try:
+                yield
+            except BaseException:
+                self.db.execute("ROLLBACK")
+                raise
+            self.db.execute("COMMIT")
+        else:
+            with self.db.transaction():
+                yield
 
     def add(self, units: list[Unit]) -> None:
-        with self.db:
-            self.db.executemany(
-                "INSERT OR IGNORE INTO units (id, engine, tasks, space, seed, run_dir, updated_at)"
-                " VALUES (?, ?, ?, ?, ?, ?, ?)",
-                [(u.id, u.engine, u.tasks, u.space, u.seed, str(self.run_dir(u)), time.time()) for u in units])
+        with self._transaction():
+            for u in units:
+                self._execute("INSERT INTO grid_units (grid, id, engine, tasks, space, seed, run_dir, updated_at)"
+                              " VALUES (?, ?, ?, ?, ?, ?, ?, ?) ON CONFLICT (grid, id) DO NOTHING",
+                              (self.key, u.id, u.engine, u.tasks, u.space, u.seed, str(self.run_dir(u)), time.time()))
+
+    def set_meta(self, key: str, value: str) -> None:
+        self._execute("INSERT INTO grid_meta (grid, key, value) VALUES (?, ?, ?)"
+                      " ON CONFLICT (grid, key) DO UPDATE SET value = excluded.value", (self.key, key, value))
 
     def run_dir(self, unit: Unit) -> Path:
         return self.grid_dir / "runs" / unit.id
 
     def status(self, unit: Unit) -> str:
-        return self.db.execute("SELECT status FROM units WHERE id = ?", (unit.id,)).fetchone()[0]
+        return self._execute("SELECT status FROM grid_units WHERE grid = ? AND id = ?",
+                             (self.key, unit.id)).fetchone()[0]
 
     def mark(self, unit: Unit, status: str, summary: dict | None = None, error: str | None = None) -> None:
         summary = summary or {}
-        with self.db:
-            self.db.execute(
-                "UPDATE units SET status = ?, attempts = attempts + ?, fitness = COALESCE(?, fitness),"
-                " generic_fitness = COALESCE(?, generic_fitness), evaluations = COALESCE(?, evaluations),"
-                " generations = COALESCE(?, generations), wall_s = COALESCE(?, wall_s), error = ?, updated_at = ?"
-                " WHERE id = ?",
-                (status, 1 if status == "running" else 0, summary.get("fitness"), summary.get("generic_fitness"),
-                 summary.get("evaluations"), summary.get("generations"), summary.get("wall_s"), error,
-                 time.time(), unit.id))
+        self._execute(
+            "UPDATE grid_units SET status = ?, attempts = attempts + ?, fitness = COALESCE(?, fitness),"
+            " generic_fitness = COALESCE(?, generic_fitness), evaluations = COALESCE(?, evaluations),"
+            " generations = COALESCE(?, generations), wall_s = COALESCE(?, wall_s), error = ?, updated_at = ?"
+            " WHERE grid = ? AND id = ?",
+            (status, 1 if status == "running" else 0, summary.get("fitness"), summary.get("generic_fitness"),
+             summary.get("evaluations"), summary.get("generations"), summary.get("wall_s"), error,
+             time.time(), self.key, unit.id))
 
     def attempts(self, unit: Unit) -> int:
-        return self.db.execute("SELECT attempts FROM units WHERE id = ?", (unit.id,)).fetchone()[0]
+        return self._execute("SELECT attempts FROM grid_units WHERE grid = ? AND id = ?",
+                             (self.key, unit.id)).fetchone()[0]
 
     def rows(self) -> list[dict]:
-        cur = self.db.execute("SELECT * FROM units ORDER BY id")
+        cur = self._execute(f"SELECT {_UNIT_COLUMNS} FROM grid_units WHERE grid = ? ORDER BY id", (self.key,))
         names = [d[0] for d in cur.description]
         return [dict(zip(names, r)) for r in cur.fetchall()]
 
     def counts(self) -> dict[str, int]:
-        return dict(self.db.execute("SELECT status, COUNT(*) FROM units GROUP BY status").fetchall())
+        return dict(self._execute("SELECT status, COUNT(*) FROM grid_units WHERE grid = ? GROUP BY status",
+                                  (self.key,)).fetchall())
+
+    def best(self) -> Iterator[tuple[str, str, float]]:
+        """(engine, tasks, best fitness so far) over finished units."""
+        yield from self._execute(
+            "SELECT engine, tasks, MIN(fitness) FROM grid_units WHERE grid = ? AND status = 'done'"
+            " GROUP BY engine, tasks ORDER BY engine, tasks", (self.key,)).fetchall()
 
     def close(self) -> None:
         self.db.close()
+
+
+def _redact(url: str) -> str:
+    """``url`` without its password, for messages."""
+    return re.sub(r"//([^:/@]+):[^@]*@", r"//\1:***@", url)
+
+
+def _connect_postgres(url: str):
+    if not re.match(r"postgres(ql)?://", url):
+        raise ConfigError(f"--index {_redact(url)!r} is not a postgresql:// URL "
+                          "(leave it out for GRID/grid.sqlite)")
+    try:
+        import psycopg
+    except ImportError:
+        raise SimtuneError("a PostgreSQL grid index needs psycopg: pip install 'simtune[postgres]'") from None
+    try:
+        return psycopg.connect(url, autocommit=True, connect_timeout=10)
+    except psycopg.Error as exc:
+        reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise SimtuneError(f"cannot open grid index {_redact(url)}: {reason}") from None
 
 
 # --- executors ----------------------------------------------------------------------------
@@ -254,14 +330,17 @@ def _run_dask(spec: GridSpec, index: GridIndex, units: list[Unit], workers: int,
 
 
 def run_grid(spec: GridSpec, grid_dir: Path, *, executor: str = "local", workers: int = 2,
-             scheduler: str | None = None, on_event: Callable[[GridIndex], None] | None = None) -> GridIndex:
-    """Run every unfinished unit of ``spec`` under ``grid_dir``; returns the index."""
+             scheduler: str | None = None, index_url: str | None = None,
+             on_event: Callable[[GridIndex], None] | None = None) -> GridIndex:
+    """Run every unfinished unit of ``spec`` under ``grid_dir``; returns the index.
+
+    ``index_url``: a PostgreSQL URL for the index instead of ``grid_dir/grid.sqlite``.
+    """
     if executor not in ("local", "dask"):
         raise ConfigError(f"unknown executor {executor!r} (known: local, dask)")
     spec.validate()
-    index = GridIndex(grid_dir)
-    with index.db:
-        index.db.execute("INSERT OR REPLACE INTO grid_meta VALUES ('spec', ?)", (json.dumps(asdict(spec)),))
+    index = GridIndex(grid_dir, index_url)
+    index.set_meta("spec", json.dumps(asdict(spec)))
     units = spec.units()
     index.add(units)
     todo = [u for u in units if index.status(u) != "done"]
@@ -273,12 +352,6 @@ def run_grid(spec: GridSpec, grid_dir: Path, *, executor: str = "local", workers
             _run_dask(spec, index, todo, workers, scheduler, notify)
     notify()
     return index
-
-
-def iter_best(index: GridIndex) -> Iterator[tuple[str, str, float]]:
-    """(engine, tasks, best fitness so far) over finished units."""
-    yield from index.db.execute(
-        "SELECT engine, tasks, MIN(fitness) FROM units WHERE status = 'done' GROUP BY engine, tasks ORDER BY 1, 2")
 
 
 # --- planning ---------------------------------------------------------------------------------
