@@ -16,8 +16,8 @@ Prints, per engine, on the `cube` task at the engine's generic time step:
    short tune (same search, same result);
 5. memory: resident memory of a 2-worker tune (main process + workers) after 100
    evaluations and after --evals evaluations (target: flat); these evaluations
-   simulate the first 2 s of the task only: engine handles leak per evaluation,
-   not per step;
+   simulate only the first 0.25-2 s of the task (shorter for slower engines):
+   engine handles leak per evaluation, not per step;
 6. time to target: wall time for `tune --engine mujoco --task cube --space extended`
    to reach fitness --target on the real data, median of --seeds seeds.
 Figures are medians over --repeats runs with [min, max]: the machine is shared and noisy.
@@ -197,7 +197,9 @@ def main() -> None:
                   f"{pruned.wall_s:.1f} s, {same}")
 
         memory = []
-        short = Objective(engine, [task], first_seconds(refs, 2.0), space)
+        # rollouts short enough that --evals of them on 2 workers take about 2 x --section-seconds
+        rollout_s = float(np.clip(4 * args.section_seconds / args.evals / (per_eval / task.duration), 0.25, 2.0))
+        short = Objective(engine, [task], first_seconds(refs, rollout_s), space)
         with tempfile.TemporaryDirectory() as tmp:
             store = RunStore(Path(tmp), create=True)
             with Evaluator(short, store, 2) as evaluator:
@@ -210,7 +212,7 @@ def main() -> None:
                     if done in (100, args.evals):
                         memory.append((done, family_rss_mb()))
             store.close()
-        print("  5. memory (main + 2 workers): " + ", ".join(f"{mb:.0f} MB after {n} evaluations" for n, mb in memory)
+        print(f"  5. memory (main + 2 workers, {rollout_s:.2g} s rollouts): " + ", ".join(f"{mb:.0f} MB after {n} evaluations" for n, mb in memory)
               + f" (growth {memory[-1][1] - memory[0][1]:+.0f} MB)")
 
     if not args.skip_target and "mujoco" in args.engines and data != REFERENCE_DIR:

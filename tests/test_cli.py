@@ -1,6 +1,7 @@
 """The command line: JSON output, --help everywhere, one-line errors with exit status 2."""
 
 import json
+import os
 import subprocess
 import sys
 
@@ -20,6 +21,17 @@ def simtune(*args, check=False):
 def test_every_command_has_help(command):
     proc = simtune(command, "--help", check=True)
     assert "Usage" in proc.stdout
+
+
+def test_help_and_tables_keep_brackets():
+    # units ([s], [m]) and extras ('simtune[opt]') must survive Rich's markup parsing
+    env = {**os.environ, "COLUMNS": "250"}
+    run = lambda *args: subprocess.run([sys.executable, "-m", "simtune.cli", *args], capture_output=True,
+                                       text=True, timeout=300, env=env, check=True).stdout
+    tune_help = run("tune", "--help")
+    assert "simtune[opt]" in tune_help and "wall time [s]" in tune_help
+    assert "ROOT/<task>/*.tsv" in tune_help
+    assert "duration [s]" in run("tasks")
 
 
 def test_evaluate_json_is_one_clean_object():

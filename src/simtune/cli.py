@@ -16,6 +16,7 @@ from typing import Annotated, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from simtune.errors import SimtuneError
@@ -28,6 +29,8 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    # help texts carry units in brackets ([s], [mm]) and extras ('simtune[opt]'): Markdown keeps them
+    rich_markup_mode="markdown",
 )
 err = Console(stderr=True)
 out = Console()
@@ -36,7 +39,7 @@ EngineOpt = Annotated[str, typer.Option("--engine", "-e", help="Physics engine: 
 TaskOpt = Annotated[str, typer.Option("--task", "-t", help="Task name, or several joined by commas (their fitness is "
                                       "summed); see `simtune tasks`.")]
 DataOpt = Annotated[Optional[Path], typer.Option(
-    "--data", "-d", help="Folder with one sub-folder of recordings per task (ROOT/<task>/*.tsv or *.csv). "
+    "--data", "-d", help="Folder with one sub-folder of recordings per task (`ROOT/<task>/*.tsv` or `*.csv`). "
     "Default: the reference recordings shipped with simtune.")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
 SpaceOpt = Annotated[str, typer.Option("--space", "-s", help="Parameter space: shared (31, the paper's), "
@@ -107,7 +110,7 @@ def evaluate(
         return
     table = Table(title=f"{engine} on {task}" + (f" with {params_file}" if params_file else " (generic parameters)"))
     for col in ("task", "fitness", "wrist error [m]", "object error [m]", "note"):
-        table.add_column(col)
+        table.add_column(escape(col))
     for t in score.tasks:
         table.add_row(t.task, _fmt(t.fitness), _fmt(t.wrist_error), _fmt(t.object_error), t.message)
     if len(score.tasks) > 1:
@@ -311,7 +314,6 @@ def engines() -> None:
     """List the physics engines, their versions, and how to install a missing one."""
     import importlib
 
-    from rich.markup import escape
 
     from simtune.engines import ENGINES
 
@@ -332,7 +334,7 @@ def tasks() -> None:
 
     table = Table(title="tasks")
     for col in ("task", "duration [s]", "object", "public recordings", "description"):
-        table.add_column(col)
+        table.add_column(escape(col))
     for t in TASKS.values():
         obj = f"{t.object.material} {t.object.shape} {t.object.mass:g} kg" if t.object else "-"
         table.add_row(t.name, f"{t.duration:g}", obj, "qrg2019" if t.has_public_recordings else "-", t.description)
@@ -378,12 +380,12 @@ def synth(
                                             "as real repeats do.")] = 0.05,
     repeats: Annotated[int, typer.Option(min=1, help="Recordings per task.")] = 10,
     seed: Annotated[int, typer.Option(help="Seed of the noise (same seed, same files).")] = 0,
-    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Data root to write: OUT/<task>/*.tsv and "
+    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Data root to write: `OUT/<task>/*.tsv` and "
                                           "OUT/truth.json.", show_default=False)] = ...,
 ) -> None:
     """Make recordings with a known ground truth: simulate with chosen parameters, add mocap-like noise.
 
-    Writes Qualisys 6D TSV files (with header) to OUT/<task>/, read by every
+    Writes Qualisys 6D TSV files (with header) to `OUT/<task>/`, read by every
     command's --data OUT like real recordings, and OUT/truth.json (also a
     --params-file). Tune on them to check that tuning recovers the truth.
 
@@ -417,7 +419,7 @@ def compare(
     workers: WorkersOpt = 1,
     only: OnlyOpt = None,
     eval_timeout: EvalTimeoutOpt = 600.0,
-    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Folder for the runs (OUT/<optimizer>/seed-<s>) and "
+    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Folder for the runs (`OUT/<optimizer>/seed-<s>`) and "
                                           "compare.json; existing finished runs are reused.")] = Path("runs/compare"),
     as_json: JsonOpt = False,
 ) -> None:
@@ -494,7 +496,7 @@ def transfer(
         return
     table = Table(title=f"{engine}: tuned on {train} ({space}, {optimizer}), tested on {test}")
     for col in ("task", "set", "generic", "tuned", "change", "wrist [m]", "object [m]"):
-        table.add_column(col, justify="left" if col in ("task", "set") else "right")
+        table.add_column(escape(col), justify="left" if col in ("task", "set") else "right")
     for r in result["tasks"]:
         table.add_row(r["task"], r["role"], _fmt(r["generic"]), _fmt(r["tuned"]), f"{r['change'] * 100:+.0f} %",
                       _fmt(r["tuned_wrist"]), _fmt(r["tuned_object"]))

@@ -78,17 +78,9 @@ class Objective:
         for task in self.tasks:
             reference = self.references[task.name]
             n = len(reference.times)
-            monitor = None
-            if bound is not None:
-                # the summed marker error that proves the bound exceeded (with a margin far above
-                # rounding, so the rescored lower bound is sure to exceed it too)
-                budget = (bound - spent) * n * (1 + 1e-9) + 1e-12
-                accumulated = [0.0]
-
-                def monitor(k, pos, rot, reference=reference, budget=budget, accumulated=accumulated):
-                    accumulated[0] += float(np.linalg.norm(pos + rot @ offset - reference.wrist_mean[k]))
-                    return accumulated[0] > budget
-
+            # the summed marker error that proves the bound exceeded (with a margin far above
+            # rounding, so the rescored lower bound is sure to exceed it too)
+            monitor = None if bound is None else _exceeds(reference, offset, (bound - spent) * n * (1 + 1e-9) + 1e-12)
             rollout = self._engine(task).rollout(params, n, monitor=monitor)
             scores.append(score_rollout(rollout, reference, params))
             spent += scores[-1].fitness
@@ -147,3 +139,15 @@ class Objective:
         for engine in self._engines.values():
             engine.close()
         self._engines.clear()
+
+
+def _exceeds(reference, offset: np.ndarray, budget: float):
+    """A rollout monitor: true once the wrist error summed over samples so far exceeds ``budget``."""
+    accumulated = 0.0
+
+    def monitor(k, pos, rot) -> bool:
+        nonlocal accumulated
+        accumulated += float(np.linalg.norm(pos + rot @ offset - reference.wrist_mean[k]))
+        return accumulated > budget
+
+    return monitor

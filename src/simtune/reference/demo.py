@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from simtune.reference import REFERENCE_DIR
@@ -37,7 +38,7 @@ def run_demo(out_dir: Path, workers: int = 2, max_seconds: float = 120.0, consol
     generic = RunStore(out_dir).get("generic")
     table = Table(title="generic vs tuned")
     for col in ("", "fitness", "wrist error [m]", "object error [m]"):
-        table.add_column(col)
+        table.add_column(escape(col))
     table.add_row("generic MuJoCo", f"{generic['fitness']:.4f}", f"{generic['wrist_error']:.4f}",
                   f"{generic['object_error']:.4f}")
     s = result.score

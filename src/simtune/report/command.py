@@ -16,7 +16,7 @@ def report(
         "--out", "-o", help="Report folder to write: index.html, figures/ (PNG, SVG), tables/ (CSV, Markdown), "
         "dr_ranges.yaml.", show_default=False)],
     published_sims: Annotated[Optional[Path], typer.Option(
-        "--published-sims", help="Folder of published simulations <task>_<Engine>.csv (e.g. "
+        "--published-sims", help="Folder of published simulations `<task>_<Engine>.csv` (e.g. "
         "qrg2019/published_sims), scored with simtune's fitness next to the engines' generic fitness.")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
