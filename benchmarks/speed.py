@@ -1,7 +1,7 @@
 """How fast simtune evaluates, against what the engines themselves allow.
 
     python benchmarks/speed.py [--engines mujoco,pybullet,ode,dart,drake] [--repeats 5] [--evals 1000]
-        [--section-seconds 15] [--data ../shared/datasets/qrg2019/mocap] [--target 0.05] [--seeds 3]
+        [--section-seconds 10] [--data ../shared/datasets/qrg2019/mocap] [--target 0.05] [--seeds 3]
         [--skip-target]
 
 Prints, per engine, on the `cube` task at the engine's generic time step:
@@ -15,15 +15,17 @@ Prints, per engine, on the `cube` task at the engine's generic time step:
 4. pruning: the share of physics steps that stopping hopeless trials saves in a
    short tune (same search, same result);
 5. memory: resident memory of a 2-worker tune (main process + workers) after 100
-   evaluations and after --evals evaluations (target: flat); these evaluations
+   evaluations, half-way and after --evals evaluations (target: flat; a leak grows in
+   both halves, a cache warming up only in the first); these evaluations
    simulate only the first 0.25-2 s of the task (shorter for slower engines):
    engine handles leak per evaluation, not per step;
 6. time to target: wall time for `tune --engine mujoco --task cube --space extended`
    to reach fitness --target on the real data, median of --seeds seeds.
-Figures are medians over --repeats runs with [min, max]: the machine is shared and noisy.
-The batch sizes of 3. and the generations of 4. are chosen from the engine's cost
-of one evaluation so that each takes about --section-seconds (an engine as slow as
-Drake gets smaller batches, never a different measurement).
+Figures are medians over up to --repeats runs with [min, max]: the machine is shared
+and noisy. The repeats of 1.-3., the batch sizes of 3. and the generations of 4. are
+chosen from the engine's cost of one evaluation so that each takes about
+--section-seconds (an engine as slow as Drake gets fewer repeats and smaller batches,
+never a different measurement). The last line is the benchmark's own wall time.
 """
 
 from __future__ import annotations
@@ -138,23 +140,32 @@ def main() -> None:
     ap.add_argument("--engines", default="mujoco,pybullet,ode,dart,drake")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--evals", type=int, default=1000)
-    ap.add_argument("--section-seconds", type=float, default=15.0,
+    ap.add_argument("--section-seconds", type=float, default=10.0,
                     help="about how long the throughput and pruning measurements take per engine")
     ap.add_argument("--data", default=str(DEFAULT_DATA))
     ap.add_argument("--target", type=float, default=0.05)
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--skip-target", action="store_true", help="skip the time-to-target runs (minutes)")
     args = ap.parse_args()
+    start = time.perf_counter()
+    if args.evals < 200 or args.evals % 50:
+        ap.error("--evals must be a multiple of 50, at least 200")
     data = Path(args.data) if Path(args.data).is_dir() else REFERENCE_DIR
     task = get_task("cube")
     refs = load_references(data, [task])
     print(f"simtune speed benchmark, cube task, data {data}, {os.cpu_count()} cores, {time.strftime('%Y-%m-%d')}")
     for engine in args.engines.split(","):
+        engine_start = time.perf_counter()
         objective = Objective(engine, [task], refs)
         objective.score({})  # build the engine
         bare_loop = BareLoop(engine, len(refs[task.name].times))
+        t0 = time.perf_counter()
+        objective.score({})
+        first_eval = time.perf_counter() - t0
+        # slow engines get fewer repeats (at least 3), so each engine costs about the same time
+        repeats = int(np.clip(args.section_seconds / (2 * first_eval), 3, args.repeats))
         evals, bare = [], []
-        for _ in range(args.repeats):  # interleaved, so a slow spell of the machine hits both alike
+        for _ in range(repeats):  # interleaved, so a slow spell of the machine hits both alike
             t0 = time.perf_counter()
             score = objective.score({})
             evals.append(time.perf_counter() - t0)
@@ -167,7 +178,7 @@ def main() -> None:
         print(f"\n== {engine} (generic time step {dt:.4g} s, {steps} steps per evaluation)")
         print(f"  1. bare stepping: {stats([steps / b for b in bare])} steps/s, "
               f"{stats([steps * dt / b for b in bare])} simulated s per wall s")
-        print(f"  2. one evaluation: {stats(evals)} s; overhead ratio {stats(ratio)} (target <= 1.15)")
+        print(f"  2. one evaluation ({repeats} repeats): {stats(evals)} s; overhead ratio {stats(ratio)} (target <= 1.15)")
 
         space = get_space("extended", engine_class(engine).supported())
         lo, hi = np.array(space.bounds).T
@@ -177,24 +188,32 @@ def main() -> None:
         vectors = lo + rng.random((n_vectors, len(space))) * (hi - lo)
         vectors[:, space.names.index("timestep")] = dt  # the generic step: comparable to 1. and 2.
         tuned = Objective(engine, [task], refs, space)
-        one = [throughput(tuned, vectors, 1) for _ in range(max(1, args.repeats // 2))]
-        two = [throughput(tuned, vectors, 2) for _ in range(max(1, args.repeats // 2))]
+        batch_repeats = int(np.clip(round(2 * args.section_seconds / (n_vectors * per_eval)), 1, max(1, args.repeats // 2)))
+        one = [throughput(tuned, vectors, 1) for _ in range(batch_repeats)]
+        two = [throughput(tuned, vectors, 2) for _ in range(batch_repeats)]
         eff = [t / (2 * statistics.median(one)) for t in two]
-        print(f"  3. tuning throughput ({n_vectors} evaluations, the first 2 per worker as warm-up): "
+        print(f"  3. tuning throughput ({n_vectors} evaluations, the first 2 per worker as warm-up, {batch_repeats} repeat(s)): "
               f"{stats(one)} eval/s with 1 worker, {stats(two)} with 2; scaling efficiency {stats(eff)} (target >= 0.85)")
 
-        with tempfile.TemporaryDirectory() as tmp:
-            # a generation is about len(space) evaluations (population 1 x D), on 2 workers
-            generations = int(np.clip(2 * args.section_seconds / (per_eval * len(space) / 2), 1, 8))
-            cfg = dict(engine=engine, tasks="cube", space="extended", data=str(REFERENCE_DIR), seed=1,
-                       max_generations=generations, workers=2)
-            full = start_run(RunConfig(**cfg, prune=False), Path(tmp) / "full", show_progress=False)
-            pruned = start_run(RunConfig(**cfg), Path(tmp) / "pruned", show_progress=False)
-            same = "same result" if pruned.fitness == full.fitness else "DIFFERENT RESULT"
-            print(f"  4. pruning ({generations} generation(s), {full.evaluations} evaluations, 2 workers): "
-                  f"{pruned.pruned_evaluations} trials stopped early, physics steps {full.steps} -> {pruned.steps} "
-                  f"({100 * (1 - pruned.steps / full.steps):.0f} % saved), wall {full.wall_s:.1f} -> "
-                  f"{pruned.wall_s:.1f} s, {same}")
+        # a generation is about len(space) evaluations (population 1 x D), on 2 workers
+        generation_s = per_eval * len(space) / 2
+        generations = int(min(2 * args.section_seconds / generation_s, 8))
+        if generations < 2:
+            # the first generation's trials face random parents, which hardly any trial
+            # provably loses to part-way: one generation would print a meaningless 0 %
+            print(f"  4. pruning: skipped, a generation takes about {generation_s:.0f} s here "
+                  f"(--section-seconds {generation_s:.0f} or more measures two)")
+        else:
+            with tempfile.TemporaryDirectory() as tmp:
+                cfg = dict(engine=engine, tasks="cube", space="extended", data=str(REFERENCE_DIR), seed=1,
+                           max_generations=generations, workers=2)
+                full = start_run(RunConfig(**cfg, prune=False), Path(tmp) / "full", show_progress=False)
+                pruned = start_run(RunConfig(**cfg), Path(tmp) / "pruned", show_progress=False)
+                same = "same result" if pruned.fitness == full.fitness else "DIFFERENT RESULT"
+                print(f"  4. pruning ({generations} generations, {full.evaluations} evaluations, 2 workers): "
+                      f"{pruned.pruned_evaluations} trials stopped early, physics steps {full.steps} -> {pruned.steps} "
+                      f"({100 * (1 - pruned.steps / full.steps):.0f} % saved), wall {full.wall_s:.1f} -> "
+                      f"{pruned.wall_s:.1f} s, {same}")
 
         memory = []
         # rollouts short enough that --evals of them on 2 workers take about 2 x --section-seconds
@@ -202,6 +221,9 @@ def main() -> None:
         short = Objective(engine, [task], first_seconds(refs, rollout_s), space)
         with tempfile.TemporaryDirectory() as tmp:
             store = RunStore(Path(tmp), create=True)
+            # a leak grows in both halves; a cache warming up (Drake builds a plant per new
+            # time step, up to a few hundred builds) grows in the first only
+            checkpoints = (100, 50 * round((100 + args.evals) / 100), args.evals)
             with Evaluator(short, store, 2) as evaluator:
                 done = 0
                 for batch in range(0, args.evals, 50):
@@ -209,13 +231,15 @@ def main() -> None:
                     xs[:, space.names.index("timestep")] = np.maximum(xs[:, space.names.index("timestep")], 0.01)
                     evaluator(None, xs)
                     done += 50
-                    if done in (100, args.evals):
+                    if done in checkpoints:
                         memory.append((done, family_rss_mb()))
             store.close()
         print(f"  5. memory (main + 2 workers, {rollout_s:.2g} s rollouts): " + ", ".join(f"{mb:.0f} MB after {n} evaluations" for n, mb in memory)
-              + f" (growth {memory[-1][1] - memory[0][1]:+.0f} MB)")
+              + f" (growth {memory[1][1] - memory[0][1]:+.0f} MB, then {memory[-1][1] - memory[1][1]:+.0f} MB)")
+        print(f"  ({time.perf_counter() - engine_start:.0f} s for {engine})", flush=True)
 
     if not args.skip_target and "mujoco" in args.engines and data != REFERENCE_DIR:
+        print()
         times = []
         for seed in range(args.seeds):
             with tempfile.TemporaryDirectory() as tmp:
@@ -226,6 +250,7 @@ def main() -> None:
                 print(f"  6. seed {seed}: fitness {res.fitness:.4f} after {res.wall_s:.0f} s", flush=True)
         print(f"  6. time to fitness {args.target} (mujoco, cube, extended, 2 workers, real data): "
               f"median {statistics.median(times):.0f} s [{min(times):.0f}, {max(times):.0f}]")
+    print(f"\nwhole benchmark: {(time.perf_counter() - start) / 60:.1f} min")
 
 
 if __name__ == "__main__":
