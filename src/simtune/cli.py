@@ -19,6 +19,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from simtune.console import text_table
 from simtune.errors import SimtuneError
 from simtune.report.command import report
 
@@ -108,9 +109,8 @@ def evaluate(
     if as_json:
         print(json.dumps(result))
         return
-    table = Table(title=f"{engine} on {task}" + (f" with {params_file}" if params_file else " (generic parameters)"))
-    for col in ("task", "fitness", "wrist error [m]", "object error [m]", "note"):
-        table.add_column(escape(col))
+    table = text_table(f"{engine} on {task}" + (f" with {params_file}" if params_file else " (generic parameters)"),
+                       ("task", "fitness", "wrist error [m]", "object error [m]", "note"))
     for t in score.tasks:
         table.add_row(t.task, _fmt(t.fitness), _fmt(t.wrist_error), _fmt(t.object_error), t.message)
     if len(score.tasks) > 1:
@@ -267,9 +267,8 @@ def grid(
                     max_generations=max_generations, only=_split(only) if only else None)
     if plan:
         rows = plan_grid(spec)
-        table = Table(title=f"grid plan: {len(spec.units())} optimisations")
-        for col in ("engine", "tasks", "space", "params", "s / eval", "evals / run", "h / run", "core-hours"):
-            table.add_column(col)
+        table = text_table(f"grid plan: {len(spec.units())} optimisations",
+                           ("engine", "tasks", "space", "params", "s / eval", "evals / run", "h / run", "core-hours"))
         for r in rows:
             table.add_row(r["engine"], r["tasks"], r["space"], str(r["parameters"]), f"{r['eval_s']:.3f}",
                           str(r["evaluations_per_run"]), f"{r['run_hours']:.2f}", f"{r['core_hours']:.1f}")
@@ -288,11 +287,9 @@ def grid(
         done, total = counts.get("done", 0), sum(counts.values())
         elapsed = time.time() - started
         eta = f"{elapsed / done * (total - done) / 60:.1f} min" if done else "-"
-        table = Table(title=f"grid {out_dir}: {done}/{total} done, {counts.get('running', 0)} running, "
-                      f"{counts.get('failed', 0)} failed, {counts.get('pending', 0)} pending; ETA {eta}")
-        table.add_column("engine")
-        table.add_column("tasks")
-        table.add_column("best fitness")
+        table = text_table(f"grid {out_dir}: {done}/{total} done, {counts.get('running', 0)} running, "
+                           f"{counts.get('failed', 0)} failed, {counts.get('pending', 0)} pending; ETA {eta}",
+                           ("engine", "tasks", "best fitness"))
         for engine_name, task_names, best in index.best():
             table.add_row(engine_name, task_names, f"{best:.4f}")
         return table
@@ -314,12 +311,9 @@ def engines() -> None:
     """List the physics engines, their versions, and how to install a missing one."""
     import importlib
 
-
     from simtune.engines import ENGINES
 
-    table = Table(title="physics engines")
-    for col in ("engine", "version", "installed", "install"):
-        table.add_column(col)
+    table = text_table("physics engines", ("engine", "version", "installed", "install"))
     for name, (module, cls, hint) in ENGINES.items():
         version = getattr(importlib.import_module(module), cls).version()
         installed = version != "not installed"
@@ -332,9 +326,7 @@ def tasks() -> None:
     """List the tasks: duration, object and whether public recordings exist."""
     from simtune.tasks import GROUPS, TASKS
 
-    table = Table(title="tasks")
-    for col in ("task", "duration [s]", "object", "public recordings", "description"):
-        table.add_column(escape(col))
+    table = text_table("tasks", ("task", "duration [s]", "object", "public recordings", "description"))
     for t in TASKS.values():
         obj = f"{t.object.material} {t.object.shape} {t.object.mass:g} kg" if t.object else "-"
         table.add_row(t.name, f"{t.duration:g}", obj, "qrg2019" if t.has_public_recordings else "-", t.description)
@@ -354,9 +346,8 @@ def params(
 
     supported = engine_class(engine).supported() if engine else None
     sp = get_space(space, supported)
-    table = Table(title=f"space {space}" + (f" in {engine}" if engine else "") + f": {len(sp)} parameters")
-    for col in ("parameter", "low", "high", "unit", "meaning"):
-        table.add_column(col)
+    table = text_table(f"space {space}" + (f" in {engine}" if engine else "") + f": {len(sp)} parameters",
+                       ("parameter", "low", "high", "unit", "meaning"))
     for p in sp.parameters:
         table.add_row(p.name, f"{p.low:g}", f"{p.high:g}", p.unit, p.description)
     out.print(table)
@@ -494,9 +485,9 @@ def transfer(
     if as_json:
         print(json.dumps({k: v for k, v in result.items() if k != "params"}))
         return
-    table = Table(title=f"{engine}: tuned on {train} ({space}, {optimizer}), tested on {test}")
-    for col in ("task", "set", "generic", "tuned", "change", "wrist [m]", "object [m]"):
-        table.add_column(escape(col), justify="left" if col in ("task", "set") else "right")
+    table = text_table(f"{engine}: tuned on {train} ({space}, {optimizer}), tested on {test}",
+                       ("task", "set", "generic", "tuned", "change", "wrist [m]", "object [m]"),
+                       right=("generic", "tuned", "change", "wrist [m]", "object [m]"))
     for r in result["tasks"]:
         table.add_row(r["task"], r["role"], _fmt(r["generic"]), _fmt(r["tuned"]), f"{r['change'] * 100:+.0f} %",
                       _fmt(r["tuned_wrist"]), _fmt(r["tuned_object"]))
@@ -551,9 +542,8 @@ def sensitivity(
         print(json.dumps(result))
         return
     table = sensitivity_table(result)
-    view = Table(title=table.title)
-    for col in table.columns:
-        view.add_column(col.name, justify="left" if col.name == "parameter" else "right")
+    view = text_table(table.title, [col.name for col in table.columns],
+                      right=[col.name for col in table.columns if col.name != "parameter"])
     for row in table.rows:
         view.add_row(*(table.cell(v, c) for v, c in zip(row, table.columns)))
     out.print(view)

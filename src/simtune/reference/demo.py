@@ -6,9 +6,8 @@ import json
 from pathlib import Path
 
 from rich.console import Console
-from rich.markup import escape
-from rich.table import Table
 
+from simtune.console import text_table
 from simtune.reference import REFERENCE_DIR
 from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
@@ -36,17 +35,13 @@ def run_demo(out_dir: Path, workers: int = 2, max_seconds: float = 120.0, consol
                        workers=workers, max_seconds=max_seconds, only=list(DEMO_PARAMETERS))
     result = start_run(config, out_dir)
     generic = RunStore(out_dir).get("generic")
-    table = Table(title="generic vs tuned")
-    for col in ("", "fitness", "wrist error [m]", "object error [m]"):
-        table.add_column(escape(col))
+    table = text_table("generic vs tuned", ("", "fitness", "wrist error [m]", "object error [m]"))
     table.add_row("generic MuJoCo", f"{generic['fitness']:.4f}", f"{generic['wrist_error']:.4f}",
                   f"{generic['object_error']:.4f}")
     s = result.score
     table.add_row("tuned", f"{s.fitness:.4f}", f"{s.wrist_error:.4f}", f"{s.object_error:.4f}")
     console.print(table)
-    params = Table(title="hidden truth vs tuned")
-    for col in ("parameter", "truth", "tuned"):
-        params.add_column(col)
+    params = text_table("hidden truth vs tuned", ("parameter", "truth", "tuned"))
     for name in DEMO_PARAMETERS:
         params.add_row(name, f"{truth['params'][name]:.4g}", f"{result.params[name]:.4g}")
     console.print(params)
