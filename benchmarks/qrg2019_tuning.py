@@ -40,15 +40,35 @@ def main() -> None:
 
                         shutil.rmtree(run_dir)
                     t0 = time.time()
-                    start_run(RunConfig(engine=engine, tasks=task, space=space, data=args.data, seed=args.seed,
-                                        workers=args.workers, max_seconds=args.max_seconds), run_dir,
-                              show_progress=False)
+                    start_run(
+                        RunConfig(
+                            engine=engine,
+                            tasks=task,
+                            space=space,
+                            data=args.data,
+                            seed=args.seed,
+                            workers=args.workers,
+                            max_seconds=args.max_seconds,
+                        ),
+                        run_dir,
+                        show_progress=False,
+                    )
                     print(f"{engine} {task} {space}: {time.time() - t0:.0f} s", flush=True)
                 store = RunStore(run_dir)
                 best = store.best_evaluation()["score"]
-                rows.append((engine, task, space, store.get("generic")["fitness"], best["fitness"],
-                             best["wrist_error"], best["object_error"], store.count_evaluations(),
-                             store.get("elapsed_s")))
+                rows.append(
+                    (
+                        engine,
+                        task,
+                        space,
+                        store.get("generic")["fitness"],
+                        best["fitness"],
+                        best["wrist_error"],
+                        best["object_error"],
+                        store.count_evaluations(),
+                        store.get("elapsed_s"),
+                    )
+                )
     print("\n| engine | task | space | generic | tuned | wrist | object | evaluations | wall [s] |")
     print("|---|---|---|---|---|---|---|---|---|")
     for e, t, s, g, f, w, o, n, wall in rows:

@@ -66,15 +66,29 @@ def score(engine: str, data: Path, params: dict) -> dict:
 
 
 def tune(data: Path, run_dir: Path, seed: int, args) -> dict:
-    config = RunConfig(engine="mujoco", tasks=TASK, space="extended", data=str(data), seed=seed,
-                       workers=args.workers, optimizer=args.optimizer, refine=not args.no_refine,
-                       max_evaluations=args.budget_evals)
+    config = RunConfig(
+        engine="mujoco",
+        tasks=TASK,
+        space="extended",
+        data=str(data),
+        seed=seed,
+        workers=args.workers,
+        optimizer=args.optimizer,
+        refine=not args.no_refine,
+        max_evaluations=args.budget_evals,
+    )
     if (run_dir / "run.sqlite").exists():  # a run of an earlier call with the same --out: replay or finish it
         result = resume_run(run_dir, show_progress=False)
     else:
         result = start_run(config, run_dir, show_progress=False)
-    return {"params": result.params, "fitness": result.fitness, "wrist": result.score.wrist_error,
-            "object": result.score.object_error, "evaluations": result.evaluations, "wall_s": result.wall_s}
+    return {
+        "params": result.params,
+        "fitness": result.fitness,
+        "wrist": result.score.wrist_error,
+        "object": result.score.object_error,
+        "evaluations": result.evaluations,
+        "wall_s": result.wall_s,
+    }
 
 
 def synth(engine: str, data: Path, truth: dict) -> None:
@@ -93,8 +107,11 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="simtune-recovery-"))
-    print(f"runs in {out}; optimizer {args.optimizer}{'' if args.no_refine else ' + least squares'}, "
-          f"{args.budget_evals} evaluations, seeds 0..{args.seeds - 1}, {args.workers} workers", file=sys.stderr)
+    print(
+        f"runs in {out}; optimizer {args.optimizer}{'' if args.no_refine else ' + least squares'}, "
+        f"{args.budget_evals} evaluations, seeds 0..{args.seeds - 1}, {args.workers} workers",
+        file=sys.stderr,
+    )
 
     # --- 1-4: MuJoCo recovers MuJoCo ------------------------------------------------------------------
     data = out / "data-mujoco"
@@ -107,16 +124,22 @@ def main() -> int:
     truth = {**generic_values, **TRUTH}
 
     print(f"\n### MuJoCo tuned on MuJoCo `{TASK}` data with known parameters\n")
-    print(f"Noise floor (the true parameters scored against the noisy data): fitness {floor['fitness']:.4f}, "
-          f"wrist {floor['wrist']:.4f} m; generic MuJoCo: fitness {generic['fitness']:.4f}.\n")
-    print(f"| seed | fitness | wrist [m] | object [m] | wrist / floor | wrist / noise ({NOISE_M * 1000:g} mm) | "
-          "command_delay [s] | delay error [s] | evaluations | wall [s] |")
+    print(
+        f"Noise floor (the true parameters scored against the noisy data): fitness {floor['fitness']:.4f}, "
+        f"wrist {floor['wrist']:.4f} m; generic MuJoCo: fitness {generic['fitness']:.4f}.\n"
+    )
+    print(
+        f"| seed | fitness | wrist [m] | object [m] | wrist / floor | wrist / noise ({NOISE_M * 1000:g} mm) | "
+        "command_delay [s] | delay error [s] | evaluations | wall [s] |"
+    )
     print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for s, r in enumerate(runs):
         delay = r["params"]["command_delay"]
-        print(f"| {s} | {r['fitness']:.4f} | {r['wrist']:.4f} | {r['object']:.4f} | {r['wrist'] / floor['wrist']:.2f} | "
-              f"{r['wrist'] / NOISE_M:.2f} | "
-              f"{delay:.3f} | {delay - TRUTH['command_delay']:+.3f} | {r['evaluations']} | {r['wall_s']:.0f} |")
+        print(
+            f"| {s} | {r['fitness']:.4f} | {r['wrist']:.4f} | {r['object']:.4f} | {r['wrist'] / floor['wrist']:.2f} | "
+            f"{r['wrist'] / NOISE_M:.2f} | "
+            f"{delay:.3f} | {delay - TRUTH['command_delay']:+.3f} | {r['evaluations']} | {r['wall_s']:.0f} |"
+        )
 
     rows = []
     for name in names:
@@ -130,9 +153,11 @@ def main() -> int:
         rows.append((name, truth[name], float(values.mean()), error, spread, name in TRUTH))
     rows.sort(key=lambda r: r[3])
     skipped = [n for n in names if n not in truth]
-    print("\nPer parameter, sorted by error (both divided by the parameter's range, error = mean over seeds of "
-          "|tuned - truth|; truth = the value set (*), or MuJoCo's generic value). Left out: "
-          f"{', '.join(skipped) or 'none'} (objects task {TASK} lacks).\n")
+    print(
+        "\nPer parameter, sorted by error (both divided by the parameter's range, error = mean over seeds of "
+        "|tuned - truth|; truth = the value set (*), or MuJoCo's generic value). Left out: "
+        f"{', '.join(skipped) or 'none'} (objects task {TASK} lacks).\n"
+    )
     print("| parameter | truth | tuned (mean) | error / range | spread (std) / range |")
     print("|---|---:|---:|---:|---:|")
     for name, t, mean, error, spread, marked in rows:
@@ -142,9 +167,11 @@ def main() -> int:
         recovered = [r for r in rows if r[3] <= 0.05]
         tight = [r for r in rows if r[4] <= 0.05]
         both = [r for r in tight if r[3] <= 0.05]
-        print(f"\nSpearman correlation of spread and error over {len(rows)} parameters: rho = {rho:.2f} "
-              f"(p = {pvalue:.2g}). {len(recovered)} parameters within 5 % of their range of the truth; "
-              f"{len(tight)} with a spread under 5 % of their range, {len(both)} of them recovered.")
+        print(
+            f"\nSpearman correlation of spread and error over {len(rows)} parameters: rho = {rho:.2f} "
+            f"(p = {pvalue:.2g}). {len(recovered)} parameters within 5 % of their range of the truth; "
+            f"{len(tight)} with a spread under 5 % of their range, {len(both)} of them recovered."
+        )
 
     # --- 5: PyBullet as reality ----------------------------------------------------------------------------
     if not args.no_cross:
@@ -157,13 +184,17 @@ def main() -> int:
         print("\n### Cross-engine gap: PyBullet as reality, MuJoCo tuned towards it (seed 0)\n")
         print("| simulation scored against PyBullet's data | fitness | wrist [m] | object [m] |")
         print("|---|---:|---:|---:|")
-        for label, s in (("PyBullet, true parameters (noise floor)", pb_floor),
-                         ("MuJoCo, generic", mj_generic),
-                         ("MuJoCo, generic + true delay and marker offset", mj_delay_only),
-                         ("MuJoCo, tuned", cross)):
+        for label, s in (
+            ("PyBullet, true parameters (noise floor)", pb_floor),
+            ("MuJoCo, generic", mj_generic),
+            ("MuJoCo, generic + true delay and marker offset", mj_delay_only),
+            ("MuJoCo, tuned", cross),
+        ):
             print(f"| {label} | {s['fitness']:.4f} | {s['wrist']:.4f} | {s['object']:.4f} |")
-        print(f"\nMuJoCo's tuned command delay: {cross['params']['command_delay']:.3f} s (PyBullet's truth 1.5 s); "
-              f"gap left after tuning: {cross['fitness'] - pb_floor['fitness']:.4f} m of fitness above the floor.")
+        print(
+            f"\nMuJoCo's tuned command delay: {cross['params']['command_delay']:.3f} s (PyBullet's truth 1.5 s); "
+            f"gap left after tuning: {cross['fitness'] - pb_floor['fitness']:.4f} m of fitness above the floor."
+        )
     (out / "recovery.json").write_text(json.dumps({"truth": TRUTH, "floor": floor, "runs": runs}, indent=1))
     return 0
 

@@ -95,8 +95,9 @@ def first_seconds(refs: dict, seconds: float) -> dict:
     cut = {}
     for name, ref in refs.items():
         n = int(round(seconds * ref.rate)) + 1
-        cut[name] = dataclasses.replace(ref, times=ref.times[:n], wrist_mean=ref.wrist_mean[:n],
-                                        wrist_repeats=ref.wrist_repeats[:, :n])
+        cut[name] = dataclasses.replace(
+            ref, times=ref.times[:n], wrist_mean=ref.wrist_mean[:n], wrist_repeats=ref.wrist_repeats[:, :n]
+        )
     return cut
 
 
@@ -129,7 +130,7 @@ def throughput(objective: Objective, vectors: np.ndarray, workers: int) -> float
         with Evaluator(objective, store, workers) as evaluator:
             evaluator(None, vectors[: workers * 2])  # warm-up: start workers, build engines
             t0 = time.perf_counter()
-            evaluator(None, vectors[workers * 2:])
+            evaluator(None, vectors[workers * 2 :])
             rate = (len(vectors) - workers * 2) / (time.perf_counter() - t0)
         store.close()
     return rate
@@ -140,8 +141,12 @@ def main() -> None:
     ap.add_argument("--engines", default="mujoco,pybullet,ode,dart,drake")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--evals", type=int, default=1000)
-    ap.add_argument("--section-seconds", type=float, default=10.0,
-                    help="about how long the throughput and pruning measurements take per engine")
+    ap.add_argument(
+        "--section-seconds",
+        type=float,
+        default=10.0,
+        help="about how long the throughput and pruning measurements take per engine",
+    )
     ap.add_argument("--data", default=str(DEFAULT_DATA))
     ap.add_argument("--target", type=float, default=0.05)
     ap.add_argument("--seeds", type=int, default=3)
@@ -176,9 +181,13 @@ def main() -> None:
         dt = make_engine(engine, task).timestep
         ratio = [e / b for e, b in zip(evals, bare)]
         print(f"\n== {engine} (generic time step {dt:.4g} s, {steps} steps per evaluation)")
-        print(f"  1. bare stepping: {stats([steps / b for b in bare])} steps/s, "
-              f"{stats([steps * dt / b for b in bare])} simulated s per wall s")
-        print(f"  2. one evaluation ({repeats} repeats): {stats(evals)} s; overhead ratio {stats(ratio)} (target <= 1.15)")
+        print(
+            f"  1. bare stepping: {stats([steps / b for b in bare])} steps/s, "
+            f"{stats([steps * dt / b for b in bare])} simulated s per wall s"
+        )
+        print(
+            f"  2. one evaluation ({repeats} repeats): {stats(evals)} s; overhead ratio {stats(ratio)} (target <= 1.15)"
+        )
 
         space = get_space("extended", engine_class(engine).supported())
         lo, hi = np.array(space.bounds).T
@@ -188,12 +197,17 @@ def main() -> None:
         vectors = lo + rng.random((n_vectors, len(space))) * (hi - lo)
         vectors[:, space.names.index("timestep")] = dt  # the generic step: comparable to 1. and 2.
         tuned = Objective(engine, [task], refs, space)
-        batch_repeats = int(np.clip(round(2 * args.section_seconds / (n_vectors * per_eval)), 1, max(1, args.repeats // 2)))
+        batch_repeats = int(
+            np.clip(round(2 * args.section_seconds / (n_vectors * per_eval)), 1, max(1, args.repeats // 2))
+        )
         one = [throughput(tuned, vectors, 1) for _ in range(batch_repeats)]
         two = [throughput(tuned, vectors, 2) for _ in range(batch_repeats)]
         eff = [t / (2 * statistics.median(one)) for t in two]
-        print(f"  3. tuning throughput ({n_vectors} evaluations, the first 2 per worker as warm-up, {batch_repeats} repeat(s)): "
-              f"{stats(one)} eval/s with 1 worker, {stats(two)} with 2; scaling efficiency {stats(eff)} (target >= 0.85)")
+        print(
+            f"  3. tuning throughput ({n_vectors} evaluations, the first 2 per worker as warm-up, "
+            f"{batch_repeats} repeat(s)): "
+            f"{stats(one)} eval/s with 1 worker, {stats(two)} with 2; scaling efficiency {stats(eff)} (target >= 0.85)"
+        )
 
         # a generation is about len(space) evaluations (population 1 x D), on 2 workers
         generation_s = per_eval * len(space) / 2
@@ -201,19 +215,30 @@ def main() -> None:
         if generations < 2:
             # the first generation's trials face random parents, which hardly any trial
             # provably loses to part-way: one generation would print a meaningless 0 %
-            print(f"  4. pruning: skipped, a generation takes about {generation_s:.0f} s here "
-                  f"(--section-seconds {generation_s:.0f} or more measures two)")
+            print(
+                f"  4. pruning: skipped, a generation takes about {generation_s:.0f} s here "
+                f"(--section-seconds {generation_s:.0f} or more measures two)"
+            )
         else:
             with tempfile.TemporaryDirectory() as tmp:
-                cfg = dict(engine=engine, tasks="cube", space="extended", data=str(REFERENCE_DIR), seed=1,
-                           max_generations=generations, workers=2)
+                cfg = dict(
+                    engine=engine,
+                    tasks="cube",
+                    space="extended",
+                    data=str(REFERENCE_DIR),
+                    seed=1,
+                    max_generations=generations,
+                    workers=2,
+                )
                 full = start_run(RunConfig(**cfg, prune=False), Path(tmp) / "full", show_progress=False)
                 pruned = start_run(RunConfig(**cfg), Path(tmp) / "pruned", show_progress=False)
                 same = "same result" if pruned.fitness == full.fitness else "DIFFERENT RESULT"
-                print(f"  4. pruning ({generations} generations, {full.evaluations} evaluations, 2 workers): "
-                      f"{pruned.pruned_evaluations} trials stopped early, physics steps {full.steps} -> {pruned.steps} "
-                      f"({100 * (1 - pruned.steps / full.steps):.0f} % saved), wall {full.wall_s:.1f} -> "
-                      f"{pruned.wall_s:.1f} s, {same}")
+                print(
+                    f"  4. pruning ({generations} generations, {full.evaluations} evaluations, 2 workers): "
+                    f"{pruned.pruned_evaluations} trials stopped early, physics steps {full.steps} -> {pruned.steps} "
+                    f"({100 * (1 - pruned.steps / full.steps):.0f} % saved), wall {full.wall_s:.1f} -> "
+                    f"{pruned.wall_s:.1f} s, {same}"
+                )
 
         memory = []
         # rollouts short enough that --evals of them on 2 workers take about 2 x --section-seconds
@@ -226,7 +251,7 @@ def main() -> None:
             checkpoints = (100, 50 * round((100 + args.evals) / 100), args.evals)
             with Evaluator(short, store, 2) as evaluator:
                 done = 0
-                for batch in range(0, args.evals, 50):
+                for _ in range(0, args.evals, 50):
                     xs = lo + rng.random((50, len(space))) * (hi - lo)
                     xs[:, space.names.index("timestep")] = np.maximum(xs[:, space.names.index("timestep")], 0.01)
                     evaluator(None, xs)
@@ -234,8 +259,11 @@ def main() -> None:
                     if done in checkpoints:
                         memory.append((done, family_rss_mb()))
             store.close()
-        print(f"  5. memory (main + 2 workers, {rollout_s:.2g} s rollouts): " + ", ".join(f"{mb:.0f} MB after {n} evaluations" for n, mb in memory)
-              + f" (growth {memory[1][1] - memory[0][1]:+.0f} MB, then {memory[-1][1] - memory[1][1]:+.0f} MB)")
+        print(
+            f"  5. memory (main + 2 workers, {rollout_s:.2g} s rollouts): "
+            + ", ".join(f"{mb:.0f} MB after {n} evaluations" for n, mb in memory)
+            + f" (growth {memory[1][1] - memory[0][1]:+.0f} MB, then {memory[-1][1] - memory[1][1]:+.0f} MB)"
+        )
         print(f"  ({time.perf_counter() - engine_start:.0f} s for {engine})", flush=True)
 
     if not args.skip_target and "mujoco" in args.engines and data != REFERENCE_DIR:
@@ -243,13 +271,26 @@ def main() -> None:
         times = []
         for seed in range(args.seeds):
             with tempfile.TemporaryDirectory() as tmp:
-                res = start_run(RunConfig(engine="mujoco", tasks="cube", space="extended", data=str(data), seed=seed,
-                                          workers=2, max_seconds=900, target_fitness=args.target),
-                                Path(tmp) / "run", show_progress=False)
+                res = start_run(
+                    RunConfig(
+                        engine="mujoco",
+                        tasks="cube",
+                        space="extended",
+                        data=str(data),
+                        seed=seed,
+                        workers=2,
+                        max_seconds=900,
+                        target_fitness=args.target,
+                    ),
+                    Path(tmp) / "run",
+                    show_progress=False,
+                )
                 times.append(res.wall_s if res.fitness <= args.target else float("inf"))
                 print(f"  6. seed {seed}: fitness {res.fitness:.4f} after {res.wall_s:.0f} s", flush=True)
-        print(f"  6. time to fitness {args.target} (mujoco, cube, extended, 2 workers, real data): "
-              f"median {statistics.median(times):.0f} s [{min(times):.0f}, {max(times):.0f}]")
+        print(
+            f"  6. time to fitness {args.target} (mujoco, cube, extended, 2 workers, real data): "
+            f"median {statistics.median(times):.0f} s [{min(times):.0f}, {max(times):.0f}]"
+        )
     print(f"\nwhole benchmark: {(time.perf_counter() - start) / 60:.1f} min")
 
 

@@ -29,8 +29,9 @@ def two_task_data(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("data")
     shutil.copytree(REFERENCE_DIR / "cube", root / "cube")
     (root / "single").mkdir()
-    for rec in synthesize("mujoco", get_task("single"), {"command_delay": 1.2}, repeats=2, noise_m=0.002,
-                          jitter_s=0.05, seed=1):
+    for rec in synthesize(
+        "mujoco", get_task("single"), {"command_delay": 1.2}, repeats=2, noise_m=0.002, jitter_s=0.05, seed=1
+    ):
         write_qualisys_tsv(root / "single" / rec.source.name, rec, header=True)
     return root
 

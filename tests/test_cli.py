@@ -17,7 +17,9 @@ def simtune(*args, check=False):
     return proc
 
 
-@pytest.mark.parametrize("command", ["evaluate", "tune", "resume", "demo", "engines", "tasks", "params", "grid", "report"])
+@pytest.mark.parametrize(
+    "command", ["evaluate", "tune", "resume", "demo", "engines", "tasks", "params", "grid", "report"]
+)
 def test_every_command_has_help(command):
     proc = simtune(command, "--help", check=True)
     assert "Usage" in proc.stdout
@@ -26,8 +28,16 @@ def test_every_command_has_help(command):
 def test_help_and_tables_keep_brackets():
     # units ([s], [m]) and extras ('simtune[opt]') must survive Rich's markup parsing
     env = {**os.environ, "COLUMNS": "250"}
-    run = lambda *args: subprocess.run([sys.executable, "-m", "simtune.cli", *args], capture_output=True,
-                                       text=True, timeout=300, env=env, check=True).stdout
+    run = lambda *args: (
+        subprocess.run(
+            [sys.executable, "-m", "simtune.cli", *args],
+            capture_output=True,
+            text=True,
+            timeout=300,
+            env=env,
+            check=True,
+        ).stdout
+    )
     tune_help = run("tune", "--help")
     assert "simtune[opt]" in tune_help and "wall time [s]" in tune_help
     assert "ROOT/<task>/*.tsv" in tune_help
@@ -49,14 +59,17 @@ def test_evaluate_params_file_round_trip(tmp_path):
     assert data["fitness"] < data["generic_fitness"]
 
 
-@pytest.mark.parametrize(("args", "message"), [
-    (["evaluate", "--engine", "bulletx"], "unknown engine 'bulletx'"),
-    (["evaluate", "--task", "cubes"], "unknown task 'cubes'"),
-    (["tune", "--space", "huge", "--max-generations", "1"], "unknown parameter space 'huge'"),
-    (["evaluate", "--data", "/nonexistent/folder"], "/nonexistent/folder does not exist"),
-    (["evaluate", "--task", "single"], "no recordings for task 'single'"),
-    (["resume", "/tmp"], "not a run folder"),
-])
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["evaluate", "--engine", "bulletx"], "unknown engine 'bulletx'"),
+        (["evaluate", "--task", "cubes"], "unknown task 'cubes'"),
+        (["tune", "--space", "huge", "--max-generations", "1"], "unknown parameter space 'huge'"),
+        (["evaluate", "--data", "/nonexistent/folder"], "/nonexistent/folder does not exist"),
+        (["evaluate", "--task", "single"], "no recordings for task 'single'"),
+        (["resume", "/tmp"], "not a run folder"),
+    ],
+)
 def test_bad_requests_fail_with_one_line(args, message):
     proc = simtune(*args)
     assert proc.returncode == 2
@@ -68,7 +81,7 @@ def test_bad_requests_fail_with_one_line(args, message):
 def test_broken_recording_names_file_and_line(tmp_path):
     folder = tmp_path / "cube"
     folder.mkdir()
-    good = (REFERENCE_DIR / "cube" / "cube0001.tsv.gz")
+    good = REFERENCE_DIR / "cube" / "cube0001.tsv.gz"
     import gzip
 
     lines = gzip.decompress(good.read_bytes()).decode().splitlines()

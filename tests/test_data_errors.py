@@ -205,7 +205,7 @@ def test_wrong_number_of_body_names(tmp_path: Path) -> None:
 
 def test_two_bodies_with_names(tmp_path: Path) -> None:
     # Frame, time and two bodies; the last body's empty column is optional.
-    lines = ["\t".join(line.split("\t")[:2 + 17 + 16]) for line in tsv_lines(tmp_path)]
+    lines = ["\t".join(line.split("\t")[: 2 + 17 + 16]) for line in tsv_lines(tmp_path)]
     rec = load_recording(write_lines(tmp_path / "two.tsv", lines), body_names=["base", "wrist"])
     assert rec.bodies == ["base", "wrist"]
 
@@ -220,9 +220,7 @@ def test_csv_bad_header(tmp_path: Path) -> None:
 
 def test_csv_wrong_column_count(tmp_path: Path) -> None:
     path = tmp_path / "cols.csv"
-    path.write_text(
-        "#c\ntime,w.x,w.y,w.z,w.qx,w.qy,w.qz,w.qw\n0,1,2,3,0,0,0,1\n1,1,2,3,0,0\n2,1,2,3,0,0,0,1\n"
-    )
+    path.write_text("#c\ntime,w.x,w.y,w.z,w.qx,w.qy,w.qz,w.qw\n0,1,2,3,0,0,0,1\n1,1,2,3,0,0\n2,1,2,3,0,0,0,1\n")
     assert "line 4: expected 8 columns, found 6" in error_of(path)
 
 

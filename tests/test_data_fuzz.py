@@ -15,8 +15,30 @@ from simtune.data import Recording, load_recording, write_csv, write_qualisys_ts
 from simtune.errors import RecordingError
 
 N = 8
-BAD_CELLS = ["abc", "nan", "NaN", "inf", "-inf", "", "1e999", "-", ".", "1.2.3", "--1", " 5 ",
-             "0", "0.00000", "1e5", "99999999999", "1_0", "\x00", "é", "\t", "\r\n", "+-3"]
+BAD_CELLS = [
+    "abc",
+    "nan",
+    "NaN",
+    "inf",
+    "-inf",
+    "",
+    "1e999",
+    "-",
+    ".",
+    "1.2.3",
+    "--1",
+    " 5 ",
+    "0",
+    "0.00000",
+    "1e5",
+    "99999999999",
+    "1_0",
+    "\x00",
+    "é",
+    "\t",
+    "\r\n",
+    "+-3",
+]
 
 
 def _valid_recording() -> Recording:

@@ -41,9 +41,7 @@ def make_recording(n: int = 30, rate: float = 100.0, lost: int | None = 4) -> Re
         "c": np.c_[np.full(n, 0.6), np.full(n, 0.007), np.full(n, 0.04)],
     }
     rot = {
-        "a": Rotation.from_euler(
-            "XYZ", np.c_[170 + 5 * t, 3 * t, -40 * t], degrees=True
-        ).as_matrix(),
+        "a": Rotation.from_euler("XYZ", np.c_[170 + 5 * t, 3 * t, -40 * t], degrees=True).as_matrix(),
         "b": Rotation.from_rotvec(np.c_[0.3 * t, -0.2 * t, 1.0 + t]).as_matrix(),
         "c": np.tile(np.eye(3), (n, 1, 1)),
     }

@@ -23,7 +23,9 @@ class FaultyObjective(Objective):
 
     def score_vector(self, x, bound=None):
         delay = self.space.to_dict(x)["command_delay"]
-        if delay > 2.4:  # command_delay in its top fifth (latin hypercube puts one member there): the worker dies as on a segfault
+        if (
+            delay > 2.4
+        ):  # command_delay in its top fifth (latin hypercube puts one member there): the worker dies as on a segfault
             os.kill(os.getpid(), signal.SIGKILL)
         if delay < 0.6:  # in its bottom fifth: the worker hangs
             time.sleep(120)
@@ -36,8 +38,9 @@ def test_crashing_and_hanging_evaluations_are_recorded_and_the_run_goes_on(tmp_p
     objective = FaultyObjective("mujoco", tasks, load_references(REFERENCE_DIR, tasks), space)
     store = RunStore(tmp_path / "run", create=True)
     t0 = time.time()
-    result = differential_evolution_tune(objective, store, TuneSettings(seed=5, workers=2, max_generations=3,
-                                                                      eval_timeout=4.0))
+    result = differential_evolution_tune(
+        objective, store, TuneSettings(seed=5, workers=2, max_generations=3, eval_timeout=4.0)
+    )
     assert time.time() - t0 < 100
     rows = store.evaluations()
     at = space.names.index("command_delay")

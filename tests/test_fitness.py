@@ -8,9 +8,16 @@ from simtune.fitness import PENALTY, Score, marker_positions, score_rollout
 
 def make_reference(wrist, object_final=None):
     n = len(wrist)
-    return TaskData(task="t", rate=20.0, times=np.arange(n) / 20.0, wrist_mean=wrist, wrist_repeats=wrist[None],
-                    object_final=object_final, object_start=None if object_final is None else object_final * 0,
-                    sources=[])
+    return TaskData(
+        task="t",
+        rate=20.0,
+        times=np.arange(n) / 20.0,
+        wrist_mean=wrist,
+        wrist_repeats=wrist[None],
+        object_final=object_final,
+        object_start=None if object_final is None else object_final * 0,
+        sources=[],
+    )
 
 
 def make_rollout(wrist, obj=None, stable=True):

@@ -12,20 +12,25 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import stored_evaluations
 
 from simtune.errors import SimtuneError
 from simtune.grid import GridIndex, GridSpec, Unit, plan_grid, run_grid
 from simtune.store import RunStore
 
-from conftest import stored_evaluations
-
 distributed = pytest.importorskip("distributed")
 
 
 def small_spec(root) -> GridSpec:
-    return GridSpec(engines=["mujoco", "pybullet"], tasks=["single", "cube"], spaces=["extended"], repeats=2,
-                    data=str(root), max_generations=2,
-                    only=["command_delay", "max_velocity_joint_2", "marker_offset_z"])
+    return GridSpec(
+        engines=["mujoco", "pybullet"],
+        tasks=["single", "cube"],
+        spaces=["extended"],
+        repeats=2,
+        data=str(root),
+        max_generations=2,
+        only=["command_delay", "max_velocity_joint_2", "marker_offset_z"],
+    )
 
 
 def results(index: GridIndex) -> dict[str, tuple]:
@@ -66,8 +71,9 @@ def test_dask_grid_with_a_killed_worker_matches_local(local_grid, two_task_data,
     outcome = {}
 
     def run():
-        outcome["index"] = results(run_grid(small_spec(two_task_data), grid_dir, executor="dask",
-                                            scheduler=cluster.scheduler_address))
+        outcome["index"] = results(
+            run_grid(small_spec(two_task_data), grid_dir, executor="dask", scheduler=cluster.scheduler_address)
+        )
 
     thread = threading.Thread(target=run)
     thread.start()
@@ -116,7 +122,9 @@ def test_unit_ids_are_stable():
 def postgres_url():
     """A throwaway PostgreSQL server on a Unix socket (Debian's postgresql package; .ci/run installs it)."""
     pytest.importorskip("psycopg")
-    found = sorted(glob.glob("/usr/lib/postgresql/*/bin/initdb")) or ([shutil.which("initdb")] if shutil.which("initdb") else [])
+    found = sorted(glob.glob("/usr/lib/postgresql/*/bin/initdb")) or (
+        [shutil.which("initdb")] if shutil.which("initdb") else []
+    )
     if not found:
         pytest.skip("PostgreSQL server programs not installed (apt-get install postgresql)")
     bindir = Path(found[-1]).parent
@@ -130,16 +138,33 @@ def postgres_url():
         os.chown(root, owner.pw_uid, owner.pw_gid)
         as_user = ["runuser", "-u", "postgres", "--"]
     data = root / "data"
-    subprocess.run(as_user + [str(bindir / "initdb"), "-D", str(data), "-A", "trust", "-U", "simtune", "--no-sync"],
-                   check=True, capture_output=True)
-    subprocess.run(as_user + [str(bindir / "pg_ctl"), "-D", str(data), "-l", str(root / "log"), "-w", "-o",
-                              f"-k {root} -c listen_addresses='' -c fsync=off", "start"],
-                   check=True, capture_output=True)
+    subprocess.run(
+        as_user + [str(bindir / "initdb"), "-D", str(data), "-A", "trust", "-U", "simtune", "--no-sync"],
+        check=True,
+        capture_output=True,
+    )
+    subprocess.run(
+        as_user
+        + [
+            str(bindir / "pg_ctl"),
+            "-D",
+            str(data),
+            "-l",
+            str(root / "log"),
+            "-w",
+            "-o",
+            f"-k {root} -c listen_addresses='' -c fsync=off",
+            "start",
+        ],
+        check=True,
+        capture_output=True,
+    )
     try:
         yield f"postgresql://simtune@/postgres?host={root}"
     finally:
-        subprocess.run(as_user + [str(bindir / "pg_ctl"), "-D", str(data), "-m", "immediate", "stop"],
-                       capture_output=True)
+        subprocess.run(
+            as_user + [str(bindir / "pg_ctl"), "-D", str(data), "-m", "immediate", "stop"], capture_output=True
+        )
         shutil.rmtree(root, ignore_errors=True)
 
 

@@ -6,6 +6,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import kill_when
 
 from simtune.errors import ConfigError, SimtuneError
 from simtune.objective import Objective, load_references
@@ -15,15 +16,21 @@ from simtune.runs import RunConfig, resume_run, start_run
 from simtune.store import RunStore
 from simtune.tasks import parse_tasks
 
-from conftest import kill_when
-
 ONLY = ["command_delay", "max_velocity_joint_2", "marker_offset_z"]
 BUDGET = 15
 
 
 def config(**kw):
-    base = dict(engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), seed=3, workers=1,
-                only=ONLY, max_evaluations=BUDGET)
+    base = dict(
+        engine="mujoco",
+        tasks="cube",
+        space="extended",
+        data=str(REFERENCE_DIR),
+        seed=3,
+        workers=1,
+        only=ONLY,
+        max_evaluations=BUDGET,
+    )
     base.update(kw)
     return RunConfig(**base)
 
@@ -67,10 +74,35 @@ def test_seeds_differ(tmp_path):
 def test_cmaes_killed_with_sigkill_resumes_without_losing_or_redoing_work(tmp_path):
     reference = start_run(config(optimizer="cmaes", max_evaluations=21), tmp_path / "whole", show_progress=False)
     run_dir = tmp_path / "killed"
-    kept = kill_when([sys.executable, "-m", "simtune.cli", "tune", "--engine", "mujoco", "--task", "cube",
-                       "--data", str(REFERENCE_DIR), "--space", "extended", "--seed", "3", "--optimizer", "cmaes",
-                       "--max-evaluations", "21", "--only", ",".join(ONLY), "--out", str(run_dir), "--quiet"],
-                      run_dir, 9)
+    kept = kill_when(
+        [
+            sys.executable,
+            "-m",
+            "simtune.cli",
+            "tune",
+            "--engine",
+            "mujoco",
+            "--task",
+            "cube",
+            "--data",
+            str(REFERENCE_DIR),
+            "--space",
+            "extended",
+            "--seed",
+            "3",
+            "--optimizer",
+            "cmaes",
+            "--max-evaluations",
+            "21",
+            "--only",
+            ",".join(ONLY),
+            "--out",
+            str(run_dir),
+            "--quiet",
+        ],
+        run_dir,
+        9,
+    )
     assert 0 < kept < reference.evaluations, "the kill must land mid-run"
     resumed = resume_run(run_dir, show_progress=False)
     assert resumed.new_evaluations == reference.evaluations - kept
@@ -87,9 +119,9 @@ def test_residuals_square_to_the_fitness_with_squared_distances():
     reference = objective.references["cube"]
     n = len(reference.times)
     assert residuals.shape == (3 * n + 3,) == (objective.residual_size,)
-    markers = residuals[:3 * n].reshape(n, 3) * np.sqrt(n)  # marker minus recorded mean, per sample
+    markers = residuals[: 3 * n].reshape(n, 3) * np.sqrt(n)  # marker minus recorded mean, per sample
     assert np.mean(np.linalg.norm(markers, axis=1)) == pytest.approx(score.wrist_error, rel=1e-12)
-    assert np.linalg.norm(residuals[3 * n:]) == pytest.approx(score.object_error, rel=1e-12)
+    assert np.linalg.norm(residuals[3 * n :]) == pytest.approx(score.object_error, rel=1e-12)
     assert score.fitness == objective.score(params).fitness  # the same rollout as the fitness
     np.testing.assert_array_equal(objective.residuals(params), residuals)
     objective.close()
@@ -98,8 +130,11 @@ def test_residuals_square_to_the_fitness_with_squared_distances():
 def test_refine_improves_on_the_search_and_replays_from_the_store(tmp_path):
     cfg = config(optimizer="random", max_evaluations=6, only=["command_delay", "marker_offset_z"], refine=True)
     refined = start_run(cfg, tmp_path / "r", show_progress=False)
-    plain = start_run(config(optimizer="random", max_evaluations=6, only=["command_delay", "marker_offset_z"]),
-                      tmp_path / "p", show_progress=False)
+    plain = start_run(
+        config(optimizer="random", max_evaluations=6, only=["command_delay", "marker_offset_z"]),
+        tmp_path / "p",
+        show_progress=False,
+    )
     assert refined.fitness < plain.fitness  # least squares moved the marker offset downhill
     assert refined.evaluations > 6 and "refined by" in refined.message
     store = RunStore(tmp_path / "r")
@@ -122,16 +157,34 @@ def test_unknown_optimizer_is_a_one_line_config_error(tmp_path):
 @pytest.mark.parametrize(("optimizer", "module"), [("cmaes", "cmaes"), ("bo", "optuna")])
 def test_missing_package_gives_an_install_hint(optimizer, module, tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, module, None)  # import fails as if not installed
-    with pytest.raises(SimtuneError, match=rf"optimizer '{optimizer}' needs the {module} package: "
-                       r"pip install 'simtune\[opt\]'"):
+    with pytest.raises(
+        SimtuneError,
+        match=rf"optimizer '{optimizer}' needs the {module} package: "
+        r"pip install 'simtune\[opt\]'",
+    ):
         start_run(config(optimizer=optimizer), tmp_path / "x", show_progress=False)
     assert not (tmp_path / "x").exists()  # refused before any run folder is made
 
 
 def test_compare_prints_the_table_from_the_run_stores(tmp_path):
     out = tmp_path / "cmp"
-    args = ["compare", "--optimizers", "random,cmaes", "--task", "cube", "--budget-evals", "6", "--seeds", "2",
-            "--only", "command_delay,max_velocity_joint_2", "--target", "0.05", "--out", str(out)]
+    args = [
+        "compare",
+        "--optimizers",
+        "random,cmaes",
+        "--task",
+        "cube",
+        "--budget-evals",
+        "6",
+        "--seeds",
+        "2",
+        "--only",
+        "command_delay,max_velocity_joint_2",
+        "--target",
+        "0.05",
+        "--out",
+        str(out),
+    ]
     proc = simtune(*args)
     assert proc.returncode == 0, proc.stderr
     for text in ("optimizer", "best @ 25%", "best @ 100%", "evals to 0.05", "random", "cmaes"):
@@ -153,8 +206,12 @@ def test_compare_prints_the_table_from_the_run_stores(tmp_path):
 def test_compare_summary_counts_evaluations_to_target():
     from simtune.compare import RunCurve, summarise
 
-    curves = [RunCurve("a", 0, [0.3, 0.2, 0.1, 0.1], 1.0, ""), RunCurve("a", 1, [0.3, 0.3, 0.3, 0.15], 1.0, ""),
-              RunCurve("a", 2, [0.5, 0.1, 0.1, 0.1], 1.0, ""), RunCurve("b", 0, [0.5, 0.4, 0.4, 0.4], 1.0, "")]
+    curves = [
+        RunCurve("a", 0, [0.3, 0.2, 0.1, 0.1], 1.0, ""),
+        RunCurve("a", 1, [0.3, 0.3, 0.3, 0.15], 1.0, ""),
+        RunCurve("a", 2, [0.5, 0.1, 0.1, 0.1], 1.0, ""),
+        RunCurve("b", 0, [0.5, 0.4, 0.4, 0.4], 1.0, ""),
+    ]
     a, b = summarise(curves, ["a", "b"], 4, target=0.1)
     assert a.evaluations_to_target == 3 and a.reached == 2  # median of 3, never, 2
     assert a.best == {"25%": 0.3, "50%": 0.2, "100%": 0.1}

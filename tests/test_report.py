@@ -33,12 +33,26 @@ ENGINES = ("mujoco", "pybullet")
 TASKS = ("single", "cube")
 SEEDS = (0, 1, 2)
 ONLY = ["command_delay", "max_velocity_joint_2", "lateral_friction_plastic"]
-FIGURES = {"fitness_overview", "convergence_generation", "convergence_evaluations", "convergence_time",
-           "parameters_cube_extended", "parameters_single_extended"} | {
-    f"trajectory_{e}_{t}_extended_{t}" for e in ENGINES for t in TASKS}
-TABLES = {"generic_fitness", "best_tuned", "tuned_by_group", "parameter_importance", "parameter_importance_top",
-          "mann_whitney",
-          "object_final", "compute", "dr_ranges", "runs"}
+FIGURES = {
+    "fitness_overview",
+    "convergence_generation",
+    "convergence_evaluations",
+    "convergence_time",
+    "parameters_cube_extended",
+    "parameters_single_extended",
+} | {f"trajectory_{e}_{t}_extended_{t}" for e in ENGINES for t in TASKS}
+TABLES = {
+    "generic_fitness",
+    "best_tuned",
+    "tuned_by_group",
+    "parameter_importance",
+    "parameter_importance_top",
+    "mann_whitney",
+    "object_final",
+    "compute",
+    "dr_ranges",
+    "runs",
+}
 
 
 def _make_data(root: Path) -> Path:
@@ -47,8 +61,9 @@ def _make_data(root: Path) -> Path:
     (data / "single").mkdir(parents=True)
     for f in sorted((REFERENCE_DIR / "cube").iterdir()):
         shutil.copy(f, data / "cube" / f.name)
-    for rec in synthesize("mujoco", get_task("single"), {"command_delay": 1.2}, repeats=2, noise_m=0.002,
-                          jitter_s=0.05, seed=1):
+    for rec in synthesize(
+        "mujoco", get_task("single"), {"command_delay": 1.2}, repeats=2, noise_m=0.002, jitter_s=0.05, seed=1
+    ):
         write_qualisys_tsv(data / "single" / rec.source.name, rec, header=True)
     return data
 
@@ -79,8 +94,9 @@ def grid(tmp_path_factory):
     for engine in ENGINES:
         for task in TASKS:
             for seed in SEEDS:
-                config = RunConfig(engine=engine, tasks=task, space="extended", data=str(data), seed=seed,
-                                   max_generations=2, only=ONLY)
+                config = RunConfig(
+                    engine=engine, tasks=task, space="extended", data=str(data), seed=seed, max_generations=2, only=ONLY
+                )
                 start_run(config, runs / f"{engine}-{task}" / f"seed{seed}", show_progress=False)
     # broken run folders, each must be named in a warning and left out
     shutil.copytree(runs / "mujoco-cube" / "seed0", runs / "broken" / "incomplete")
@@ -174,8 +190,12 @@ def test_tuned_tables_match_stores(report, grid):
         assert int(row["repeats"]) == 3 and row["seeds"] == "0 1 2"
         assert float(row["tuned best"]) == min(values) and float(row["tuned worst"]) == max(values)
         assert float(row["tuned mean"]) == pytest.approx(np.mean(values))
-    generic = {(r["engine"], t): float(r[f"{t} fitness"]) for r in _table(report, "generic_fitness") for t in TASKS
-               if r["source"] == "simtune"}
+    generic = {
+        (r["engine"], t): float(r[f"{t} fitness"])
+        for r in _table(report, "generic_fitness")
+        for t in TASKS
+        if r["source"] == "simtune"
+    }
     for row in _table(report, "best_tuned"):
         task = row["tasks"]
         tuned = min(v for (e, t), vs in best.items() if t == task for v in vs)
@@ -255,7 +275,8 @@ def test_importance_and_mann_whitney_follow_the_stores(report, grid):
             row = mw[(engine, task)]
             assert int(row["tuned n"]) == 3 and int(row["untuned n"]) == len(initial) >= 15
             assert float(row["p two-sided"]) == pytest.approx(
-                mannwhitneyu(bests, initial, alternative="two-sided").pvalue)
+                mannwhitneyu(bests, initial, alternative="two-sided").pvalue
+            )
             assert 0 < float(row["p tuned < untuned"]) <= 1
 
 
@@ -264,8 +285,10 @@ def test_trajectories_resimulate_the_stored_best(report, grid):
     recorded = [r for r in rows if r["source"].startswith("recorded")]
     assert len(recorded) == 1 and recorded[0]["task"] == "cube"  # single has no object
     for engine in ENGINES:
-        best = min((_store(grid / "grid" / f"{engine}-cube" / f"seed{s}").best_evaluation() for s in SEEDS),
-                   key=lambda b: b["score"]["fitness"])
+        best = min(
+            (_store(grid / "grid" / f"{engine}-cube" / f"seed{s}").best_evaluation() for s in SEEDS),
+            key=lambda b: b["score"]["fitness"],
+        )
         tuned = next(r for r in rows if (r["source"], r["engine"]) == ("tuned", engine))
         assert float(tuned["distance to recorded mean [m]"]) == pytest.approx(best["score"]["object_error"], abs=1e-9)
     assert {r["engine"] for r in rows if r["source"] == "published"} == {"Simtune", "Short"}
@@ -274,8 +297,11 @@ def test_trajectories_resimulate_the_stored_best(report, grid):
 def test_broken_run_folders_are_named_and_left_out(report, grid):
     index, messages = report
     page = index.read_text()
-    for name, why in (("incomplete", "status 'running'"), ("corrupt", "corrupt run store"),
-                      ("noconfig", "no 'config'")):
+    for name, why in (
+        ("incomplete", "status 'running'"),
+        ("corrupt", "corrupt run store"),
+        ("noconfig", "no 'config'"),
+    ):
         hits = [m for m in messages if str(grid / "grid" / "broken" / name) in m]
         assert len(hits) == 1 and why in hits[0] and "skipped" in hits[0], messages
         assert f"broken/{name}: skipped" in page

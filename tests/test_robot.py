@@ -14,10 +14,13 @@ def test_wrist_at_start_pose_matches_recordings():
     np.testing.assert_allclose(pos, (0.0, 0.067, 0.872), atol=1e-3)
 
 
-@pytest.mark.parametrize(("targets_deg", "expected"), [
-    ((0, -100, 0, 0, 0, 0), (0.533, 0.067, 0.236)),  # final pose of `single`
-    ((0, -67, 30, 90, 0, 0), (0.507, -0.007, 0.340)),  # final pose of `cube`
-])
+@pytest.mark.parametrize(
+    ("targets_deg", "expected"),
+    [
+        ((0, -100, 0, 0, 0, 0), (0.533, 0.067, 0.236)),  # final pose of `single`
+        ((0, -67, 30, 90, 0, 0), (0.507, -0.007, 0.340)),  # final pose of `cube`
+    ],
+)
 def test_wrist_at_task_final_poses(targets_deg, expected):
     pos, _ = forward_kinematics(np.radians(targets_deg))
     np.testing.assert_allclose(pos, expected, atol=1.5e-3)
@@ -78,8 +81,9 @@ def lift_object(sim, dz):
         import pybullet
 
         pos, quat = pybullet.getBasePositionAndOrientation(sim.object, physicsClientId=sim.client)
-        pybullet.resetBasePositionAndOrientation(sim.object, (pos[0], pos[1], pos[2] + dz), quat,
-                                                 physicsClientId=sim.client)
+        pybullet.resetBasePositionAndOrientation(
+            sim.object, (pos[0], pos[1], pos[2] + dz), quat, physicsClientId=sim.client
+        )
     elif sim.name == "ode":
         import odepy
 
@@ -93,8 +97,11 @@ def lift_object(sim, dz):
         from pydrake.math import RigidTransform, RotationMatrix
 
         s = sim._sys
-        s.plant.SetFreeBodyPose(s.plant_context, s.object_body,
-                                RigidTransform(RotationMatrix(obj.rotation), np.add(obj.start_position, (0, 0, dz))))
+        s.plant.SetFreeBodyPose(
+            s.plant_context,
+            s.object_body,
+            RigidTransform(RotationMatrix(obj.rotation), np.add(obj.start_position, (0, 0, dz))),
+        )
     else:
         raise AssertionError(f"no object helper for engine {sim.name!r}")
 

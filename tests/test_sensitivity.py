@@ -20,8 +20,9 @@ def simtune(*args):
 @pytest.fixture(scope="module")
 def morris(tmp_path_factory):
     out = tmp_path_factory.mktemp("runs") / "sens"
-    result = run_sensitivity("mujoco", "cube", REFERENCE_DIR, "extended", out, samples=4, method="morris", only=ONLY,
-                             workers=2)
+    result = run_sensitivity(
+        "mujoco", "cube", REFERENCE_DIR, "extended", out, samples=4, method="morris", only=ONLY, workers=2
+    )
     return out, result
 
 
@@ -51,8 +52,19 @@ def test_a_second_analysis_reuses_the_cached_evaluations(morris):
 
 
 def test_sobol_command_prints_the_table(tmp_path):
-    proc = simtune("sensitivity", "--task", "cube", "--method", "sobol", "--samples", "4", "--only",
-                   "command_delay,mass_cuboid_wood", "--out", str(tmp_path / "s"))
+    proc = simtune(
+        "sensitivity",
+        "--task",
+        "cube",
+        "--method",
+        "sobol",
+        "--samples",
+        "4",
+        "--only",
+        "command_delay,mass_cuboid_wood",
+        "--out",
+        str(tmp_path / "s"),
+    )
     assert proc.returncode == 0, proc.stderr
     lines = [line for line in proc.stdout.splitlines() if "command_delay" in line or "mass_cuboid_wood" in line]
     assert "command_delay" in lines[0] and "mass_cuboid_wood" in lines[1]  # sorted: most influential first
@@ -73,8 +85,19 @@ def test_report_includes_the_sensitivity_found_next_to_its_runs(morris, tmp_path
 
     out, _ = morris
     run_dir = out.parent / "run"  # a run folder beside the sensitivity folder
-    start_run(RunConfig(engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), optimizer="random",
-                        only=["command_delay"], max_evaluations=2), run_dir, show_progress=False)
+    start_run(
+        RunConfig(
+            engine="mujoco",
+            tasks="cube",
+            space="extended",
+            data=str(REFERENCE_DIR),
+            optimizer="random",
+            only=["command_delay"],
+            max_evaluations=2,
+        ),
+        run_dir,
+        show_progress=False,
+    )
     proc = simtune("report", str(run_dir), "--out", str(tmp_path / "report"), "--quiet")
     assert proc.returncode == 0, proc.stderr
     html = (tmp_path / "report" / "index.html").read_text()

@@ -16,30 +16,74 @@ def synthetic_root(tmp_path_factory):
     root = tmp_path_factory.mktemp("synthetic")
     truth = root.parent / "truth-in.json"
     truth.write_text(json.dumps({"command_delay": 1.3, "max_velocity_joint_2": 27.0}))
-    proc = simtune("synth", "--engine", "mujoco", "--task", "single,cube,double", "--truth", str(truth),
-                   "--repeats", "2", "--seed", "4", "--out", str(root))
+    proc = simtune(
+        "synth",
+        "--engine",
+        "mujoco",
+        "--task",
+        "single,cube,double",
+        "--truth",
+        str(truth),
+        "--repeats",
+        "2",
+        "--seed",
+        "4",
+        "--out",
+        str(root),
+    )
     assert proc.returncode == 0, proc.stderr
     return root
 
 
 def test_transfer_runs_end_to_end_and_its_params_evaluate_on_the_test_task(synthetic_root, tmp_path):
     out = tmp_path / "transfer"
-    args = ["transfer", "--engine", "mujoco", "--train", "single,cube", "--test", "double",
-            "--data", str(synthetic_root), "--space", "extended", "--only", "command_delay,max_velocity_joint_2",
-            "--optimizer", "cmaes", "--max-evaluations", "14", "--out", str(out)]
+    args = [
+        "transfer",
+        "--engine",
+        "mujoco",
+        "--train",
+        "single,cube",
+        "--test",
+        "double",
+        "--data",
+        str(synthetic_root),
+        "--space",
+        "extended",
+        "--only",
+        "command_delay,max_velocity_joint_2",
+        "--optimizer",
+        "cmaes",
+        "--max-evaluations",
+        "14",
+        "--out",
+        str(out),
+    ]
     proc = simtune(*args, "--json", "--quiet")
     assert proc.returncode == 0, proc.stderr
     result = json.loads(proc.stdout)
     rows = {r["task"]: r for r in result["tasks"]}
-    assert [(r["task"], r["role"]) for r in result["tasks"]] == [("single", "train"), ("cube", "train"),
-                                                                 ("double", "test")]
+    assert [(r["task"], r["role"]) for r in result["tasks"]] == [
+        ("single", "train"),
+        ("cube", "train"),
+        ("double", "test"),
+    ]
     for row in rows.values():
         assert row["tuned"] < 0.5 * row["generic"]  # the delay carries over to the unseen task
     assert result["totals"]["test"]["tuned"] == pytest.approx(rows["double"]["tuned"])
     assert result["evaluations"] == 14
     # the tuned parameters, from a run on other tasks, are accepted by `evaluate --params-file`
-    ev = simtune("evaluate", "--engine", "mujoco", "--task", "double", "--data", str(synthetic_root),
-                 "--params-file", result["best_params_file"], "--json")
+    ev = simtune(
+        "evaluate",
+        "--engine",
+        "mujoco",
+        "--task",
+        "double",
+        "--data",
+        str(synthetic_root),
+        "--params-file",
+        result["best_params_file"],
+        "--json",
+    )
     assert ev.returncode == 0, ev.stderr
     assert json.loads(ev.stdout)["fitness"] == pytest.approx(rows["double"]["tuned"], abs=1e-12)
     # the table; running again reuses the finished tuning run
@@ -51,10 +95,20 @@ def test_transfer_runs_end_to_end_and_its_params_evaluate_on_the_test_task(synth
 
 
 def test_transfer_refuses_a_test_task_it_trains_on_and_missing_test_data(synthetic_root, tmp_path):
-    proc = simtune("transfer", "--train", "single,cube", "--test", "cube", "--data", str(synthetic_root),
-                   "--out", str(tmp_path / "t"))
+    proc = simtune(
+        "transfer",
+        "--train",
+        "single,cube",
+        "--test",
+        "cube",
+        "--data",
+        str(synthetic_root),
+        "--out",
+        str(tmp_path / "t"),
+    )
     assert proc.returncode == 2 and "also in --train" in proc.stderr and proc.stderr.count("\n") == 1
-    proc = simtune("transfer", "--train", "single", "--test", "seed-1", "--data", str(synthetic_root),
-                   "--out", str(tmp_path / "t"))
+    proc = simtune(
+        "transfer", "--train", "single", "--test", "seed-1", "--data", str(synthetic_root), "--out", str(tmp_path / "t")
+    )
     assert proc.returncode == 2 and "no recordings for task 'seed-1'" in proc.stderr
     assert not (tmp_path / "t").exists()  # refused before tuning

@@ -5,20 +5,27 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import kill_when
 
 from simtune.reference import REFERENCE_DIR
 from simtune.reference.demo import DEMO_PARAMETERS
 from simtune.runs import RunConfig, resume_run, start_run
 from simtune.store import RunStore
 
-from conftest import kill_when
-
 ONLY = list(DEMO_PARAMETERS)
 
 
 def config(**kw):
-    base = dict(engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), seed=3,
-                workers=1, max_generations=4, only=ONLY)
+    base = dict(
+        engine="mujoco",
+        tasks="cube",
+        space="extended",
+        data=str(REFERENCE_DIR),
+        seed=3,
+        workers=1,
+        max_generations=4,
+        only=ONLY,
+    )
     base.update(kw)
     return RunConfig(**base)
 
@@ -49,9 +56,29 @@ def test_repeated_kill_minus_9_then_resume_loses_and_repeats_nothing(tmp_path):
 
     reference = start_run(config(), tmp_path / "uninterrupted", show_progress=False)
     run_dir = tmp_path / "killed"
-    tune = [sys.executable, "-m", "simtune.cli", "tune", "--engine", "mujoco", "--task", "cube",
-            "--data", str(REFERENCE_DIR), "--space", "extended", "--seed", "3", "--max-generations", "4",
-            "--only", ",".join(ONLY), "--out", str(run_dir), "--quiet"]
+    tune = [
+        sys.executable,
+        "-m",
+        "simtune.cli",
+        "tune",
+        "--engine",
+        "mujoco",
+        "--task",
+        "cube",
+        "--data",
+        str(REFERENCE_DIR),
+        "--space",
+        "extended",
+        "--seed",
+        "3",
+        "--max-generations",
+        "4",
+        "--only",
+        ",".join(ONLY),
+        "--out",
+        str(run_dir),
+        "--quiet",
+    ]
     resume = [sys.executable, "-m", "simtune.cli", "resume", str(run_dir), "--quiet"]
     points = sorted(random.Random(7).sample(range(5, reference.evaluations - 5), 3))
     kept = kill_when(tune, run_dir, points[0])
@@ -79,8 +106,15 @@ def test_a_folder_with_a_run_is_not_overwritten(tmp_path):
 
 def test_short_tune_on_real_recordings_improves_on_generic(mocap_root, tmp_path):
     """A few generations on the real `single` repeats already find the command delay."""
-    cfg = RunConfig(engine="mujoco", tasks="single", space="extended", data=str(mocap_root), seed=0,
-                    max_generations=5, only=["command_delay", "max_velocity_joint_2", "marker_offset_z"])
+    cfg = RunConfig(
+        engine="mujoco",
+        tasks="single",
+        space="extended",
+        data=str(mocap_root),
+        seed=0,
+        max_generations=5,
+        only=["command_delay", "max_velocity_joint_2", "marker_offset_z"],
+    )
     result = start_run(cfg, tmp_path / "real", show_progress=False)
     generic = RunStore(tmp_path / "real").get("generic")["fitness"]
     assert generic > 0.1
@@ -93,9 +127,24 @@ def test_params_file_reproduces_the_stored_best_fitness_exactly(tmp_path):
 
     start_run(config(max_generations=2), tmp_path / "run", show_progress=False)
     best = json.loads((tmp_path / "run" / "best_params.json").read_text())
-    proc = subprocess.run([sys.executable, "-m", "simtune.cli", "evaluate", "--engine", "mujoco", "--task", "cube",
-                           "--params-file", str(tmp_path / "run" / "best_params.json"), "--json"],
-                          capture_output=True, text=True, check=True)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "simtune.cli",
+            "evaluate",
+            "--engine",
+            "mujoco",
+            "--task",
+            "cube",
+            "--params-file",
+            str(tmp_path / "run" / "best_params.json"),
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     assert abs(json.loads(proc.stdout)["fitness"] - best["fitness"]) < 1e-9
 
 

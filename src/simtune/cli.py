@@ -12,7 +12,7 @@ import sys
 import time
 import warnings
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 from rich.console import Console
@@ -37,27 +37,61 @@ err = Console(stderr=True)
 out = Console()
 
 EngineOpt = Annotated[str, typer.Option("--engine", "-e", help="Physics engine: see `simtune engines`.")]
-TaskOpt = Annotated[str, typer.Option("--task", "-t", help="Task name, or several joined by commas (their fitness is "
-                                      "summed); see `simtune tasks`.")]
-DataOpt = Annotated[Optional[Path], typer.Option(
-    "--data", "-d", help="Folder with one sub-folder of recordings per task (`ROOT/<task>/*.tsv` or `*.csv`). "
-    "Default: the reference recordings shipped with simtune.")]
+TaskOpt = Annotated[
+    str,
+    typer.Option(
+        "--task", "-t", help="Task name, or several joined by commas (their fitness is summed); see `simtune tasks`."
+    ),
+]
+DataOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--data",
+        "-d",
+        help="Folder with one sub-folder of recordings per task (`ROOT/<task>/*.tsv` or `*.csv`). "
+        "Default: the reference recordings shipped with simtune.",
+    ),
+]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
-SpaceOpt = Annotated[str, typer.Option("--space", "-s", help="Parameter space: shared (31, the paper's), "
-                                       "individual (57, the paper's), or extended (individual + command delay "
-                                       "and marker offset); an engine's lacks what it cannot map.")]
-OnlyOpt = Annotated[Optional[str], typer.Option(help="Only these parameters of the space (comma-separated); "
-                                                "the rest keep their generic values.")]
+SpaceOpt = Annotated[
+    str,
+    typer.Option(
+        "--space",
+        "-s",
+        help="Parameter space: shared (31, the paper's), "
+        "individual (57, the paper's), or extended (individual + command delay "
+        "and marker offset); an engine's lacks what it cannot map.",
+    ),
+]
+OnlyOpt = Annotated[
+    str | None,
+    typer.Option(help="Only these parameters of the space (comma-separated); the rest keep their generic values."),
+]
 WorkersOpt = Annotated[int, typer.Option("--workers", "-w", min=1, help="Processes evaluating in parallel.")]
-OptimizerOpt = Annotated[str, typer.Option(
-    "--optimizer", help="de: differential evolution as in the paper; cmaes: CMA-ES with restarts; bo: Bayesian "
-    "optimisation (Optuna TPE, batches of --workers trials); random: uniform random search. cmaes and bo need "
-    "`pip install 'simtune[opt]'`.")]
-MaxEvalsOpt = Annotated[Optional[int], typer.Option(
-    "--max-evaluations", min=1, help="Stop once this many evaluations were used (checked after each batch; DE "
-    "finishes its generation).")]
-EvalTimeoutOpt = Annotated[float, typer.Option(help="With --workers 2+: an evaluation still running after this "
-                                               "many seconds is abandoned, stored as failed, its worker replaced.")]
+OptimizerOpt = Annotated[
+    str,
+    typer.Option(
+        "--optimizer",
+        help="de: differential evolution as in the paper; cmaes: CMA-ES with restarts; bo: Bayesian "
+        "optimisation (Optuna TPE, batches of --workers trials); random: uniform random search. cmaes and bo need "
+        "`pip install 'simtune[opt]'`.",
+    ),
+]
+MaxEvalsOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--max-evaluations",
+        min=1,
+        help="Stop once this many evaluations were used (checked after each batch; DE finishes its generation).",
+    ),
+]
+EvalTimeoutOpt = Annotated[
+    float,
+    typer.Option(
+        help="With --workers 2+: an evaluation still running after this "
+        "many seconds is abandoned, stored as failed, its worker replaced."
+    ),
+]
 
 
 def _data_root(data: Path | None) -> Path:
@@ -79,9 +113,14 @@ def evaluate(
     engine: EngineOpt = "mujoco",
     task: TaskOpt = "cube",
     data: DataOpt = None,
-    params_file: Annotated[Optional[Path], typer.Option(
-        "--params-file", "-p", help="JSON of parameter values (e.g. a run's best_params.json); "
-        "default: the engine's generic values.")] = None,
+    params_file: Annotated[
+        Path | None,
+        typer.Option(
+            "--params-file",
+            "-p",
+            help="JSON of parameter values (e.g. a run's best_params.json); default: the engine's generic values.",
+        ),
+    ] = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks."""
@@ -101,16 +140,24 @@ def evaluate(
     wall = time.perf_counter() - t0
     generic = score if not params else objective.score({})
     result = {
-        "engine": engine, "task": task, "space": None, "fitness": score.fitness,
-        "wrist_error": score.wrist_error, "object_error": score.object_error,
-        "generic_fitness": generic.fitness, "stable": score.stable, "wall_s": wall,
+        "engine": engine,
+        "task": task,
+        "space": None,
+        "fitness": score.fitness,
+        "wrist_error": score.wrist_error,
+        "object_error": score.object_error,
+        "generic_fitness": generic.fitness,
+        "stable": score.stable,
+        "wall_s": wall,
         "tasks": [t.__dict__ for t in score.tasks],
     }
     if as_json:
         print(json.dumps(result))
         return
-    table = text_table(f"{engine} on {task}" + (f" with {params_file}" if params_file else " (generic parameters)"),
-                       ("task", "fitness", "wrist error [m]", "object error [m]", "note"))
+    table = text_table(
+        f"{engine} on {task}" + (f" with {params_file}" if params_file else " (generic parameters)"),
+        ("task", "fitness", "wrist error [m]", "object error [m]", "note"),
+    )
     for t in score.tasks:
         table.add_row(t.task, _fmt(t.fitness), _fmt(t.wrist_error), _fmt(t.object_error), t.message)
     if len(score.tasks) > 1:
@@ -124,21 +171,33 @@ def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bo
     from simtune.runs import BEST_PARAMS_FILE
 
     payload = {
-        "engine": config.engine, "task": config.tasks, "space": config.space, "optimizer": config.optimizer,
-        "fitness": result.score.fitness, "wrist_error": result.score.wrist_error,
-        "object_error": result.score.object_error, "generic_fitness": store_generic["fitness"],
-        "evaluations": result.evaluations, "generations": result.generations, "wall_s": result.wall_s,
-        "best_params_file": str(run_dir / BEST_PARAMS_FILE), "message": result.message,
+        "engine": config.engine,
+        "task": config.tasks,
+        "space": config.space,
+        "optimizer": config.optimizer,
+        "fitness": result.score.fitness,
+        "wrist_error": result.score.wrist_error,
+        "object_error": result.score.object_error,
+        "generic_fitness": store_generic["fitness"],
+        "evaluations": result.evaluations,
+        "generations": result.generations,
+        "wall_s": result.wall_s,
+        "best_params_file": str(run_dir / BEST_PARAMS_FILE),
+        "message": result.message,
     }
     if as_json:
         print(json.dumps(payload))
         return
-    out.print(f"[bold]{config.engine}[/] on [bold]{config.tasks}[/], space {config.space}, optimizer "
-              f"{config.optimizer}{' + least squares' if config.refine else ''}: "
-              f"fitness {store_generic['fitness']:.4f} (generic) -> [bold green]{result.score.fitness:.4f}[/] (tuned)")
-    out.print(f"  wrist error {_fmt(result.score.wrist_error)} m, object error {_fmt(result.score.object_error)} m; "
-              f"{result.evaluations} evaluations, {result.generations} generations, {result.wall_s:.0f} s "
-              f"({result.message})")
+    out.print(
+        f"[bold]{config.engine}[/] on [bold]{config.tasks}[/], space {config.space}, optimizer "
+        f"{config.optimizer}{' + least squares' if config.refine else ''}: "
+        f"fitness {store_generic['fitness']:.4f} (generic) -> [bold green]{result.score.fitness:.4f}[/] (tuned)"
+    )
+    out.print(
+        f"  wrist error {_fmt(result.score.wrist_error)} m, object error {_fmt(result.score.object_error)} m; "
+        f"{result.evaluations} evaluations, {result.generations} generations, {result.wall_s:.0f} s "
+        f"({result.message})"
+    )
     out.print(f"  best parameters: {payload['best_params_file']}")
 
 
@@ -149,24 +208,37 @@ def tune(
     data: DataOpt = None,
     space: SpaceOpt = "extended",
     optimizer: OptimizerOpt = "de",
-    refine: Annotated[bool, typer.Option("--refine", help="Afterwards, polish the best point with bounded least "
-                                         "squares (SciPy) on the per-sample residuals; its evaluations are stored "
-                                         "too.")] = False,
+    refine: Annotated[
+        bool,
+        typer.Option(
+            "--refine",
+            help="Afterwards, polish the best point with bounded least "
+            "squares (SciPy) on the per-sample residuals; its evaluations are stored "
+            "too.",
+        ),
+    ] = False,
     seed: Annotated[int, typer.Option(help="Random seed of the optimiser (same seed, same run).")] = 0,
     workers: WorkersOpt = 1,
-    max_seconds: Annotated[Optional[float], typer.Option(help="Stop after this much wall time [s].")] = None,
-    max_generations: Annotated[int, typer.Option(min=1, help="Stop after this many generations (bo and random: "
-                                                 "D evaluations count as one).")] = 1000,
+    max_seconds: Annotated[float | None, typer.Option(help="Stop after this much wall time [s].")] = None,
+    max_generations: Annotated[
+        int, typer.Option(min=1, help="Stop after this many generations (bo and random: D evaluations count as one).")
+    ] = 1000,
     max_evaluations: MaxEvalsOpt = None,
-    target_fitness: Annotated[Optional[float], typer.Option(help="Stop once the best fitness reaches this.")]
-    = None,
-    no_prune: Annotated[bool, typer.Option("--no-prune", help="Simulate every trial to the end (by default a "
-                                           "DE trial that can no longer beat its parent stops early: same search, "
-                                           "its stored fitness a lower bound).")] = False,
+    target_fitness: Annotated[float | None, typer.Option(help="Stop once the best fitness reaches this.")] = None,
+    no_prune: Annotated[
+        bool,
+        typer.Option(
+            "--no-prune",
+            help="Simulate every trial to the end (by default a "
+            "DE trial that can no longer beat its parent stops early: same search, "
+            "its stored fitness a lower bound).",
+        ),
+    ] = False,
     only: OnlyOpt = None,
     eval_timeout: EvalTimeoutOpt = 600.0,
-    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Run folder to create (store, best_params.json).")]
-    = Path("runs/latest"),
+    out_dir: Annotated[
+        Path, typer.Option("--out", "-o", help="Run folder to create (store, best_params.json).")
+    ] = Path("runs/latest"),
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
 ) -> None:
@@ -181,11 +253,23 @@ def tune(
     from simtune.runs import RunConfig, start_run
     from simtune.store import RunStore
 
-    config = RunConfig(engine=engine, tasks=task, space=space, data=str(_data_root(data)), seed=seed,
-                       workers=workers, max_seconds=max_seconds, max_generations=max_generations,
-                       only=_split(only) if only else None, eval_timeout=eval_timeout,
-                       target_fitness=target_fitness, prune=not no_prune, optimizer=optimizer, refine=refine,
-                       max_evaluations=max_evaluations)
+    config = RunConfig(
+        engine=engine,
+        tasks=task,
+        space=space,
+        data=str(_data_root(data)),
+        seed=seed,
+        workers=workers,
+        max_seconds=max_seconds,
+        max_generations=max_generations,
+        only=_split(only) if only else None,
+        eval_timeout=eval_timeout,
+        target_fitness=target_fitness,
+        prune=not no_prune,
+        optimizer=optimizer,
+        refine=refine,
+        max_evaluations=max_evaluations,
+    )
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
     _report_tune(result, out_dir, config, RunStore(out_dir).get("generic"), as_json)
 
@@ -207,8 +291,9 @@ def resume(
 
 @app.command()
 def demo(
-    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Run folder for the demo's tuning run.")]
-    = Path("runs/demo"),
+    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Run folder for the demo's tuning run.")] = Path(
+        "runs/demo"
+    ),
     workers: Annotated[int, typer.Option("--workers", "-w", min=1)] = 2,
     max_seconds: Annotated[float, typer.Option(help="Time budget of the tuning run [s].")] = 120.0,
 ) -> None:
@@ -225,29 +310,45 @@ def _split(text: str) -> list[str]:
 @app.command()
 def grid(
     engines: Annotated[str, typer.Option(help="Engines, comma-separated.")] = "mujoco,pybullet",
-    tasks: Annotated[str, typer.Option(help="Experiments, comma-separated; join tasks tuned together with '+' "
-                                       "(single+cube), or name a group (seed-11).")] = "single,cube",
+    tasks: Annotated[
+        str,
+        typer.Option(
+            help="Experiments, comma-separated; join tasks tuned together with '+' "
+            "(single+cube), or name a group (seed-11)."
+        ),
+    ] = "single,cube",
     spaces: Annotated[str, typer.Option(help="Parameter spaces, comma-separated.")] = "shared,individual",
-    repeats: Annotated[int, typer.Option(min=1, help="Optimisations per engine x task x space (seeds 0..N-1).")]
-    = 10,
+    repeats: Annotated[int, typer.Option(min=1, help="Optimisations per engine x task x space (seeds 0..N-1).")] = 10,
     data: DataOpt = None,
-    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Grid folder: grid.sqlite index and runs/.")]
-    = Path("runs/grid"),
-    executor: Annotated[str, typer.Option(help="local (process pool here) or dask (a distributed cluster).")]
-    = "local",
-    scheduler: Annotated[Optional[str], typer.Option(help="Dask scheduler address (tcp://host:8786); "
-                                                     "default: a LocalCluster on this machine.")] = None,
-    workers: Annotated[int, typer.Option("--workers", "-w", min=1, help="Local processes / LocalCluster workers "
-                                         "(one optimisation each, one core each).")] = 2,
-    index_url: Annotated[Optional[str], typer.Option(
-        "--index", help="PostgreSQL URL (postgresql://user@host/db) for a long-lived index shared by many grids; "
-        "default: GRID/grid.sqlite. Needs pip install 'simtune[postgres]'.")] = None,
-    max_seconds_per_run: Annotated[Optional[float], typer.Option(help="Wall-time limit of each optimisation [s].")]
-    = None,
+    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Grid folder: grid.sqlite index and runs/.")] = Path(
+        "runs/grid"
+    ),
+    executor: Annotated[str, typer.Option(help="local (process pool here) or dask (a distributed cluster).")] = "local",
+    scheduler: Annotated[
+        str | None,
+        typer.Option(help="Dask scheduler address (tcp://host:8786); default: a LocalCluster on this machine."),
+    ] = None,
+    workers: Annotated[
+        int,
+        typer.Option(
+            "--workers",
+            "-w",
+            min=1,
+            help="Local processes / LocalCluster workers (one optimisation each, one core each).",
+        ),
+    ] = 2,
+    index_url: Annotated[
+        str | None,
+        typer.Option(
+            "--index",
+            help="PostgreSQL URL (postgresql://user@host/db) for a long-lived index shared by many grids; "
+            "default: GRID/grid.sqlite. Needs pip install 'simtune[postgres]'.",
+        ),
+    ] = None,
+    max_seconds_per_run: Annotated[float | None, typer.Option(help="Wall-time limit of each optimisation [s].")] = None,
     max_generations: Annotated[int, typer.Option(min=1, help="Generation limit of each optimisation.")] = 1000,
-    only: Annotated[Optional[str], typer.Option(help="Tune only these parameters (comma-separated).")] = None,
-    plan: Annotated[bool, typer.Option("--plan", help="Print the grid's size and cost estimate; run nothing.")]
-    = False,
+    only: Annotated[str | None, typer.Option(help="Tune only these parameters (comma-separated).")] = None,
+    plan: Annotated[bool, typer.Option("--plan", help="Print the grid's size and cost estimate; run nothing.")] = False,
     cluster_cores: Annotated[int, typer.Option(help="With --plan: cores of the cluster to estimate for.")] = 100,
 ) -> None:
     """Run an experiment grid (engines x tasks x spaces x repeats), resumably, locally or on Dask.
@@ -262,22 +363,41 @@ def grid(
 
     from simtune.grid import GridSpec, plan_grid, run_grid
 
-    spec = GridSpec(engines=_split(engines), tasks=_split(tasks), spaces=_split(spaces), repeats=repeats,
-                    data=str(_data_root(data)), max_seconds_per_run=max_seconds_per_run,
-                    max_generations=max_generations, only=_split(only) if only else None)
+    spec = GridSpec(
+        engines=_split(engines),
+        tasks=_split(tasks),
+        spaces=_split(spaces),
+        repeats=repeats,
+        data=str(_data_root(data)),
+        max_seconds_per_run=max_seconds_per_run,
+        max_generations=max_generations,
+        only=_split(only) if only else None,
+    )
     if plan:
         rows = plan_grid(spec)
-        table = text_table(f"grid plan: {len(spec.units())} optimisations",
-                           ("engine", "tasks", "space", "params", "s / eval", "evals / run", "h / run", "core-hours"))
+        table = text_table(
+            f"grid plan: {len(spec.units())} optimisations",
+            ("engine", "tasks", "space", "params", "s / eval", "evals / run", "h / run", "core-hours"),
+        )
         for r in rows:
-            table.add_row(r["engine"], r["tasks"], r["space"], str(r["parameters"]), f"{r['eval_s']:.3f}",
-                          str(r["evaluations_per_run"]), f"{r['run_hours']:.2f}", f"{r['core_hours']:.1f}")
+            table.add_row(
+                r["engine"],
+                r["tasks"],
+                r["space"],
+                str(r["parameters"]),
+                f"{r['eval_s']:.3f}",
+                str(r["evaluations_per_run"]),
+                f"{r['run_hours']:.2f}",
+                f"{r['core_hours']:.1f}",
+            )
         out.print(table)
         total = sum(r["core_hours"] for r in rows)
         here = os.cpu_count() or 1
-        out.print(f"total {total:.1f} core-hours (upper bound: {max_generations} generations per run unless "
-                  f"--max-seconds-per-run caps it): {total / here:.1f} h on this machine ({here} cores), "
-                  f"{total / cluster_cores:.1f} h on a {cluster_cores}-core cluster")
+        out.print(
+            f"total {total:.1f} core-hours (upper bound: {max_generations} generations per run unless "
+            f"--max-seconds-per-run caps it): {total / here:.1f} h on this machine ({here} cores), "
+            f"{total / cluster_cores:.1f} h on a {cluster_cores}-core cluster"
+        )
         return
 
     started = time.time()
@@ -287,16 +407,25 @@ def grid(
         done, total = counts.get("done", 0), sum(counts.values())
         elapsed = time.time() - started
         eta = f"{elapsed / done * (total - done) / 60:.1f} min" if done else "-"
-        table = text_table(f"grid {out_dir}: {done}/{total} done, {counts.get('running', 0)} running, "
-                           f"{counts.get('failed', 0)} failed, {counts.get('pending', 0)} pending; ETA {eta}",
-                           ("engine", "tasks", "best fitness"))
+        table = text_table(
+            f"grid {out_dir}: {done}/{total} done, {counts.get('running', 0)} running, "
+            f"{counts.get('failed', 0)} failed, {counts.get('pending', 0)} pending; ETA {eta}",
+            ("engine", "tasks", "best fitness"),
+        )
         for engine_name, task_names, best in index.best():
             table.add_row(engine_name, task_names, f"{best:.4f}")
         return table
 
     with Live(console=err, auto_refresh=False) as live:
-        index = run_grid(spec, out_dir, executor=executor, workers=workers, scheduler=scheduler,
-                         index_url=index_url, on_event=lambda idx: live.update(view(idx), refresh=True))
+        index = run_grid(
+            spec,
+            out_dir,
+            executor=executor,
+            workers=workers,
+            scheduler=scheduler,
+            index_url=index_url,
+            on_event=lambda idx: live.update(view(idx), refresh=True),
+        )
     counts = index.counts()
     out.print(f"{counts.get('done', 0)} done, {counts.get('failed', 0)} failed; index: {index.location}")
     for row in index.rows():
@@ -338,7 +467,7 @@ def tasks() -> None:
 @app.command()
 def params(
     space: Annotated[str, typer.Option("--space", "-s", help="shared, individual or extended.")] = "extended",
-    engine: Annotated[Optional[str], typer.Option("--engine", "-e", help="Only what this engine supports.")] = None,
+    engine: Annotated[str | None, typer.Option("--engine", "-e", help="Only what this engine supports.")] = None,
 ) -> None:
     """List a parameter space: names, ranges, units."""
     from simtune.engines import engine_class
@@ -346,8 +475,10 @@ def params(
 
     supported = engine_class(engine).supported() if engine else None
     sp = get_space(space, supported)
-    table = text_table(f"space {space}" + (f" in {engine}" if engine else "") + f": {len(sp)} parameters",
-                       ("parameter", "low", "high", "unit", "meaning"))
+    table = text_table(
+        f"space {space}" + (f" in {engine}" if engine else "") + f": {len(sp)} parameters",
+        ("parameter", "low", "high", "unit", "meaning"),
+    )
     for p in sp.parameters:
         table.add_row(p.name, f"{p.low:g}", f"{p.high:g}", p.unit, p.description)
     out.print(table)
@@ -356,23 +487,46 @@ def params(
 @app.command()
 def synth(
     engine: EngineOpt = "mujoco",
-    task: Annotated[str, typer.Option("--task", "-t", help="Task(s) to record, comma-separated or a group "
-                                      "(seed-11 = seed-1 ... seed-10); see `simtune tasks`.")] = "cube",
-    truth: Annotated[Optional[Path], typer.Option(
-        "--truth", help="JSON of the true parameter values (a flat mapping or a params file such as "
-        "best_params.json), checked against the engine's parameters. Default: the engine's generic values "
-        "and a command delay.")] = None,
-    noise_mm: Annotated[float, typer.Option(help="Motion-capture noise: Gaussian, per axis, on every 100 Hz "
-                                            "sample of the wrist marker [mm] (a quarter of it on base and object).")]
-    = 2.0,
-    delay_s: Annotated[Optional[float], typer.Option(help="True command delay [s], overriding the truth file's "
-                                                     "(default without --truth: 1.5).")] = None,
-    jitter_s: Annotated[float, typer.Option(help="Each repeat's start moves by a uniform jitter within +- this [s], "
-                                            "as real repeats do.")] = 0.05,
+    task: Annotated[
+        str,
+        typer.Option(
+            "--task",
+            "-t",
+            help="Task(s) to record, comma-separated or a group (seed-11 = seed-1 ... seed-10); see `simtune tasks`.",
+        ),
+    ] = "cube",
+    truth: Annotated[
+        Path | None,
+        typer.Option(
+            "--truth",
+            help="JSON of the true parameter values (a flat mapping or a params file such as "
+            "best_params.json), checked against the engine's parameters. Default: the engine's generic values "
+            "and a command delay.",
+        ),
+    ] = None,
+    noise_mm: Annotated[
+        float,
+        typer.Option(
+            help="Motion-capture noise: Gaussian, per axis, on every 100 Hz "
+            "sample of the wrist marker [mm] (a quarter of it on base and object)."
+        ),
+    ] = 2.0,
+    delay_s: Annotated[
+        float | None,
+        typer.Option(help="True command delay [s], overriding the truth file's (default without --truth: 1.5)."),
+    ] = None,
+    jitter_s: Annotated[
+        float,
+        typer.Option(help="Each repeat's start moves by a uniform jitter within +- this [s], as real repeats do."),
+    ] = 0.05,
     repeats: Annotated[int, typer.Option(min=1, help="Recordings per task.")] = 10,
     seed: Annotated[int, typer.Option(help="Seed of the noise (same seed, same files).")] = 0,
-    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Data root to write: `OUT/<task>/*.tsv` and "
-                                          "OUT/truth.json.", show_default=False)] = ...,
+    out_dir: Annotated[
+        Path,
+        typer.Option(
+            "--out", "-o", help="Data root to write: `OUT/<task>/*.tsv` and OUT/truth.json.", show_default=False
+        ),
+    ] = ...,
 ) -> None:
     """Make recordings with a known ground truth: simulate with chosen parameters, add mocap-like noise.
 
@@ -385,8 +539,9 @@ def synth(
     from simtune.synth import load_truth, make_synthetic
 
     values = load_truth(truth, engine, delay_s)
-    result = make_synthetic(engine, task, out_dir, truth=values, noise_m=noise_mm / 1000.0, repeats=repeats,
-                            seed=seed, jitter_s=jitter_s)
+    result = make_synthetic(
+        engine, task, out_dir, truth=values, noise_m=noise_mm / 1000.0, repeats=repeats, seed=seed, jitter_s=jitter_s
+    )
     for name, files in result.files.items():
         out.print(f"{name}: {len(files)} recordings in {out_dir / name}")
     shown = ", ".join(f"{k}={v:g}" for k, v in values.items())
@@ -395,23 +550,33 @@ def synth(
 
 @app.command()
 def compare(
-    optimizers: Annotated[str, typer.Option(help="Optimisers to compare, comma-separated: de, cmaes, bo, "
-                                            "random.")] = "de,cmaes,bo,random",
+    optimizers: Annotated[
+        str, typer.Option(help="Optimisers to compare, comma-separated: de, cmaes, bo, random.")
+    ] = "de,cmaes,bo,random",
     engine: EngineOpt = "mujoco",
     task: TaskOpt = "cube",
     data: DataOpt = None,
     space: SpaceOpt = "extended",
-    budget_evals: Annotated[int, typer.Option("--budget-evals", min=1, help="Evaluations each run may use.")]
-    = 300,
-    seeds: Annotated[int, typer.Option(min=1, help="Runs per optimiser (seeds 0..N-1); medians are over them.")]
-    = 3,
-    target: Annotated[Optional[float], typer.Option(help="Fitness to reach: the table gives the evaluations each "
-                                                    "optimiser needed (median over seeds).")] = None,
+    budget_evals: Annotated[int, typer.Option("--budget-evals", min=1, help="Evaluations each run may use.")] = 300,
+    seeds: Annotated[int, typer.Option(min=1, help="Runs per optimiser (seeds 0..N-1); medians are over them.")] = 3,
+    target: Annotated[
+        float | None,
+        typer.Option(
+            help="Fitness to reach: the table gives the evaluations each optimiser needed (median over seeds)."
+        ),
+    ] = None,
     workers: WorkersOpt = 1,
     only: OnlyOpt = None,
     eval_timeout: EvalTimeoutOpt = 600.0,
-    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Folder for the runs (`OUT/<optimizer>/seed-<s>`) and "
-                                          "compare.json; existing finished runs are reused.")] = Path("runs/compare"),
+    out_dir: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            "-o",
+            help="Folder for the runs (`OUT/<optimizer>/seed-<s>`) and "
+            "compare.json; existing finished runs are reused.",
+        ),
+    ] = Path("runs/compare"),
     as_json: JsonOpt = False,
 ) -> None:
     """Compare optimisers on the same budget of evaluations: best fitness at 25/50/100 % of it, evaluations to a target.
@@ -425,8 +590,15 @@ def compare(
     from simtune.compare import markdown_table, run_compare
     from simtune.runs import RunConfig
 
-    base = RunConfig(engine=engine, tasks=task, space=space, data=str(_data_root(data)), workers=workers,
-                     only=_split(only) if only else None, eval_timeout=eval_timeout)
+    base = RunConfig(
+        engine=engine,
+        tasks=task,
+        space=space,
+        data=str(_data_root(data)),
+        workers=workers,
+        only=_split(only) if only else None,
+        eval_timeout=eval_timeout,
+    )
 
     def note(name: str, seed: int, what: str) -> None:
         if not as_json:
@@ -449,20 +621,20 @@ def transfer(
     train: Annotated[str, typer.Option(help="Tasks to tune on together (comma-separated).")] = "single,cube",
     test: Annotated[str, typer.Option(help="Unseen tasks to evaluate the tuned parameters on.")] = "double",
     data: DataOpt = None,
-    test_data: Annotated[Optional[Path], typer.Option(help="Data root of the test tasks (default: --data).")]
-    = None,
+    test_data: Annotated[Path | None, typer.Option(help="Data root of the test tasks (default: --data).")] = None,
     space: SpaceOpt = "extended",
     optimizer: OptimizerOpt = "de",
     refine: Annotated[bool, typer.Option("--refine", help="Polish the tuned point with least squares.")] = False,
     seed: Annotated[int, typer.Option(help="Random seed of the optimiser.")] = 0,
     workers: WorkersOpt = 1,
-    max_seconds: Annotated[Optional[float], typer.Option(help="Tuning wall-time limit [s].")] = None,
+    max_seconds: Annotated[float | None, typer.Option(help="Tuning wall-time limit [s].")] = None,
     max_generations: Annotated[int, typer.Option(min=1, help="Tuning generation limit.")] = 1000,
     max_evaluations: MaxEvalsOpt = None,
     only: OnlyOpt = None,
     eval_timeout: EvalTimeoutOpt = 600.0,
-    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Folder for the tuning run (OUT/run) and "
-                                          "transfer.json.")] = Path("runs/transfer"),
+    out_dir: Annotated[
+        Path, typer.Option("--out", "-o", help="Folder for the tuning run (OUT/run) and transfer.json.")
+    ] = Path("runs/transfer"),
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
 ) -> None:
@@ -477,23 +649,44 @@ def transfer(
     from simtune.runs import RunConfig
     from simtune.transfer import run_transfer
 
-    config = RunConfig(engine=engine, tasks=train, space=space, data=str(_data_root(data)), seed=seed,
-                       workers=workers, max_seconds=max_seconds, max_generations=max_generations,
-                       max_evaluations=max_evaluations, only=_split(only) if only else None,
-                       eval_timeout=eval_timeout, optimizer=optimizer, refine=refine)
+    config = RunConfig(
+        engine=engine,
+        tasks=train,
+        space=space,
+        data=str(_data_root(data)),
+        seed=seed,
+        workers=workers,
+        max_seconds=max_seconds,
+        max_generations=max_generations,
+        max_evaluations=max_evaluations,
+        only=_split(only) if only else None,
+        eval_timeout=eval_timeout,
+        optimizer=optimizer,
+        refine=refine,
+    )
     result = run_transfer(config, test, out_dir, test_data, show_progress=not quiet and not as_json)
     if as_json:
         print(json.dumps({k: v for k, v in result.items() if k != "params"}))
         return
-    table = text_table(f"{engine}: tuned on {train} ({space}, {optimizer}), tested on {test}",
-                       ("task", "set", "generic", "tuned", "change", "wrist [m]", "object [m]"),
-                       right=("generic", "tuned", "change", "wrist [m]", "object [m]"))
+    table = text_table(
+        f"{engine}: tuned on {train} ({space}, {optimizer}), tested on {test}",
+        ("task", "set", "generic", "tuned", "change", "wrist [m]", "object [m]"),
+        right=("generic", "tuned", "change", "wrist [m]", "object [m]"),
+    )
     for r in result["tasks"]:
-        table.add_row(r["task"], r["role"], _fmt(r["generic"]), _fmt(r["tuned"]), f"{r['change'] * 100:+.0f} %",
-                      _fmt(r["tuned_wrist"]), _fmt(r["tuned_object"]))
+        table.add_row(
+            r["task"],
+            r["role"],
+            _fmt(r["generic"]),
+            _fmt(r["tuned"]),
+            f"{r['change'] * 100:+.0f} %",
+            _fmt(r["tuned_wrist"]),
+            _fmt(r["tuned_object"]),
+        )
     for role, t in result["totals"].items():
-        table.add_row(f"[bold]all {role}[/]", role, _fmt(t["generic"]), _fmt(t["tuned"]), f"{t['change'] * 100:+.0f} %",
-                      "", "")
+        table.add_row(
+            f"[bold]all {role}[/]", role, _fmt(t["generic"]), _fmt(t["tuned"]), f"{t['change'] * 100:+.0f} %", "", ""
+        )
     out.print(table)
     out.print(f"tuned parameters: {result['best_params_file']}; result: {out_dir / 'transfer.json'}")
 
@@ -504,16 +697,24 @@ def sensitivity(
     task: TaskOpt = "cube",
     data: DataOpt = None,
     space: SpaceOpt = "extended",
-    samples: Annotated[int, typer.Option(min=2, help="morris: trajectories (N (D+1) evaluations); sobol: base "
-                                         "samples, a power of two (N (D+2) evaluations).")] = 10,
-    method: Annotated[str, typer.Option(help="morris (elementary effects, cheap screening) or sobol (variance "
-                                        "shares S1 and ST).")] = "morris",
+    samples: Annotated[
+        int,
+        typer.Option(
+            min=2,
+            help="morris: trajectories (N (D+1) evaluations); sobol: base "
+            "samples, a power of two (N (D+2) evaluations).",
+        ),
+    ] = 10,
+    method: Annotated[
+        str, typer.Option(help="morris (elementary effects, cheap screening) or sobol (variance shares S1 and ST).")
+    ] = "morris",
     seed: Annotated[int, typer.Option(help="Seed of the sampling.")] = 0,
     workers: WorkersOpt = 1,
     only: OnlyOpt = None,
     eval_timeout: EvalTimeoutOpt = 600.0,
-    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Folder for sensitivity.json/.csv/.md/.png and the "
-                                          "evaluation cache.")] = Path("runs/sensitivity"),
+    out_dir: Annotated[
+        Path, typer.Option("--out", "-o", help="Folder for sensitivity.json/.csv/.md/.png and the evaluation cache.")
+    ] = Path("runs/sensitivity"),
     as_json: JsonOpt = False,
 ) -> None:
     """Global sensitivity of the fitness to each parameter (SALib Morris or Sobol), most influential first.
@@ -532,18 +733,38 @@ def sensitivity(
 
     dim = len(get_space(space, engine_class(engine).supported(), _split(only) if only else None))
     total = evaluation_count(method, samples, dim)
-    with Progress(TextColumn("[bold]sensitivity[/]"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=err, disable=as_json) as bar:
+    with Progress(
+        TextColumn("[bold]sensitivity[/]"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=err,
+        disable=as_json,
+    ) as bar:
         job = bar.add_task("evaluate", total=total)
-        result = run_sensitivity(engine, task, _data_root(data), space, out_dir, samples=samples, method=method,
-                                 only=_split(only) if only else None, seed=seed, workers=workers,
-                                 eval_timeout=eval_timeout, on_evaluation=lambda score, reused: bar.advance(job))
+        result = run_sensitivity(
+            engine,
+            task,
+            _data_root(data),
+            space,
+            out_dir,
+            samples=samples,
+            method=method,
+            only=_split(only) if only else None,
+            seed=seed,
+            workers=workers,
+            eval_timeout=eval_timeout,
+            on_evaluation=lambda score, reused: bar.advance(job),
+        )
     if as_json:
         print(json.dumps(result))
         return
     table = sensitivity_table(result)
-    view = text_table(table.title, [col.name for col in table.columns],
-                      right=[col.name for col in table.columns if col.name != "parameter"])
+    view = text_table(
+        table.title,
+        [col.name for col in table.columns],
+        right=[col.name for col in table.columns if col.name != "parameter"],
+    )
     for row in table.rows:
         view.add_row(*(table.cell(v, c) for v, c in zip(row, table.columns)))
     out.print(view)

@@ -78,19 +78,36 @@ def _median_count(counts: list[int | None]) -> float | None:
     return None if math.isinf(median) or math.isnan(median) else median
 
 
-def summarise(curves: list[RunCurve], optimizers: list[str], budget: int, target: float | None) -> list[OptimizerSummary]:
+def summarise(
+    curves: list[RunCurve], optimizers: list[str], budget: int, target: float | None
+) -> list[OptimizerSummary]:
     rows = []
     for name in optimizers:
         mine = [c for c in curves if c.optimizer == name]
         best = {f"{round(f * 100)}%": float(np.median([c.best_at(f, budget) for c in mine])) for f in FRACTIONS}
         counts = [c.evaluations_to(target) for c in mine]
-        rows.append(OptimizerSummary(name, len(mine), best, _median_count(counts) if target is not None else None,
-                                     sum(c is not None for c in counts), float(np.median([c.wall_s for c in mine]))))
+        rows.append(
+            OptimizerSummary(
+                name,
+                len(mine),
+                best,
+                _median_count(counts) if target is not None else None,
+                sum(c is not None for c in counts),
+                float(np.median([c.wall_s for c in mine])),
+            )
+        )
     return rows
 
 
-def run_compare(base: RunConfig, optimizers: list[str], seeds: int, budget: int, out: Path,
-                target: float | None = None, on_run: Callable[[str, int, str], None] | None = None) -> dict:
+def run_compare(
+    base: RunConfig,
+    optimizers: list[str],
+    seeds: int,
+    budget: int,
+    out: Path,
+    target: float | None = None,
+    on_run: Callable[[str, int, str], None] | None = None,
+) -> dict:
     """Run (or resume, or reuse) every optimiser x seed and return the comparison as a dict (also OUT/compare.json)."""
     if not optimizers:
         raise ConfigError("--optimizers: name at least one (e.g. de,cmaes,bo,random)")
@@ -105,8 +122,17 @@ def run_compare(base: RunConfig, optimizers: list[str], seeds: int, budget: int,
     for name in optimizers:
         for seed in range(seeds):
             run_dir = out / name / f"seed-{seed}"
-            config = RunConfig(**{**asdict(base), "optimizer": name, "seed": seed, "max_evaluations": budget,
-                                  "max_seconds": None, "target_fitness": None, "refine": False})
+            config = RunConfig(
+                **{
+                    **asdict(base),
+                    "optimizer": name,
+                    "seed": seed,
+                    "max_evaluations": budget,
+                    "max_seconds": None,
+                    "target_fitness": None,
+                    "refine": False,
+                }
+            )
             if (run_dir / STORE_FILE).exists():
                 stored = RunStore(run_dir)
                 try:
@@ -128,8 +154,15 @@ def run_compare(base: RunConfig, optimizers: list[str], seeds: int, budget: int,
             curves.append(RunCurve(name, seed, best, wall, str(run_dir)))
     summary = summarise(curves, optimizers, budget, target)
     result = {
-        "engine": base.engine, "tasks": base.tasks, "space": base.space, "data": base.data, "only": base.only,
-        "budget": budget, "seeds": seeds, "target": target, "workers": base.workers,
+        "engine": base.engine,
+        "tasks": base.tasks,
+        "space": base.space,
+        "data": base.data,
+        "only": base.only,
+        "budget": budget,
+        "seeds": seeds,
+        "target": target,
+        "workers": base.workers,
         "summary": [asdict(s) for s in summary],
         "runs": [asdict(c) for c in curves],
     }
@@ -140,12 +173,28 @@ def run_compare(base: RunConfig, optimizers: list[str], seeds: int, budget: int,
 def markdown_table(result: dict) -> str:
     """The comparison as a Markdown table (what the CLI prints, for README and reports)."""
     target = result["target"]
-    head = ["optimizer", *(f"best @ {k}" for k in ("25%", "50%", "100%")),
-            f"evals to {target:g}" if target is not None else "evals to target", "reached", "wall [s]"]
+    head = [
+        "optimizer",
+        *(f"best @ {k}" for k in ("25%", "50%", "100%")),
+        f"evals to {target:g}" if target is not None else "evals to target",
+        "reached",
+        "wall [s]",
+    ]
     lines = ["| " + " | ".join(head) + " |", "|---|" + "---:|" * (len(head) - 1)]
     for s in result["summary"]:
         count = "-" if s["evaluations_to_target"] is None else f"{s['evaluations_to_target']:g}"
         reached = f"{s['reached']}/{s['seeds']}" if target is not None else "-"
-        lines.append("| " + " | ".join([s["optimizer"], *(f"{s['best'][k]:.4f}" for k in ("25%", "50%", "100%")),
-                                        count, reached, f"{s['median_wall_s']:.0f}"]) + " |")
+        lines.append(
+            "| "
+            + " | ".join(
+                [
+                    s["optimizer"],
+                    *(f"{s['best'][k]:.4f}" for k in ("25%", "50%", "100%")),
+                    count,
+                    reached,
+                    f"{s['median_wall_s']:.0f}",
+                ]
+            )
+            + " |"
+        )
     return "\n".join(lines) + "\n"

@@ -56,7 +56,7 @@ class Score:
         return any(t.pruned for t in self.tasks)
 
     @classmethod
-    def combine(cls, scores: list[TaskScore]) -> "Score":
+    def combine(cls, scores: list[TaskScore]) -> Score:
         objects = [s.object_error for s in scores if s.object_error is not None]
         return cls(
             fitness=float(sum(s.fitness for s in scores)),
@@ -69,9 +69,10 @@ class Score:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, data: dict) -> "Score":
-        return cls(data["fitness"], data["wrist_error"], data["object_error"],
-                   [TaskScore(**t) for t in data.get("tasks", [])])
+    def from_dict(cls, data: dict) -> Score:
+        return cls(
+            data["fitness"], data["wrist_error"], data["object_error"], [TaskScore(**t) for t in data.get("tasks", [])]
+        )
 
 
 def marker_positions(rollout: Rollout, params: dict[str, float]) -> np.ndarray:
@@ -91,7 +92,7 @@ def score_rollout(rollout: Rollout, reference: TaskData, params: dict[str, float
     distances = np.linalg.norm(marker - reference.wrist_mean, axis=1)
     if rollout.pruned:
         # only the simulated samples count: a lower bound of the full wrist error
-        bound = float(distances[:rollout.samples_run].sum() / n)
+        bound = float(distances[: rollout.samples_run].sum() / n)
         message = f"pruned at t={rollout.times[rollout.samples_run - 1]:.2f} s: cannot beat its parent"
         return TaskScore(reference.task, bound, bound, None, True, message, pruned=True, steps=rollout.steps)
     wrist_error = float(np.mean(distances))
@@ -101,5 +102,6 @@ def score_rollout(rollout: Rollout, reference: TaskData, params: dict[str, float
     fitness = wrist_error + (object_error or 0.0)
     if not rollout.stable:
         fitness = PENALTY
-    return TaskScore(reference.task, fitness, wrist_error, object_error, rollout.stable, rollout.message,
-                     steps=rollout.steps)
+    return TaskScore(
+        reference.task, fitness, wrist_error, object_error, rollout.stable, rollout.message, steps=rollout.steps
+    )

@@ -22,9 +22,9 @@ import shutil
 import sqlite3
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -49,8 +49,10 @@ _SCHEMA = [
     """CREATE TABLE IF NOT EXISTS grid_meta (
         grid TEXT NOT NULL, key TEXT NOT NULL, value TEXT NOT NULL, PRIMARY KEY (grid, key))""",
 ]
-_UNIT_COLUMNS = ("id, engine, tasks, space, seed, run_dir, status, attempts, fitness, generic_fitness, "
-                 "evaluations, generations, wall_s, error, updated_at")
+_UNIT_COLUMNS = (
+    "id, engine, tasks, space, seed, run_dir, status, attempts, fitness, generic_fitness, "
+    "evaluations, generations, wall_s, error, updated_at"
+)
 
 
 @dataclass(frozen=True)
@@ -79,8 +81,13 @@ class GridSpec:
     only: list[str] | None = None  # tune just these parameters of each space
 
     def units(self) -> list[Unit]:
-        return [Unit(e, t.replace("+", ","), s, r)
-                for e in self.engines for t in self.tasks for s in self.spaces for r in range(self.repeats)]
+        return [
+            Unit(e, t.replace("+", ","), s, r)
+            for e in self.engines
+            for t in self.tasks
+            for s in self.spaces
+            for r in range(self.repeats)
+        ]
 
     def validate(self) -> None:
         """Fail before any compute on an unknown engine, task or space, or missing data."""
@@ -105,9 +112,17 @@ def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
     from simtune.store import RunStore
 
     path = Path(run_dir)
-    config = RunConfig(engine=unit.engine, tasks=unit.tasks, space=unit.space, data=spec.data, seed=unit.seed,
-                       workers=1, max_seconds=spec.max_seconds_per_run, max_generations=spec.max_generations,
-                       only=spec.only)
+    config = RunConfig(
+        engine=unit.engine,
+        tasks=unit.tasks,
+        space=unit.space,
+        data=spec.data,
+        seed=unit.seed,
+        workers=1,
+        max_seconds=spec.max_seconds_per_run,
+        max_generations=spec.max_generations,
+        only=spec.only,
+    )
     if (path / "run.sqlite").exists():
         try:
             has_config = RunStore(path).get("config") is not None
@@ -120,8 +135,13 @@ def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
     else:
         result = start_run(config, path, show_progress=False)
     store = RunStore(path)
-    summary = dict(fitness=result.score.fitness, generic_fitness=store.get("generic")["fitness"],
-                   evaluations=result.evaluations, generations=result.generations, wall_s=result.wall_s)
+    summary = dict(
+        fitness=result.score.fitness,
+        generic_fitness=store.get("generic")["fitness"],
+        evaluations=result.evaluations,
+        generations=result.generations,
+        wall_s=result.wall_s,
+    )
     store.close()
     return summary
 
@@ -176,20 +196,26 @@ class GridIndex:
     def add(self, units: list[Unit]) -> None:
         with self._transaction():
             for u in units:
-                self._execute("INSERT INTO grid_units (grid, id, engine, tasks, space, seed, run_dir, updated_at)"
-                              " VALUES (?, ?, ?, ?, ?, ?, ?, ?) ON CONFLICT (grid, id) DO NOTHING",
-                              (self.key, u.id, u.engine, u.tasks, u.space, u.seed, str(self.run_dir(u)), time.time()))
+                self._execute(
+                    "INSERT INTO grid_units (grid, id, engine, tasks, space, seed, run_dir, updated_at)"
+                    " VALUES (?, ?, ?, ?, ?, ?, ?, ?) ON CONFLICT (grid, id) DO NOTHING",
+                    (self.key, u.id, u.engine, u.tasks, u.space, u.seed, str(self.run_dir(u)), time.time()),
+                )
 
     def set_meta(self, key: str, value: str) -> None:
-        self._execute("INSERT INTO grid_meta (grid, key, value) VALUES (?, ?, ?)"
-                      " ON CONFLICT (grid, key) DO UPDATE SET value = excluded.value", (self.key, key, value))
+        self._execute(
+            "INSERT INTO grid_meta (grid, key, value) VALUES (?, ?, ?)"
+            " ON CONFLICT (grid, key) DO UPDATE SET value = excluded.value",
+            (self.key, key, value),
+        )
 
     def run_dir(self, unit: Unit) -> Path:
         return self.grid_dir / "runs" / unit.id
 
     def status(self, unit: Unit) -> str:
-        return self._execute("SELECT status FROM grid_units WHERE grid = ? AND id = ?",
-                             (self.key, unit.id)).fetchone()[0]
+        return self._execute("SELECT status FROM grid_units WHERE grid = ? AND id = ?", (self.key, unit.id)).fetchone()[
+            0
+        ]
 
     def mark(self, unit: Unit, status: str, summary: dict | None = None, error: str | None = None) -> None:
         summary = summary or {}
@@ -198,13 +224,25 @@ class GridIndex:
             " generic_fitness = COALESCE(?, generic_fitness), evaluations = COALESCE(?, evaluations),"
             " generations = COALESCE(?, generations), wall_s = COALESCE(?, wall_s), error = ?, updated_at = ?"
             " WHERE grid = ? AND id = ?",
-            (status, 1 if status == "running" else 0, summary.get("fitness"), summary.get("generic_fitness"),
-             summary.get("evaluations"), summary.get("generations"), summary.get("wall_s"), error,
-             time.time(), self.key, unit.id))
+            (
+                status,
+                1 if status == "running" else 0,
+                summary.get("fitness"),
+                summary.get("generic_fitness"),
+                summary.get("evaluations"),
+                summary.get("generations"),
+                summary.get("wall_s"),
+                error,
+                time.time(),
+                self.key,
+                unit.id,
+            ),
+        )
 
     def attempts(self, unit: Unit) -> int:
-        return self._execute("SELECT attempts FROM grid_units WHERE grid = ? AND id = ?",
-                             (self.key, unit.id)).fetchone()[0]
+        return self._execute(
+            "SELECT attempts FROM grid_units WHERE grid = ? AND id = ?", (self.key, unit.id)
+        ).fetchone()[0]
 
     def rows(self) -> list[dict]:
         cur = self._execute(f"SELECT {_UNIT_COLUMNS} FROM grid_units WHERE grid = ? ORDER BY id", (self.key,))
@@ -212,14 +250,19 @@ class GridIndex:
         return [dict(zip(names, r)) for r in cur.fetchall()]
 
     def counts(self) -> dict[str, int]:
-        return dict(self._execute("SELECT status, COUNT(*) FROM grid_units WHERE grid = ? GROUP BY status",
-                                  (self.key,)).fetchall())
+        return dict(
+            self._execute(
+                "SELECT status, COUNT(*) FROM grid_units WHERE grid = ? GROUP BY status", (self.key,)
+            ).fetchall()
+        )
 
     def best(self) -> Iterator[tuple[str, str, float]]:
         """(engine, tasks, best fitness so far) over finished units."""
         yield from self._execute(
             "SELECT engine, tasks, MIN(fitness) FROM grid_units WHERE grid = ? AND status = 'done'"
-            " GROUP BY engine, tasks ORDER BY engine, tasks", (self.key,)).fetchall()
+            " GROUP BY engine, tasks ORDER BY engine, tasks",
+            (self.key,),
+        ).fetchall()
 
     def close(self) -> None:
         self.db.close()
@@ -232,8 +275,7 @@ def _redact(url: str) -> str:
 
 def _connect_postgres(url: str):
     if not re.match(r"postgres(ql)?://", url):
-        raise ConfigError(f"--index {_redact(url)!r} is not a postgresql:// URL "
-                          "(leave it out for GRID/grid.sqlite)")
+        raise ConfigError(f"--index {_redact(url)!r} is not a postgresql:// URL (leave it out for GRID/grid.sqlite)")
     try:
         import psycopg
     except ImportError:
@@ -249,8 +291,7 @@ def _connect_postgres(url: str):
 Submit = Callable[[Unit], None]
 
 
-def _run_local(spec: GridSpec, index: GridIndex, units: list[Unit], workers: int,
-               on_event: Callable[[], None]) -> None:
+def _run_local(spec: GridSpec, index: GridIndex, units: list[Unit], workers: int, on_event: Callable[[], None]) -> None:
     """A process pool here; a pool broken by a dying worker is replaced and its units retried."""
     pending = list(units)
     while pending:
@@ -267,7 +308,7 @@ def _run_local(spec: GridSpec, index: GridIndex, units: list[Unit], workers: int
                     _settle(index, unit, future, pending)
                     on_event()
             except BrokenProcessPool:
-                for future, unit in futures.items():
+                for unit in futures.values():
                     if index.status(unit) == "running":
                         _retry_or_fail(index, unit, "worker process died", pending)
                 on_event()
@@ -294,19 +335,25 @@ def _retry_or_fail(index: GridIndex, unit: Unit, error: str, pending: list[Unit]
         index.mark(unit, "failed", error=error)
 
 
-def _run_dask(spec: GridSpec, index: GridIndex, units: list[Unit], workers: int, scheduler: str | None,
-              on_event: Callable[[], None]) -> None:
+def _run_dask(
+    spec: GridSpec,
+    index: GridIndex,
+    units: list[Unit],
+    workers: int,
+    scheduler: str | None,
+    on_event: Callable[[], None],
+) -> None:
     """Submit every unit to a Dask scheduler; Dask reschedules the units of a lost worker."""
     try:
-        from distributed import Client, LocalCluster, as_completed as dask_completed
+        from distributed import Client, LocalCluster
+        from distributed import as_completed as dask_completed
     except ImportError:
         raise SimtuneError("the dask executor needs Dask: pip install 'simtune[grid]'") from None
     cluster = None
     if scheduler:
         client = Client(scheduler)
     else:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
         client = Client(cluster)
     try:
         pending = list(units)
@@ -315,8 +362,9 @@ def _run_dask(spec: GridSpec, index: GridIndex, units: list[Unit], workers: int,
             for unit in pending:
                 index.mark(unit, "running")
                 # a lost worker's units are rescheduled by Dask itself and resume from their stores
-                fut = client.submit(run_unit, unit, str(index.run_dir(unit)), spec,
-                                    key=f"{unit.id}-{time.time_ns()}", pure=False)
+                fut = client.submit(
+                    run_unit, unit, str(index.run_dir(unit)), spec, key=f"{unit.id}-{time.time_ns()}", pure=False
+                )
                 futures[fut] = unit
             on_event()
             pending = []
@@ -329,9 +377,16 @@ def _run_dask(spec: GridSpec, index: GridIndex, units: list[Unit], workers: int,
             cluster.close()
 
 
-def run_grid(spec: GridSpec, grid_dir: Path, *, executor: str = "local", workers: int = 2,
-             scheduler: str | None = None, index_url: str | None = None,
-             on_event: Callable[[GridIndex], None] | None = None) -> GridIndex:
+def run_grid(
+    spec: GridSpec,
+    grid_dir: Path,
+    *,
+    executor: str = "local",
+    workers: int = 2,
+    scheduler: str | None = None,
+    index_url: str | None = None,
+    on_event: Callable[[GridIndex], None] | None = None,
+) -> GridIndex:
     """Run every unfinished unit of ``spec`` under ``grid_dir``; returns the index.
 
     ``index_url``: a PostgreSQL URL for the index instead of ``grid_dir/grid.sqlite``.
@@ -391,7 +446,17 @@ def plan_grid(spec: GridSpec, samples: int = 3, seed: int = 0) -> list[dict]:
                 run_s = evaluations * cost
                 if spec.max_seconds_per_run is not None:
                     run_s = min(run_s, spec.max_seconds_per_run)
-                rows.append(dict(engine=engine, tasks=entry, space=space_name, parameters=len(space),
-                                 eval_s=cost, evaluations_per_run=evaluations, run_hours=run_s / 3600,
-                                 repeats=spec.repeats, core_hours=spec.repeats * run_s / 3600))
+                rows.append(
+                    dict(
+                        engine=engine,
+                        tasks=entry,
+                        space=space_name,
+                        parameters=len(space),
+                        eval_s=cost,
+                        evaluations_per_run=evaluations,
+                        run_hours=run_s / 3600,
+                        repeats=spec.repeats,
+                        core_hours=spec.repeats * run_s / 3600,
+                    )
+                )
     return rows

@@ -31,7 +31,9 @@ def load_references(root: Path, tasks: list[TaskSpec]) -> dict[str, TaskData]:
         if not folder.is_dir():
             raise SimtuneError(f"no recordings for task {task.name!r}: folder {folder} does not exist")
         refs[task.name] = load_task_data(
-            folder, task.name, wrist_body=task.wrist_body,
+            folder,
+            task.name,
+            wrist_body=task.wrist_body,
             object_body=task.object.mocap_body if task.object is not None else None,
         )
     return refs
@@ -40,8 +42,9 @@ def load_references(root: Path, tasks: list[TaskSpec]) -> dict[str, TaskData]:
 class Objective:
     """Scores parameter dicts (or vectors of a space) for ``engine`` on ``tasks``."""
 
-    def __init__(self, engine: str, tasks: list[TaskSpec], references: dict[str, TaskData],
-                 space: ParameterSpace | None = None):
+    def __init__(
+        self, engine: str, tasks: list[TaskSpec], references: dict[str, TaskData], space: ParameterSpace | None = None
+    ):
         engine_class(engine)  # fail early on an unknown or missing engine
         self.engine = engine
         self.tasks = list(tasks)

@@ -27,8 +27,10 @@ class TuneProgress:
         self._progress = Progress(
             TextColumn("[bold]tuning[/]"),
             BarColumn(),
-            TextColumn("gen {task.fields[gen]:>4}  best {task.fields[best]}  {task.fields[rate]} eval/s"
-                       "  {task.fields[evals]} evals{task.fields[reused]}"),
+            TextColumn(
+                "gen {task.fields[gen]:>4}  best {task.fields[best]}  {task.fields[rate]} eval/s"
+                "  {task.fields[evals]} evals{task.fields[reused]}"
+            ),
             TimeElapsedColumn(),
             console=Console(stderr=True),
             disable=not enabled,
@@ -36,10 +38,11 @@ class TuneProgress:
         )
         self._task = None
 
-    def __enter__(self) -> "TuneProgress":
+    def __enter__(self) -> TuneProgress:
         self._progress.__enter__()
-        self._task = self._progress.add_task("tune", total=self.max_seconds, gen=0, best="-", rate="-",
-                                             evals=0, reused="")
+        self._task = self._progress.add_task(
+            "tune", total=self.max_seconds, gen=0, best="-", rate="-", evals=0, reused=""
+        )
         return self
 
     def __exit__(self, *exc) -> None:
@@ -52,9 +55,12 @@ class TuneProgress:
         elapsed = time.perf_counter() - self._start
         rate = self.simulated / elapsed if elapsed > 0 else 0.0
         self._progress.update(
-            self._task, completed=min(elapsed, self.max_seconds) if self.max_seconds else None,
-            gen=self.generation_no, best=f"{self.best:.4f}" if self.best < float("inf") else "-",
-            rate=f"{rate:.1f}", evals=self.simulated + self.reused,
+            self._task,
+            completed=min(elapsed, self.max_seconds) if self.max_seconds else None,
+            gen=self.generation_no,
+            best=f"{self.best:.4f}" if self.best < float("inf") else "-",
+            rate=f"{rate:.1f}",
+            evals=self.simulated + self.reused,
             reused=f" ({self.reused} from store)" if self.reused else "",
         )
 

@@ -63,8 +63,13 @@ class RunConfig:
 def versions(engine: str) -> dict[str, str]:
     import scipy
 
-    return {"simtune": simtune.__version__, engine: engine_class(engine).version(), "numpy": np.__version__,
-            "scipy": scipy.__version__, "python": platform.python_version()}
+    return {
+        "simtune": simtune.__version__,
+        engine: engine_class(engine).version(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "python": platform.python_version(),
+    }
 
 
 def build_objective(config: RunConfig) -> Objective:
@@ -88,9 +93,16 @@ def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> T
     objective = build_objective(config)  # checks engine, tasks, space and data before any folder is made
     store = RunStore(run_dir, create=True)
     generic = objective.score({})
-    store.set(config=asdict(config), versions=versions(config.engine), command=sys.argv,
-              parameters=objective.space.names, bounds=objective.space.bounds,
-              generic=generic.to_dict(), status="running", elapsed_s=0.0)
+    store.set(
+        config=asdict(config),
+        versions=versions(config.engine),
+        command=sys.argv,
+        parameters=objective.space.names,
+        bounds=objective.space.bounds,
+        generic=generic.to_dict(),
+        status="running",
+        elapsed_s=0.0,
+    )
     return _run(objective, config, store, show_progress)
 
 
@@ -119,32 +131,53 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
         max_seconds, target, max_evaluations = None, None, searched
     with TuneProgress(enabled=show_progress, max_seconds=config.max_seconds) as progress:
         settings = TuneSettings(
-            seed=config.seed, workers=config.workers, max_seconds=max_seconds,
-            max_generations=config.max_generations, max_evaluations=max_evaluations,
+            seed=config.seed,
+            workers=config.workers,
+            max_seconds=max_seconds,
+            max_generations=config.max_generations,
+            max_evaluations=max_evaluations,
             elapsed_before=store.get("search_elapsed_s", store.get("elapsed_s", 0.0)),
-            eval_timeout=config.eval_timeout, prune=config.prune, target_fitness=target,
-            on_evaluation=progress.evaluation, on_generation=progress.generation,
+            eval_timeout=config.eval_timeout,
+            prune=config.prune,
+            target_fitness=target,
+            on_evaluation=progress.evaluation,
+            on_generation=progress.generation,
         )
         result = tune(objective, store, settings)
         if searched is None:
-            store.set(search_evaluations=result.used_evaluations, search_elapsed_s=result.wall_s,
-                      search_message=result.message, search_converged=result.converged)
+            store.set(
+                search_evaluations=result.used_evaluations,
+                search_elapsed_s=result.wall_s,
+                search_message=result.message,
+                search_converged=result.converged,
+            )
         else:  # the replay stopped on the evaluation count: say why the search stopped first
             result.message = store.get("search_message", result.message)
             result.converged = bool(store.get("search_converged", result.converged))
         if config.refine:
             refined = least_squares_refine(
-                objective, store, result.x, replace(settings, elapsed_before=max(result.wall_s, elapsed_at_start)),
+                objective,
+                store,
+                result.x,
+                replace(settings, elapsed_before=max(result.wall_s, elapsed_at_start)),
                 first_generation=result.generations + 1,
             )
             result = _combine(result, refined)
     generic = store.get("generic")
-    write_json_atomic(store.run_dir / BEST_PARAMS_FILE, {
-        "engine": config.engine, "tasks": config.tasks, "space": config.space,
-        "fitness": result.score.fitness, "wrist_error": result.score.wrist_error,
-        "object_error": result.score.object_error, "generic_fitness": generic["fitness"],
-        "parameters": list(result.params), "params": result.params,
-    })
+    write_json_atomic(
+        store.run_dir / BEST_PARAMS_FILE,
+        {
+            "engine": config.engine,
+            "tasks": config.tasks,
+            "space": config.space,
+            "fitness": result.score.fitness,
+            "wrist_error": result.score.wrist_error,
+            "object_error": result.score.object_error,
+            "generic_fitness": generic["fitness"],
+            "parameters": list(result.params),
+            "params": result.params,
+        },
+    )
     store.set(status="finished", message=result.message, best_fitness=result.score.fitness)
     store.close()
     return result
@@ -154,8 +187,18 @@ def _combine(search: TuneResult, refined: TuneResult) -> TuneResult:
     """One result for a search followed by its refinement: the better point by fitness, counts added up."""
     best = refined if refined.fitness < search.fitness else search
     gain = search.fitness - best.fitness
-    return TuneResult(best.x, best.params, best.score, search.generations + refined.generations,
-                      refined.evaluations, search.new_evaluations + refined.new_evaluations, refined.wall_s,
-                      f"{search.message}; refined by {gain:.4g} ({refined.message})", search.converged,
-                      search.history + refined.history, search.pruned_evaluations + refined.pruned_evaluations,
-                      search.steps + refined.steps, search.used_evaluations + refined.used_evaluations)
+    return TuneResult(
+        best.x,
+        best.params,
+        best.score,
+        search.generations + refined.generations,
+        refined.evaluations,
+        search.new_evaluations + refined.new_evaluations,
+        refined.wall_s,
+        f"{search.message}; refined by {gain:.4g} ({refined.message})",
+        search.converged,
+        search.history + refined.history,
+        search.pruned_evaluations + refined.pruned_evaluations,
+        search.steps + refined.steps,
+        search.used_evaluations + refined.used_evaluations,
+    )

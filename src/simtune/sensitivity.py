@@ -61,10 +61,21 @@ def evaluation_count(method: str, samples: int, dim: int) -> int:
     return samples * (dim + 1) if method == "morris" else samples * (dim + 2)
 
 
-def run_sensitivity(engine: str, tasks: str, data: Path, space: str, out: Path, *, samples: int,
-                    method: str = "morris", only: list[str] | None = None, seed: int = 0, workers: int = 1,
-                    eval_timeout: float | None = None,
-                    on_evaluation: Callable[[Score, bool], None] | None = None) -> dict:
+def run_sensitivity(
+    engine: str,
+    tasks: str,
+    data: Path,
+    space: str,
+    out: Path,
+    *,
+    samples: int,
+    method: str = "morris",
+    only: list[str] | None = None,
+    seed: int = 0,
+    workers: int = 1,
+    eval_timeout: float | None = None,
+    on_evaluation: Callable[[Score, bool], None] | None = None,
+) -> dict:
     """Sample, score and analyse; write the result files into ``out``; return the result dict."""
     if method not in METHODS:
         raise ConfigError(f"unknown sensitivity method {method!r} (known: {', '.join(METHODS)})")
@@ -89,15 +100,21 @@ def run_sensitivity(engine: str, tasks: str, data: Path, space: str, out: Path, 
 
     out = Path(out)
     store = RunStore(out, create=True, filename=STORE_NAME)
-    identity = {"engine": engine, "tasks": [t.name for t in task_specs], "data": str(Path(data).resolve()),
-                "parameters": sp.names}
+    identity = {
+        "engine": engine,
+        "tasks": [t.name for t in task_specs],
+        "data": str(Path(data).resolve()),
+        "parameters": sp.names,
+    }
     stored = store.get("identity")
     if stored is None:
         store.set(identity=identity)
     elif stored != identity:
         store.close()
-        raise SimtuneError(f"{out / STORE_NAME} holds evaluations of another engine, task, data or parameter "
-                           "list: choose another --out")
+        raise SimtuneError(
+            f"{out / STORE_NAME} holds evaluations of another engine, task, data or parameter "
+            "list: choose another --out"
+        )
     evaluator = Evaluator(objective, store, workers, on_evaluation, eval_timeout, prune=False)
     try:
         with evaluator:
@@ -111,24 +128,49 @@ def run_sensitivity(engine: str, tasks: str, data: Path, space: str, out: Path, 
         warnings.simplefilter("ignore")
         if method == "morris":
             res = morris_analyze.analyze(problem, X, Y, num_levels=MORRIS_LEVELS, seed=seed)
-            rows = [{"parameter": name, "mu_star": float(res["mu_star"][i]),
-                     "mu_star_conf": float(res["mu_star_conf"][i]), "mu": float(res["mu"][i]),
-                     "sigma": float(res["sigma"][i])} for i, name in enumerate(sp.names)]
+            rows = [
+                {
+                    "parameter": name,
+                    "mu_star": float(res["mu_star"][i]),
+                    "mu_star_conf": float(res["mu_star_conf"][i]),
+                    "mu": float(res["mu"][i]),
+                    "sigma": float(res["sigma"][i]),
+                }
+                for i, name in enumerate(sp.names)
+            ]
             rows.sort(key=lambda r: (-r["mu_star"], r["parameter"]))
         else:
             res = sobol_analyze.analyze(problem, Y, calc_second_order=False, seed=seed)
-            rows = [{"parameter": name, "ST": float(res["ST"][i]), "ST_conf": float(res["ST_conf"][i]),
-                     "S1": float(res["S1"][i]), "S1_conf": float(res["S1_conf"][i])} for i, name in enumerate(sp.names)]
+            rows = [
+                {
+                    "parameter": name,
+                    "ST": float(res["ST"][i]),
+                    "ST_conf": float(res["ST_conf"][i]),
+                    "S1": float(res["S1"][i]),
+                    "S1_conf": float(res["S1_conf"][i]),
+                }
+                for i, name in enumerate(sp.names)
+            ]
             rows.sort(key=lambda r: (-np.nan_to_num(r["ST"], nan=-np.inf), r["parameter"]))
     for rank, row in enumerate(rows, start=1):
         row["rank"] = rank
         lo, hi = sp.bounds[sp.names.index(row["parameter"])]
         row["low"], row["high"] = lo, hi
     result = {
-        "engine": engine, "tasks": tasks, "space": space, "data": str(data), "method": method,
-        "samples": samples, "seed": seed, "evaluations": int(len(X)), "new_evaluations": new,
-        "unstable": unstable, "fitness_mean": float(np.mean(Y)), "fitness_std": float(np.std(Y)),
-        "fitness_min": float(np.min(Y)), "parameters": rows,
+        "engine": engine,
+        "tasks": tasks,
+        "space": space,
+        "data": str(data),
+        "method": method,
+        "samples": samples,
+        "seed": seed,
+        "evaluations": int(len(X)),
+        "new_evaluations": new,
+        "unstable": unstable,
+        "fitness_mean": float(np.mean(Y)),
+        "fitness_std": float(np.std(Y)),
+        "fitness_min": float(np.min(Y)),
+        "parameters": rows,
     }
     write_outputs(result, out)
     return result
@@ -140,23 +182,42 @@ def sensitivity_table(result: dict, name: str = "sensitivity"):
     from simtune.report.tables import Column, Table
 
     where = f"{result['engine']} on {result['tasks']} (space {result['space']})"
-    note = (f"{result['evaluations']} evaluations ({result['unstable']} unstable, scored as the penalty); fitness "
-            f"over the samples: mean {result['fitness_mean']:.4f}, std {result['fitness_std']:.4f}. ")
+    note = (
+        f"{result['evaluations']} evaluations ({result['unstable']} unstable, scored as the penalty); fitness "
+        f"over the samples: mean {result['fitness_mean']:.4f}, std {result['fitness_std']:.4f}. "
+    )
     if result["method"] == "morris":
-        columns = [Column("rank", "d"), Column("parameter"), Column("mu*", ".4f"), Column("mu* 95% conf", ".4f"),
-                   Column("sigma", ".4f"), Column("mu", ".4f")]
-        rows = [[r["rank"], r["parameter"], r["mu_star"], r["mu_star_conf"], r["sigma"], r["mu"]]
-                for r in result["parameters"]]
-        note += ("Morris elementary effects, " + f"{result['samples']} trajectories: mu* = mean absolute change of "
-                 "the fitness [m] per full-range change of the parameter; sigma = spread of the effects "
-                 "(interactions, non-linearity).")
+        columns = [
+            Column("rank", "d"),
+            Column("parameter"),
+            Column("mu*", ".4f"),
+            Column("mu* 95% conf", ".4f"),
+            Column("sigma", ".4f"),
+            Column("mu", ".4f"),
+        ]
+        rows = [
+            [r["rank"], r["parameter"], r["mu_star"], r["mu_star_conf"], r["sigma"], r["mu"]]
+            for r in result["parameters"]
+        ]
+        note += (
+            "Morris elementary effects, " + f"{result['samples']} trajectories: mu* = mean absolute change of "
+            "the fitness [m] per full-range change of the parameter; sigma = spread of the effects "
+            "(interactions, non-linearity)."
+        )
     else:
-        columns = [Column("rank", "d"), Column("parameter"), Column("ST", ".3f"), Column("ST 95% conf", ".3f"),
-                   Column("S1", ".3f"), Column("S1 95% conf", ".3f")]
-        rows = [[r["rank"], r["parameter"], r["ST"], r["ST_conf"], r["S1"], r["S1_conf"]]
-                for r in result["parameters"]]
-        note += (f"Sobol indices, N = {result['samples']}: S1 = share of the fitness variance the parameter "
-                 "explains alone, ST = including its interactions.")
+        columns = [
+            Column("rank", "d"),
+            Column("parameter"),
+            Column("ST", ".3f"),
+            Column("ST 95% conf", ".3f"),
+            Column("S1", ".3f"),
+            Column("S1 95% conf", ".3f"),
+        ]
+        rows = [[r["rank"], r["parameter"], r["ST"], r["ST_conf"], r["S1"], r["S1_conf"]] for r in result["parameters"]]
+        note += (
+            f"Sobol indices, N = {result['samples']}: S1 = share of the fitness variance the parameter "
+            "explains alone, ST = including its interactions."
+        )
     return Table(name, f"Global sensitivity ({result['method']}) of the fitness: {where}", columns, rows, note=note)
 
 
@@ -172,14 +233,36 @@ def sensitivity_figure(result: dict, top: int = 30):
     FigureCanvasAgg(fig)
     ax = fig.subplots()
     if result["method"] == "morris":
-        ax.barh(y, [r["mu_star"] for r in rows][::-1], xerr=[r["mu_star_conf"] for r in rows][::-1],
-                color="#4472c4", ecolor="#333333", capsize=2)
+        ax.barh(
+            y,
+            [r["mu_star"] for r in rows][::-1],
+            xerr=[r["mu_star_conf"] for r in rows][::-1],
+            color="#4472c4",
+            ecolor="#333333",
+            capsize=2,
+        )
         ax.set_xlabel("mu* [m of fitness per full range]")
     else:
-        ax.barh(y + 0.2, [r["ST"] for r in rows][::-1], height=0.4, xerr=[r["ST_conf"] for r in rows][::-1],
-                color="#4472c4", ecolor="#333333", capsize=2, label="ST (total)")
-        ax.barh(y - 0.2, [r["S1"] for r in rows][::-1], height=0.4, xerr=[r["S1_conf"] for r in rows][::-1],
-                color="#ed7d31", ecolor="#333333", capsize=2, label="S1 (first order)")
+        ax.barh(
+            y + 0.2,
+            [r["ST"] for r in rows][::-1],
+            height=0.4,
+            xerr=[r["ST_conf"] for r in rows][::-1],
+            color="#4472c4",
+            ecolor="#333333",
+            capsize=2,
+            label="ST (total)",
+        )
+        ax.barh(
+            y - 0.2,
+            [r["S1"] for r in rows][::-1],
+            height=0.4,
+            xerr=[r["S1_conf"] for r in rows][::-1],
+            color="#ed7d31",
+            ecolor="#333333",
+            capsize=2,
+            label="S1 (first order)",
+        )
         ax.set_xlabel("Sobol index")
         ax.legend(fontsize="small", loc="lower right")
     ax.set_yticks(y, names, fontsize=8)

@@ -24,8 +24,8 @@ import hashlib
 import json
 import shutil
 import sqlite3
-from contextlib import contextmanager
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -85,8 +85,10 @@ class RunStore:
                 raise SimtuneError(f"cannot create run folder {self.run_dir}: {exc.strerror}") from None
             free = shutil.disk_usage(self.run_dir).free
             if free < MIN_FREE_BYTES:  # refuse before any compute is spent, not halfway through
-                raise SimtuneError(f"only {free / 1e6:.0f} MB free at {self.run_dir}: a run store needs "
-                                   f"{MIN_FREE_BYTES / 1e6:.0f} MB or more")
+                raise SimtuneError(
+                    f"only {free / 1e6:.0f} MB free at {self.run_dir}: a run store needs "
+                    f"{MIN_FREE_BYTES / 1e6:.0f} MB or more"
+                )
         elif not self.path.exists():
             raise SimtuneError(f"{self.run_dir} is not a run folder (no {filename})")
         try:
@@ -109,14 +111,17 @@ class RunStore:
             with self.db:
                 yield
         except sqlite3.Error as exc:
-            raise SimtuneError(f"cannot write run store {self.path}: {exc} (disk full or not writable?); "
-                               f"finished evaluations are kept: `simtune resume {self.run_dir}`") from None
+            raise SimtuneError(
+                f"cannot write run store {self.path}: {exc} (disk full or not writable?); "
+                f"finished evaluations are kept: `simtune resume {self.run_dir}`"
+            ) from None
 
     # --- meta ------------------------------------------------------------------------------
     def set(self, **values) -> None:
         with self._writing():
-            self.db.executemany("INSERT OR REPLACE INTO meta VALUES (?, ?)",
-                                [(k, json.dumps(v)) for k, v in values.items()])
+            self.db.executemany(
+                "INSERT OR REPLACE INTO meta VALUES (?, ?)", [(k, json.dumps(v)) for k, v in values.items()]
+            )
 
     def get(self, key: str, default=None):
         row = self.db.execute("SELECT value FROM meta WHERE key = ?", (key,)).fetchone()
@@ -132,9 +137,19 @@ class RunStore:
             self.db.execute(
                 "INSERT OR IGNORE INTO evaluations (key, x, fitness, wrist_error, object_error, stable, pruned, score,"
                 " generation, wall_s, finished_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                (vector_key(x), json.dumps([float(v) for v in x]), score.fitness, score.wrist_error,
-                 score.object_error, int(score.stable), int(score.pruned), json.dumps(score.to_dict()), generation,
-                 wall_s, time.time()),
+                (
+                    vector_key(x),
+                    json.dumps([float(v) for v in x]),
+                    score.fitness,
+                    score.wrist_error,
+                    score.object_error,
+                    int(score.stable),
+                    int(score.pruned),
+                    json.dumps(score.to_dict()),
+                    generation,
+                    wall_s,
+                    time.time(),
+                ),
             )
 
     def lookup_residuals(self, x) -> np.ndarray | None:
@@ -143,8 +158,10 @@ class RunStore:
 
     def record_residuals(self, x, residuals) -> None:
         with self._writing():
-            self.db.execute("INSERT OR IGNORE INTO residuals VALUES (?, ?)",
-                            (vector_key(x), np.ascontiguousarray(residuals, dtype=np.float64).tobytes()))
+            self.db.execute(
+                "INSERT OR IGNORE INTO residuals VALUES (?, ?)",
+                (vector_key(x), np.ascontiguousarray(residuals, dtype=np.float64).tobytes()),
+            )
 
     def count_evaluations(self) -> int:
         return self.db.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0]
@@ -152,34 +169,56 @@ class RunStore:
     def count_outcomes(self) -> dict[str, int]:
         """How many evaluations blew up or failed (penalised) and how many were pruned."""
         unstable, pruned = self.db.execute(
-            "SELECT COALESCE(SUM(1 - stable), 0), COALESCE(SUM(pruned), 0) FROM evaluations").fetchone()
+            "SELECT COALESCE(SUM(1 - stable), 0), COALESCE(SUM(pruned), 0) FROM evaluations"
+        ).fetchone()
         return {"unstable": int(unstable), "pruned": int(pruned)}
 
     def evaluations(self) -> list[dict]:
         rows = self.db.execute(
             "SELECT x, fitness, wrist_error, object_error, stable, pruned, generation, wall_s FROM evaluations"
-            " ORDER BY id").fetchall()
-        return [dict(x=json.loads(r[0]), fitness=r[1], wrist_error=r[2], object_error=r[3], stable=bool(r[4]),
-                     pruned=bool(r[5]), generation=r[6], wall_s=r[7]) for r in rows]
+            " ORDER BY id"
+        ).fetchall()
+        return [
+            dict(
+                x=json.loads(r[0]),
+                fitness=r[1],
+                wrist_error=r[2],
+                object_error=r[3],
+                stable=bool(r[4]),
+                pruned=bool(r[5]),
+                generation=r[6],
+                wall_s=r[7],
+            )
+            for r in rows
+        ]
 
     def best_evaluation(self) -> dict | None:
         row = self.db.execute("SELECT x, score FROM evaluations ORDER BY fitness, id LIMIT 1").fetchone()
         return None if row is None else {"x": json.loads(row[0]), "score": json.loads(row[1])}
 
     # --- generation checkpoints ---------------------------------------------------------------
-    def record_generation(self, generation: int, population, energies, best_x, best_fitness: float,
-                          evaluations: int, elapsed_s: float) -> None:
+    def record_generation(
+        self, generation: int, population, energies, best_x, best_fitness: float, evaluations: int, elapsed_s: float
+    ) -> None:
         with self._writing():
             self.db.execute(
                 "INSERT OR REPLACE INTO generations VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
-                (generation, float(best_fitness), json.dumps([float(v) for v in best_x]),
-                 json.dumps(np.asarray(population, dtype=float).tolist()),
-                 json.dumps([float(e) for e in energies]), evaluations, elapsed_s, time.time()),
+                (
+                    generation,
+                    float(best_fitness),
+                    json.dumps([float(v) for v in best_x]),
+                    json.dumps(np.asarray(population, dtype=float).tolist()),
+                    json.dumps([float(e) for e in energies]),
+                    evaluations,
+                    elapsed_s,
+                    time.time(),
+                ),
             )
 
     def generations(self) -> list[dict]:
         rows = self.db.execute(
-            "SELECT generation, best_fitness, evaluations, elapsed_s FROM generations ORDER BY generation").fetchall()
+            "SELECT generation, best_fitness, evaluations, elapsed_s FROM generations ORDER BY generation"
+        ).fetchall()
         return [dict(generation=r[0], best_fitness=r[1], evaluations=r[2], elapsed_s=r[3]) for r in rows]
 
     def last_checkpoint(self) -> dict | None:
@@ -188,8 +227,12 @@ class RunStore:
         ).fetchone()
         if row is None:
             return None
-        return dict(generation=row[0], population=np.array(json.loads(row[1])),
-                    energies=np.array(json.loads(row[2])), elapsed_s=row[3])
+        return dict(
+            generation=row[0],
+            population=np.array(json.loads(row[1])),
+            energies=np.array(json.loads(row[2])),
+            elapsed_s=row[3],
+        )
 
     def close(self) -> None:
         self.db.close()

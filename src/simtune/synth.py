@@ -52,8 +52,17 @@ def load_truth(path: Path | None, engine: str, delay_s: float | None) -> dict[st
     return validate_params(truth, supported, engine, where="--delay-s")
 
 
-def make_synthetic(engine: str, tasks: str, out: Path, *, truth: dict[str, float], noise_m: float = 0.002,
-                   repeats: int = 10, seed: int = 0, jitter_s: float = 0.05) -> SynthResult:
+def make_synthetic(
+    engine: str,
+    tasks: str,
+    out: Path,
+    *,
+    truth: dict[str, float],
+    noise_m: float = 0.002,
+    repeats: int = 10,
+    seed: int = 0,
+    jitter_s: float = 0.05,
+) -> SynthResult:
     """Write ``repeats`` synthetic recordings of each task in ``tasks`` (names, groups, comma-separated)."""
     specs = parse_tasks(tasks)
     if repeats < 1:
@@ -66,8 +75,9 @@ def make_synthetic(engine: str, tasks: str, out: Path, *, truth: dict[str, float
     for spec in specs:
         folder = out / spec.name
         if folder.is_dir() and any(is_recording_file(p) for p in folder.iterdir()):
-            raise SimtuneError(f"{folder} already holds recordings: choose another --out (new files would be "
-                               "averaged with them)")
+            raise SimtuneError(
+                f"{folder} already holds recordings: choose another --out (new files would be averaged with them)"
+            )
     files: dict[str, list[Path]] = {}
     for spec in specs:
         folder = out / spec.name
@@ -76,15 +86,31 @@ def make_synthetic(engine: str, tasks: str, out: Path, *, truth: dict[str, float
         except OSError as exc:
             raise SimtuneError(f"--out {out}: cannot create {folder} ({exc.strerror})") from None
         # each task its own noise stream, so adding a task leaves the others' recordings unchanged
-        recordings = synthesize(engine, spec, truth, repeats=repeats, noise_m=noise_m, jitter_s=jitter_s,
-                                seed=hash_seed(seed, spec.name), suffix=".tsv")
+        recordings = synthesize(
+            engine,
+            spec,
+            truth,
+            repeats=repeats,
+            noise_m=noise_m,
+            jitter_s=jitter_s,
+            seed=hash_seed(seed, spec.name),
+            suffix=".tsv",
+        )
         files[spec.name] = []
         for rec in recordings:
             write_qualisys_tsv(folder / rec.source.name, rec, header=True)
             files[spec.name].append(folder / rec.source.name)
-    meta = {"engine": engine, "tasks": [s.name for s in specs], "noise_m": noise_m, "jitter_s": jitter_s,
-            "repeats": repeats, "seed": seed, "simtune": simtune.__version__,
-            "parameters": list(truth), "params": truth}
+    meta = {
+        "engine": engine,
+        "tasks": [s.name for s in specs],
+        "noise_m": noise_m,
+        "jitter_s": jitter_s,
+        "repeats": repeats,
+        "seed": seed,
+        "simtune": simtune.__version__,
+        "parameters": list(truth),
+        "params": truth,
+    }
     (out / TRUTH_FILE).write_text(json.dumps(meta, indent=2) + "\n")
     return SynthResult(out, truth, files)
 

@@ -39,8 +39,9 @@ class TaskResult:
         return (self.tuned - self.generic) / self.generic if self.generic else 0.0
 
 
-def run_transfer(config: RunConfig, test: str, out: Path, test_data: Path | None = None,
-                 show_progress: bool = True) -> dict:
+def run_transfer(
+    config: RunConfig, test: str, out: Path, test_data: Path | None = None, show_progress: bool = True
+) -> dict:
     """Tune on ``config.tasks``, score on them and on ``test``; the result as a dict (also OUT/transfer.json)."""
     train_tasks = parse_tasks(config.tasks)
     test_tasks = parse_tasks(test)
@@ -72,20 +73,34 @@ def run_transfer(config: RunConfig, test: str, out: Path, test_data: Path | None
                 score = objective.score(tuned.params)
             finally:
                 objective.close()
-            rows.append(TaskResult(task.name, role, generic.fitness, score.fitness, score.wrist_error,
-                                   score.object_error, score.stable))
+            rows.append(
+                TaskResult(
+                    task.name, role, generic.fitness, score.fitness, score.wrist_error, score.object_error, score.stable
+                )
+            )
     totals = {}
     for role in ("train", "test"):
         mine = [r for r in rows if r.role == role]
         generic, tuned_sum = sum(r.generic for r in mine), sum(r.tuned for r in mine)
-        totals[role] = {"generic": generic, "tuned": tuned_sum,
-                        "change": (tuned_sum - generic) / generic if generic else 0.0}
+        totals[role] = {
+            "generic": generic,
+            "tuned": tuned_sum,
+            "change": (tuned_sum - generic) / generic if generic else 0.0,
+        }
     result = {
-        "engine": config.engine, "train": config.tasks, "test": test, "space": config.space,
-        "data": config.data, "test_data": str(test_root), "optimizer": config.optimizer,
-        "run": str(run_dir), "best_params_file": str(run_dir / "best_params.json"),
-        "evaluations": tuned.evaluations, "tasks": [{**asdict(r), "change": r.change} for r in rows],
-        "totals": totals, "params": tuned.params,
+        "engine": config.engine,
+        "train": config.tasks,
+        "test": test,
+        "space": config.space,
+        "data": config.data,
+        "test_data": str(test_root),
+        "optimizer": config.optimizer,
+        "run": str(run_dir),
+        "best_params_file": str(run_dir / "best_params.json"),
+        "evaluations": tuned.evaluations,
+        "tasks": [{**asdict(r), "change": r.change} for r in rows],
+        "totals": totals,
+        "params": tuned.params,
     }
     (out / RESULT_FILE).write_text(json.dumps(result, indent=1) + "\n")
     return result

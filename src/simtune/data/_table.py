@@ -88,9 +88,7 @@ def check_columns(
         counts = counts[:-1]
     for i, k in enumerate(counts):
         if k != ncols:
-            raise RecordingError(
-                f"{display} line {int(linenos[i])}: expected {ncols} columns, found {k}"
-            )
+            raise RecordingError(f"{display} line {int(linenos[i])}: expected {ncols} columns, found {k}")
     return lines, linenos, ncols
 
 
@@ -201,13 +199,11 @@ def _slow_parse(
                 v = float(cell)
             except ValueError:
                 raise RecordingError(
-                    f"{display} line {int(linenos[i])}, column {c + 1}: "
-                    f"{shorten(cell)!r} is not a number"
+                    f"{display} line {int(linenos[i])}, column {c + 1}: {shorten(cell)!r} is not a number"
                 ) from None
             if math.isinf(v):
                 raise RecordingError(
-                    f"{display} line {int(linenos[i])}, column {c + 1}: "
-                    f"{shorten(cell)!r} is not a finite number"
+                    f"{display} line {int(linenos[i])}, column {c + 1}: {shorten(cell)!r} is not a finite number"
                 )
             row[c] = v
     return values
@@ -227,4 +223,4 @@ def write_bytes(path: Path, payload: bytes, display: str) -> None:
 
 def format_column(values: np.ndarray, spec: str) -> list[str]:
     """Format floats with ``spec``; NaN becomes an empty field (a lost marker)."""
-    return ["" if v != v else format(v, spec) for v in values.tolist()]
+    return ["" if math.isnan(v) else format(v, spec) for v in values.tolist()]

@@ -60,8 +60,7 @@ def _parse_header(fields: list[str], display: str, line: int) -> list[str]:
             if not body or got != f"{body}.{suffix}":
                 want = f"{body or '<body>'}.{suffix}"
                 raise RecordingError(
-                    f"{display} line {line}, column {col0 + k + 1}: expected {want!r}, "
-                    f"found {shorten(got)!r}"
+                    f"{display} line {line}, column {col0 + k + 1}: expected {want!r}, found {shorten(got)!r}"
                 )
         if body in names:
             raise RecordingError(f"{display} line {line}: body {body!r} appears twice")
@@ -74,11 +73,7 @@ def read_csv(path: Path) -> Recording:
     display = display_name(path)
     raw = split_lines(read_bytes(path, display))
     # Comments and blank lines carry no data; remember real line numbers for messages.
-    kept = [
-        (i + 1, line)
-        for i, line in enumerate(raw)
-        if line.strip() and not line.lstrip().startswith(b"#")
-    ]
+    kept = [(i + 1, line) for i, line in enumerate(raw) if line.strip() and not line.lstrip().startswith(b"#")]
     if not kept:
         raise RecordingError(f"{display} line 1: file is empty (no header and no data lines)")
     head_line, head = kept[0]
@@ -91,8 +86,7 @@ def read_csv(path: Path) -> Recording:
     expected = 1 + len(SUFFIXES) * len(names)
     if ncols != expected:
         raise RecordingError(
-            f"{display} line {int(linenos[0])}: expected {expected} columns "
-            f"(as in the header), found {ncols}"
+            f"{display} line {int(linenos[0])}: expected {expected} columns (as in the header), found {ncols}"
         )
     values = parse_numbers(data, linenos, b",", ncols, list(range(ncols)), display)
     n = values.shape[0]

@@ -32,6 +32,4 @@ def load_recording(path: Path | str, body_names: list[str] | None = None) -> Rec
         return read_qualisys_tsv(path, body_names)
     if name.endswith((".csv", ".csv.gz")):
         return read_csv(path)
-    raise RecordingError(
-        f"{display_name(path)}: unknown recording format (expected {', '.join(RECORDING_SUFFIXES)})"
-    )
+    raise RecordingError(f"{display_name(path)}: unknown recording format (expected {', '.join(RECORDING_SUFFIXES)})")

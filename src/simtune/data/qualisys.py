@@ -40,9 +40,7 @@ from simtune.errors import RecordingError, RecordingWarning
 EULER_SEQ = "XYZ"
 VALUES_PER_BODY = 16
 COLUMNS_PER_BODY = VALUES_PER_BODY + 1  # the values plus one empty separator column
-_COLUMN_LABELS = ["X", "Y", "Z", "Roll", "Pitch", "Yaw", "Residual"] + [
-    f"Rot[{i}]" for i in range(9)
-]
+_COLUMN_LABELS = ["X", "Y", "Z", "Roll", "Pitch", "Yaw", "Residual"] + [f"Rot[{i}]" for i in range(9)]
 _KEYWORD = re.compile(rb"^[A-Z][A-Z0-9_]*$")
 
 
@@ -165,9 +163,7 @@ def read_qualisys_tsv(path: Path, body_names: list[str] | None = None) -> Record
     return finish_recording(Path(path), display, time, linenos, positions, rotations)
 
 
-def _body_names(
-    head: _Header, nbodies: int, given: list[str] | None, display: str, line: int
-) -> list[str]:
+def _body_names(head: _Header, nbodies: int, given: list[str] | None, display: str, line: int) -> list[str]:
     """Header BODY_NAMES win; else names from the column-name line; else ``given``/defaults."""
     if "BODY_NAMES" in head.keys:
         names = [x for x in head.keys["BODY_NAMES"] if x]
@@ -186,14 +182,9 @@ def _body_names(
             )
         where, source = line, "body_names"
     if len(names) != nbodies:
-        raise RecordingError(
-            f"{display} line {where}: {source} lists {len(names)} bodies "
-            f"but the data has {nbodies}"
-        )
+        raise RecordingError(f"{display} line {where}: {source} lists {len(names)} bodies but the data has {nbodies}")
     if len(set(names)) != len(names):
-        raise RecordingError(
-            f"{display} line {where}: {source} repeats a body name ({', '.join(names)})"
-        )
+        raise RecordingError(f"{display} line {where}: {source} repeats a body name ({', '.join(names)})")
     return names
 
 
@@ -205,9 +196,7 @@ def _frequency(head: _Header, display: str) -> float:
     except (ValueError, IndexError):
         freq = float("nan")
     if not (np.isfinite(freq) and freq > 0):
-        raise RecordingError(
-            f"{display} line {where}: no time column and no valid FREQUENCY in the header"
-        )
+        raise RecordingError(f"{display} line {where}: no time column and no valid FREQUENCY in the header")
     return freq
 
 
@@ -219,8 +208,7 @@ def _check_frame_count(head: _Header, n: int, display: str) -> None:
         return
     if expected != n:
         warnings.warn(
-            f"{display} line {head.lines['NO_OF_FRAMES']}: header says {expected} frames, "
-            f"the file holds {n}",
+            f"{display} line {head.lines['NO_OF_FRAMES']}: header says {expected} frames, the file holds {n}",
             RecordingWarning,
             stacklevel=4,
         )

@@ -87,9 +87,7 @@ def clean_rotations(rot: np.ndarray, name: str, display: str) -> np.ndarray:
     return rot
 
 
-def check_units(
-    positions: dict[str, np.ndarray], linenos: np.ndarray, display: str, message: str
-) -> None:
+def check_units(positions: dict[str, np.ndarray], linenos: np.ndarray, display: str, message: str) -> None:
     """Reject coordinates beyond MAX_ABS_COORD_M; ``message`` is formatted with the value."""
     for name, xyz in positions.items():
         mag = np.abs(xyz)
@@ -97,9 +95,7 @@ def check_units(
             continue
         row = int(np.flatnonzero((mag > MAX_ABS_COORD_M).any(axis=1))[0])
         peak = float(np.nanmax(mag))
-        raise RecordingError(
-            f"{display} line {int(linenos[row])}: body {name!r} " + message.format(peak=peak)
-        )
+        raise RecordingError(f"{display} line {int(linenos[row])}: body {name!r} " + message.format(peak=peak))
 
 
 def finish_recording(
@@ -120,8 +116,7 @@ def finish_recording(
     if back.size:
         i = int(back[0]) + 1
         raise RecordingError(
-            f"{display} line {int(linenos[i])}: time goes backwards "
-            f"({time[i]:.6g} s after {time[i - 1]:.6g} s)"
+            f"{display} line {int(linenos[i])}: time goes backwards ({time[i]:.6g} s after {time[i - 1]:.6g} s)"
         )
     dup = np.flatnonzero(step == 0) + 1
     if dup.size:
@@ -139,9 +134,7 @@ def finish_recording(
         positions = {k: v[keep] for k, v in positions.items()}
         rotations = {k: v[keep] for k, v in rotations.items()}
     if time.shape[0] < 2:
-        raise RecordingError(
-            f"{display} line {int(linenos[0])}: only {time.shape[0]} valid frame; need at least 2"
-        )
+        raise RecordingError(f"{display} line {int(linenos[0])}: only {time.shape[0]} valid frame; need at least 2")
     return Recording(source=Path(source), time=time, positions=positions, rotations=rotations)
 
 
@@ -152,9 +145,7 @@ def check_for_writing(rec: Recording, display: str, forbidden: str) -> int:
         raise RecordingError(f"{display}: cannot write: time must be a non-empty 1-D array")
     n = time.shape[0]
     if set(rec.positions) != set(rec.rotations):
-        raise RecordingError(
-            f"{display}: cannot write: positions and rotations name different bodies"
-        )
+        raise RecordingError(f"{display}: cannot write: positions and rotations name different bodies")
     for name in rec.positions:
         if not name or any(ch in name for ch in forbidden):
             raise RecordingError(f"{display}: cannot write: body name {name!r} is not allowed")

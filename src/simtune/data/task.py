@@ -72,9 +72,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
 
 
-def _fill_gaps(
-    time: np.ndarray, xyz: np.ndarray, max_gap_s: float
-) -> tuple[np.ndarray, tuple[int, int, float] | None]:
+def _fill_gaps(time: np.ndarray, xyz: np.ndarray, max_gap_s: float) -> tuple[np.ndarray, tuple[int, int, float] | None]:
     """Bridge NaN runs of at most ``max_gap_s`` linearly (ends: nearest valid sample).
 
     Returns the filled positions, or None and the longest gap (start, stop,
@@ -102,9 +100,7 @@ def _fill_gaps(
 
 def _find_body(rec: Recording, body: str, display: str) -> np.ndarray:
     if body not in rec.positions:
-        raise RecordingError(
-            f"{display}: no body {body!r} (bodies: {', '.join(rec.positions) or 'none'})"
-        )
+        raise RecordingError(f"{display}: no body {body!r} (bodies: {', '.join(rec.positions) or 'none'})")
     return rec.positions[body]
 
 

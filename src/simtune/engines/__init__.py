@@ -38,4 +38,4 @@ def make_engine(name: str, task: TaskSpec) -> Engine:
     return engine_class(name)(task)
 
 
-__all__ = ["ENGINES", "COMMON_PARAMETERS", "Engine", "Rollout", "engine_class", "make_engine"]
+__all__ = ["COMMON_PARAMETERS", "ENGINES", "Engine", "Rollout", "engine_class", "make_engine"]

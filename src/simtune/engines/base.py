@@ -112,12 +112,17 @@ class Engine(ABC):
         """A reason if the engine itself reports the simulation as broken, else ''."""
         return ""
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027 - optional hook: most engines hold nothing to release
         """Release engine resources."""
 
     # --- the protocol, shared by all engines ---------------------------------------------
-    def rollout(self, params: dict[str, float], n_samples: int, rate: float = 1.0 / CONTROL_PERIOD,
-                monitor: Callable[[int, np.ndarray, np.ndarray], bool] | None = None) -> Rollout:
+    def rollout(
+        self,
+        params: dict[str, float],
+        n_samples: int,
+        rate: float = 1.0 / CONTROL_PERIOD,
+        monitor: Callable[[int, np.ndarray, np.ndarray], bool] | None = None,
+    ) -> Rollout:
         """Run the task for ``n_samples`` control periods and sample the state at each.
 
         Sample ``k`` is the state at ``k / rate`` seconds.  The controller updates
@@ -153,8 +158,13 @@ class Engine(ABC):
             if reason or k == n_samples - 1 or k - checked >= CHECK_EVERY - 1:
                 # the state check is vectorised over the samples since the last one: a blow-up is
                 # caught at most CHECK_EVERY samples late, and its first bad sample found exactly
-                bad, why = _first_bad(wrist_pos[checked:k + 1], wrist_rot[checked:k + 1], angles[checked:k + 1],
-                                      object_pos[checked:k + 1] if has_object else None, object_start)
+                bad, why = _first_bad(
+                    wrist_pos[checked : k + 1],
+                    wrist_rot[checked : k + 1],
+                    angles[checked : k + 1],
+                    object_pos[checked : k + 1] if has_object else None,
+                    object_start,
+                )
                 if bad is None and reason:
                     bad, why = k - checked, reason
                 if bad is not None:
@@ -193,12 +203,12 @@ def _first_bad(pos, rot, q, obj, obj_start) -> tuple[int | None, str]:
     problems.append((~finite, lambda i: "non-finite arm state"))
     with np.errstate(invalid="ignore", over="ignore"):
         reach = np.einsum("ij,ij->i", pos, pos)
-        problems.append((reach > WRIST_LIMIT ** 2, lambda i: f"wrist {math.sqrt(reach[i]):.1f} m from the base"))
+        problems.append((reach > WRIST_LIMIT**2, lambda i: f"wrist {math.sqrt(reach[i]):.1f} m from the base"))
         if obj is not None:
             moved = obj - obj_start
             problems.append((~np.isfinite(moved).all(axis=1), lambda i: "non-finite object state"))
             flight = np.einsum("ij,ij->i", moved, moved)
-            problems.append((flight > OBJECT_LIMIT ** 2, lambda i: f"object thrown {math.sqrt(flight[i]):.1f} m"))
+            problems.append((flight > OBJECT_LIMIT**2, lambda i: f"object thrown {math.sqrt(flight[i]):.1f} m"))
     first, why = None, ""
     for mask, describe in problems:
         hits = np.flatnonzero(mask)

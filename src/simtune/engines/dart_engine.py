@@ -23,7 +23,6 @@ floor: those parameters are left out.
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from simtune.engines._shapes import object_mass_properties
@@ -99,8 +98,12 @@ class DartEngine(Engine):
 
         self._shapes = {
             "floor": [floor_shape],
-            "gripper": [s for link in LINKS if link.material == "gripper"
-                        for s in self.robot.getBodyNode(link.name).getShapeNodes()],
+            "gripper": [
+                s
+                for link in LINKS
+                if link.material == "gripper"
+                for s in self.robot.getBodyNode(link.name).getShapeNodes()
+            ],
         }
         self.object = None
         self._object_com = np.zeros(3)
@@ -163,8 +166,11 @@ class DartEngine(Engine):
         for i, (joint, link) in enumerate(zip(self._arm, self._links), start=1):
             mass = p[f"mass_link_{i}"]
             inertia = link.getInertia()
-            link.setInertia(dartpy.dynamics.Inertia(
-                mass, inertia.getLocalCOM(), self._link_moment[i - 1] * (mass / self._link_mass[i - 1])))
+            link.setInertia(
+                dartpy.dynamics.Inertia(
+                    mass, inertia.getLocalCOM(), self._link_moment[i - 1] * (mass / self._link_mass[i - 1])
+                )
+            )
             limit = p[f"max_torque_joint_{i}"]
             joint.setForceLowerLimit(0, -limit)
             joint.setForceUpperLimit(0, limit)

@@ -41,7 +41,7 @@ from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, LINKS, WRIST_LINK
 from simtune.tasks.spec import TaskSpec
 
 try:
-    import pydrake  # noqa: F401
+    import pydrake
     from pydrake.geometry import (
         AddCompliantHydroelasticProperties,
         AddContactMaterial,
@@ -102,7 +102,9 @@ class _System:
 
 class DrakeEngine(Engine):
     name = "drake"
-    engine_parameters = RIGID_BODY_PARAMETERS | {f"lateral_friction_{g}" for g in ("gripper", "floor", "wood", "plastic")}
+    engine_parameters = RIGID_BODY_PARAMETERS | {
+        f"lateral_friction_{g}" for g in ("gripper", "floor", "wood", "plastic")
+    }
 
     @classmethod
     def version(cls) -> str:
@@ -138,9 +140,12 @@ class DrakeEngine(Engine):
         builder = DiagramBuilder()
         sg_config = SceneGraphConfig()
         plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=timestep), sg_config, builder)
-        arm, = Parser(plant).AddModelsFromString(self._urdf, "urdf")
-        plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("link_base", arm),
-                         RigidTransform(np.asarray(BASE_POSITION, dtype=float)))
+        (arm,) = Parser(plant).AddModelsFromString(self._urdf, "urdf")
+        plant.WeldFrames(
+            plant.world_frame(),
+            plant.GetFrameByName("link_base", arm),
+            RigidTransform(np.asarray(BASE_POSITION, dtype=float)),
+        )
         joints = [plant.GetJointByName(j, arm) for j in ARM_JOINTS]
         actuators = []
         for joint in joints:
@@ -148,9 +153,13 @@ class DrakeEngine(Engine):
             actuator.set_controller_gains(PdControllerGains(p=0.0, d=SERVO_KD))
             actuators.append(actuator)
         inspector = scene_graph.model_inspector()
-        arm_geometries = [g for link in LINKS for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link.name, arm))]
+        arm_geometries = [
+            g for link in LINKS for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link.name, arm))
+        ]
         # the parser's friction for geometries that name none: Drake's default material
-        default_friction = inspector.GetProximityProperties(arm_geometries[0]).GetProperty("material", "coulomb_friction")
+        default_friction = inspector.GetProximityProperties(arm_geometries[0]).GetProperty(
+            "material", "coulomb_friction"
+        )
 
         floor_props = ProximityProperties()
         AddContactMaterial(friction=default_friction, properties=floor_props)
@@ -159,8 +168,12 @@ class DrakeEngine(Engine):
 
         geometries = {
             "floor": [floor],
-            "gripper": [g for link in LINKS if link.material == "gripper"
-                        for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link.name, arm))],
+            "gripper": [
+                g
+                for link in LINKS
+                if link.material == "gripper"
+                for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link.name, arm))
+            ],
         }
         body = None
         obj = self.task.object
@@ -175,22 +188,35 @@ class DrakeEngine(Engine):
                 shape = Convex(np.asarray(obj.cone_vertices()).T, "cone")  # the same hull as MuJoCo and PyBullet
             props = ProximityProperties()
             AddContactMaterial(friction=default_friction, properties=props)
-            AddCompliantHydroelasticProperties(RESOLUTION_HINT, sg_config.default_proximity_properties.hydroelastic_modulus,
-                                               props)
+            AddCompliantHydroelasticProperties(
+                RESOLUTION_HINT, sg_config.default_proximity_properties.hydroelastic_modulus, props
+            )
             geometries[obj.material] = [plant.RegisterCollisionGeometry(body, RigidTransform(), shape, "object", props)]
         plant.Finalize()
         # arm shapes touch the floor and the object, never each other
-        scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().ExcludeWithin(GeometrySet(arm_geometries)))
+        scene_graph.collision_filter_manager().Apply(
+            CollisionFilterDeclaration().ExcludeWithin(GeometrySet(arm_geometries))
+        )
 
         diagram = builder.Build()
         simulator = Simulator(diagram)
         context = simulator.get_mutable_context()
         plant_context = plant.GetMyMutableContextFromRoot(context)
         system = _System(
-            timestep=timestep, plant=plant, scene_graph=scene_graph, simulator=simulator, context=context,
-            plant_context=plant_context, sg_context=scene_graph.GetMyMutableContextFromRoot(context), arm=arm,
-            joints=joints, actuators=actuators, links=[plant.GetBodyByName(link, arm) for link in _ARM_LINKS],
-            wrist=plant.GetBodyByName(WRIST_LINK, arm), object_body=body, geometries=geometries,
+            timestep=timestep,
+            plant=plant,
+            scene_graph=scene_graph,
+            simulator=simulator,
+            context=context,
+            plant_context=plant_context,
+            sg_context=scene_graph.GetMyMutableContextFromRoot(context),
+            arm=arm,
+            joints=joints,
+            actuators=actuators,
+            links=[plant.GetBodyByName(link, arm) for link in _ARM_LINKS],
+            wrist=plant.GetBodyByName(WRIST_LINK, arm),
+            object_body=body,
+            geometries=geometries,
         )
         plant.get_desired_state_input_port(arm).FixValue(plant_context, np.zeros(12))
         plant.get_actuation_input_port(arm).FixValue(plant_context, np.zeros(6))
@@ -199,7 +225,9 @@ class DrakeEngine(Engine):
 
     def _object_inertia(self, mass: float):
         com, inertia = object_mass_properties(self.task.object, mass)
-        central = RotationalInertia(inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2])
+        central = RotationalInertia(
+            inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]
+        )
         return SpatialInertia.MakeFromCentralInertia(mass, com, central)
 
     def _read_defaults(self) -> dict[str, float]:
@@ -250,7 +278,9 @@ class DrakeEngine(Engine):
         obj = self.task.object
         if obj is not None:
             s.object_body.SetSpatialInertiaInBodyFrame(ctx, self._object_inertia(p[obj.mass_parameter]))
-            s.plant.SetFreeBodyPose(ctx, s.object_body, RigidTransform(RotationMatrix(obj.rotation), obj.start_position))
+            s.plant.SetFreeBodyPose(
+                ctx, s.object_body, RigidTransform(RotationMatrix(obj.rotation), obj.start_position)
+            )
             s.plant.SetFreeBodySpatialVelocity(ctx, s.object_body, SpatialVelocity(np.zeros(3), np.zeros(3)))
         self._pose(s, np.radians(self.task.start_pose_deg))
         s.context.SetTime(0.0)
@@ -265,7 +295,8 @@ class DrakeEngine(Engine):
         s.plant.get_desired_state_input_port(s.arm).FixValue(ctx, np.concatenate([np.zeros(6), velocities]))
         gravity = s.plant.CalcGravityGeneralizedForces(ctx)  # generalized forces of gravity
         s.plant.get_actuation_input_port(s.arm).FixValue(
-            ctx, np.array([-gravity[joint.velocity_start()] for joint in s.joints]))
+            ctx, np.array([-gravity[joint.velocity_start()] for joint in s.joints])
+        )
 
     def step(self, n: int) -> None:
         if self._failed:

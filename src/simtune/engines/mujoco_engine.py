@@ -63,10 +63,16 @@ class MujocoEngine(Engine):
         self._wrist = m.body(WRIST_LINK).id
         self._object = m.body(OBJECT_BODY).id if task.object is not None else None
         self._object_dof = m.jnt_dofadr[m.joint(OBJECT_BODY).id] if task.object is not None else None
-        self._groups = {"floor": [m.geom(FLOOR).id], "gripper": [
-            m.geom(g).id for link in LINKS if link.material == "gripper"
-            for g in range(m.ngeom) if m.geom_bodyid[g] == m.body(link.name).id
-        ]}
+        self._groups = {
+            "floor": [m.geom(FLOOR).id],
+            "gripper": [
+                m.geom(g).id
+                for link in LINKS
+                if link.material == "gripper"
+                for g in range(m.ngeom)
+                if m.geom_bodyid[g] == m.body(link.name).id
+            ],
+        }
         if task.object is not None:
             self._groups[task.object.material] = [m.geom(OBJECT_BODY).id]
         # the compiled model's own values: every reset starts from these
@@ -119,9 +125,9 @@ class MujocoEngine(Engine):
                 set_mass(self._object, params[obj.mass_parameter])
             d0 = self._object_dof
             if f"linear_damping_{obj.material}" in params:
-                m.dof_damping[d0:d0 + 3] = params[f"linear_damping_{obj.material}"]
+                m.dof_damping[d0 : d0 + 3] = params[f"linear_damping_{obj.material}"]
             if f"angular_damping_{obj.material}" in params:
-                m.dof_damping[d0 + 3:d0 + 6] = params[f"angular_damping_{obj.material}"]
+                m.dof_damping[d0 + 3 : d0 + 6] = params[f"angular_damping_{obj.material}"]
         for group, geoms in self._groups.items():
             for kind, col in _FRICTION_COLUMN.items():
                 if f"{kind}_{group}" in params:

@@ -143,9 +143,14 @@ class OdeEngine(Engine):
         self._build(self._defaults)
         self._pose_arm(np.radians(task.start_pose_deg))
         self._defaults.update(
-            {f"{kind}_{g}": v for g, body in self._damped_bodies().items()
-             for kind, v in (("linear_damping", ode.dBodyGetLinearDamping(body)),
-                             ("angular_damping", ode.dBodyGetAngularDamping(body)))}
+            {
+                f"{kind}_{g}": v
+                for g, body in self._damped_bodies().items()
+                for kind, v in (
+                    ("linear_damping", ode.dBodyGetLinearDamping(body)),
+                    ("angular_damping", ode.dBodyGetAngularDamping(body)),
+                )
+            }
         )
 
     # --- generic values ------------------------------------------------------------
@@ -205,8 +210,19 @@ class OdeEngine(Engine):
             if host != "link_base":  # the base is static: geoms without a body
                 body = ode.dBodyCreate(world)
                 m = ode.dMass()
-                ode.dMassSetParameters(byref(m), mass, 0.0, 0.0, 0.0, inertia[0, 0], inertia[1, 1], inertia[2, 2],
-                                       inertia[0, 1], inertia[0, 2], inertia[1, 2])
+                ode.dMassSetParameters(
+                    byref(m),
+                    mass,
+                    0.0,
+                    0.0,
+                    0.0,
+                    inertia[0, 0],
+                    inertia[1, 1],
+                    inertia[2, 2],
+                    inertia[0, 1],
+                    inertia[0, 2],
+                    inertia[1, 2],
+                )
                 ode.dBodySetMass(body, byref(m))
                 c = pos + rot @ com
                 ode.dBodySetPosition(body, *c)
@@ -235,8 +251,11 @@ class OdeEngine(Engine):
             parent = self._bodies.get(joint.parent)
             child = self._bodies[joint.child]
             hinge = _create_hinge(self._world_ptr, None)
-            _attach(hinge, ctypes.cast(child, c_void_p).value,
-                    ctypes.cast(parent, c_void_p).value if parent is not None else None)
+            _attach(
+                hinge,
+                ctypes.cast(child, c_void_p).value,
+                ctypes.cast(parent, c_void_p).value if parent is not None else None,
+            )
             pos, rot = poses[joint.child]
             _hinge_anchor(hinge, *pos)
             _hinge_axis(hinge, *rot[:, 2])  # the hinge's angle 0 is this pose
@@ -255,8 +274,19 @@ class OdeEngine(Engine):
             com, inertia = object_mass_properties(obj, mass)
             body = self._object = ode.dBodyCreate(world)
             m = ode.dMass()
-            ode.dMassSetParameters(byref(m), mass, 0.0, 0.0, 0.0, inertia[0, 0], inertia[1, 1], inertia[2, 2],
-                                   inertia[0, 1], inertia[0, 2], inertia[1, 2])
+            ode.dMassSetParameters(
+                byref(m),
+                mass,
+                0.0,
+                0.0,
+                0.0,
+                inertia[0, 0],
+                inertia[1, 1],
+                inertia[2, 2],
+                inertia[0, 1],
+                inertia[0, 2],
+                inertia[1, 2],
+            )
             ode.dBodySetMass(body, byref(m))
             self._object_com = com
             if obj.shape in ("cube", "cuboid"):
@@ -397,7 +427,8 @@ class OdeEngine(Engine):
             ptr = ctypes.cast(body, c_void_p).value
             views = self._pose_views[id(body)] = (
                 np.ctypeslib.as_array(_body_pos(ptr), shape=(3,)),
-                np.ctypeslib.as_array(_body_rot(ptr), shape=(12,)).reshape(3, 4)[:, :3])
+                np.ctypeslib.as_array(_body_rot(ptr), shape=(12,)).reshape(3, 4)[:, :3],
+            )
         return views[0].copy(), views[1].copy()
 
     def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:

@@ -28,7 +28,6 @@ from simtune.robot.generate import robot_urdf_file
 from simtune.robot.mico import BASE_POSITION, LINKS, WRIST_LINK
 from simtune.tasks.spec import TaskSpec
 
-
 try:
     import pybullet
 except ImportError:  # pragma: no cover - depends on the machine
@@ -50,6 +49,7 @@ def _stdout_silenced():
                 os.dup2(saved, 1)
     finally:
         os.close(saved)
+
 
 _GROUPS = ("gripper", "floor", "wood", "plastic")
 _CONTACT = {  # parameter kind -> changeDynamics keyword
@@ -98,14 +98,17 @@ class PybulletEngine(Engine):
         plane = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=c)
         self.floor = p.createMultiBody(0, plane, physicsClientId=c)
         self.robot = p.loadURDF(self._urdf, BASE_POSITION, useFixedBase=True, physicsClientId=c)
-        index = {p.getJointInfo(self.robot, j, physicsClientId=c)[12].decode(): j
-                 for j in range(p.getNumJoints(self.robot, physicsClientId=c))}  # child link name -> index
+        index = {
+            p.getJointInfo(self.robot, j, physicsClientId=c)[12].decode(): j
+            for j in range(p.getNumJoints(self.robot, physicsClientId=c))
+        }  # child link name -> index
         self._arm = [index[f"link_{i}"] for i in range(1, 7)]
         self._wrist = index[WRIST_LINK]
         self._gripper_links = [index[link.name] for link in LINKS if link.material == "gripper"]
         # URDF joints start with a default velocity motor; switch them all to ours (zero target)
-        p.setJointMotorControlArray(self.robot, self._arm, p.VELOCITY_CONTROL,
-                                    targetVelocities=[0.0] * 6, forces=[100.0] * 6, physicsClientId=c)
+        p.setJointMotorControlArray(
+            self.robot, self._arm, p.VELOCITY_CONTROL, targetVelocities=[0.0] * 6, forces=[100.0] * 6, physicsClientId=c
+        )
         self._forces = [100.0] * 6
         self.object = None
         obj = self.task.object
@@ -113,12 +116,15 @@ class PybulletEngine(Engine):
             if obj.shape in ("cube", "cuboid"):
                 shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=[s / 2 for s in obj.size], physicsClientId=c)
             elif obj.shape == "cylinder":
-                shape = p.createCollisionShape(p.GEOM_CYLINDER, radius=obj.size[0], height=obj.size[1], physicsClientId=c)
+                shape = p.createCollisionShape(
+                    p.GEOM_CYLINDER, radius=obj.size[0], height=obj.size[1], physicsClientId=c
+                )
             else:
                 shape = p.createCollisionShape(p.GEOM_MESH, vertices=obj.cone_vertices().tolist(), physicsClientId=c)
             quat = p.getQuaternionFromEuler(obj.rpy)
-            self.object = p.createMultiBody(obj.mass, shape, basePosition=obj.start_position,
-                                            baseOrientation=quat, physicsClientId=c)
+            self.object = p.createMultiBody(
+                obj.mass, shape, basePosition=obj.start_position, baseOrientation=quat, physicsClientId=c
+            )
 
     def _groups(self) -> dict[str, list[tuple[int, int]]]:
         """Material group -> (body, link) pairs it covers."""
@@ -171,8 +177,11 @@ class PybulletEngine(Engine):
         if obj is not None and obj.mass_parameter in params:
             p.changeDynamics(self.object, -1, mass=params[obj.mass_parameter], physicsClientId=c)
         for group, members in self._groups().items():
-            changes = {kw: params[f"{kind}_{group}"] for kind, kw in {**_CONTACT, **_BODY_DAMPING}.items()
-                       if f"{kind}_{group}" in params}
+            changes = {
+                kw: params[f"{kind}_{group}"]
+                for kind, kw in {**_CONTACT, **_BODY_DAMPING}.items()
+                if f"{kind}_{group}" in params
+            }
             for body, link in members:
                 if changes:
                     p.changeDynamics(body, link, physicsClientId=c, **changes)
@@ -180,9 +189,14 @@ class PybulletEngine(Engine):
             p.resetJointState(self.robot, joint, angle, 0.0, physicsClientId=c)
 
     def set_joint_velocities(self, velocities: np.ndarray) -> None:
-        pybullet.setJointMotorControlArray(self.robot, self._arm, pybullet.VELOCITY_CONTROL,
-                                           targetVelocities=list(velocities), forces=self._forces,
-                                           physicsClientId=self.client)
+        pybullet.setJointMotorControlArray(
+            self.robot,
+            self._arm,
+            pybullet.VELOCITY_CONTROL,
+            targetVelocities=list(velocities),
+            forces=self._forces,
+            physicsClientId=self.client,
+        )
 
     def step(self, n: int) -> None:
         for _ in range(n):
@@ -193,7 +207,9 @@ class PybulletEngine(Engine):
         return np.array([s[0] for s in states])
 
     def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        state = pybullet.getLinkState(self.robot, self._wrist, computeForwardKinematics=True, physicsClientId=self.client)
+        state = pybullet.getLinkState(
+            self.robot, self._wrist, computeForwardKinematics=True, physicsClientId=self.client
+        )
         rot = np.array(pybullet.getMatrixFromQuaternion(state[5])).reshape(3, 3)
         return np.array(state[4]), rot
 

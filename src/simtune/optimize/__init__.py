@@ -59,9 +59,18 @@ def get_optimizer(name: str) -> Callable[..., TuneResult]:
         try:
             importlib.import_module(REQUIRES[name])
         except ImportError:
-            raise SimtuneError(f"optimizer {name!r} needs the {REQUIRES[name]} package: "
-                               "pip install 'simtune[opt]'") from None
+            raise SimtuneError(
+                f"optimizer {name!r} needs the {REQUIRES[name]} package: pip install 'simtune[opt]'"
+            ) from None
     return tune
 
 
-__all__ = ["DESCRIPTIONS", "OPTIMIZERS", "Evaluator", "TuneResult", "TuneSettings", "get_optimizer", "least_squares_refine"]
+__all__ = [
+    "DESCRIPTIONS",
+    "OPTIMIZERS",
+    "Evaluator",
+    "TuneResult",
+    "TuneSettings",
+    "get_optimizer",
+    "least_squares_refine",
+]

@@ -32,8 +32,16 @@ from simtune.store import RunStore
 class BatchSearch:
     """Budget accounting and checkpoints for an optimiser that evaluates batches of vectors."""
 
-    def __init__(self, objective: Objective, store: RunStore, settings: TuneSettings, *, generation_size: int = 0,
-                 first_generation: int = 1, prune: bool = False):
+    def __init__(
+        self,
+        objective: Objective,
+        store: RunStore,
+        settings: TuneSettings,
+        *,
+        generation_size: int = 0,
+        first_generation: int = 1,
+        prune: bool = False,
+    ):
         self.objective = objective
         self.store = store
         self.settings = settings
@@ -41,8 +49,14 @@ class BatchSearch:
         self.lows = np.array([lo for lo, _ in self.space.bounds], dtype=float)
         self.highs = np.array([hi for _, hi in self.space.bounds], dtype=float)
         self.generation_size = generation_size
-        self.evaluator = Evaluator(objective, store, settings.workers, settings.on_evaluation, settings.eval_timeout,
-                                   prune=prune and settings.prune)
+        self.evaluator = Evaluator(
+            objective,
+            store,
+            settings.workers,
+            settings.on_evaluation,
+            settings.eval_timeout,
+            prune=prune and settings.prune,
+        )
         self.evaluator.generation = first_generation
         self.first_generation = first_generation
         self.start = time.perf_counter()
@@ -52,7 +66,7 @@ class BatchSearch:
         self.stop_reason: str | None = None
 
     # --- context: the process pool -----------------------------------------------------------------
-    def __enter__(self) -> "BatchSearch":
+    def __enter__(self) -> BatchSearch:
         self.evaluator.__enter__()
         return self
 
@@ -125,8 +139,15 @@ class BatchSearch:
         generation = self.first_generation + len(self.history)
         self.history.append(self.best_fitness)
         elapsed = self.elapsed()
-        self.store.record_generation(generation, np.atleast_2d(vectors), fitness, self.best_x, self.best_fitness,
-                                     self.store.count_evaluations(), elapsed)
+        self.store.record_generation(
+            generation,
+            np.atleast_2d(vectors),
+            fitness,
+            self.best_x,
+            self.best_fitness,
+            self.store.count_evaluations(),
+            elapsed,
+        )
         self.store.set(elapsed_s=elapsed)
         if self.settings.on_generation:
             self.settings.on_generation(generation, self.best_fitness)
@@ -138,7 +159,18 @@ class BatchSearch:
         if self.best_x is None:
             raise RuntimeError("no batch was evaluated")
         best = self.store.lookup(self.best_x) or self.objective.score_vector(self.best_x)
-        return TuneResult(self.best_x, self.space.to_dict(self.best_x), best, self.generations,
-                          self.store.count_evaluations(), self.evaluator.new_evaluations, self.elapsed(),
-                          message or self.stop_reason or "stopped", converged, list(self.history),
-                          self.evaluator.pruned_evaluations, self.evaluator.steps, self.used)
+        return TuneResult(
+            self.best_x,
+            self.space.to_dict(self.best_x),
+            best,
+            self.generations,
+            self.store.count_evaluations(),
+            self.evaluator.new_evaluations,
+            self.elapsed(),
+            message or self.stop_reason or "stopped",
+            converged,
+            list(self.history),
+            self.evaluator.pruned_evaluations,
+            self.evaluator.steps,
+            self.used,
+        )

@@ -36,8 +36,9 @@ def bayesian_tune(objective: Objective, store: RunStore, settings: TuneSettings)
     space = objective.space
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-        sampler = optuna.samplers.TPESampler(seed=settings.seed, multivariate=True, constant_liar=True,
-                                             n_startup_trials=10)
+        sampler = optuna.samplers.TPESampler(
+            seed=settings.seed, multivariate=True, constant_liar=True, n_startup_trials=10
+        )
     study = optuna.create_study(direction="minimize", sampler=sampler)
     distributions = {p.name: optuna.distributions.FloatDistribution(p.low, p.high) for p in space.parameters}
     search = BatchSearch(objective, store, settings, generation_size=len(space))

@@ -49,7 +49,12 @@ def cmaes_tune(objective: Objective, store: RunStore, settings: TuneSettings) ->
             optimizer.tell([(ui, float(f)) for ui, f in zip(u, fitness)])
             if optimizer.should_stop():
                 restarts += 1
-                optimizer = CMA(mean=rng.random(dim), sigma=SIGMA0, bounds=bounds, seed=settings.seed + 1000 * restarts,
-                                population_size=optimizer.population_size * 2)
+                optimizer = CMA(
+                    mean=rng.random(dim),
+                    sigma=SIGMA0,
+                    bounds=bounds,
+                    seed=settings.seed + 1000 * restarts,
+                    population_size=optimizer.population_size * 2,
+                )
         message = search.stop_reason + (f" ({restarts} restarts)" if restarts else "")
         return search.result(message)

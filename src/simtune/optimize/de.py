@@ -23,8 +23,17 @@ from simtune.optimize.base import BatchSearch
 from simtune.optimize.evaluator import TuneResult, TuneSettings
 from simtune.store import RunStore
 
-DE_SETTINGS = dict(strategy="best1bin", recombination=0.7, mutation=(0.5, 1.0), popsize=1,
-                   init="latinhypercube", tol=0.01, atol=0.0, polish=False, updating="deferred")
+DE_SETTINGS = dict(
+    strategy="best1bin",
+    recombination=0.7,
+    mutation=(0.5, 1.0),
+    popsize=1,
+    init="latinhypercube",
+    tol=0.01,
+    atol=0.0,
+    polish=False,
+    updating="deferred",
+)
 
 
 def differential_evolution_tune(objective: Objective, store: RunStore, settings: TuneSettings) -> TuneResult:
@@ -43,8 +52,13 @@ def differential_evolution_tune(objective: Objective, store: RunStore, settings:
     with search:
         result = differential_evolution(
             lambda x: objective.score_vector(x).fitness,  # never called: the Evaluator does the work
-            bounds=objective.space.bounds, maxiter=settings.max_generations if settings.max_generations is not None else 10**9,
-            rng=np.random.default_rng(settings.seed), workers=evaluator, callback=checkpoint, **DE_SETTINGS,
+            bounds=objective.space.bounds,
+            maxiter=settings.max_generations if settings.max_generations is not None else 10**9,
+            rng=np.random.default_rng(settings.seed),
+            workers=evaluator,
+            callback=checkpoint,
+            **DE_SETTINGS,
         )
-        return search.result(search.stop_reason or result.message,
-                             converged=search.stop_reason is None and bool(result.success))
+        return search.result(
+            search.stop_reason or result.message, converged=search.stop_reason is None and bool(result.success)
+        )

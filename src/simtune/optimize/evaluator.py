@@ -115,9 +115,15 @@ class Evaluator:
     soon as it cannot beat parent i (differential evolution's selection).
     """
 
-    def __init__(self, objective: Objective, store: RunStore, workers: int = 1,
-                 on_evaluation: Callable[[Score, bool], None] | None = None, eval_timeout: float | None = None,
-                 prune: bool = True):
+    def __init__(
+        self,
+        objective: Objective,
+        store: RunStore,
+        workers: int = 1,
+        on_evaluation: Callable[[Score, bool], None] | None = None,
+        eval_timeout: float | None = None,
+        prune: bool = True,
+    ):
         self.objective = objective
         self.store = store
         self.workers = max(1, int(workers))
@@ -135,11 +141,15 @@ class Evaluator:
         self._pool: ProcessPool | None = None
         self._batch_failures: list[str] = []
 
-    def __enter__(self) -> "Evaluator":
+    def __enter__(self) -> Evaluator:
         if self.workers > 1:
             # spawn: engines hold native handles that must not be shared through fork
-            self._pool = ProcessPool(self.workers, initializer=_init_worker, initargs=(self.objective,),
-                                     context=multiprocessing.get_context("spawn"))
+            self._pool = ProcessPool(
+                self.workers,
+                initializer=_init_worker,
+                initargs=(self.objective,),
+                context=multiprocessing.get_context("spawn"),
+            )
         return self
 
     def __exit__(self, *exc) -> None:
@@ -180,8 +190,9 @@ class Evaluator:
                     payload, score = None, self._failed(f"{type(exc).__name__}: {exc}")
                 yield i, payload, score, time.perf_counter() - t0
             return
-        futures = {self._pool.schedule(_in_worker, (work, *args), timeout=self.eval_timeout): i
-                   for i, args in jobs.items()}
+        futures = {
+            self._pool.schedule(_in_worker, (work, *args), timeout=self.eval_timeout): i for i, args in jobs.items()
+        }
         started = time.perf_counter()
         for future in as_completed(futures):
             wall_s, payload = time.perf_counter() - started, None

@@ -33,8 +33,16 @@ MAX_NFEV = 10  # solver steps (residual evaluations); each may add a D-evaluatio
 STEP = 0.01  # forward-difference step, as a fraction of each parameter's range
 
 
-def least_squares_refine(objective: Objective, store: RunStore, x0, settings: TuneSettings, *,
-                         first_generation: int = 1, max_nfev: int = MAX_NFEV, step: float = STEP) -> TuneResult:
+def least_squares_refine(
+    objective: Objective,
+    store: RunStore,
+    x0,
+    settings: TuneSettings,
+    *,
+    first_generation: int = 1,
+    max_nfev: int = MAX_NFEV,
+    step: float = STEP,
+) -> TuneResult:
     """Refine ``x0`` with bounded least squares; checkpoints each batch as a generation from ``first_generation``.
 
     Of ``settings`` only the processes, the evaluation timeout, the callbacks and
@@ -75,7 +83,8 @@ def least_squares_refine(objective: Objective, store: RunStore, x0, settings: Tu
         return np.stack([(r - r0) / hi for r, hi in zip(columns, h)], axis=1)
 
     with search:
-        solution = least_squares(fun, np.clip(u0, 0.0, 1.0), jac=jac, bounds=(0.0, 1.0), method="trf",
-                                 max_nfev=max_nfev)
+        solution = least_squares(
+            fun, np.clip(u0, 0.0, 1.0), jac=jac, bounds=(0.0, 1.0), method="trf", max_nfev=max_nfev
+        )
         message = f"least squares: {solution.message.rstrip('.')} after {solution.nfev} steps"
         return search.result(message, converged=bool(solution.status > 0))

@@ -49,7 +49,8 @@ class Parameter:
             raise ConfigError(f"{at}parameter {self.name!r}: {value!r} is not a number") from None
         if not math.isfinite(v) or v < self.low or v > self.high:
             raise ConfigError(
-                f"{at}parameter {self.name!r} = {value!r} is outside its range [{self.low:g}, {self.high:g}] {self.unit}"
+                f"{at}parameter {self.name!r} = {value!r} is outside its range "
+                f"[{self.low:g}, {self.high:g}] {self.unit}"
             )
         return v
 
@@ -65,14 +66,18 @@ def _shared() -> list[Parameter]:
     for i in range(1, 7):
         ps.append(Parameter(f"max_torque_joint_{i}", 100.0, 9000.0, "N m", f"motor force limit of joint {i}"))
     for i in range(1, 7):
-        ps.append(Parameter(f"max_velocity_joint_{i}", 10.0, 40.0, "deg/s", f"velocity clamp of joint {i}'s controller"))
+        ps.append(
+            Parameter(f"max_velocity_joint_{i}", 10.0, 40.0, "deg/s", f"velocity clamp of joint {i}'s controller")
+        )
     for g in GROUPS:
         ps.append(Parameter(f"lateral_friction_{g}", 0.0001, 1.25, "", f"sliding friction coefficient of the {g}"))
     return ps
 
 
 def _individual_extra() -> list[Parameter]:
-    ps = [Parameter(f"joint_damping_{i}", 0.0001, 0.9, "N m s/rad", f"viscous damping of joint {i}") for i in range(1, 7)]
+    ps = [
+        Parameter(f"joint_damping_{i}", 0.0001, 0.9, "N m s/rad", f"viscous damping of joint {i}") for i in range(1, 7)
+    ]
     for kind, high, unit, what in (
         ("rolling_friction", 1.25, "", "rolling friction"),
         ("spinning_friction", 1.25, "", "spinning (torsional) friction"),
@@ -88,8 +93,12 @@ def _individual_extra() -> list[Parameter]:
 def _extended_extra() -> list[Parameter]:
     return [
         Parameter("command_delay", 0.0, 3.0, "s", "delay from the start of the recording to the first command"),
-        *(Parameter(f"marker_offset_{a}", -0.05, 0.05, "m", f"motion-capture marker offset from the wrist, hand frame {a}")
-          for a in "xyz"),
+        *(
+            Parameter(
+                f"marker_offset_{a}", -0.05, 0.05, "m", f"motion-capture marker offset from the wrist, hand frame {a}"
+            )
+            for a in "xyz"
+        ),
     ]
 
 

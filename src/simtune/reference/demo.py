@@ -14,30 +14,45 @@ from simtune.store import RunStore
 
 #: What the demo tunes: the parameters the reference recording hides, in the extended space's ranges.
 DEMO_PARAMETERS = (
-    "command_delay", "max_velocity_joint_2", "max_velocity_joint_3",
-    "lateral_friction_plastic", "lateral_friction_floor",
-    "marker_offset_x", "marker_offset_y", "marker_offset_z",
+    "command_delay",
+    "max_velocity_joint_2",
+    "max_velocity_joint_3",
+    "lateral_friction_plastic",
+    "lateral_friction_floor",
+    "marker_offset_x",
+    "marker_offset_y",
+    "marker_offset_z",
 )
 
 
 def run_demo(out_dir: Path, workers: int = 2, max_seconds: float = 120.0, console: Console | None = None) -> dict:
     console = console or Console()
     truth = json.loads((REFERENCE_DIR / "truth.json").read_text())
-    console.print(f"[bold]simtune demo[/]: tune MuJoCo to the shipped reference recording of task "
-                  f"'{truth['task']}' ({REFERENCE_DIR / truth['task']}),\nmade by a simulation with hidden "
-                  f"parameters and {truth['noise_m'] * 1000:g} mm motion-capture noise.")
+    console.print(
+        f"[bold]simtune demo[/]: tune MuJoCo to the shipped reference recording of task "
+        f"'{truth['task']}' ({REFERENCE_DIR / truth['task']}),\nmade by a simulation with hidden "
+        f"parameters and {truth['noise_m'] * 1000:g} mm motion-capture noise."
+    )
     out_dir = Path(out_dir)
     if (out_dir / "run.sqlite").exists():
         import shutil
 
         shutil.rmtree(out_dir)  # the demo always starts afresh
-    config = RunConfig(engine="mujoco", tasks=truth["task"], space="extended", data=str(REFERENCE_DIR),
-                       workers=workers, max_seconds=max_seconds, only=list(DEMO_PARAMETERS))
+    config = RunConfig(
+        engine="mujoco",
+        tasks=truth["task"],
+        space="extended",
+        data=str(REFERENCE_DIR),
+        workers=workers,
+        max_seconds=max_seconds,
+        only=list(DEMO_PARAMETERS),
+    )
     result = start_run(config, out_dir)
     generic = RunStore(out_dir).get("generic")
     table = text_table("generic vs tuned", ("", "fitness", "wrist error [m]", "object error [m]"))
-    table.add_row("generic MuJoCo", f"{generic['fitness']:.4f}", f"{generic['wrist_error']:.4f}",
-                  f"{generic['object_error']:.4f}")
+    table.add_row(
+        "generic MuJoCo", f"{generic['fitness']:.4f}", f"{generic['wrist_error']:.4f}", f"{generic['object_error']:.4f}"
+    )
     s = result.score
     table.add_row("tuned", f"{s.fitness:.4f}", f"{s.wrist_error:.4f}", f"{s.object_error:.4f}")
     console.print(table)
@@ -45,5 +60,7 @@ def run_demo(out_dir: Path, workers: int = 2, max_seconds: float = 120.0, consol
     for name in DEMO_PARAMETERS:
         params.add_row(name, f"{truth['params'][name]:.4g}", f"{result.params[name]:.4g}")
     console.print(params)
-    console.print(f"{result.evaluations} evaluations in {result.wall_s:.0f} s; run store and best parameters in {out_dir}")
+    console.print(
+        f"{result.evaluations} evaluations in {result.wall_s:.0f} s; run store and best parameters in {out_dir}"
+    )
     return {"generic": generic["fitness"], "tuned": s.fitness}

@@ -42,8 +42,18 @@ TRUTH = {
 }
 
 
-def synthesize(engine: str, task: TaskSpec, truth: dict[str, float], *, repeats: int, noise_m: float,
-               jitter_s: float, seed: int, rate: float = RATE, suffix: str = ".tsv.gz") -> list[Recording]:
+def synthesize(
+    engine: str,
+    task: TaskSpec,
+    truth: dict[str, float],
+    *,
+    repeats: int,
+    noise_m: float,
+    jitter_s: float,
+    seed: int,
+    rate: float = RATE,
+    suffix: str = ".tsv.gz",
+) -> list[Recording]:
     """Recordings of ``task`` simulated by ``engine`` with parameters ``truth``, plus mocap-like noise.
 
     Each repeat shifts the command delay by a uniform jitter in +-``jitter_s``
@@ -65,16 +75,21 @@ def synthesize(engine: str, task: TaskSpec, truth: dict[str, float], *, repeats:
         rollout = sim.rollout(params, n20)
         if not rollout.stable:
             sim.close()
-            raise SimtuneError(f"{engine} on {task.name}: the simulation with these parameters is unstable "
-                               f"({rollout.message}); choose other true values")
+            raise SimtuneError(
+                f"{engine} on {task.name}: the simulation with these parameters is unstable "
+                f"({rollout.message}); choose other true values"
+            )
         t = np.arange(int(round(duration * rate)) + 1) / rate
         marker = marker_positions(rollout, params)
 
-        def up(values: np.ndarray) -> np.ndarray:  # 20 Hz -> recording rate
-            return np.stack([np.interp(t, rollout.times, values[:, i]) for i in range(values.shape[1])], axis=1)
+        def up(values: np.ndarray, t: np.ndarray = t, times: np.ndarray = rollout.times) -> np.ndarray:
+            """20 Hz -> recording rate."""
+            return np.stack([np.interp(t, times, values[:, i]) for i in range(values.shape[1])], axis=1)
 
-        positions = {BASE_BODY: np.zeros((len(t), 3)) + rng.normal(0, noise_m / 4, (len(t), 3)),
-                     task.wrist_body: up(marker) + rng.normal(0, noise_m, (len(t), 3))}
+        positions = {
+            BASE_BODY: np.zeros((len(t), 3)) + rng.normal(0, noise_m / 4, (len(t), 3)),
+            task.wrist_body: up(marker) + rng.normal(0, noise_m, (len(t), 3)),
+        }
         nearest = np.minimum(np.round(t * 20).astype(int), n20 - 1)
         rotations = {BASE_BODY: np.tile(np.eye(3), (len(t), 1, 1)), task.wrist_body: rollout.wrist_rot[nearest]}
         if task.object is not None:
@@ -91,7 +106,9 @@ def make(out: Path = REFERENCE_DIR, repeats: int = 3) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     for rec in synthesize("mujoco", task, TRUTH, repeats=repeats, noise_m=0.002, jitter_s=0.05, seed=2021):
         write_qualisys_tsv(folder / rec.source.name, rec, header=True)
-    TRUTH_FILE.write_text(json.dumps({"engine": "mujoco", "task": TASK, "noise_m": 0.002, "params": TRUTH}, indent=2) + "\n")
+    TRUTH_FILE.write_text(
+        json.dumps({"engine": "mujoco", "task": TASK, "noise_m": 0.002, "params": TRUTH}, indent=2) + "\n"
+    )
 
 
 if __name__ == "__main__":

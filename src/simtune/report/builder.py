@@ -40,12 +40,18 @@ class _Progress:
     """A Rich progress bar on stderr for the report's steps (silent when disabled)."""
 
     def __init__(self, enabled: bool):
-        self._bar = Progress(TextColumn("[bold]report[/]"), BarColumn(), MofNCompleteColumn(),
-                             TextColumn("{task.description}"), TimeElapsedColumn(),
-                             console=Console(stderr=True), disable=not enabled)
+        self._bar = Progress(
+            TextColumn("[bold]report[/]"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("{task.description}"),
+            TimeElapsedColumn(),
+            console=Console(stderr=True),
+            disable=not enabled,
+        )
         self._task = None
 
-    def __enter__(self) -> "_Progress":
+    def __enter__(self) -> _Progress:
         self._bar.__enter__()
         self._task = self._bar.add_task("reading runs", total=None)
         return self
@@ -67,8 +73,13 @@ class _Progress:
         self._bar.update(self._task, description="done", completed=task.total)
 
 
-def make_report(paths: Iterable[Path | str] | Path | str, out: Path | str, published_sims: Path | str | None = None,
-                *, show_progress: bool = True) -> Path:
+def make_report(
+    paths: Iterable[Path | str] | Path | str,
+    out: Path | str,
+    published_sims: Path | str | None = None,
+    *,
+    show_progress: bool = True,
+) -> Path:
     """Write the report for the runs under ``paths`` into ``out``; return the path of its ``index.html``.
 
     Run folders that are unfinished or unreadable are left out with a
@@ -105,8 +116,10 @@ def make_report(paths: Iterable[Path | str] | Path | str, out: Path | str, publi
         for dup in duplicates:
             warn(f"{dup.label}: skipped: {dup.reason}")
         if not groups:
-            raise SimtuneError(f"no finished runs to report in {', '.join(map(str, paths))} "
-                               f"({len(run_dirs)} run folder(s), none usable: see the warnings)")
+            raise SimtuneError(
+                f"no finished runs to report in {', '.join(map(str, paths))} "
+                f"({len(run_dirs)} run folder(s), none usable: see the warnings)"
+            )
         kept = [r for g in groups for r in g.runs]
         task_names: list[str] = []
         for g in groups:
@@ -139,11 +152,23 @@ def make_report(paths: Iterable[Path | str] | Path | str, out: Path | str, publi
                 score, rollout = score_published(item, reference)
                 published.append(item)
                 published_scores[(item.engine, item.task)] = rollout
-                entries.append(T.GenericEntry(item.engine, "published", "", item.task, score.fitness,
-                                              score.wrist_error, score.object_error, score.stable))
+                entries.append(
+                    T.GenericEntry(
+                        item.engine,
+                        "published",
+                        "",
+                        item.task,
+                        score.fitness,
+                        score.wrist_error,
+                        score.object_error,
+                        score.stable,
+                    )
+                )
             if not published:
-                warn(f"--published-sims {published_sims}: no files <task>_<Engine>.csv for the tasks "
-                     f"{', '.join(task_names)}")
+                warn(
+                    f"--published-sims {published_sims}: no files <task>_<Engine>.csv for the tasks "
+                    f"{', '.join(task_names)}"
+                )
         progress.step()
 
         # --- nominal (generic) parameter values per engine ----------------------------------------------
@@ -176,8 +201,10 @@ def make_report(paths: Iterable[Path | str] | Path | str, out: Path | str, publi
                 progress.step()
             stored = g.best_run.best_fitness
             if abs(sim.tuned_fitness - stored) > 1e-6 * max(1.0, abs(stored)):
-                warn(f"{g.best_run.label}: re-simulating its best parameters gives fitness {sim.tuned_fitness:.6f}, "
-                     f"the store has {stored:.6f} (different engine version or recordings?)")
+                warn(
+                    f"{g.best_run.label}: re-simulating its best parameters gives fitness {sim.tuned_fitness:.6f}, "
+                    f"the store has {stored:.6f} (different engine version or recordings?)"
+                )
             sims.append(sim)
 
         # --- figures ---------------------------------------------------------------------------------------
@@ -189,32 +216,54 @@ def make_report(paths: Iterable[Path | str] | Path | str, out: Path | str, publi
             progress.step()
 
         progress.describe("drawing figures")
-        draw("overview", "fitness_overview", F.fitness_overview_figure(groups, entries),
-             "Generic fitness (grey bars; hatched: published simulations) and tuned fitness of each repeat (dots) "
-             "and their mean (line), per task and parameter space.")
-        for axis, what in (("generation", "generation"), ("evaluations", "number of evaluations"),
-                           ("time", "wall time")):
-            draw("convergence", f"convergence_{axis}", F.convergence_figure(groups, axis),
-                 f"Best fitness so far against {what}: mean over repeats (line) and min-max band, one panel per "
-                 "task, one line per engine. A repeat that stopped early holds its final value."
-                 + (" Generation 0 is the best of the initial population." if axis != "time" else ""))
+        draw(
+            "overview",
+            "fitness_overview",
+            F.fitness_overview_figure(groups, entries),
+            "Generic fitness (grey bars; hatched: published simulations) and tuned fitness of each repeat (dots) "
+            "and their mean (line), per task and parameter space.",
+        )
+        for axis, what in (
+            ("generation", "generation"),
+            ("evaluations", "number of evaluations"),
+            ("time", "wall time"),
+        ):
+            draw(
+                "convergence",
+                f"convergence_{axis}",
+                F.convergence_figure(groups, axis),
+                f"Best fitness so far against {what}: mean over repeats (line) and min-max band, one panel per "
+                "task, one line per engine. A repeat that stopped early holds its final value."
+                + (" Generation 0 is the best of the initial population." if axis != "time" else ""),
+            )
         for tasks, space in parameter_keys:
             mine = [g for g in groups if (g.tasks, g.space) == (tasks, space)]
-            draw("parameters", slug("parameters", tasks, space), F.parameters_figure(mine, nominal),
-                 f"Tuned parameter values across repeats for task {tasks}, space {space}: box (quartiles, whiskers "
-                 "to the extremes) and one dot per repeat, each parameter normalised to its tuning range [0, 1]; "
-                 "diamond: the generic value.")
+            draw(
+                "parameters",
+                slug("parameters", tasks, space),
+                F.parameters_figure(mine, nominal),
+                f"Tuned parameter values across repeats for task {tasks}, space {space}: box (quartiles, whiskers "
+                "to the extremes) and one dot per repeat, each parameter normalised to its tuning range [0, 1]; "
+                "diamond: the generic value.",
+            )
         for sim in sims:
             for task in sim.group.task_names:
                 g = sim.group
-                draw("trajectories", slug("trajectory", g.engine, g.tasks, g.space, task),
-                     F.trajectory_figure(sim, task),
-                     f"{g.engine} on {task} (space {g.space}): the recorded wrist marker (mean of "
-                     f"{len(sim.tasks[task].reference.wrist_repeats)} repeats, and each repeat / min-max band) "
-                     f"against the untuned simulation (generic parameters) and the tuned one (best repeat, "
-                     f"{sim.run.label}), in 3-D and as x, y, z against time"
-                     + ("; right: final object positions." if sim.tasks[task].tuned_object is not None
-                        and sim.tasks[task].reference.object_final is not None else "."))
+                draw(
+                    "trajectories",
+                    slug("trajectory", g.engine, g.tasks, g.space, task),
+                    F.trajectory_figure(sim, task),
+                    f"{g.engine} on {task} (space {g.space}): the recorded wrist marker (mean of "
+                    f"{len(sim.tasks[task].reference.wrist_repeats)} repeats, and each repeat / min-max band) "
+                    f"against the untuned simulation (generic parameters) and the tuned one (best repeat, "
+                    f"{sim.run.label}), in 3-D and as x, y, z against time"
+                    + (
+                        "; right: final object positions."
+                        if sim.tasks[task].tuned_object is not None
+                        and sim.tasks[task].reference.object_final is not None
+                        else "."
+                    ),
+                )
 
         # --- tables ---------------------------------------------------------------------------------------
         progress.describe("writing tables")
@@ -231,14 +280,19 @@ def make_report(paths: Iterable[Path | str] | Path | str, out: Path | str, publi
                 traj = s.tasks[task]
                 n = len(ref.times)
                 if traj.untuned_object is not None:
-                    finals.append(T.FinalPosition(task, "untuned", s.group.engine, s.group.space,
-                                                  traj.untuned_object[n - 1]))
-                    finals.append(T.FinalPosition(task, "tuned", s.group.engine, s.group.space,
-                                                  traj.tuned_object[n - 1]))
+                    finals.append(
+                        T.FinalPosition(task, "untuned", s.group.engine, s.group.space, traj.untuned_object[n - 1])
+                    )
+                    finals.append(
+                        T.FinalPosition(task, "tuned", s.group.engine, s.group.space, traj.tuned_object[n - 1])
+                    )
             for p in published:
                 if p.task == task:
-                    finals.append(T.FinalPosition(task, "published", p.engine, "",
-                                                  published_scores[(p.engine, task)].object_pos[-1]))
+                    finals.append(
+                        T.FinalPosition(
+                            task, "published", p.engine, "", published_scores[(p.engine, task)].object_pos[-1]
+                        )
+                    )
 
         ranges = dr_ranges(groups, nominal)
         write_dr_yaml(out / DR_FILE, ranges, tasks_by_engine)
@@ -266,14 +320,22 @@ def make_report(paths: Iterable[Path | str] | Path | str, out: Path | str, publi
         progress.describe("writing index.html")
         sections = _sections(tables, figs, published_sims is not None)
         if sensitivity:
-            sections.insert(-1, Section("sensitivity", "9. Global sensitivity",
-                                        "Results of <code>simtune sensitivity</code> found in or next to the "
-                                        "input folders: how much the fitness changes with each parameter over the "
-                                        "whole space, to compare with the importance of section 5.", sensitivity))
+            sections.insert(
+                -1,
+                Section(
+                    "sensitivity",
+                    "9. Global sensitivity",
+                    "Results of <code>simtune sensitivity</code> found in or next to the "
+                    "input folders: how much the fitness changes with each parameter over the "
+                    "whole space, to compare with the importance of section 5.",
+                    sensitivity,
+                ),
+            )
         meta = [
             f"simtune {simtune.__version__}, {_dt.datetime.now().astimezone().strftime('%Y-%m-%d %H:%M %Z')}. "
             f"Inputs: {', '.join(str(p) for p in paths)}"
-            + (f"; published simulations: {published_sims}" if published_sims is not None else "") + ".",
+            + (f"; published simulations: {published_sims}" if published_sims is not None else "")
+            + ".",
             f"{len(kept)} runs in {len(groups)} groups (engine x tasks x space; repeats = seeds): engines "
             f"{', '.join(engines)}; tasks {', '.join(sorted({g.tasks for g in groups}))}; spaces "
             f"{', '.join(sorted({g.space for g in groups}))}. Fitness is in metres (lower is better).",
@@ -323,27 +385,52 @@ def _prepare(out: Path) -> None:
 
 
 def _sections(tables: dict[str, T.Table], figs: dict[str, list[FigureRef]], with_published: bool) -> list[Section]:
-    published = ("" if with_published else
-                 " Run with <code>--published-sims DIR</code> to add the published simulations of the data set.")
+    published = (
+        ""
+        if with_published
+        else " Run with <code>--published-sims DIR</code> to add the published simulations of the data set."
+    )
     return [
-        Section("generic", "1. Generic (untuned) fitness",
-                "How far each engine with its own default parameters is from the recordings (the paper's "
-                "Table II)." + published, [tables["generic"]]),
-        Section("tuned", "2. Tuned fitness",
-                "The best fitness tuning reached per task and parameter space, with the engine that reached it "
-                "(the paper's Table III), and every engine's tuned fitness over repeats.",
-                [tables["best"], *figs["overview"], tables["by_group"]]),
+        Section(
+            "generic",
+            "1. Generic (untuned) fitness",
+            "How far each engine with its own default parameters is from the recordings (the paper's "
+            "Table II)." + published,
+            [tables["generic"]],
+        ),
+        Section(
+            "tuned",
+            "2. Tuned fitness",
+            "The best fitness tuning reached per task and parameter space, with the engine that reached it "
+            "(the paper's Table III), and every engine's tuned fitness over repeats.",
+            [tables["best"], *figs["overview"], tables["by_group"]],
+        ),
         Section("convergence", "3. Convergence", "", figs["convergence"]),
-        Section("parameters", "4. Parameter distributions",
-                "Where the tuned values of each parameter fall in their range, across repeats.", figs["parameters"]),
-        Section("importance", "5. Parameter importance and significance", "",
-                [tables["importance_top"], tables["importance"], tables["mann_whitney"]]),
-        Section("trajectories", "6. Trajectories",
-                "The recorded end-effector path against the untuned and the tuned simulation (the paper's "
-                "Figure 1), re-simulated for the best repeat of each engine, tasks and space.",
-                [*figs["trajectories"], tables["object_final"]]),
+        Section(
+            "parameters",
+            "4. Parameter distributions",
+            "Where the tuned values of each parameter fall in their range, across repeats.",
+            figs["parameters"],
+        ),
+        Section(
+            "importance",
+            "5. Parameter importance and significance",
+            "",
+            [tables["importance_top"], tables["importance"], tables["mann_whitney"]],
+        ),
+        Section(
+            "trajectories",
+            "6. Trajectories",
+            "The recorded end-effector path against the untuned and the tuned simulation (the paper's "
+            "Figure 1), re-simulated for the best repeat of each engine, tasks and space.",
+            [*figs["trajectories"], tables["object_final"]],
+        ),
         Section("compute", "7. Compute", "", [tables["compute"]]),
-        Section("dr", "8. Domain-randomisation ranges",
-                f'Written as <a href="{DR_FILE}">{html.escape(DR_FILE)}</a>.', [tables["dr"]]),
+        Section(
+            "dr",
+            "8. Domain-randomisation ranges",
+            f'Written as <a href="{DR_FILE}">{html.escape(DR_FILE)}</a>.',
+            [tables["dr"]],
+        ),
         Section("runs", "Appendix: runs", "", [tables["runs"]]),
     ]

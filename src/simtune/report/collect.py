@@ -194,8 +194,11 @@ def load_run(run_dir: Path, label: str | None = None) -> RunRecord | Skipped:
             raise SimtuneError(f"stored config lacks {', '.join(missing)}")
         status = store.get("status")
         if status != "finished":
-            return Skipped(run_dir, label, f"incomplete run (status {status!r}, not 'finished'): "
-                           f"`simtune resume {run_dir}` finishes it")
+            return Skipped(
+                run_dir,
+                label,
+                f"incomplete run (status {status!r}, not 'finished'): `simtune resume {run_dir}` finishes it",
+            )
         parameters = list(_require(store, "parameters"))
         bounds = [(float(lo), float(hi)) for lo, hi in _require(store, "bounds")]
         if len(bounds) != len(parameters):
@@ -208,13 +211,27 @@ def load_run(run_dir: Path, label: str | None = None) -> RunRecord | Skipped:
             raise SimtuneError(f"best vector has {len(best['x'])} values for {len(parameters)} parameters")
         task_names = [t.name for t in parse_tasks(str(config["tasks"]))]
         return RunRecord(
-            path=run_dir, label=label, engine=str(config["engine"]), tasks=str(config["tasks"]),
-            task_names=task_names, space=str(config["space"]), data=str(config["data"]), seed=int(config["seed"]),
-            config=config, parameters=parameters, bounds=bounds, generic=generic,
-            best_x=[float(v) for v in best["x"]], best_score=best["score"], generations=store.generations(),
-            initial_fitness=store.initial_fitness(), evaluations=store.count_evaluations(),
-            elapsed_s=float(store.get("elapsed_s", 0.0) or 0.0), message=str(store.get("message", "")),
-            versions=store.get("versions", {}) or {}, outcomes=store.count_outcomes(),
+            path=run_dir,
+            label=label,
+            engine=str(config["engine"]),
+            tasks=str(config["tasks"]),
+            task_names=task_names,
+            space=str(config["space"]),
+            data=str(config["data"]),
+            seed=int(config["seed"]),
+            config=config,
+            parameters=parameters,
+            bounds=bounds,
+            generic=generic,
+            best_x=[float(v) for v in best["x"]],
+            best_score=best["score"],
+            generations=store.generations(),
+            initial_fitness=store.initial_fitness(),
+            evaluations=store.count_evaluations(),
+            elapsed_s=float(store.get("elapsed_s", 0.0) or 0.0),
+            message=str(store.get("message", "")),
+            versions=store.get("versions", {}) or {},
+            outcomes=store.count_outcomes(),
         )
     except sqlite3.Error as exc:
         return Skipped(run_dir, label, f"corrupt run store ({exc})")
@@ -234,8 +251,13 @@ def group_runs(runs: list[RunRecord]) -> tuple[list[Group], list[Skipped]]:
     for run in runs:
         same = [r for r in by_key[run.group_key] if r.seed == run.seed]
         if same:
-            duplicates.append(Skipped(run.path, run.label, f"same engine, tasks, space and seed {run.seed} as "
-                                      f"{same[0].label}: not a new repeat, left out"))
+            duplicates.append(
+                Skipped(
+                    run.path,
+                    run.label,
+                    f"same engine, tasks, space and seed {run.seed} as {same[0].label}: not a new repeat, left out",
+                )
+            )
             continue
         by_key[run.group_key].append(run)
     groups = [Group(*key, runs=sorted(rs, key=lambda r: r.seed)) for key, rs in by_key.items()]

@@ -3,21 +3,37 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 
 
 def report(
-    runs: Annotated[list[Path], typer.Argument(
-        help="Run folders (made by `simtune tune`) or folders holding run folders at any depth "
-        "(a grid); every run.sqlite below them is read.", show_default=False)],
-    out: Annotated[Path, typer.Option(
-        "--out", "-o", help="Report folder to write: index.html, figures/ (PNG, SVG), tables/ (CSV, Markdown), "
-        "dr_ranges.yaml.", show_default=False)],
-    published_sims: Annotated[Optional[Path], typer.Option(
-        "--published-sims", help="Folder of published simulations `<task>_<Engine>.csv` (e.g. "
-        "qrg2019/published_sims), scored with simtune's fitness next to the engines' generic fitness.")] = None,
+    runs: Annotated[
+        list[Path],
+        typer.Argument(
+            help="Run folders (made by `simtune tune`) or folders holding run folders at any depth "
+            "(a grid); every run.sqlite below them is read.",
+            show_default=False,
+        ),
+    ],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            "-o",
+            help="Report folder to write: index.html, figures/ (PNG, SVG), tables/ (CSV, Markdown), dr_ranges.yaml.",
+            show_default=False,
+        ),
+    ],
+    published_sims: Annotated[
+        Path | None,
+        typer.Option(
+            "--published-sims",
+            help="Folder of published simulations `<task>_<Engine>.csv` (e.g. "
+            "qrg2019/published_sims), scored with simtune's fitness next to the engines' generic fitness.",
+        ),
+    ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Write an HTML report of tuning runs: fitness tables, convergence, parameters, trajectories.

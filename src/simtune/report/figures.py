@@ -24,8 +24,7 @@ RECORDED = "#222222"
 UNTUNED = "#d62728"
 TUNED = "#1f77b4"
 SPACE_STYLES = {"shared": ":", "individual": "--", "extended": "-"}
-PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
-           "#bcbd22", "#17becf")
+PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
 
 
 def new_figure(width: float, height: float) -> Figure:
@@ -120,8 +119,16 @@ def convergence_figure(groups: list[Group], axis: str) -> Figure:
             label = g.engine if len(spaces) == 1 else f"{g.engine} ({g.space})"
             style = SPACE_STYLES.get(g.space, "-.")
             ax.fill_between(x, lo, hi, color=colors[g.engine], alpha=0.18, linewidth=0)
-            ax.plot(x, mean, color=colors[g.engine], linestyle=style, linewidth=1.8,
-                    marker="o" if x.size <= 60 else None, markersize=3, label=f"{label} (n={len(g.runs)})")
+            ax.plot(
+                x,
+                mean,
+                color=colors[g.engine],
+                linestyle=style,
+                linewidth=1.8,
+                marker="o" if x.size <= 60 else None,
+                markersize=3,
+                label=f"{label} (n={len(g.runs)})",
+            )
             every.extend(lo)
             every.extend(hi)
         _maybe_log(ax, every)
@@ -154,8 +161,14 @@ def fitness_overview_figure(groups: list[Group], entries: list[GenericEntry]) ->
         every = []
         for i, label in enumerate(labels):
             if label in generic:
-                ax.bar(i, generic[label], width=0.6, color="#cccccc", edgecolor="#888888",
-                       hatch="//" if label.endswith("(published)") else None)
+                ax.bar(
+                    i,
+                    generic[label],
+                    width=0.6,
+                    color="#cccccc",
+                    edgecolor="#888888",
+                    hatch="//" if label.endswith("(published)") else None,
+                )
                 every.append(generic[label])
             group = next((g for g in mine if g.engine == label), None)
             if group is not None:
@@ -166,16 +179,29 @@ def fitness_overview_figure(groups: list[Group], entries: list[GenericEntry]) ->
                 every.extend(tuned)
         _maybe_log(ax, every)
         ax.set_xticks(range(len(labels)))
-        ax.set_xticklabels([lbl.replace(" (published)", "\n(published)") for lbl in labels], fontsize="small",
-                           rotation=35, ha="right", rotation_mode="anchor")
+        ax.set_xticklabels(
+            [lbl.replace(" (published)", "\n(published)") for lbl in labels],
+            fontsize="small",
+            rotation=35,
+            ha="right",
+            rotation_mode="anchor",
+        )
         ax.set_ylabel("fitness [m]")
         ax.set_title(f"task: {tasks}, space: {space}")
         ax.grid(axis="y", alpha=0.3)
     for k in range(len(keys), nrows * ncols):
         axes[k // ncols][k % ncols].set_visible(False)
     handles = [
-        Line2D([], [], color="#cccccc", marker="s", markersize=10, linestyle="", markeredgecolor="#888888",
-               label="generic (untuned)"),
+        Line2D(
+            [],
+            [],
+            color="#cccccc",
+            marker="s",
+            markersize=10,
+            linestyle="",
+            markeredgecolor="#888888",
+            label="generic (untuned)",
+        ),
         Line2D([], [], color="#555555", marker="o", linestyle="", label="tuned, one dot per repeat"),
         Line2D([], [], color="#555555", linewidth=2, label="tuned mean"),
     ]
@@ -186,8 +212,15 @@ def fitness_overview_figure(groups: list[Group], entries: list[GenericEntry]) ->
 
 # --- 4. parameter distributions --------------------------------------------------------------------------
 def _boxplot(ax, data, positions) -> None:
-    kwargs = dict(positions=positions, widths=0.6, patch_artist=True, showfliers=False, whis=(0, 100),
-                  boxprops=dict(facecolor="#dde8f5", edgecolor="#335"), medianprops=dict(color="#335"))
+    kwargs = dict(
+        positions=positions,
+        widths=0.6,
+        patch_artist=True,
+        showfliers=False,
+        whis=(0, 100),
+        boxprops=dict(facecolor="#dde8f5", edgecolor="#335"),
+        medianprops=dict(color="#335"),
+    )
     try:
         ax.boxplot(data, orientation="horizontal", **kwargs)
     except TypeError:  # matplotlib < 3.10
@@ -213,12 +246,18 @@ def parameters_figure(groups: list[Group], nominal: dict[str, dict[str, float]])
             data.append(values)
             where.append(y)
             jitter = np.linspace(-0.18, 0.18, values.size) if values.size > 1 else np.zeros(1)
-            ax.scatter(values, y + jitter, s=16, color=colors[g.engine], zorder=3, edgecolor="black",
-                       linewidth=0.3)
+            ax.scatter(values, y + jitter, s=16, color=colors[g.engine], zorder=3, edgecolor="black", linewidth=0.3)
             nom = nominal.get(g.engine, {}).get(name)
             if nom is not None and low <= nom <= high:
-                ax.scatter([(nom - low) / ((high - low) or 1.0)], [y], marker="D", s=22, facecolor="none",
-                           edgecolor=UNTUNED, zorder=4)
+                ax.scatter(
+                    [(nom - low) / ((high - low) or 1.0)],
+                    [y],
+                    marker="D",
+                    s=22,
+                    facecolor="none",
+                    edgecolor=UNTUNED,
+                    zorder=4,
+                )
         if data:
             _boxplot(ax, data, where)
         ax.set_xlim(-0.03, 1.03)
@@ -228,9 +267,18 @@ def parameters_figure(groups: list[Group], nominal: dict[str, dict[str, float]])
     axes[0].set_yticks(positions)
     axes[0].set_yticklabels(names, fontsize="small")
     axes[0].set_ylim(-0.7, len(names) - 0.3)
-    handles = [Line2D([], [], marker="o", linestyle="", color="#555555", markersize=4, label="one repeat"),
-               Line2D([], [], marker="D", linestyle="", markerfacecolor="none", markeredgecolor=UNTUNED,
-                      label="generic (nominal) value")]
+    handles = [
+        Line2D([], [], marker="o", linestyle="", color="#555555", markersize=4, label="one repeat"),
+        Line2D(
+            [],
+            [],
+            marker="D",
+            linestyle="",
+            markerfacecolor="none",
+            markeredgecolor=UNTUNED,
+            label="generic (nominal) value",
+        ),
+    ]
     fig.legend(handles=handles, loc="outside lower center", ncols=2, fontsize="small")
     fig.suptitle(f"Tuned parameters across repeats: task {groups[0].tasks}, space {groups[0].space}")
     return fig
@@ -293,13 +341,22 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
         ax.scatter([mean[0]], [mean[1]], s=60, color=RECORDED, marker="x", label="recorded mean")
         if ref.object_start is not None:
             start = ref.object_start.mean(axis=0)
-            ax.scatter([start[0]], [start[1]], s=40, facecolor="none", edgecolor=RECORDED, marker="s",
-                       label="recorded start")
-        for label, obj, color, marker in (("untuned", traj.untuned_object, UNTUNED, "v"),
-                                          ("tuned", traj.tuned_object, TUNED, "^")):
+            ax.scatter(
+                [start[0]], [start[1]], s=40, facecolor="none", edgecolor=RECORDED, marker="s", label="recorded start"
+            )
+        for label, obj, color, marker in (
+            ("untuned", traj.untuned_object, UNTUNED, "v"),
+            ("tuned", traj.tuned_object, TUNED, "^"),
+        ):
             ax.plot(obj[:n, 0], obj[:n, 1], color=color, linewidth=0.8, alpha=0.7)
-            ax.scatter([obj[n - 1, 0]], [obj[n - 1, 1]], s=50, color=color, marker=marker,
-                       label=f"{label} final ({np.linalg.norm(obj[n - 1] - mean) * 1000:.1f} mm off)")
+            ax.scatter(
+                [obj[n - 1, 0]],
+                [obj[n - 1, 1]],
+                s=50,
+                color=color,
+                marker=marker,
+                label=f"{label} final ({np.linalg.norm(obj[n - 1] - mean) * 1000:.1f} mm off)",
+            )
         ax.set_aspect("equal", adjustable="datalim")
         ax.xaxis.set_major_locator(MaxNLocator(4))
         ax.yaxis.set_major_locator(MaxNLocator(6))
@@ -310,6 +367,8 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
         ax.legend(fontsize="x-small", loc="best")
 
     g = sim.group
-    fig.suptitle(f"{g.engine} on {task} (space {g.space}): fitness untuned {traj.untuned_score.fitness:.4f}, "
-                 f"tuned {traj.tuned_score.fitness:.4f} (best repeat: seed {sim.run.seed})")
+    fig.suptitle(
+        f"{g.engine} on {task} (space {g.space}): fitness untuned {traj.untuned_score.fitness:.4f}, "
+        f"tuned {traj.tuned_score.fitness:.4f} (best repeat: seed {sim.run.seed})"
+    )
     return fig

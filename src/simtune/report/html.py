@@ -52,8 +52,10 @@ class Section:
 
 
 def table_html(table: Table) -> str:
-    links = (f'<a class="file" href="tables/{table.name}.csv">CSV</a>'
-             f'<a class="file" href="tables/{table.name}.md">Markdown</a>')
+    links = (
+        f'<a class="file" href="tables/{table.name}.csv">CSV</a>'
+        f'<a class="file" href="tables/{table.name}.md">Markdown</a>'
+    )
     body = f'<div class="scroll">{table.to_html()}</div>'
     if len(table.rows) > LONG_TABLE:
         body = f"<details><summary>show all {len(table.rows)} rows</summary>{body}</details>"
@@ -63,25 +65,35 @@ def table_html(table: Table) -> str:
 
 def figure_html(fig: FigureRef) -> str:
     data = base64.b64encode(fig.png).decode("ascii")
-    return (f'<figure id="figure-{fig.stem}"><img alt="{html.escape(fig.caption)}" '
-            f'src="data:image/png;base64,{data}"><figcaption>{html.escape(fig.caption)} '
-            f'<a class="file" href="figures/{fig.stem}.png">PNG</a>'
-            f'<a class="file" href="figures/{fig.stem}.svg">SVG</a></figcaption></figure>')
+    return (
+        f'<figure id="figure-{fig.stem}"><img alt="{html.escape(fig.caption)}" '
+        f'src="data:image/png;base64,{data}"><figcaption>{html.escape(fig.caption)} '
+        f'<a class="file" href="figures/{fig.stem}.png">PNG</a>'
+        f'<a class="file" href="figures/{fig.stem}.svg">SVG</a></figcaption></figure>'
+    )
 
 
 def render(title: str, meta: list[str], warnings: list[str], sections: list[Section]) -> str:
-    parts = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
-             '<meta name="viewport" content="width=device-width, initial-scale=1">',
-             f"<title>{html.escape(title)}</title><style>{CSS}</style></head><body><main>",
-             f"<h1>{html.escape(title)}</h1>"]
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f"<title>{html.escape(title)}</title><style>{CSS}</style></head><body><main>",
+        f"<h1>{html.escape(title)}</h1>",
+    ]
     parts += [f'<p class="meta">{html.escape(line)}</p>' for line in meta]
     if warnings:
-        parts.append('<div class="warnings"><strong>Warnings</strong> (runs or files left out of the report, '
-                     'and doubts about what it shows):<ul>')
+        parts.append(
+            '<div class="warnings"><strong>Warnings</strong> (runs or files left out of the report, '
+            "and doubts about what it shows):<ul>"
+        )
         parts += [f"<li>{html.escape(w)}</li>" for w in warnings]
         parts.append("</ul></div>")
-    parts.append("<nav><ol>" + "".join(f'<li><a href="#{s.anchor}">{html.escape(s.title)}</a></li>'
-                                        for s in sections) + "</ol></nav>")
+    parts.append(
+        "<nav><ol>"
+        + "".join(f'<li><a href="#{s.anchor}">{html.escape(s.title)}</a></li>' for s in sections)
+        + "</ol></nav>"
+    )
     for s in sections:
         parts.append(f'<section id="{s.anchor}"><h2>{html.escape(s.title)}</h2>')
         if s.intro:

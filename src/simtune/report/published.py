@@ -67,8 +67,9 @@ def read_published(path: Path) -> np.ndarray:
     if rows.shape[0] == 0:
         raise SimtuneError(f"{path}: empty file")
     if rows.shape[1] != COLUMNS:
-        raise SimtuneError(f"{path}: {rows.shape[1]} columns, expected {COLUMNS} "
-                           "(x y z, quaternion, object x y z, object quaternion)")
+        raise SimtuneError(
+            f"{path}: {rows.shape[1]} columns, expected {COLUMNS} (x y z, quaternion, object x y z, object quaternion)"
+        )
     if not np.all(np.isfinite(rows)):
         bad = int(np.flatnonzero(~np.isfinite(rows).all(axis=1))[0])
         raise SimtuneError(f"{path} line {bad + 1}: non-finite value")
@@ -83,11 +84,14 @@ def quaternion_matrices(q: np.ndarray, order: str = "xyzw") -> np.ndarray:
     norm = np.linalg.norm(q, axis=1, keepdims=True)
     q = np.where(norm > 0, q / np.where(norm > 0, norm, 1.0), np.array([0.0, 0.0, 0.0, 1.0]))
     x, y, z, w = q.T
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=1),
-    ], axis=1)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=1),
+        ],
+        axis=1,
+    )
 
 
 def published_rollout(sim: PublishedSim, n: int) -> Rollout:

@@ -80,10 +80,14 @@ def simulate_group(group: Group, references: References) -> GroupSimulation:
     for task in run.task_names:
         ref = refs[task]
         out[task] = TaskTrajectory(
-            task=task, reference=ref,
-            untuned_marker=marker_positions(untuned[task], {}), tuned_marker=marker_positions(tuned[task], params),
-            untuned_object=untuned[task].object_pos, tuned_object=tuned[task].object_pos,
-            untuned_score=score_rollout(untuned[task], ref, {}), tuned_score=score_rollout(tuned[task], ref, params),
+            task=task,
+            reference=ref,
+            untuned_marker=marker_positions(untuned[task], {}),
+            tuned_marker=marker_positions(tuned[task], params),
+            untuned_object=untuned[task].object_pos,
+            tuned_object=tuned[task].object_pos,
+            untuned_score=score_rollout(untuned[task], ref, {}),
+            tuned_score=score_rollout(tuned[task], ref, params),
         )
     return GroupSimulation(group, run, params, out)
 

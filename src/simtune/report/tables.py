@@ -88,7 +88,7 @@ class Table:
                     text = f"<strong>{text}</strong>"
                 cells.append(f"<td{cls}>{text}</td>")
             body.append("<tr>" + "".join(cells) + "</tr>")
-        return (f'<table class="data"><thead><tr>{head}</tr></thead><tbody>' + "".join(body) + "</tbody></table>")
+        return f'<table class="data"><thead><tr>{head}</tr></thead><tbody>' + "".join(body) + "</tbody></table>"
 
 
 def _f(x) -> float | None:
@@ -125,17 +125,27 @@ def generic_entries(groups: list[Group]) -> tuple[list[GenericEntry], list[str]]
                 part = run.task_score(run.generic, task)
                 if part is None:
                     continue
-                entry = GenericEntry(run.engine, "simtune", run.versions.get(run.engine, ""), task,
-                                     float(part["fitness"]), _f(part.get("wrist_error")),
-                                     _f(part.get("object_error")), bool(part.get("stable", True)))
+                entry = GenericEntry(
+                    run.engine,
+                    "simtune",
+                    run.versions.get(run.engine, ""),
+                    task,
+                    float(part["fitness"]),
+                    _f(part.get("wrist_error")),
+                    _f(part.get("object_error")),
+                    bool(part.get("stable", True)),
+                )
                 key = (run.engine, task)
                 if key not in seen:
                     seen[key] = entry
                 elif abs(seen[key].fitness - entry.fitness) > 1e-9 and not any(
-                        n.startswith(f"{run.engine} on {task}:") for n in notes):
-                    notes.append(f"{run.engine} on {task}: runs disagree on the generic fitness "
-                                 f"({seen[key].fitness:.4f} vs {entry.fitness:.4f} in {run.label}): "
-                                 "different recordings or engine versions; the first is shown")
+                    n.startswith(f"{run.engine} on {task}:") for n in notes
+                ):
+                    notes.append(
+                        f"{run.engine} on {task}: runs disagree on the generic fitness "
+                        f"({seen[key].fitness:.4f} vs {entry.fitness:.4f} in {run.label}): "
+                        "different recordings or engine versions; the first is shown"
+                    )
     return list(seen.values()), notes
 
 
@@ -146,8 +156,11 @@ def generic_table(entries: list[GenericEntry], tasks: list[str]) -> Table:
             engines.append((e.engine, e.source, e.version))
     columns = [Column("engine"), Column("source"), Column("version")]
     for task in tasks:
-        columns += [Column(f"{task} fitness", ".4f"), Column(f"{task} wrist error [m]", ".4f"),
-                    Column(f"{task} object error [m]", ".4f")]
+        columns += [
+            Column(f"{task} fitness", ".4f"),
+            Column(f"{task} wrist error [m]", ".4f"),
+            Column(f"{task} object error [m]", ".4f"),
+        ]
     index = {(e.engine, e.source, e.task): e for e in entries}
     rows = []
     for engine, source, version in engines:
@@ -156,12 +169,16 @@ def generic_table(entries: list[GenericEntry], tasks: list[str]) -> Table:
             e = index.get((engine, source, task))
             row += [None, None, None] if e is None else [e.fitness, e.wrist_error, e.object_error]
         rows.append(row)
-    table = Table("generic_fitness", "Table 1. Generic (untuned) fitness per engine and task",
-                  columns, rows,
-                  note="Fitness = mean wrist error + final object error [m] (lower is better), simtune's fitness "
-                       "for every row. simtune rows: the engine with its generic parameters, as stored by each "
-                       "run. Published rows: the data set authors' own untuned simulations, read from files and "
-                       "scored against the same recordings.")
+    table = Table(
+        "generic_fitness",
+        "Table 1. Generic (untuned) fitness per engine and task",
+        columns,
+        rows,
+        note="Fitness = mean wrist error + final object error [m] (lower is better), simtune's fitness "
+        "for every row. simtune rows: the engine with its generic parameters, as stored by each "
+        "run. Published rows: the data set authors' own untuned simulations, read from files and "
+        "scored against the same recordings.",
+    )
     for t in range(len(tasks)):
         col = 3 + 3 * t
         values = [(r[col], i) for i, r in enumerate(rows) if r[col] is not None]
@@ -182,11 +199,20 @@ def experiment_generic(entries: list[GenericEntry], tasks: list[str], source: st
 
 
 def best_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table:
-    columns = [Column("tasks"), Column("space"), Column("best tuned fitness", ".4f"), Column("engine"),
-               Column("seed", "d"), Column("run"), Column("best generic fitness", ".4f"),
-               Column("best generic engine"), Column("improvement [%]", ".1f"),
-               Column("best generic incl. published", ".4f"), Column("its engine"),
-               Column("improvement vs it [%]", ".1f")]
+    columns = [
+        Column("tasks"),
+        Column("space"),
+        Column("best tuned fitness", ".4f"),
+        Column("engine"),
+        Column("seed", "d"),
+        Column("run"),
+        Column("best generic fitness", ".4f"),
+        Column("best generic engine"),
+        Column("improvement [%]", ".1f"),
+        Column("best generic incl. published", ".4f"),
+        Column("its engine"),
+        Column("improvement vs it [%]", ".1f"),
+    ]
     rows = []
     keys = sorted({(g.tasks, g.space) for g in groups})
     for tasks, space in keys:
@@ -203,33 +229,78 @@ def best_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table:
             else:
                 row += [None, None, None]
         rows.append(row)
-    return Table("best_tuned", "Table 2. Best tuned fitness per task and parameter space", columns, rows,
-                 note="Best fitness over all engines and repeats, and its improvement over the best generic engine "
-                      "(100 x (generic - tuned) / generic). Tasks tuned together sum their fitness, and so does "
-                      "the generic fitness they are compared with.")
+    return Table(
+        "best_tuned",
+        "Table 2. Best tuned fitness per task and parameter space",
+        columns,
+        rows,
+        note="Best fitness over all engines and repeats, and its improvement over the best generic engine "
+        "(100 x (generic - tuned) / generic). Tasks tuned together sum their fitness, and so does "
+        "the generic fitness they are compared with.",
+    )
 
 
 def tuned_by_group_table(groups: list[Group]) -> Table:
-    columns = [Column("engine"), Column("tasks"), Column("space"), Column("repeats", "d"), Column("seeds"),
-               Column("parameters", "d"), Column("generic fitness", ".4f"), Column("tuned best", ".4f"),
-               Column("tuned mean", ".4f"), Column("tuned worst", ".4f"), Column("tuned std", ".4f"),
-               Column("improvement of best [%]", ".1f"), Column("best run")]
+    columns = [
+        Column("engine"),
+        Column("tasks"),
+        Column("space"),
+        Column("repeats", "d"),
+        Column("seeds"),
+        Column("parameters", "d"),
+        Column("generic fitness", ".4f"),
+        Column("tuned best", ".4f"),
+        Column("tuned mean", ".4f"),
+        Column("tuned worst", ".4f"),
+        Column("tuned std", ".4f"),
+        Column("improvement of best [%]", ".1f"),
+        Column("best run"),
+    ]
     rows = []
     for g in groups:
         lo, mean, hi, std = _stats([r.best_fitness for r in g.runs])
         generic = g.runs[0].generic_fitness
-        rows.append([g.engine, g.tasks, g.space, len(g.runs), " ".join(str(r.seed) for r in g.runs),
-                     len(g.parameters), generic, lo, mean, hi, std,
-                     100.0 * (generic - lo) / generic if generic > 0 else None, g.best_run.label])
-    return Table("tuned_by_group", "Table 3. Tuned fitness per engine, tasks and space, over repeats", columns, rows,
-                 note="Tuned = the best evaluation of each repeat (seed); std is the sample standard deviation.")
+        rows.append(
+            [
+                g.engine,
+                g.tasks,
+                g.space,
+                len(g.runs),
+                " ".join(str(r.seed) for r in g.runs),
+                len(g.parameters),
+                generic,
+                lo,
+                mean,
+                hi,
+                std,
+                100.0 * (generic - lo) / generic if generic > 0 else None,
+                g.best_run.label,
+            ]
+        )
+    return Table(
+        "tuned_by_group",
+        "Table 3. Tuned fitness per engine, tasks and space, over repeats",
+        columns,
+        rows,
+        note="Tuned = the best evaluation of each repeat (seed); std is the sample standard deviation.",
+    )
 
 
 # --- 5. parameter importance and Mann-Whitney U ------------------------------------------------------
 def importance_table(groups: list[Group]) -> Table:
-    columns = [Column("engine"), Column("tasks"), Column("space"), Column("rank", "d"), Column("parameter"),
-               Column("repeats", "d"), Column("std / range", ".3f"), Column("(max - min) / range", ".3f"),
-               Column("mean (normalised)", ".3f"), Column("mean", ".4g"), Column("unit")]
+    columns = [
+        Column("engine"),
+        Column("tasks"),
+        Column("space"),
+        Column("rank", "d"),
+        Column("parameter"),
+        Column("repeats", "d"),
+        Column("std / range", ".3f"),
+        Column("(max - min) / range", ".3f"),
+        Column("mean (normalised)", ".3f"),
+        Column("mean", ".4g"),
+        Column("unit"),
+    ]
     rows = []
     for g in groups:
         entries = []
@@ -243,15 +314,32 @@ def importance_table(groups: list[Group]) -> Table:
         entries.sort(key=lambda e: (math.inf if e[2] is None else e[2], e[3], e[0]))
         for rank, (name, n, std, spread, mean_norm, mean) in enumerate(entries, start=1):
             unit = PARAMETERS[name].unit if name in PARAMETERS else ""
-            rows.append([g.engine, g.tasks, g.space, rank if std is not None else None, name, n, std, spread,
-                         mean_norm, mean, unit])
-    return Table("parameter_importance", "Table 4. Parameter importance: spread of tuned values across repeats",
-                 columns, rows,
-                 note="The paper's measure: a parameter whose tuned value is tightly bounded across independent "
-                      "repeats matters to the fitness; one that wanders over its range does not. Spread = sample "
-                      "std (and max - min) of the best value of each repeat, divided by the parameter's range. "
-                      "Rank 1 = the tightest (most influential) parameter of that engine, tasks and space. "
-                      "With one repeat there is no spread and no rank.")
+            rows.append(
+                [
+                    g.engine,
+                    g.tasks,
+                    g.space,
+                    rank if std is not None else None,
+                    name,
+                    n,
+                    std,
+                    spread,
+                    mean_norm,
+                    mean,
+                    unit,
+                ]
+            )
+    return Table(
+        "parameter_importance",
+        "Table 4. Parameter importance: spread of tuned values across repeats",
+        columns,
+        rows,
+        note="The paper's measure: a parameter whose tuned value is tightly bounded across independent "
+        "repeats matters to the fitness; one that wanders over its range does not. Spread = sample "
+        "std (and max - min) of the best value of each repeat, divided by the parameter's range. "
+        "Rank 1 = the tightest (most influential) parameter of that engine, tasks and space. "
+        "With one repeat there is no spread and no rank.",
+    )
 
 
 def importance_top_table(full: Table, top: int = 5) -> Table:
@@ -259,18 +347,31 @@ def importance_top_table(full: Table, top: int = 5) -> Table:
     keep = ["engine", "tasks", "space", "rank", "parameter", "repeats", "std / range", "(max - min) / range"]
     idx = [full.headers.index(k) for k in keep]
     rows = [[row[i] for i in idx] for row in full.rows if row[3] is not None and row[3] <= top]
-    return Table("parameter_importance_top", f"Table 4a. The {top} most influential parameters per engine, "
-                 "tasks and space", [full.columns[i] for i in idx], rows,
-                 note=f"The first {top} ranks of Table 4 (groups with at least two repeats); Table 4 has every "
-                      "parameter.")
+    return Table(
+        "parameter_importance_top",
+        f"Table 4a. The {top} most influential parameters per engine, tasks and space",
+        [full.columns[i] for i in idx],
+        rows,
+        note=f"The first {top} ranks of Table 4 (groups with at least two repeats); Table 4 has every parameter.",
+    )
 
 
 def mann_whitney_table(groups: list[Group]) -> Table:
     from scipy.stats import mannwhitneyu
 
-    columns = [Column("engine"), Column("tasks"), Column("space"), Column("tuned n", "d"), Column("untuned n", "d"),
-               Column("generic fitness", ".4f"), Column("median untuned", ".4f"), Column("median tuned", ".4f"),
-               Column("U", ".1f"), Column("p two-sided", ".3g"), Column("p tuned < untuned", ".3g")]
+    columns = [
+        Column("engine"),
+        Column("tasks"),
+        Column("space"),
+        Column("tuned n", "d"),
+        Column("untuned n", "d"),
+        Column("generic fitness", ".4f"),
+        Column("median untuned", ".4f"),
+        Column("median tuned", ".4f"),
+        Column("U", ".1f"),
+        Column("p two-sided", ".3g"),
+        Column("p tuned < untuned", ".3g"),
+    ]
     rows = []
     for g in groups:
         tuned = [r.best_fitness for r in g.runs]
@@ -280,14 +381,32 @@ def mann_whitney_table(groups: list[Group]) -> Table:
             res2 = mannwhitneyu(tuned, untuned, alternative="two-sided")
             res1 = mannwhitneyu(tuned, untuned, alternative="less")
             u, p2, p1 = float(res2.statistic), float(res2.pvalue), float(res1.pvalue)
-        rows.append([g.engine, g.tasks, g.space, len(tuned), len(untuned), g.runs[0].generic_fitness,
-                     float(np.median(untuned)) if untuned else None, float(np.median(tuned)), u, p2, p1])
-    return Table("mann_whitney", "Table 5. Mann-Whitney U test: tuned vs untuned fitness", columns, rows,
-                 note="Tuned sample: the best fitness of each repeat. The generic fitness is one deterministic "
-                      "number, so the untuned sample is instead every evaluation of each repeat's initial "
-                      "population (generation 0: random parameter sets from the latin-hypercube start), pooled "
-                      "over repeats. U is the statistic of the tuned sample; the one-sided p tests whether "
-                      "tuned fitness is lower.")
+        rows.append(
+            [
+                g.engine,
+                g.tasks,
+                g.space,
+                len(tuned),
+                len(untuned),
+                g.runs[0].generic_fitness,
+                float(np.median(untuned)) if untuned else None,
+                float(np.median(tuned)),
+                u,
+                p2,
+                p1,
+            ]
+        )
+    return Table(
+        "mann_whitney",
+        "Table 5. Mann-Whitney U test: tuned vs untuned fitness",
+        columns,
+        rows,
+        note="Tuned sample: the best fitness of each repeat. The generic fitness is one deterministic "
+        "number, so the untuned sample is instead every evaluation of each repeat's initial "
+        "population (generation 0: random parameter sets from the latin-hypercube start), pooled "
+        "over repeats. U is the statistic of the tuned sample; the one-sided p tests whether "
+        "tuned fitness is lower.",
+    )
 
 
 # --- 6. object final positions ------------------------------------------------------------------------
@@ -302,67 +421,156 @@ class FinalPosition:
 
 
 def object_final_table(finals: list[FinalPosition]) -> Table:
-    columns = [Column("task"), Column("source"), Column("engine"), Column("space"), Column("x [m]", ".4f"),
-               Column("y [m]", ".4f"), Column("z [m]", ".4f"), Column("distance to recorded mean [m]", ".4f"),
-               Column("repeat spread [m]", ".4f")]
+    columns = [
+        Column("task"),
+        Column("source"),
+        Column("engine"),
+        Column("space"),
+        Column("x [m]", ".4f"),
+        Column("y [m]", ".4f"),
+        Column("z [m]", ".4f"),
+        Column("distance to recorded mean [m]", ".4f"),
+        Column("repeat spread [m]", ".4f"),
+    ]
     recorded = {f.task: f.position for f in finals if f.source.startswith("recorded")}
     rows = []
     for f in finals:
         ref = recorded.get(f.task)
         dist = None if ref is None or f.source.startswith("recorded") else float(np.linalg.norm(f.position - ref))
         rows.append([f.task, f.source, f.engine, f.space, *(float(v) for v in f.position), dist, f.spread])
-    return Table("object_final", "Table 6. Final object position: recorded vs simulated", columns, rows,
-                 note="Recorded: mean over the kept repeats of the last seen object position (spread = mean "
-                      "distance of a repeat from that mean). Untuned / tuned: re-simulated with the engine's generic "
-                      "parameters and with the best run's tuned parameters. The distance is the fitness's object term.")
+    return Table(
+        "object_final",
+        "Table 6. Final object position: recorded vs simulated",
+        columns,
+        rows,
+        note="Recorded: mean over the kept repeats of the last seen object position (spread = mean "
+        "distance of a repeat from that mean). Untuned / tuned: re-simulated with the engine's generic "
+        "parameters and with the best run's tuned parameters. The distance is the fitness's object term.",
+    )
 
 
 # --- 7. compute -------------------------------------------------------------------------------------------
 def compute_table(groups: list[Group]) -> Table:
-    columns = [Column("engine"), Column("tasks"), Column("space"), Column("repeats", "d"),
-               Column("evaluations (mean)", ".0f"), Column("evaluations (total)", "d"),
-               Column("generations (mean)", ".1f"), Column("wall time mean [s]", ".1f"),
-               Column("wall time total [s]", ".1f"), Column("evaluations per second", ".2f"), Column("workers"),
-               Column("unstable or failed", "d"), Column("pruned", "d")]
+    columns = [
+        Column("engine"),
+        Column("tasks"),
+        Column("space"),
+        Column("repeats", "d"),
+        Column("evaluations (mean)", ".0f"),
+        Column("evaluations (total)", "d"),
+        Column("generations (mean)", ".1f"),
+        Column("wall time mean [s]", ".1f"),
+        Column("wall time total [s]", ".1f"),
+        Column("evaluations per second", ".2f"),
+        Column("workers"),
+        Column("unstable or failed", "d"),
+        Column("pruned", "d"),
+    ]
     rows = []
     for g in groups:
         evals = [r.evaluations for r in g.runs]
         walls = [r.elapsed_s for r in g.runs]
         gens = [len(r.generations) for r in g.runs]
         workers = sorted({int(r.config.get("workers", 1)) for r in g.runs})
-        rows.append([g.engine, g.tasks, g.space, len(g.runs), float(np.mean(evals)), int(sum(evals)),
-                     float(np.mean(gens)), float(np.mean(walls)), float(sum(walls)),
-                     sum(evals) / sum(walls) if sum(walls) > 0 else None, " ".join(map(str, workers)),
-                     sum(r.outcomes.get("unstable", 0) for r in g.runs),
-                     sum(r.outcomes.get("pruned", 0) for r in g.runs)])
-    return Table("compute", "Table 7. Compute per engine, tasks and space", columns, rows,
-                 note="Wall time is the run's elapsed time over all its sessions (meta elapsed_s); evaluations "
-                      "count the distinct parameter sets simulated. Unstable or failed: simulations that blew up "
-                      "(or whose worker crashed or hung) and scored the penalty fitness. Pruned: trials stopped "
-                      "once they could no longer beat their parent (their stored fitness is a lower bound).")
+        rows.append(
+            [
+                g.engine,
+                g.tasks,
+                g.space,
+                len(g.runs),
+                float(np.mean(evals)),
+                int(sum(evals)),
+                float(np.mean(gens)),
+                float(np.mean(walls)),
+                float(sum(walls)),
+                sum(evals) / sum(walls) if sum(walls) > 0 else None,
+                " ".join(map(str, workers)),
+                sum(r.outcomes.get("unstable", 0) for r in g.runs),
+                sum(r.outcomes.get("pruned", 0) for r in g.runs),
+            ]
+        )
+    return Table(
+        "compute",
+        "Table 7. Compute per engine, tasks and space",
+        columns,
+        rows,
+        note="Wall time is the run's elapsed time over all its sessions (meta elapsed_s); evaluations "
+        "count the distinct parameter sets simulated. Unstable or failed: simulations that blew up "
+        "(or whose worker crashed or hung) and scored the penalty fitness. Pruned: trials stopped "
+        "once they could no longer beat their parent (their stored fitness is a lower bound).",
+    )
 
 
 # --- 8. domain-randomisation ranges ----------------------------------------------------------------------
 def dr_table(ranges: dict[str, dict[str, dict]]) -> Table:
-    columns = [Column("engine"), Column("parameter"), Column("min", ".4g"), Column("max", ".4g"),
-               Column("nominal", ".4g"), Column("low bound", ".4g"), Column("high bound", ".4g"),
-               Column("unit"), Column("runs", "d")]
-    rows = [[engine, name, p["min"], p["max"], p["nominal"], p["bounds"][0], p["bounds"][1], p["unit"], p["runs"]]
-            for engine, params in ranges.items() for name, p in params.items()]
-    return Table("dr_ranges", "Table 8. Domain-randomisation ranges (as in dr_ranges.yaml)", columns, rows,
-                 note="Per engine and parameter: the range the tuned values span across all its runs (every task "
-                      "and space), and the nominal (generic) value. Randomising a simulation over these ranges "
-                      "covers what tuning found plausible.")
+    columns = [
+        Column("engine"),
+        Column("parameter"),
+        Column("min", ".4g"),
+        Column("max", ".4g"),
+        Column("nominal", ".4g"),
+        Column("low bound", ".4g"),
+        Column("high bound", ".4g"),
+        Column("unit"),
+        Column("runs", "d"),
+    ]
+    rows = [
+        [engine, name, p["min"], p["max"], p["nominal"], p["bounds"][0], p["bounds"][1], p["unit"], p["runs"]]
+        for engine, params in ranges.items()
+        for name, p in params.items()
+    ]
+    return Table(
+        "dr_ranges",
+        "Table 8. Domain-randomisation ranges (as in dr_ranges.yaml)",
+        columns,
+        rows,
+        note="Per engine and parameter: the range the tuned values span across all its runs (every task "
+        "and space), and the nominal (generic) value. Randomising a simulation over these ranges "
+        "covers what tuning found plausible.",
+    )
 
 
 # --- appendix: every run ---------------------------------------------------------------------------------
 def runs_table(runs: list[RunRecord]) -> Table:
-    columns = [Column("run"), Column("engine"), Column("tasks"), Column("space"), Column("seed", "d"),
-               Column("parameters", "d"), Column("generic fitness", ".4f"), Column("best fitness", ".4f"),
-               Column("wrist error [m]", ".4f"), Column("object error [m]", ".4f"), Column("generations", "d"),
-               Column("evaluations", "d"), Column("wall time [s]", ".1f"), Column("stop reason")]
-    rows = [[r.label, r.engine, r.tasks, r.space, r.seed, len(r.parameters), r.generic_fitness, r.best_fitness,
-             _f(r.best_score.get("wrist_error")), _f(r.best_score.get("object_error")), len(r.generations),
-             r.evaluations, r.elapsed_s, r.message] for r in runs]
-    return Table("runs", "Table 9. Every run in the report", columns, rows,
-                 note="Best fitness = the run's best stored evaluation.")
+    columns = [
+        Column("run"),
+        Column("engine"),
+        Column("tasks"),
+        Column("space"),
+        Column("seed", "d"),
+        Column("parameters", "d"),
+        Column("generic fitness", ".4f"),
+        Column("best fitness", ".4f"),
+        Column("wrist error [m]", ".4f"),
+        Column("object error [m]", ".4f"),
+        Column("generations", "d"),
+        Column("evaluations", "d"),
+        Column("wall time [s]", ".1f"),
+        Column("stop reason"),
+    ]
+    rows = [
+        [
+            r.label,
+            r.engine,
+            r.tasks,
+            r.space,
+            r.seed,
+            len(r.parameters),
+            r.generic_fitness,
+            r.best_fitness,
+            _f(r.best_score.get("wrist_error")),
+            _f(r.best_score.get("object_error")),
+            len(r.generations),
+            r.evaluations,
+            r.elapsed_s,
+            r.message,
+        ]
+        for r in runs
+    ]
+    return Table(
+        "runs",
+        "Table 9. Every run in the report",
+        columns,
+        rows,
+        note="Best fitness = the run's best stored evaluation.",
+    )

@@ -17,7 +17,17 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, JOINTS, LINKS, Joint, Link, children, matrix_quat_wxyz, rpy_matrix
+from simtune.robot.mico import (
+    ARM_JOINTS,
+    BASE_POSITION,
+    JOINTS,
+    LINKS,
+    Joint,
+    Link,
+    children,
+    matrix_quat_wxyz,
+    rpy_matrix,
+)
 
 if TYPE_CHECKING:  # tasks import the robot module; only the type is needed here
     from simtune.tasks.spec import ObjectSpec
@@ -104,31 +114,34 @@ def scene_mjcf(obj: ObjectSpec | None = None) -> str:
         # that the largest command step (-40 to +40 deg/s) asks for 70 N m, below the smallest
         # limit of the search range (100): a clipped servo force on the light wrist links is
         # not damped by the implicit integrator and sets them spinning (seen in seed-2).
-        f'    <velocity name="{j}" joint="{j}" kv="{SERVO_KV:g}" forcerange="-100 100"/>' for j in ARM_JOINTS
+        f'    <velocity name="{j}" joint="{j}" kv="{SERVO_KV:g}" forcerange="-100 100"/>'
+        for j in ARM_JOINTS
     ]
-    return "\n".join([
-        '<mujoco model="kinova_mico_scene">',
-        '  <compiler angle="radian" autolimits="true"/>',
-        # implicitfast integrates the velocity servos' damping-like forces stably at large steps
-        '  <option integrator="implicitfast" gravity="0 0 -9.81"/>',
-        "  <default>",
-        # contype/conaffinity: arm (2) hits world (1); world hits everything; arm never hits arm
-        '    <default class="arm"><geom contype="2" conaffinity="1" condim="3"/></default>',
-        '    <default class="object"><geom contype="1" conaffinity="3" condim="6"/></default>',
-        "  </default>",
-        "  <asset>",
-        *assets,
-        "  </asset>",
-        "  <worldbody>",
-        f'    <geom name="{FLOOR}" type="plane" size="0 0 1" contype="1" conaffinity="3" condim="3"/>',
-        *arm,
-        *object_body,
-        "  </worldbody>",
-        "  <actuator>",
-        *actuators,
-        "  </actuator>",
-        "</mujoco>",
-    ])
+    return "\n".join(
+        [
+            '<mujoco model="kinova_mico_scene">',
+            '  <compiler angle="radian" autolimits="true"/>',
+            # implicitfast integrates the velocity servos' damping-like forces stably at large steps
+            '  <option integrator="implicitfast" gravity="0 0 -9.81"/>',
+            "  <default>",
+            # contype/conaffinity: arm (2) hits world (1); world hits everything; arm never hits arm
+            '    <default class="arm"><geom contype="2" conaffinity="1" condim="3"/></default>',
+            '    <default class="object"><geom contype="1" conaffinity="3" condim="6"/></default>',
+            "  </default>",
+            "  <asset>",
+            *assets,
+            "  </asset>",
+            "  <worldbody>",
+            f'    <geom name="{FLOOR}" type="plane" size="0 0 1" contype="1" conaffinity="3" condim="3"/>',
+            *arm,
+            *object_body,
+            "  </worldbody>",
+            "  <actuator>",
+            *actuators,
+            "  </actuator>",
+            "</mujoco>",
+        ]
+    )
 
 
 # --------------------------------------------------------------------------- URDF

@@ -34,7 +34,7 @@ class Box:
     half: tuple[float, float, float]
 
     @classmethod
-    def spanning(cls, lo: tuple[float, float, float], hi: tuple[float, float, float]) -> "Box":
+    def spanning(cls, lo: tuple[float, float, float], hi: tuple[float, float, float]) -> Box:
         c = tuple((a + b) / 2 for a, b in zip(lo, hi))
         h = tuple((b - a) / 2 for a, b in zip(lo, hi))
         return cls(c, h)  # type: ignore[arg-type]
@@ -63,25 +63,60 @@ class Joint:
 
 
 def _finger_link(name: str, lo, hi) -> Link:
-    return Link(name, 0.01, (0.022, 0.0, 0.0), (7.9e-7, 7.9e-7, 8e-8),
-                (Box.spanning(lo, hi),), material="gripper")
+    return Link(name, 0.01, (0.022, 0.0, 0.0), (7.9e-7, 7.9e-7, 8e-8), (Box.spanning(lo, hi),), material="gripper")
 
 
 LINKS: tuple[Link, ...] = (
-    Link("link_base", 0.46784, (0, 0, 0.1255), (0.000951, 0.000951, 0.000374),
-         (Box.spanning((-0.041, -0.041, 0.0), (0.041, 0.041, 0.157)),)),
-    Link("link_1", 0.7477, (0, -0.002, -0.0605), (0.00152, 0.00152, 0.000598),
-         (Box.spanning((-0.041, -0.041, -0.160), (0.041, 0.041, 0.0)),)),
-    Link("link_2", 0.85968, (0, -0.145, -0.0076), (0.00467, 0.000387, 0.00467),
-         (Box.spanning((-0.041, -0.331, -0.044), (0.041, 0.041, 0.0)),)),
-    Link("link_3", 0.606, (0, 0.0463, -0.0065), (0.000384, 0.000121, 0.000384),
-         (Box.spanning((-0.041, -0.041, -0.043), (0.041, 0.123, 0.023)),)),
-    Link("link_4", 0.1785, (0, -0.037, -0.0642), (7.73e-5, 7.73e-5, 0.000143),
-         (Box.spanning((-0.032, -0.053, -0.091), (0.032, 0.032, 0.0)),)),
-    Link("link_5", 0.1785, (0, -0.037, -0.0642), (7.73e-5, 7.73e-5, 0.000143),
-         (Box.spanning((-0.032, -0.053, -0.091), (0.032, 0.032, 0.0)),)),
-    Link("link_6", 0.727, (0, 0, -0.06), (0.000345, 0.000345, 0.000582),
-         (Box.spanning((-0.046, -0.051, -0.121), (0.046, 0.054, 0.0)),), material="gripper"),
+    Link(
+        "link_base",
+        0.46784,
+        (0, 0, 0.1255),
+        (0.000951, 0.000951, 0.000374),
+        (Box.spanning((-0.041, -0.041, 0.0), (0.041, 0.041, 0.157)),),
+    ),
+    Link(
+        "link_1",
+        0.7477,
+        (0, -0.002, -0.0605),
+        (0.00152, 0.00152, 0.000598),
+        (Box.spanning((-0.041, -0.041, -0.160), (0.041, 0.041, 0.0)),),
+    ),
+    Link(
+        "link_2",
+        0.85968,
+        (0, -0.145, -0.0076),
+        (0.00467, 0.000387, 0.00467),
+        (Box.spanning((-0.041, -0.331, -0.044), (0.041, 0.041, 0.0)),),
+    ),
+    Link(
+        "link_3",
+        0.606,
+        (0, 0.0463, -0.0065),
+        (0.000384, 0.000121, 0.000384),
+        (Box.spanning((-0.041, -0.041, -0.043), (0.041, 0.123, 0.023)),),
+    ),
+    Link(
+        "link_4",
+        0.1785,
+        (0, -0.037, -0.0642),
+        (7.73e-5, 7.73e-5, 0.000143),
+        (Box.spanning((-0.032, -0.053, -0.091), (0.032, 0.032, 0.0)),),
+    ),
+    Link(
+        "link_5",
+        0.1785,
+        (0, -0.037, -0.0642),
+        (7.73e-5, 7.73e-5, 0.000143),
+        (Box.spanning((-0.032, -0.053, -0.091), (0.032, 0.032, 0.0)),),
+    ),
+    Link(
+        "link_6",
+        0.727,
+        (0, 0, -0.06),
+        (0.000345, 0.000345, 0.000582),
+        (Box.spanning((-0.046, -0.051, -0.121), (0.046, 0.054, 0.0)),),
+        material="gripper",
+    ),
     *(
         link
         for i in (1, 2, 3)
@@ -130,11 +165,13 @@ def rpy_matrix(rpy) -> np.ndarray:
     """Rotation matrix of URDF roll-pitch-yaw angles (Rz(yaw) @ Ry(pitch) @ Rx(roll))."""
     r, p, y = rpy
     cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    return np.array([
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-        [-sp, cp * sr, cp * cr],
-    ])
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
 
 
 def matrix_quat_wxyz(m: np.ndarray) -> tuple[float, float, float, float]:
@@ -167,4 +204,3 @@ def forward_kinematics(q, link: str = WRIST_LINK) -> tuple[np.ndarray, np.ndarra
             c, s = np.cos(a), np.sin(a)
             rot = rot @ np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
     return pos, rot
-

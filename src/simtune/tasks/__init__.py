@@ -37,4 +37,15 @@ def parse_tasks(spec: str) -> list[TaskSpec]:
     return [get_task(n) for n in names]
 
 
-__all__ = ["TASKS", "GROUPS", "TaskSpec", "Phase", "ObjectSpec", "SHAPES", "MATERIALS", "get_task", "parse_tasks", "all_task_names"]
+__all__ = [
+    "GROUPS",
+    "MATERIALS",
+    "SHAPES",
+    "TASKS",
+    "ObjectSpec",
+    "Phase",
+    "TaskSpec",
+    "all_task_names",
+    "get_task",
+    "parse_tasks",
+]

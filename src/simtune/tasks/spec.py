@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
+
 import numpy as np
 
 from simtune.robot.mico import rpy_matrix
@@ -116,4 +117,3 @@ class TaskSpec:
         starts = np.array([p.start for p in self.phases])
         table = np.array([self.start_pose_deg, *(p.targets_deg for p in self.phases)], dtype=float)
         return starts, table
-
