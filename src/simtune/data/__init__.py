@@ -4,6 +4,7 @@ Formats are described in docs/recordings.md.
 """
 
 from simtune.data.csvformat import write_csv
+from simtune.data.fingerprint import data_fingerprint, fingerprint_changes, task_files
 from simtune.data.loaders import RECORDING_SUFFIXES, load_recording
 from simtune.data.qualisys import write_qualisys_tsv
 from simtune.data.recording import QRG2019_BODIES, Recording
@@ -14,9 +15,12 @@ __all__ = [
     "RECORDING_SUFFIXES",
     "Recording",
     "TaskData",
+    "data_fingerprint",
+    "fingerprint_changes",
     "load_recording",
     "load_task_data",
     "resample",
+    "task_files",
     "write_csv",
     "write_qualisys_tsv",
 ]

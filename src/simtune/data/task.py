@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from simtune.data._table import display_name
-from simtune.data.loaders import is_recording_file, load_recording
+from simtune.data.fingerprint import task_files
+from simtune.data.loaders import load_recording
 from simtune.data.recording import Recording
 from simtune.errors import ConfigError, RecordingError, RecordingWarning
 
@@ -125,10 +126,7 @@ def load_task_data(
     folder = Path(folder)
     if not folder.is_dir():
         raise RecordingError(f"no recordings (*.tsv, *.csv) in {folder}: no such folder")
-    files = sorted(
-        (p for p in folder.iterdir() if p.is_file() and is_recording_file(p)),
-        key=lambda p: p.name,
-    )
+    files = task_files(folder)
     if not files:
         raise RecordingError(f"no recordings (*.tsv, *.csv) in {folder}")
 

@@ -1,0 +1,62 @@
+"""Which files a task's recordings are, and a fingerprint of them (names, sizes, SHA-256).
+
+A run store keeps the fingerprint of the data it was tuned on, so that a
+resumed run can tell that its recordings changed, and an exported model can
+say exactly which recordings it was fitted to.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Iterable
+from pathlib import Path
+
+from simtune.data.loaders import is_recording_file
+
+
+def task_files(folder: Path | str) -> list[Path]:
+    """The recording files of one task folder, sorted by name.
+
+    macOS AppleDouble companions (``._name.tsv``, written beside every file
+    copied from a Mac onto a foreign file system) hold metadata, not data.
+    """
+    folder = Path(folder)
+    return sorted(
+        (p for p in folder.iterdir() if p.is_file() and is_recording_file(p) and not p.name.startswith("._")),
+        key=lambda p: p.name,
+    )
+
+
+def file_fingerprint(path: Path) -> dict:
+    """``{"file", "bytes", "sha256"}`` of one file."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return {"file": path.name, "bytes": path.stat().st_size, "sha256": digest.hexdigest()}
+
+
+def data_fingerprint(root: Path | str, task_names: Iterable[str]) -> dict[str, list[dict]]:
+    """Task name -> fingerprints of its recording files under ``root/<task>/`` (missing folder: empty)."""
+    root = Path(root)
+    result: dict[str, list[dict]] = {}
+    for name in task_names:
+        folder = root / name
+        result[name] = [file_fingerprint(p) for p in task_files(folder)] if folder.is_dir() else []
+    return result
+
+
+def fingerprint_changes(old: dict[str, list[dict]], new: dict[str, list[dict]]) -> list[str]:
+    """What differs between two data fingerprints, one phrase per file (``task/file changed``)."""
+    changes: list[str] = []
+    for task in sorted(set(old) | set(new)):
+        before = {f["file"]: f for f in old.get(task, [])}
+        after = {f["file"]: f for f in new.get(task, [])}
+        for name in sorted(set(before) | set(after)):
+            if name not in after:
+                changes.append(f"{task}/{name} removed")
+            elif name not in before:
+                changes.append(f"{task}/{name} added")
+            elif before[name]["sha256"] != after[name]["sha256"]:
+                changes.append(f"{task}/{name} changed")
+    return changes
