@@ -22,7 +22,7 @@ import sys
 
 import numpy as np
 
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
 from simtune.errors import EngineUnavailable
 from simtune.robot.generate import robot_urdf_file
 from simtune.robot.mico import BASE_POSITION, LINKS, WRIST_LINK
@@ -77,6 +77,10 @@ class PybulletEngine(Engine):
         from importlib.metadata import version
 
         return version("pybullet")
+
+    @classmethod
+    def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
+        return super().inactive_parameters(task) | unloaded_hard_motors("PyBullet", joints=(1, 3, 4, 5, 6), damping=(1,))
 
     def __init__(self, task: TaskSpec):
         if pybullet is None:
