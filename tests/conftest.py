@@ -24,6 +24,7 @@ def every_engine(slow: frozenset[str] = frozenset()) -> list:
     """Every engine of the registry as a test parameter; those in ``slow`` marked for the slow tier."""
     return [pytest.param(name, marks=[pytest.mark.slow] if name in slow else []) for name in ENGINES]
 
+
 ROOT = Path(__file__).resolve().parents[1]
 QRG2019 = ROOT.parent / "shared" / "datasets" / "qrg2019"
 MOCAP = QRG2019 / "mocap"

@@ -144,7 +144,9 @@ class Engine(ABC):
         if obj is None:
             for group in ("gripper", "floor"):
                 for kind in CONTACT_KINDS:
-                    inactive[f"{kind}_{group}"] = f"task {task.name!r} has no object, and the arm never reaches the floor"
+                    inactive[f"{kind}_{group}"] = (
+                        f"task {task.name!r} has no object, and the arm never reaches the floor"
+                    )
         supported = cls.supported()
         return {name: why for name, why in inactive.items() if name in supported}
 
