@@ -486,6 +486,7 @@ def params(
 
 @app.command()
 def synth(
+    *,  # keyword-only, so that the required --out may follow options with defaults
     engine: EngineOpt = "mujoco",
     task: Annotated[
         str,
@@ -526,7 +527,7 @@ def synth(
         typer.Option(
             "--out", "-o", help="Data root to write: `OUT/<task>/*.tsv` and OUT/truth.json.", show_default=False
         ),
-    ] = ...,
+    ],
 ) -> None:
     """Make recordings with a known ground truth: simulate with chosen parameters, add mocap-like noise.
 

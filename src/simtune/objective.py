@@ -123,6 +123,7 @@ class Objective:
             scores.append(score_rollout(rollout, reference, params))
             parts.append(((marker_positions(rollout, params) - reference.wrist_mean) / np.sqrt(n)).ravel())
             if self._has_object_residual(task):
+                assert rollout.object_pos is not None, "a task with an object samples its position"
                 parts.append(rollout.object_pos[-1] - reference.object_final_mean)
         score = Score.combine(scores)
         residuals = np.concatenate(parts)
@@ -134,9 +135,14 @@ class Objective:
         """The residual vector of :meth:`residuals_and_score` alone."""
         return self.residuals_and_score(params)[0]
 
+    def vector_space(self) -> ParameterSpace:
+        """The space that parameter vectors are read in; an objective made without one scores dicts only."""
+        if self.space is None:
+            raise TypeError("this objective has no parameter space: it scores parameter dicts, not vectors")
+        return self.space
+
     def score_vector(self, x, bound: float | None = None) -> Score:
-        assert self.space is not None, "score_vector needs a parameter space"
-        return self.score(self.space.to_dict(x), bound)
+        return self.score(self.vector_space().to_dict(x), bound)
 
     def close(self) -> None:
         for engine in self._engines.values():

@@ -152,7 +152,7 @@ class Engine(ABC):
             q = self.joint_angles()
             wrist_pos[k], wrist_rot[k] = self.wrist_pose()
             angles[k] = q
-            if has_object:
+            if object_pos is not None:
                 object_pos[k] = self.object_position()
             reason = self.diverged()
             if reason or k == n_samples - 1 or k - checked >= CHECK_EVERY - 1:
@@ -162,7 +162,7 @@ class Engine(ABC):
                     wrist_pos[checked : k + 1],
                     wrist_rot[checked : k + 1],
                     angles[checked : k + 1],
-                    object_pos[checked : k + 1] if has_object else None,
+                    object_pos[checked : k + 1] if object_pos is not None else None,
                     object_start,
                 )
                 if bad is None and reason:
@@ -191,7 +191,7 @@ class Engine(ABC):
             t_sim += n * dt
             steps += n
         if 0 < samples_run < n_samples:  # ended early: hold the last good sample for the rest
-            for samples in (wrist_pos, wrist_rot, angles, *([object_pos] if has_object else [])):
+            for samples in (wrist_pos, wrist_rot, angles, *([object_pos] if object_pos is not None else [])):
                 samples[samples_run:] = samples[samples_run - 1]
         return Rollout(times, wrist_pos, wrist_rot, angles, object_pos, stable, message, steps, samples_run, pruned)
 

@@ -127,6 +127,7 @@ class DartEngine(Engine):
         self._defaults = self._read_defaults()
 
     def _set_object_mass(self, mass: float) -> None:
+        assert self.task.object is not None and self.object is not None, "only a task with an object has one"
         com, inertia = object_mass_properties(self.task.object, mass)
         self.object.setInertia(dartpy.dynamics.Inertia(mass, com, inertia))
 
@@ -144,6 +145,7 @@ class DartEngine(Engine):
             values[f"restitution_{group}"] = float(aspect.getRestitutionCoeff())
         obj = self.task.object
         if obj is not None:
+            assert self.object is not None, "made for a task with an object"
             values[obj.mass_parameter] = float(self.object.getMass())
             values[f"angular_damping_{obj.material}"] = float(self._free.getDampingCoefficient(0))
             values[f"linear_damping_{obj.material}"] = float(self._free.getDampingCoefficient(3))
@@ -188,6 +190,7 @@ class DartEngine(Engine):
         self.robot.clearConstraintImpulses()
         obj = self.task.object
         if obj is not None:
+            assert self.object is not None, "made for a task with an object"
             self._set_object_mass(p[obj.mass_parameter])
             for k in range(3):
                 self._free.setDampingCoefficient(k, p[f"angular_damping_{obj.material}"])

@@ -89,6 +89,7 @@ class MujocoEngine(Engine):
             values[f"max_torque_joint_{i}"] = float(p["actuator_forcerange"][i - 1, 1])
             values[f"joint_damping_{i}"] = float(p["dof_damping"][self._arm_dof[i - 1]])
         if self.task.object is not None:
+            assert self._object is not None and self._object_dof is not None, "set for a task with an object"
             values[self.task.object.mass_parameter] = float(p["body_mass"][self._object])
             values[f"linear_damping_{self.task.object.material}"] = float(p["dof_damping"][self._object_dof])
             values[f"angular_damping_{self.task.object.material}"] = float(p["dof_damping"][self._object_dof + 3])
@@ -121,6 +122,7 @@ class MujocoEngine(Engine):
                 m.dof_damping[self._arm_dof[i - 1]] = params[f"joint_damping_{i}"]
         obj = self.task.object
         if obj is not None:
+            assert self._object is not None and self._object_dof is not None, "set for a task with an object"
             if obj.mass_parameter in params:
                 set_mass(self._object, params[obj.mass_parameter])
             d0 = self._object_dof

@@ -129,7 +129,7 @@ class PybulletEngine(Engine):
     def _groups(self) -> dict[str, list[tuple[int, int]]]:
         """Material group -> (body, link) pairs it covers."""
         groups = {"floor": [(self.floor, -1)], "gripper": [(self.robot, link) for link in self._gripper_links]}
-        if self.object is not None:
+        if self.object is not None and self.task.object is not None:
             groups[self.task.object.material] = [(self.object, -1)]
         return groups
 
@@ -140,7 +140,7 @@ class PybulletEngine(Engine):
             values[f"mass_link_{i}"] = p.getDynamicsInfo(self.robot, link, physicsClientId=c)[0]
             values[f"max_torque_joint_{i}"] = 100.0
             values[f"joint_damping_{i}"] = p.getJointInfo(self.robot, link, physicsClientId=c)[6]
-        if self.object is not None:
+        if self.object is not None and self.task.object is not None:
             values[self.task.object.mass_parameter] = p.getDynamicsInfo(self.object, -1, physicsClientId=c)[0]
         for group, members in self._groups().items():
             body, link = members[0]
