@@ -12,7 +12,7 @@ from functools import cached_property
 
 import numpy as np
 
-from simtune.robot.mico import rpy_matrix
+from simtune.geometry import rpy_matrix
 
 #: Body names of the qrg2019 motion-capture exports (robot base, wrist, object).
 BASE_BODY = "RB2(Black)"
