@@ -64,6 +64,10 @@ class Engine(ABC):
     engine_parameters: ClassVar[frozenset[str]]
 
     def __init__(self, task: TaskSpec):
+        if self.version() == "not installed":
+            from simtune.engines import not_installed  # the registry holds each engine's install command
+
+            raise not_installed(self.name)
         self.task = task
 
     @classmethod

@@ -21,10 +21,9 @@ from __future__ import annotations
 import numpy as np
 
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
-from simtune.errors import EngineUnavailable
 from simtune.robot.generate import FLOOR, OBJECT_BODY, scene_mjcf
 from simtune.robot.mico import ARM_JOINTS, LINKS, WRIST_LINK
-from simtune.tasks.spec import MATERIALS, TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
 
 try:
     import mujoco
@@ -43,7 +42,7 @@ class MujocoEngine(Engine):
     name = "mujoco"
     engine_parameters = (
         RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in _FRICTION_COLUMN for g in ("gripper", "floor", "wood", "plastic")}
+        | {f"{kind}_{g}" for kind in _FRICTION_COLUMN for g in CONTACT_GROUPS}
         | {f"{kind}_{m}" for kind in ("linear_damping", "angular_damping") for m in MATERIALS}
     )
 
@@ -52,8 +51,6 @@ class MujocoEngine(Engine):
         return mujoco.__version__ if mujoco else "not installed"
 
     def __init__(self, task: TaskSpec):
-        if mujoco is None:
-            raise EngineUnavailable("engine 'mujoco' is not installed: pip install mujoco")
         super().__init__(task)
         self.model = mujoco.MjModel.from_xml_string(scene_mjcf(task.object))
         self.data = mujoco.MjData(self.model)

@@ -39,17 +39,14 @@ import numpy as np
 
 from simtune.engines._shapes import cone_hull, host_mass_properties, link_boxes_in_host, object_mass_properties
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
-from simtune.errors import EngineUnavailable
 from simtune.robot.mico import ARM_JOINTS, JOINTS, LINK_BY_NAME, WRIST_LINK, forward_kinematics
-from simtune.tasks.spec import MATERIALS, ObjectSpec, TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, ObjectSpec, TaskSpec
 
 try:
     import odepy as ode
 except Exception:  # pragma: no cover - ImportError, or odepy's OdePyError when libode is missing
     ode = None
 
-INSTALL_HINT = "apt-get install libode8; pip install ode-python"
-_GROUPS = ("gripper", "floor", "wood", "plastic")
 _CONTACT_KINDS = ("lateral_friction", "rolling_friction", "spinning_friction", "restitution")
 _ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
 
@@ -114,7 +111,7 @@ class OdeEngine(Engine):
     name = "ode"
     engine_parameters = (
         RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in _CONTACT_KINDS for g in _GROUPS}
+        | {f"{kind}_{g}" for kind in _CONTACT_KINDS for g in CONTACT_GROUPS}
         | {f"{kind}_{g}" for kind in ("linear_damping", "angular_damping") for g in ("gripper", *MATERIALS)}
     )
 
@@ -133,8 +130,6 @@ class OdeEngine(Engine):
         return f"{lib} (ode-python {version('ode-python')})"
 
     def __init__(self, task: TaskSpec):
-        if ode is None:
-            raise EngineUnavailable(f"engine 'ode' is not installed: {INSTALL_HINT}")
         super().__init__(task)
         self._world = None
         self._callback = _NearCallback(self._near)  # kept alive as long as the engine

@@ -23,10 +23,9 @@ import sys
 import numpy as np
 
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
-from simtune.errors import EngineUnavailable
 from simtune.robot.generate import robot_urdf_file
 from simtune.robot.mico import BASE_POSITION, LINKS, WRIST_LINK
-from simtune.tasks.spec import TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
 
 try:
     import pybullet
@@ -51,7 +50,6 @@ def _stdout_silenced():
         os.close(saved)
 
 
-_GROUPS = ("gripper", "floor", "wood", "plastic")
 _CONTACT = {  # parameter kind -> changeDynamics keyword
     "lateral_friction": "lateralFriction",
     "spinning_friction": "spinningFriction",
@@ -66,8 +64,8 @@ class PybulletEngine(Engine):
     name = "pybullet"
     engine_parameters = (
         RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in _CONTACT for g in _GROUPS}
-        | {f"{kind}_{g}" for kind in _BODY_DAMPING for g in ("gripper", "wood", "plastic")}
+        | {f"{kind}_{g}" for kind in _CONTACT for g in CONTACT_GROUPS}
+        | {f"{kind}_{g}" for kind in _BODY_DAMPING for g in ("gripper", *MATERIALS)}
     )
 
     @classmethod
@@ -79,8 +77,6 @@ class PybulletEngine(Engine):
         return version("pybullet")
 
     def __init__(self, task: TaskSpec):
-        if pybullet is None:
-            raise EngineUnavailable("engine 'pybullet' is not installed: pip install pybullet (or simtune[pybullet])")
         super().__init__(task)
         with _stdout_silenced():
             self.client = pybullet.connect(pybullet.DIRECT)
