@@ -118,12 +118,13 @@ def check_same_units(distances: list[tuple[str, float]]) -> None:
         return
     if len(odd) < len(distances) / 2:
         name, d = odd[0]
-        ratio = d / median
+        others = float(np.median([x for n, x in distances if (n, x) not in odd]))
+        ratio = d / others
         size = f"{ratio:.3g} x larger" if ratio > 1 else f"{1 / ratio:.3g} x smaller"
         more = f" (as is {', '.join(n for n, _ in odd[1:])})" if len(odd) > 1 else ""
         raise RecordingError(
             f"{name}: units check: the wrist stays {d:.3g} m from the base (median), {size} than in the other "
-            f"repeats ({median:.3g} m): this repeat is in other units than the rest{more}"
+            f"repeats ({others:.3g} m): this repeat is in other units than the rest{more}"
         )
     (near, d_near), (far, d_far) = min(distances, key=lambda x: x[1]), max(distances, key=lambda x: x[1])
     raise RecordingError(
