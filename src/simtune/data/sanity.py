@@ -107,24 +107,31 @@ def check_same_units(distances: list[tuple[str, float]]) -> None:
     """Units check across a folder: every repeat's wrist distance agrees with the others'.
 
     ``distances`` holds (file name, :func:`wrist_distance`) per repeat.  A
-    minority of repeats off the median by more than SAME_UNITS_FACTOR is named;
-    when no majority agrees (two repeats, or half and half) the extremes are.
+    repeat off the median of the others by more than SAME_UNITS_FACTOR is odd;
+    a minority of odd repeats is named, and when no majority agrees (two
+    repeats, or half and half) the two extremes are.
     """
     if len(distances) < 2:
         return
-    median = float(np.median([d for _, d in distances]))
-    odd = [(name, d) for name, d in distances if not (1 / SAME_UNITS_FACTOR <= d / median <= SAME_UNITS_FACTOR)]
+    values = np.array([d for _, d in distances])
+    # Each repeat against the median of the others: with two repeats, the median of both would hide a factor 4.
+    others = [float(np.median(np.delete(values, i))) for i in range(len(values))]
+    odd = [
+        (name, d)
+        for (name, d), ref in zip(distances, others)
+        if not (1 / SAME_UNITS_FACTOR <= d / ref <= SAME_UNITS_FACTOR)
+    ]
     if not odd:
         return
     if len(odd) < len(distances) / 2:
         name, d = odd[0]
-        others = float(np.median([x for n, x in distances if (n, x) not in odd]))
-        ratio = d / others
+        agreeing = float(np.median([x for n, x in distances if (n, x) not in odd]))
+        ratio = d / agreeing
         size = f"{ratio:.3g} x larger" if ratio > 1 else f"{1 / ratio:.3g} x smaller"
         more = f" (as is {', '.join(n for n, _ in odd[1:])})" if len(odd) > 1 else ""
         raise RecordingError(
             f"{name}: units check: the wrist stays {d:.3g} m from the base (median), {size} than in the other "
-            f"repeats ({others:.3g} m): this repeat is in other units than the rest{more}"
+            f"repeats ({agreeing:.3g} m): this repeat is in other units than the rest{more}"
         )
     (near, d_near), (far, d_far) = min(distances, key=lambda x: x[1]), max(distances, key=lambda x: x[1])
     raise RecordingError(
