@@ -23,11 +23,12 @@ from simtune.errors import RecordingError
 GENERIC_REACH_M = 1.5
 
 #: The wrist's median distance from the base must lie between these shares of the reach.
-#: Below: no pose brings a wrist within a hundredth of its arm's reach of the base (links
-#: have length: the MICO's wrist origin never comes closer than 2.4 cm, a 37th of its
-#: reach), while a file in metres read as millimetres puts it at most reach/1000 away.
-#: Above: a wrist cannot be farther than the reach; twice leaves room for marker offsets
-#: and a base marker off the arm's axis, while millimetres read as metres are 1000x out.
+#: Below (9 mm for the MICO): the wrist's and the base's rigid bodies are marker clusters
+#: centimetres across on different links, which cannot sit inside each other or inside the
+#: arm's 8 cm wide base column for most of a take; a file in metres read as millimetres
+#: puts the wrist at most reach/1000 away.  Above: a wrist cannot be farther than the
+#: reach; twice leaves room for marker offsets and a base marker off the arm's axis, while
+#: millimetres read as metres are 1000x out.
 UNITS_LOW_SHARE = 0.01
 UNITS_HIGH_SHARE = 2.0
 
@@ -94,7 +95,7 @@ def check_units(distance: float, display: str, wrist_body: str, reach_m: float) 
     if low <= distance <= high:
         return
     if distance < low:
-        hint = f"closer than any pose allows ({low:.3g} m): positions look too small - metres in a millimetre file?"
+        hint = f"closer than {low:.3g} m, inside the arm: positions look too small - metres in a millimetre file?"
     else:
         hint = f"beyond twice its reach ({high:.3g} m): positions look too large - millimetres in a metre file?"
     raise RecordingError(
