@@ -65,8 +65,8 @@ def check_time(rec: Recording, display: str, duration_s: float | None) -> None:
     if beyond.size:
         i = int(beyond[0])
         raise RecordingError(
-            f"{display} {rec.where(i)}: time check: {rec.time[i]:.6g} s lies {span[i]:.6g} s after the first "
-            f"frame, more than {what} (a time column in other units, or a damaged frame?)"
+            f"{display} {rec.where(i)}: time check: the time {rec.time[i]:.6g} s is more than {what} after the "
+            f"first frame's {rec.time[0]:.6g} s (a time column in other units, or a damaged frame?)"
         )
 
 
@@ -95,12 +95,14 @@ def check_units(distance: float, display: str, wrist_body: str, reach_m: float) 
     if low <= distance <= high:
         return
     if distance < low:
-        hint = f"closer than {low:.3g} m, inside the arm: positions look too small - metres in a millimetre file?"
+        where = f"at least {low:.3g} m away (not inside the arm)"
+        hint = "positions look too small - metres in a millimetre file?"
     else:
-        hint = f"beyond twice its reach ({high:.3g} m): positions look too large - millimetres in a metre file?"
+        where = f"within {high:.3g} m (twice its reach)"
+        hint = "positions look too large - millimetres in a metre file?"
     raise RecordingError(
         f"{display}: units check: the wrist {wrist_body!r} stays {distance:.3g} m from the base (median), "
-        f"for an arm reaching {reach_m:.3g} m - {hint}"
+        f"but an arm reaching {reach_m:.3g} m keeps it {where}: {hint}"
     )
 
 
