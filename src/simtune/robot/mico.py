@@ -158,6 +158,21 @@ END_EFFECTOR_OFFSET = ((0, 0, -0.16), (pi, 0, 0))
 LINK_BY_NAME = {link.name: link for link in LINKS}
 
 
+def _chain_length(link: str) -> float:
+    """Base height plus the lengths of the joint offsets from the base up to ``link``."""
+    length = float(np.linalg.norm(BASE_POSITION))
+    while link != "link_base":
+        joint = next(j for j in JOINTS if j.child == link)
+        length += float(np.linalg.norm(joint.xyz))
+        link = joint.parent
+    return length
+
+
+#: No pose puts the wrist farther than this from the world origin [m] (about 0.89 m): the
+#: chain's offsets laid end to end.  The recordings' units are judged by it.
+WRIST_REACH_M = _chain_length(WRIST_LINK)
+
+
 def children(link_name: str) -> list[Joint]:
     """The joints whose parent is ``link_name``, in table order."""
     return [j for j in JOINTS if j.parent == link_name]
