@@ -443,10 +443,10 @@ def engines() -> None:
     from simtune.engines import ENGINES
 
     table = text_table("physics engines", ("engine", "version", "installed", "install"))
-    for name, (module, cls, hint) in ENGINES.items():
-        version = getattr(importlib.import_module(module), cls).version()
+    for name, entry in ENGINES.items():
+        version = getattr(importlib.import_module(entry.module), entry.cls).version()
         installed = version != "not installed"
-        table.add_row(name, version if installed else "-", "yes" if installed else "[red]no[/]", escape(hint))
+        table.add_row(name, version if installed else "-", "yes" if installed else "[red]no[/]", escape(entry.install))
     out.print(table)
 
 
@@ -486,6 +486,7 @@ def params(
 
 @app.command()
 def synth(
+    *,  # keyword-only, so that the required --out may follow options with defaults
     engine: EngineOpt = "mujoco",
     task: Annotated[
         str,
@@ -526,7 +527,7 @@ def synth(
         typer.Option(
             "--out", "-o", help="Data root to write: `OUT/<task>/*.tsv` and OUT/truth.json.", show_default=False
         ),
-    ] = ...,
+    ],
 ) -> None:
     """Make recordings with a known ground truth: simulate with chosen parameters, add mocap-like noise.
 

@@ -17,6 +17,7 @@ fit could not tell delays within one period apart).
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from simtune.tasks.spec import TaskSpec
 
@@ -41,7 +42,7 @@ class JointController:
         #: how long after each 20 Hz sample instant the controller updates [s], in [0, CONTROL_PERIOD)
         self.phase = self.delay % CONTROL_PERIOD
 
-    def targets(self, times: np.ndarray) -> np.ndarray:
+    def targets(self, times: npt.ArrayLike) -> np.ndarray:
         """Joint targets [rad] in force at each simulated time of ``times`` (one row per time)."""
         starts, table = self.task.schedule
         rows = np.searchsorted(starts, np.asarray(times, dtype=float) - self.delay + 1e-12, side="right")

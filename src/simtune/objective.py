@@ -17,11 +17,17 @@ from simtune.engines import Engine, engine_class, make_engine
 from simtune.errors import SimtuneError
 from simtune.fitness import PENALTY, Score, TaskScore, marker_positions, score_rollout
 from simtune.params import ParameterSpace
+from simtune.robot.mico import WRIST_REACH_M
 from simtune.tasks import TaskSpec
+from simtune.tasks.spec import BASE_BODY
 
 
 def load_references(root: Path, tasks: list[TaskSpec]) -> dict[str, TaskData]:
-    """The recordings of each task, from ``root/<task name>/``."""
+    """The recordings of each task, from ``root/<task name>/``, checked against the task and the arm.
+
+    The task's duration and the MICO's reach go to the loader's sanity stage as
+    plain numbers (data/ knows neither tasks nor robots).
+    """
     root = Path(root)
     if not root.is_dir():
         raise SimtuneError(f"data folder {root} does not exist (expected {root}/<task>/*.tsv)")
@@ -35,6 +41,9 @@ def load_references(root: Path, tasks: list[TaskSpec]) -> dict[str, TaskData]:
             task.name,
             wrist_body=task.wrist_body,
             object_body=task.object.mocap_body if task.object is not None else None,
+            duration_s=task.duration,
+            reach_m=WRIST_REACH_M,
+            base_body=BASE_BODY,
         )
     return refs
 
@@ -123,6 +132,7 @@ class Objective:
             scores.append(score_rollout(rollout, reference, params))
             parts.append(((marker_positions(rollout, params) - reference.wrist_mean) / np.sqrt(n)).ravel())
             if self._has_object_residual(task):
+                assert rollout.object_pos is not None, "a task with an object samples its position"
                 parts.append(rollout.object_pos[-1] - reference.object_final_mean)
         score = Score.combine(scores)
         residuals = np.concatenate(parts)
@@ -134,9 +144,14 @@ class Objective:
         """The residual vector of :meth:`residuals_and_score` alone."""
         return self.residuals_and_score(params)[0]
 
+    def vector_space(self) -> ParameterSpace:
+        """The space that parameter vectors are read in; an objective made without one scores dicts only."""
+        if self.space is None:
+            raise TypeError("this objective has no parameter space: it scores parameter dicts, not vectors")
+        return self.space
+
     def score_vector(self, x, bound: float | None = None) -> Score:
-        assert self.space is not None, "score_vector needs a parameter space"
-        return self.score(self.space.to_dict(x), bound)
+        return self.score(self.vector_space().to_dict(x), bound)
 
     def close(self) -> None:
         for engine in self._engines.values():

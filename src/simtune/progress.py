@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import BarColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
 
 from simtune.fitness import Score
 
@@ -36,7 +36,7 @@ class TuneProgress:
             disable=not enabled,
             transient=False,
         )
-        self._task = None
+        self._task: TaskID | None = None  # set on entering the context
 
     def __enter__(self) -> TuneProgress:
         self._progress.__enter__()

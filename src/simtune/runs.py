@@ -97,8 +97,8 @@ def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> T
         config=asdict(config),
         versions=versions(config.engine),
         command=sys.argv,
-        parameters=objective.space.names,
-        bounds=objective.space.bounds,
+        parameters=objective.vector_space().names,
+        bounds=objective.vector_space().bounds,
         generic=generic.to_dict(),
         status="running",
         elapsed_s=0.0,
@@ -115,7 +115,7 @@ def resume_run(run_dir: Path, show_progress: bool = True) -> TuneResult:
     config = RunConfig(**stored)
     config.check()
     objective = build_objective(config)
-    if objective.space.names != store.get("parameters"):
+    if objective.vector_space().names != store.get("parameters"):
         raise SimtuneError(f"{run_dir}: the stored parameter list differs from this simtune's {config.space!r} space")
     return _run(objective, config, store, show_progress)
 

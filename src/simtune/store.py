@@ -73,7 +73,12 @@ def vector_key(x) -> str:
 
 
 class RunStore:
-    """SQLite store of one run.  Only the coordinating process writes to it."""
+    """SQLite store of one run.  Only the coordinating process writes to it.
+
+    ``RunStore(run_dir)`` opens it for writing; :meth:`open_read_only` for reading alone.
+    """
+
+    read_only = False
 
     def __init__(self, run_dir: Path, create: bool = False, filename: str = STORE_FILE):
         self.run_dir = Path(run_dir)
@@ -104,9 +109,42 @@ class RunStore:
         if version != SCHEMA_VERSION:
             raise SimtuneError(f"{self.path}: run store version {version}, this simtune reads version {SCHEMA_VERSION}")
 
+    @classmethod
+    def open_read_only(cls, run_dir: Path, filename: str = STORE_FILE) -> RunStore:
+        """The store in ``run_dir`` opened read-only (SQLite ``mode=ro``): every query works, every write fails.
+
+        Reading leaves the run folder as it was.  A store closed cleanly has no ``-wal`` file: all of it
+        is in its one file, which is then opened ``immutable`` so that SQLite creates no side files (it
+        assumes no writer appears while it reads: stores of finished runs have none).  A store with a
+        ``-wal`` file (a run being written, or one that was killed) is read through that file.  A file
+        that is not a SQLite database raises :class:`sqlite3.DatabaseError`, here or at a later query.
+        """
+        store = cls.__new__(cls)
+        store.run_dir = Path(run_dir)
+        store.path = store.run_dir / filename
+        store.read_only = True
+        if not store.path.is_file():
+            raise SimtuneError(f"{store.run_dir} is not a run folder (no {filename})")
+        wal = store.path.with_name(store.path.name + "-wal")
+        flags = "mode=ro" if wal.exists() else "mode=ro&immutable=1"
+        store.db = sqlite3.connect(f"{store.path.resolve().as_uri()}?{flags}", uri=True, timeout=30)
+        try:
+            version = store.get("schema_version")
+        except sqlite3.Error:
+            store.db.close()
+            raise
+        if version != SCHEMA_VERSION:
+            store.db.close()
+            raise SimtuneError(
+                f"{store.path}: run store version {version}, this simtune reads version {SCHEMA_VERSION}"
+            )
+        return store
+
     @contextmanager
     def _writing(self):
         """A committed transaction; a failed write (disk full, folder removed) is one clear error."""
+        if self.read_only:
+            raise SimtuneError(f"{self.path} is open read-only: not written")
         try:
             with self.db:
                 yield
@@ -191,6 +229,11 @@ class RunStore:
             )
             for r in rows
         ]
+
+    def initial_fitness(self) -> list[float]:
+        """Fitness of every evaluation of the initial population (generation 0), in store order."""
+        rows = self.db.execute("SELECT fitness FROM evaluations WHERE generation = 0 ORDER BY id").fetchall()
+        return [float(r[0]) for r in rows]
 
     def best_evaluation(self) -> dict | None:
         row = self.db.execute("SELECT x, score FROM evaluations ORDER BY fitness, id LIMIT 1").fetchone()

@@ -81,11 +81,11 @@ def run_transfer(
     totals = {}
     for role in ("train", "test"):
         mine = [r for r in rows if r.role == role]
-        generic, tuned_sum = sum(r.generic for r in mine), sum(r.tuned for r in mine)
+        generic_sum, tuned_sum = sum(r.generic for r in mine), sum(r.tuned for r in mine)
         totals[role] = {
-            "generic": generic,
+            "generic": generic_sum,
             "tuned": tuned_sum,
-            "change": (tuned_sum - generic) / generic if generic else 0.0,
+            "change": (tuned_sum - generic_sum) / generic_sum if generic_sum else 0.0,
         }
     result = {
         "engine": config.engine,

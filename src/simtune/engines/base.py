@@ -54,7 +54,7 @@ def unreachable_servo_limits(gain: float) -> dict[str, str]:
     """The torque limits of velocity servos with gain ``gain`` [N m s/rad]: parameter -> why they never act.
 
     Such a servo's force is the gain times the velocity error, and the error stays under
-    about half a rad/s (the commanded speeds are at most 40 deg/s), far from the lowest limit.
+    1 rad/s (the commanded speeds are at most 40 deg/s, 0.7 rad/s): below the lowest limit.
     """
     why = (
         f"the velocity servo's force ({gain:g} N m s/rad times the velocity error, under 1 rad/s) "
@@ -109,6 +109,10 @@ class Engine(ABC):
     engine_parameters: ClassVar[frozenset[str]]
 
     def __init__(self, task: TaskSpec):
+        if self.version() == "not installed":
+            from simtune.engines import not_installed  # the registry holds each engine's install command
+
+            raise not_installed(self.name)
         self.task = task
 
     @classmethod
@@ -228,7 +232,7 @@ class Engine(ABC):
             q = self.joint_angles()
             wrist_pos[k], wrist_rot[k] = self.wrist_pose()
             angles[k] = q
-            if has_object:
+            if object_pos is not None:
                 object_pos[k] = self.object_position()
             reason = self.diverged()
             if reason or k == n_samples - 1 or k - checked >= CHECK_EVERY - 1:
@@ -238,7 +242,7 @@ class Engine(ABC):
                     wrist_pos[checked : k + 1],
                     wrist_rot[checked : k + 1],
                     angles[checked : k + 1],
-                    object_pos[checked : k + 1] if has_object else None,
+                    object_pos[checked : k + 1] if object_pos is not None else None,
                     object_start,
                 )
                 if bad is None and reason:
@@ -267,7 +271,7 @@ class Engine(ABC):
             t_sim += n * dt
             steps += n
         if 0 < samples_run < n_samples:  # ended early: hold the last good sample for the rest
-            for samples in (wrist_pos, wrist_rot, angles, *([object_pos] if has_object else [])):
+            for samples in (wrist_pos, wrist_rot, angles, *([object_pos] if object_pos is not None else [])):
                 samples[samples_run:] = samples[samples_run - 1]
         return Rollout(times, wrist_pos, wrist_rot, angles, object_pos, stable, message, steps, samples_run, pruned)
 

@@ -27,17 +27,15 @@ import numpy as np
 
 from simtune.engines._shapes import object_mass_properties
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
-from simtune.errors import EngineUnavailable
 from simtune.robot.generate import robot_urdf_file
 from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, LINKS, WRIST_LINK
-from simtune.tasks.spec import MATERIALS, TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
 
 try:
     import dartpy
 except ImportError:  # pragma: no cover - depends on the machine
     dartpy = None
 
-INSTALL_HINT = "pip install dartpy"
 DEFAULT_MAX_TORQUE = 100.0
 _ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
 
@@ -55,7 +53,7 @@ class DartEngine(Engine):
     name = "dart"
     engine_parameters = (
         RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in ("lateral_friction", "restitution") for g in ("gripper", "floor", *MATERIALS)}
+        | {f"{kind}_{g}" for kind in ("lateral_friction", "restitution") for g in CONTACT_GROUPS}
         | {f"{kind}_{m}" for kind in ("linear_damping", "angular_damping") for m in MATERIALS}
     )
 
@@ -72,8 +70,6 @@ class DartEngine(Engine):
         )
 
     def __init__(self, task: TaskSpec):
-        if dartpy is None:
-            raise EngineUnavailable(f"engine 'dart' is not installed: {INSTALL_HINT}")
         super().__init__(task)
         d = dartpy
         self.world = d.simulation.World()
@@ -135,6 +131,7 @@ class DartEngine(Engine):
         self._defaults = self._read_defaults()
 
     def _set_object_mass(self, mass: float) -> None:
+        assert self.task.object is not None and self.object is not None, "only a task with an object has one"
         com, inertia = object_mass_properties(self.task.object, mass)
         self.object.setInertia(dartpy.dynamics.Inertia(mass, com, inertia))
 
@@ -152,6 +149,7 @@ class DartEngine(Engine):
             values[f"restitution_{group}"] = float(aspect.getRestitutionCoeff())
         obj = self.task.object
         if obj is not None:
+            assert self.object is not None, "made for a task with an object"
             values[obj.mass_parameter] = float(self.object.getMass())
             values[f"angular_damping_{obj.material}"] = float(self._free.getDampingCoefficient(0))
             values[f"linear_damping_{obj.material}"] = float(self._free.getDampingCoefficient(3))
@@ -196,6 +194,7 @@ class DartEngine(Engine):
         self.robot.clearConstraintImpulses()
         obj = self.task.object
         if obj is not None:
+            assert self.object is not None, "made for a task with an object"
             self._set_object_mass(p[obj.mass_parameter])
             for k in range(3):
                 self._free.setDampingCoefficient(k, p[f"angular_damping_{obj.material}"])

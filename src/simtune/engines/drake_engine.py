@@ -30,15 +30,21 @@ from __future__ import annotations
 import logging
 from collections import OrderedDict
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from simtune.engines._shapes import object_mass_properties
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
-from simtune.errors import EngineUnavailable
 from simtune.robot.generate import robot_urdf
 from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, LINKS, WRIST_LINK
-from simtune.tasks.spec import TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, ObjectSpec, TaskSpec
+
+if TYPE_CHECKING:  # for the annotations of _System (mypy reads pydrake as untyped: see pyproject.toml)
+    from pydrake.geometry import GeometryId, SceneGraph
+    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.multibody.tree import JointActuator, ModelInstanceIndex, RevoluteJoint, RigidBody
+    from pydrake.systems.framework import Context
 
 try:
     import pydrake
@@ -70,7 +76,6 @@ else:
     # contact (there is none here); keep the log to errors
     logging.getLogger("drake").setLevel(logging.ERROR)
 
-INSTALL_HINT = "pip install drake"
 DEFAULT_MAX_TORQUE = 100.0
 SERVO_KD = 100.0  # [N m s/rad] the velocity servo's gain, as MuJoCo's kv
 #: hydroelastic mesh resolution for the objects [m]: at 1 cm the faceted 37.5 mm cylinder rolls off a
@@ -85,26 +90,24 @@ class _System:
     """One built diagram (plant + scene graph) for one time step."""
 
     timestep: float
-    plant: object
-    scene_graph: object
-    simulator: object
-    context: object
-    plant_context: object
-    sg_context: object
-    arm: object  # model instance
-    joints: list
-    actuators: list
-    links: list
-    wrist: object
-    object_body: object | None
-    geometries: dict  # group -> [GeometryId]
+    plant: MultibodyPlant
+    scene_graph: SceneGraph
+    simulator: Simulator
+    context: Context
+    plant_context: Context
+    sg_context: Context
+    arm: ModelInstanceIndex
+    joints: list[RevoluteJoint]
+    actuators: list[JointActuator]
+    links: list[RigidBody]
+    wrist: RigidBody
+    object_body: RigidBody | None
+    geometries: dict[str, list[GeometryId]]  # contact group -> its collision geometries
 
 
 class DrakeEngine(Engine):
     name = "drake"
-    engine_parameters = RIGID_BODY_PARAMETERS | {
-        f"lateral_friction_{g}" for g in ("gripper", "floor", "wood", "plastic")
-    }
+    engine_parameters = RIGID_BODY_PARAMETERS | {f"lateral_friction_{g}" for g in CONTACT_GROUPS}
 
     @classmethod
     def version(cls) -> str:
@@ -119,8 +122,6 @@ class DrakeEngine(Engine):
         return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KD)
 
     def __init__(self, task: TaskSpec):
-        if pydrake is None:
-            raise EngineUnavailable(f"engine 'drake' is not installed: {INSTALL_HINT}")
         super().__init__(task)
         self._systems: OrderedDict[float, _System] = OrderedDict()
         self._urdf = robot_urdf()
@@ -183,7 +184,7 @@ class DrakeEngine(Engine):
         obj = self.task.object
         if obj is not None:
             instance = plant.AddModelInstance("object")
-            body = plant.AddRigidBody("object", instance, self._object_inertia(obj.mass))
+            body = plant.AddRigidBody("object", instance, self._object_inertia(obj, obj.mass))
             if obj.shape in ("cube", "cuboid"):
                 shape = Box(*obj.size)
             elif obj.shape == "cylinder":
@@ -227,8 +228,8 @@ class DrakeEngine(Engine):
         self._pose(system, np.radians(self.task.start_pose_deg))
         return system
 
-    def _object_inertia(self, mass: float):
-        com, inertia = object_mass_properties(self.task.object, mass)
+    def _object_inertia(self, obj: ObjectSpec, mass: float) -> SpatialInertia:
+        com, inertia = object_mass_properties(obj, mass)
         central = RotationalInertia(
             inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]
         )
@@ -243,6 +244,7 @@ class DrakeEngine(Engine):
             values[f"joint_damping_{i}"] = float(joint.default_damping())
         obj = self.task.object
         if obj is not None:
+            assert s.object_body is not None, "built for a task with an object"
             values[obj.mass_parameter] = float(s.object_body.default_mass())
         inspector = s.scene_graph.model_inspector()
         for group, ids in s.geometries.items():
@@ -281,7 +283,8 @@ class DrakeEngine(Engine):
                 s.scene_graph.AssignRole(s.sg_context, s.plant.get_source_id(), gid, props, RoleAssign.kReplace)
         obj = self.task.object
         if obj is not None:
-            s.object_body.SetSpatialInertiaInBodyFrame(ctx, self._object_inertia(p[obj.mass_parameter]))
+            assert s.object_body is not None, "built for a task with an object"
+            s.object_body.SetSpatialInertiaInBodyFrame(ctx, self._object_inertia(obj, p[obj.mass_parameter]))
             s.plant.SetFreeBodyPose(
                 ctx, s.object_body, RigidTransform(RotationMatrix(obj.rotation), obj.start_position)
             )

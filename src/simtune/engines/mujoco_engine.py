@@ -21,10 +21,9 @@ from __future__ import annotations
 import numpy as np
 
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
-from simtune.errors import EngineUnavailable
 from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf
 from simtune.robot.mico import ARM_JOINTS, LINKS, WRIST_LINK
-from simtune.tasks.spec import MATERIALS, TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
 
 try:
     import mujoco
@@ -43,7 +42,7 @@ class MujocoEngine(Engine):
     name = "mujoco"
     engine_parameters = (
         RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in _FRICTION_COLUMN for g in ("gripper", "floor", "wood", "plastic")}
+        | {f"{kind}_{g}" for kind in _FRICTION_COLUMN for g in CONTACT_GROUPS}
         | {f"{kind}_{m}" for kind in ("linear_damping", "angular_damping") for m in MATERIALS}
     )
 
@@ -56,8 +55,6 @@ class MujocoEngine(Engine):
         return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KV)
 
     def __init__(self, task: TaskSpec):
-        if mujoco is None:
-            raise EngineUnavailable("engine 'mujoco' is not installed: pip install mujoco")
         super().__init__(task)
         self.model = mujoco.MjModel.from_xml_string(scene_mjcf(task.object))
         self.data = mujoco.MjData(self.model)
@@ -93,6 +90,7 @@ class MujocoEngine(Engine):
             values[f"max_torque_joint_{i}"] = float(p["actuator_forcerange"][i - 1, 1])
             values[f"joint_damping_{i}"] = float(p["dof_damping"][self._arm_dof[i - 1]])
         if self.task.object is not None:
+            assert self._object is not None and self._object_dof is not None, "set for a task with an object"
             values[self.task.object.mass_parameter] = float(p["body_mass"][self._object])
             values[f"linear_damping_{self.task.object.material}"] = float(p["dof_damping"][self._object_dof])
             values[f"angular_damping_{self.task.object.material}"] = float(p["dof_damping"][self._object_dof + 3])
@@ -125,6 +123,7 @@ class MujocoEngine(Engine):
                 m.dof_damping[self._arm_dof[i - 1]] = params[f"joint_damping_{i}"]
         obj = self.task.object
         if obj is not None:
+            assert self._object is not None and self._object_dof is not None, "set for a task with an object"
             if obj.mass_parameter in params:
                 set_mass(self._object, params[obj.mass_parameter])
             d0 = self._object_dof

@@ -33,22 +33,20 @@ from __future__ import annotations
 import ctypes
 import math
 from ctypes import POINTER, byref, c_int, c_void_p
+from typing import Any
 
 import numpy as np
 
 from simtune.engines._shapes import cone_hull, host_mass_properties, link_boxes_in_host, object_mass_properties
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
-from simtune.errors import EngineUnavailable
 from simtune.robot.mico import ARM_JOINTS, JOINTS, LINK_BY_NAME, WRIST_LINK, forward_kinematics
-from simtune.tasks.spec import MATERIALS, TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, ObjectSpec, TaskSpec
 
 try:
     import odepy as ode
 except Exception:  # pragma: no cover - ImportError, or odepy's OdePyError when libode is missing
     ode = None
 
-INSTALL_HINT = "apt-get install libode8; pip install ode-python"
-_GROUPS = ("gripper", "floor", "wood", "plastic")
 _CONTACT_KINDS = ("lateral_friction", "rolling_friction", "spinning_friction", "restitution")
 _ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
 
@@ -90,7 +88,7 @@ if ode is not None:
     @ctypes.CFUNCTYPE(None, c_int, POINTER(ctypes.c_char))
     def _on_message(number, text):  # ODE prints these to stderr by default: remembered instead
         if len(_messages) < 100:
-            _messages.append(ctypes.cast(text, ctypes.c_char_p).value.decode(errors="replace"))
+            _messages.append((ctypes.cast(text, ctypes.c_char_p).value or b"").decode(errors="replace"))
 
     ode.dInitODE2(0)
     ode.dSetMessageHandler(_on_message)
@@ -113,7 +111,7 @@ class OdeEngine(Engine):
     name = "ode"
     engine_parameters = (
         RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in _CONTACT_KINDS for g in _GROUPS}
+        | {f"{kind}_{g}" for kind in _CONTACT_KINDS for g in CONTACT_GROUPS}
         | {f"{kind}_{g}" for kind in ("linear_damping", "angular_damping") for g in ("gripper", *MATERIALS)}
     )
 
@@ -139,8 +137,6 @@ class OdeEngine(Engine):
         )
 
     def __init__(self, task: TaskSpec):
-        if ode is None:
-            raise EngineUnavailable(f"engine 'ode' is not installed: {INSTALL_HINT}")
         super().__init__(task)
         self._world = None
         self._callback = _NearCallback(self._near)  # kept alive as long as the engine
@@ -209,7 +205,7 @@ class OdeEngine(Engine):
         masses = {link: p[f"mass_link_{i}"] for i, link in enumerate(_ARM_LINKS, start=1)}
         mass_props = host_mass_properties(masses)
         boxes = link_boxes_in_host()
-        self._bodies: dict[str, object] = {}
+        self._bodies: dict[str, ctypes._Pointer[Any]] = {}  # odepy's dBodyID of each moving link
         self._com: dict[str, np.ndarray] = {}
         for host, (mass, com, inertia) in mass_props.items():
             pos, rot = poses[host]
@@ -311,7 +307,7 @@ class OdeEngine(Engine):
             ode.dGeomSetBody(geom, body)
             ode.dGeomSetOffsetPosition(geom, *(-com))
             self._register(geom, obj.material, body, _OBJECT, _FLOOR | _ARM)
-            self._place_object()
+            self._place_object(obj)
 
         for g, body in self._damped_bodies().items():
             if f"linear_damping_{g}" in p:
@@ -347,16 +343,17 @@ class OdeEngine(Engine):
     def _register(self, geom, group: str, body, category: int, collide: int) -> None:
         ode.dGeomSetCategoryBits(geom, category)
         ode.dGeomSetCollideBits(geom, collide)
-        self._geoms[ctypes.cast(geom, c_void_p).value] = (group, ctypes.cast(body, c_void_p).value if body else None)
+        address = ctypes.cast(geom, c_void_p).value
+        assert address is not None, "ODE returned a null geom"
+        self._geoms[address] = (group, ctypes.cast(body, c_void_p).value if body else None)
 
-    def _damped_bodies(self) -> dict[str, object]:
+    def _damped_bodies(self) -> dict[str, ctypes._Pointer[Any]]:
         bodies = {"gripper": self._bodies["link_6"]}
-        if self._object is not None:
+        if self._object is not None and self.task.object is not None:
             bodies[self.task.object.material] = self._object
         return bodies
 
-    def _place_object(self) -> None:
-        obj = self.task.object
+    def _place_object(self, obj: ObjectSpec) -> None:
         rot = obj.rotation
         c = np.asarray(obj.start_position) + rot @ self._object_com
         ode.dBodySetPosition(self._object, *c)

@@ -23,10 +23,9 @@ import sys
 import numpy as np
 
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
-from simtune.errors import EngineUnavailable
 from simtune.robot.generate import robot_urdf_file
 from simtune.robot.mico import BASE_POSITION, LINKS, WRIST_LINK
-from simtune.tasks.spec import TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
 
 try:
     import pybullet
@@ -51,7 +50,6 @@ def _stdout_silenced():
         os.close(saved)
 
 
-_GROUPS = ("gripper", "floor", "wood", "plastic")
 _CONTACT = {  # parameter kind -> changeDynamics keyword
     "lateral_friction": "lateralFriction",
     "spinning_friction": "spinningFriction",
@@ -66,8 +64,8 @@ class PybulletEngine(Engine):
     name = "pybullet"
     engine_parameters = (
         RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in _CONTACT for g in _GROUPS}
-        | {f"{kind}_{g}" for kind in _BODY_DAMPING for g in ("gripper", "wood", "plastic")}
+        | {f"{kind}_{g}" for kind in _CONTACT for g in CONTACT_GROUPS}
+        | {f"{kind}_{g}" for kind in _BODY_DAMPING for g in ("gripper", *MATERIALS)}
     )
 
     @classmethod
@@ -87,8 +85,6 @@ class PybulletEngine(Engine):
         )
 
     def __init__(self, task: TaskSpec):
-        if pybullet is None:
-            raise EngineUnavailable("engine 'pybullet' is not installed: pip install pybullet (or simtune[pybullet])")
         super().__init__(task)
         with _stdout_silenced():
             self.client = pybullet.connect(pybullet.DIRECT)
@@ -137,7 +133,7 @@ class PybulletEngine(Engine):
     def _groups(self) -> dict[str, list[tuple[int, int]]]:
         """Material group -> (body, link) pairs it covers."""
         groups = {"floor": [(self.floor, -1)], "gripper": [(self.robot, link) for link in self._gripper_links]}
-        if self.object is not None:
+        if self.object is not None and self.task.object is not None:
             groups[self.task.object.material] = [(self.object, -1)]
         return groups
 
@@ -148,7 +144,7 @@ class PybulletEngine(Engine):
             values[f"mass_link_{i}"] = p.getDynamicsInfo(self.robot, link, physicsClientId=c)[0]
             values[f"max_torque_joint_{i}"] = 100.0
             values[f"joint_damping_{i}"] = p.getJointInfo(self.robot, link, physicsClientId=c)[6]
-        if self.object is not None:
+        if self.object is not None and self.task.object is not None:
             values[self.task.object.mass_parameter] = p.getDynamicsInfo(self.object, -1, physicsClientId=c)[0]
         for group, members in self._groups().items():
             body, link = members[0]

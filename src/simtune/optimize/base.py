@@ -45,9 +45,9 @@ class BatchSearch:
         self.objective = objective
         self.store = store
         self.settings = settings
-        self.space = objective.space
-        self.lows = np.array([lo for lo, _ in self.space.bounds], dtype=float)
-        self.highs = np.array([hi for _, hi in self.space.bounds], dtype=float)
+        self.space = objective.vector_space()
+        self.lows = np.array([lo for lo, _ in self.space.bounds], dtype=np.float64)
+        self.highs = np.array([hi for _, hi in self.space.bounds], dtype=np.float64)
         self.generation_size = generation_size
         self.evaluator = Evaluator(
             objective,

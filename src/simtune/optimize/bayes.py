@@ -33,7 +33,7 @@ def _optuna():
 def bayesian_tune(objective: Objective, store: RunStore, settings: TuneSettings) -> TuneResult:
     """TPE (multivariate, 10 random start-up trials) over the parameter ranges; batches of ``workers`` trials."""
     optuna = _optuna()
-    space = objective.space
+    space = objective.vector_space()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
         sampler = optuna.samplers.TPESampler(
@@ -49,7 +49,7 @@ def bayesian_tune(objective: Objective, store: RunStore, settings: TuneSettings)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
                 trials = [study.ask(distributions) for _ in range(size if left is None else min(size, left))]
-            batch = np.array([[t.params[name] for name in space.names] for t in trials], dtype=float)
+            batch = np.array([[t.params[name] for name in space.names] for t in trials], dtype=np.float64)
             fitness = search.evaluate(batch)
             for trial, f in zip(trials, fitness):
                 study.tell(trial, float(f))

@@ -32,7 +32,7 @@ def _cma_class():
 def cmaes_tune(objective: Objective, store: RunStore, settings: TuneSettings) -> TuneResult:
     """CMA-ES with restarts; a generation is one population of CMA-ES."""
     CMA = _cma_class()
-    dim = len(objective.space)
+    dim = len(objective.vector_space())
     rng = np.random.default_rng(settings.seed)
     search = BatchSearch(objective, store, settings)
     bounds = np.tile([0.0, 1.0], (dim, 1))
@@ -56,5 +56,6 @@ def cmaes_tune(objective: Objective, store: RunStore, settings: TuneSettings) ->
                     seed=settings.seed + 1000 * restarts,
                     population_size=optimizer.population_size * 2,
                 )
+        assert search.stop_reason is not None, "the loop ends only when a budget says stop"
         message = search.stop_reason + (f" ({restarts} restarts)" if restarts else "")
         return search.result(message)

@@ -52,7 +52,7 @@ def differential_evolution_tune(objective: Objective, store: RunStore, settings:
     with search:
         result = differential_evolution(
             lambda x: objective.score_vector(x).fitness,  # never called: the Evaluator does the work
-            bounds=objective.space.bounds,
+            bounds=search.space.bounds,
             maxiter=settings.max_generations if settings.max_generations is not None else 10**9,
             rng=np.random.default_rng(settings.seed),
             workers=evaluator,

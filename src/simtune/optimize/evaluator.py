@@ -13,8 +13,8 @@ from __future__ import annotations
 import multiprocessing
 import time
 from collections.abc import Callable, Iterator
+from concurrent.futures import Future, as_completed
 from concurrent.futures import TimeoutError as FutureTimeout
-from concurrent.futures import as_completed
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -84,7 +84,7 @@ def _score(objective: Objective, x: np.ndarray, bound: float | None) -> tuple[No
 
 
 def _residuals(objective: Objective, x: np.ndarray) -> tuple[np.ndarray, Score]:
-    return objective.residuals_and_score(objective.space.to_dict(x))
+    return objective.residuals_and_score(objective.vector_space().to_dict(x))
 
 
 _WORKER_OBJECTIVE: Objective | None = None
@@ -190,7 +190,7 @@ class Evaluator:
                     payload, score = None, self._failed(f"{type(exc).__name__}: {exc}")
                 yield i, payload, score, time.perf_counter() - t0
             return
-        futures = {
+        futures: dict[Future[tuple[object, dict, float]], int] = {
             self._pool.schedule(_in_worker, (work, *args), timeout=self.eval_timeout): i for i, args in jobs.items()
         }
         started = time.perf_counter()
@@ -223,13 +223,14 @@ class Evaluator:
         self.requested += len(vectors)
         self._batch_failures = []
         parents = self.parent_energies
-        pruning = self.prune and parents is not None and len(parents) == len(vectors)
+        if not self.prune or parents is None or len(parents) != len(vectors):
+            parents = None  # no pruning
         fitness: list[float] = [0.0] * len(vectors)
         jobs = {}
         for i, x in enumerate(vectors):
             known = self.store.lookup(x)
             if known is None:
-                jobs[i] = (x, float(parents[i]) if pruning else None)  # trial i competes with member i
+                jobs[i] = (x, float(parents[i]) if parents is not None else None)  # trial i competes with member i
                 continue
             fitness[i] = known.fitness
             if self.on_evaluation:
@@ -261,8 +262,10 @@ class Evaluator:
             results[i] = (residuals, known)
             if self.on_evaluation:
                 self.on_evaluation(known, True)
-        for i, residuals, score, wall_s in self._run(_residuals, jobs):
-            if residuals is None or not score.stable:
+        for i, payload, score, wall_s in self._run(_residuals, jobs):
+            if isinstance(payload, np.ndarray) and score.stable:
+                residuals = payload
+            else:  # a failed evaluation has no residuals, an unstable one meaningless ones
                 residuals = self.objective.penalty_residuals()
             known = self.store.lookup(vectors[i])
             if known is None:

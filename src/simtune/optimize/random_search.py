@@ -17,7 +17,7 @@ from simtune.store import RunStore
 
 def random_search_tune(objective: Objective, store: RunStore, settings: TuneSettings) -> TuneResult:
     """Uniform random search; a generation is a batch of D points (D = number of parameters)."""
-    dim = len(objective.space)
+    dim = len(objective.vector_space())
     rng = np.random.default_rng(settings.seed)
     search = BatchSearch(objective, store, settings, generation_size=dim)
     with search:

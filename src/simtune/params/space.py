@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from simtune.errors import ConfigError
+from simtune.tasks.spec import CONTACT_GROUPS
 
-GROUPS = ("gripper", "floor", "wood", "plastic")
 #: Nominal masses [kg] the seed paper's mass ranges are relative to (links 1..6, then objects).
 ARM_MASS_NOMINAL = (0.7477, 0.7477, 0.606, 0.1785, 0.1785, 0.727)
 OBJECT_MASS_NOMINAL = {
@@ -69,7 +69,7 @@ def _shared() -> list[Parameter]:
         ps.append(
             Parameter(f"max_velocity_joint_{i}", 10.0, 40.0, "deg/s", f"velocity clamp of joint {i}'s controller")
         )
-    for g in GROUPS:
+    for g in CONTACT_GROUPS:
         ps.append(Parameter(f"lateral_friction_{g}", 0.0001, 1.25, "", f"sliding friction coefficient of the {g}"))
     return ps
 
@@ -85,7 +85,7 @@ def _individual_extra() -> list[Parameter]:
         ("linear_damping", 0.9, "", "linear velocity damping"),
         ("angular_damping", 0.9, "", "angular velocity damping"),
     ):
-        for g in GROUPS:
+        for g in CONTACT_GROUPS:
             ps.append(Parameter(f"{kind}_{g}", 0.0001, high, unit, f"{what} of the {g}"))
     return ps
 

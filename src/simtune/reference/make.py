@@ -93,6 +93,7 @@ def synthesize(
         nearest = np.minimum(np.round(t * 20).astype(int), n20 - 1)
         rotations = {BASE_BODY: np.tile(np.eye(3), (len(t), 1, 1)), task.wrist_body: rollout.wrist_rot[nearest]}
         if task.object is not None:
+            assert rollout.object_pos is not None, "a task with an object samples its position"
             positions[task.object.mocap_body] = up(rollout.object_pos) + rng.normal(0, noise_m / 4, (len(t), 3))
             rotations[task.object.mocap_body] = np.tile(np.eye(3), (len(t), 1, 1))
         recordings.append(Recording(Path(f"{task.name}{r + 1:04d}{suffix}"), t, positions, rotations))

@@ -34,8 +34,13 @@ def _object(shape: str, material: str) -> ObjectSpec:
     return ObjectSpec(shape, material, mass, _SIZES[shape], (0.6, 0.0), _POSES[shape])
 
 
-def _phases(*rows) -> tuple[Phase, ...]:
-    return tuple(Phase(float(t), tuple(float(a) for a in targets)) for t, targets in rows)
+def _phases(*rows: tuple[float, tuple[float, ...]]) -> tuple[Phase, ...]:
+    return tuple(_phase(t, targets) for t, targets in rows)
+
+
+def _phase(start: float, targets: tuple[float, ...]) -> Phase:
+    j1, j2, j3, j4, j5, j6 = (float(a) for a in targets)  # six arm joints, or a ValueError
+    return Phase(float(start), (j1, j2, j3, j4, j5, j6))
 
 
 _SCHEDULES = {
