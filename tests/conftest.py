@@ -10,6 +10,8 @@ from simtune.errors import EngineUnavailable
 #: Engines whose rollouts cost seconds (DART about 0.7 s, Drake about 4 s per `cube` rollout):
 #: tests that sweep many rollouts run them in the slow tier.
 COSTLY_ENGINES = frozenset({"dart", "drake"})
+#: Engines whose long rollouts (every task, 20 s of `cube`) belong in the slow tier too.
+SLOWEST_ENGINES = frozenset({"drake"})
 
 
 def engine_or_skip(name: str) -> type[Engine]:

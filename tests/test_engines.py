@@ -10,7 +10,7 @@ import re
 
 import numpy as np
 import pytest
-from conftest import COSTLY_ENGINES, engine_or_skip, every_engine
+from conftest import COSTLY_ENGINES, SLOWEST_ENGINES, engine_or_skip, every_engine
 
 from simtune.engines import ENGINES, engine_class
 from simtune.engines.base import GROUP_KINDS, Rollout
@@ -21,7 +21,7 @@ from simtune.tasks import TASKS, get_task
 from simtune.tasks.spec import MATERIALS, SHAPES, Phase, TaskSpec
 
 
-@pytest.mark.parametrize("engine", every_engine())
+@pytest.mark.parametrize("engine", every_engine(slow=SLOWEST_ENGINES))
 def test_every_task_runs_with_generic_parameters(engine):
     cls = engine_or_skip(engine)
     for task in TASKS.values():
@@ -34,7 +34,7 @@ def test_every_task_runs_with_generic_parameters(engine):
         sim.close()
 
 
-@pytest.mark.parametrize("engine", every_engine())
+@pytest.mark.parametrize("engine", every_engine(slow=SLOWEST_ENGINES))
 def test_cube_rollout_is_deterministic(engine):
     """Same parameters, same trajectory, whatever the engine simulated before (no state
     such as cached contacts may leak from one rollout into the next)."""

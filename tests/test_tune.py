@@ -44,6 +44,7 @@ def test_short_tune_improves_on_generic_and_stores_every_evaluation(tmp_path):
     assert store.get("versions")["mujoco"] and store.get("config")["seed"] == 3
 
 
+@pytest.mark.slow  # a process pool of two workers: about 10 s
 def test_same_seed_same_result_with_one_or_two_workers(tmp_path):
     one = start_run(config(max_generations=2), tmp_path / "one", show_progress=False)
     two = start_run(config(max_generations=2, workers=2), tmp_path / "two", show_progress=False)
