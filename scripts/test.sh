@@ -21,6 +21,11 @@ if [ "${1:-}" = "--ci" ]; then
     shift
 fi
 
+if ! command -v "$PYTHON" >/dev/null; then
+    echo "error: $PYTHON not found: simtune needs Python 3.11 or later (PYTHON=... names another)" >&2
+    exit 2
+fi
+
 missing=()
 # the ODE binding (ode-python) finds libode with ctypes.util.find_library, as checked here
 "$PYTHON" -c "import ctypes.util, sys; sys.exit(ctypes.util.find_library('ode') is None)" || missing+=(libode8)
