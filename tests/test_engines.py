@@ -137,7 +137,7 @@ class Probe:
     """One engine on one probe task, with the rollouts it starts from cached."""
 
     def __init__(self, cls, task: TaskSpec, space):
-        self.sim, self.space, self.task = cls(task), space, task
+        self.sim, self.space = cls(task), space
         self._references: dict[tuple, np.ndarray] = {}
 
     def seen(self, params: dict[str, float]) -> np.ndarray:
