@@ -1,0 +1,112 @@
+"""Drive exported model files with each engine's own Python API: the round trip of `simtune export`.
+
+Nothing here builds a model from simtune's robot description: each class loads
+only the files of an export folder (the model files, the sidecar, controller.yaml).
+The classes are `Engine`s so that simtune's shared control loop
+(`Engine.rollout`: the 20 Hz controller, its phase, the step counting) drives
+them exactly as it drove the tuned run, and simtune's fitness scores them.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from simtune.engines.base import Engine
+from simtune.tasks.spec import Phase, TaskSpec
+
+
+def controller(folder: Path) -> dict:
+    return yaml.safe_load((folder / "controller.yaml").read_text())
+
+
+def task_from_controller(folder: Path, name: str, like: TaskSpec) -> TaskSpec:
+    """The task as controller.yaml gives it (``like`` only says whether there is an object to track)."""
+    t = controller(folder)["tasks"][name]
+    phases = tuple(Phase(p["start_s"], tuple(p["targets_deg"])) for p in t["schedule"])
+    return TaskSpec(
+        name,
+        t["description"],
+        t["duration_s"],
+        phases,
+        t["kp_per_s"],
+        object=like.object,
+        start_pose_deg=tuple(t["start_pose_deg"]),
+    )
+
+
+def controller_params(folder: Path, name: str) -> dict[str, float]:
+    """The controller's and the marker's values from controller.yaml, as simtune's controller and fitness read them."""
+    ctl = controller(folder)
+    params = {f"max_velocity_joint_{i}": v for i, v in enumerate(ctl["tasks"][name]["max_velocity_deg_s"], start=1)}
+    params["command_delay"] = ctl["control"]["command_delay_s"]
+    params.update({f"marker_offset_{a}": v for a, v in zip("xyz", ctl["tracking"]["marker_offset_m"])})
+    return params
+
+
+def load_script(folder: Path, name: str):
+    """An export's example script, imported as a module."""
+    spec = importlib.util.spec_from_file_location(f"exported_{name}", folder / name)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+class _FromFiles(Engine):
+    engine_parameters = frozenset()
+
+    def __init__(self, task: TaskSpec, folder: Path):
+        super().__init__(task)
+        ctl = controller(folder)
+        self.folder = folder
+        self.joints = ctl["control"]["joints"]
+        self.wrist = ctl["tracking"]["link"]
+        self.start = np.radians(ctl["tasks"][task.name]["start_pose_deg"])
+        self.has_object = ctl["tasks"][task.name]["object"] is not None
+
+    def defaults(self) -> dict[str, float]:
+        return {}
+
+
+class MujocoFiles(_FromFiles):
+    name = "mujoco (exported MJCF)"
+
+    def __init__(self, task, folder):
+        import mujoco
+
+        super().__init__(task, folder)
+        self.mj = mujoco
+        self.model = mujoco.MjModel.from_xml_path(str(folder / f"scene_{task.name}.xml"))
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self.qpos = [m.jnt_qposadr[m.joint(j).id] for j in self.joints]
+        self.ctrl = [m.actuator(j).id for j in self.joints]
+
+    @property
+    def timestep(self):
+        return float(self.model.opt.timestep)
+
+    def reset(self, params):
+        self.mj.mj_resetData(self.model, self.data)
+        self.data.qpos[self.qpos] = self.start
+        self.mj.mj_forward(self.model, self.data)
+
+    def set_joint_velocities(self, velocities):
+        self.data.ctrl[self.ctrl] = velocities
+
+    def step(self, n):
+        self.mj.mj_step(self.model, self.data, nstep=n)
+
+    def joint_angles(self):
+        return self.data.qpos[self.qpos].copy()
+
+    def wrist_pose(self):
+        b = self.model.body(self.wrist).id
+        return self.data.xpos[b].copy(), self.data.xmat[b].reshape(3, 3).copy()
+
+    def object_position(self):
+        return self.data.xpos[self.model.body("object").id].copy() if self.has_object else None
