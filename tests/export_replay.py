@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import json
 from pathlib import Path
 
 import numpy as np
@@ -133,7 +132,10 @@ class PybulletFiles(_FromFiles):
         p = self.p
         self.client, self.ids = self.script.load(self.task.name, self.client)
         robot = self.ids["robot"]
-        infos = [p.getJointInfo(robot, j, physicsClientId=self.client) for j in range(p.getNumJoints(robot, physicsClientId=self.client))]
+        infos = [
+            p.getJointInfo(robot, j, physicsClientId=self.client)
+            for j in range(p.getNumJoints(robot, physicsClientId=self.client))
+        ]
         joints = {i[1].decode(): i[0] for i in infos}
         self.arm = [joints[j] for j in self.joints]
         self.wrist_index = next(i[0] for i in infos if i[12].decode() == self.wrist)
@@ -143,8 +145,12 @@ class PybulletFiles(_FromFiles):
 
     def set_joint_velocities(self, velocities):
         self.p.setJointMotorControlArray(
-            self.ids["robot"], self.arm, self.p.VELOCITY_CONTROL, targetVelocities=list(velocities),
-            forces=self.forces, physicsClientId=self.client,
+            self.ids["robot"],
+            self.arm,
+            self.p.VELOCITY_CONTROL,
+            targetVelocities=list(velocities),
+            forces=self.forces,
+            physicsClientId=self.client,
         )
 
     def step(self, n):
@@ -155,7 +161,9 @@ class PybulletFiles(_FromFiles):
         return np.array([s[0] for s in self.p.getJointStates(self.ids["robot"], self.arm, physicsClientId=self.client)])
 
     def wrist_pose(self):
-        s = self.p.getLinkState(self.ids["robot"], self.wrist_index, computeForwardKinematics=True, physicsClientId=self.client)
+        s = self.p.getLinkState(
+            self.ids["robot"], self.wrist_index, computeForwardKinematics=True, physicsClientId=self.client
+        )
         return np.array(s[4]), np.array(self.p.getMatrixFromQuaternion(s[5])).reshape(3, 3)
 
     def object_position(self):

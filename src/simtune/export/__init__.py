@@ -21,7 +21,7 @@ from __future__ import annotations
 import json
 import shutil
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -89,7 +89,7 @@ def export_run(
 
 
 def export_runs(
-    paths: list[Path | str], out_dir: Path | str, dr: bool = False, force: bool = False
+    paths: Sequence[Path | str], out_dir: Path | str, dr: bool = False, force: bool = False
 ) -> tuple[list[ExportResult], list[tuple[Path, str]]]:
     """Export every run found in ``paths`` (run folders, or folders holding runs: a grid), each as its own engine's.
 
@@ -220,7 +220,7 @@ def _write_dr(ctx: ExportContext, ranges: dict) -> None:
         "",
         f"parameter -> min / max: what the tuned values span over the {ranges['runs']} run(s) exported together",
         "(one run: min = max = its tuned value; export a grid with --all-engines --dr for the spread over its",
-        f"repeats); nominal: the generic value; bounds: the tuning range; runs: how many runs tuned it.",
+        "repeats); nominal: the generic value; bounds: the tuning range; runs: how many runs tuned it.",
         f"{engine}: tasks {', '.join(ranges['tasks'][engine])}",
         "",
     ]

@@ -24,6 +24,7 @@ Read from the Drake engine's plant after the tuned parameters were applied:
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from typing import cast
 
 import numpy as np
 
@@ -79,9 +80,9 @@ def write(ctx: ExportContext) -> list[str]:
         gains = actuator.get_controller_gains()
         transmission = ET.SubElement(root, "transmission", name=f"{name}_transmission")
         ET.SubElement(transmission, "type").text = "transmission_interface/SimpleTransmission"
-        ET.SubElement(ET.SubElement(transmission, "joint", name=name), "hardwareInterface").text = (
-            "EffortJointInterface"
-        )
+        ET.SubElement(
+            ET.SubElement(transmission, "joint", name=name), "hardwareInterface"
+        ).text = "EffortJointInterface"
         holder = ET.SubElement(transmission, "actuator", name=actuator.name())
         ET.SubElement(holder, "drake:controller_gains", p=num(gains.p), d=num(gains.d))
         actuators.append(
@@ -102,7 +103,7 @@ def write(ctx: ExportContext) -> list[str]:
     what = "URDF of the tuned robot for Drake (pydrake Parser): load it as load_drake.py does"
     ctx.write("robot.urdf", urdf.document(root, ctx.header(what)))
 
-    modulus = float(SceneGraphConfig().default_proximity_properties.hydroelastic_modulus)
+    modulus = cast(float, SceneGraphConfig().default_proximity_properties.hydroelastic_modulus)  # Drake's default
     floor = _sdf_model(robot.floor, static=True)
     link = ET.SubElement(floor, "link", name=robot.floor)
     collision = ET.SubElement(link, "collision", name=robot.floor)
@@ -132,7 +133,14 @@ def write(ctx: ExportContext) -> list[str]:
         ET.SubElement(inertial_element, "pose").text = f"{nums(inertial.xyz)} 0 0 0"
         ET.SubElement(inertial_element, "mass").text = num(inertial.mass)
         tensor = ET.SubElement(inertial_element, "inertia")
-        for tag, (r, c) in {"ixx": (0, 0), "ixy": (0, 1), "ixz": (0, 2), "iyy": (1, 1), "iyz": (1, 2), "izz": (2, 2)}.items():
+        for tag, (r, c) in {
+            "ixx": (0, 0),
+            "ixy": (0, 1),
+            "ixz": (0, 2),
+            "iyy": (1, 1),
+            "iyz": (1, 2),
+            "izz": (2, 2),
+        }.items():
             ET.SubElement(tensor, tag).text = num(inertial.inertia[r, c])
         collision = ET.SubElement(link, "collision", name=robot.object)
         ET.SubElement(collision, "geometry").append(_geometry(ctx, obj, task.name))
@@ -145,7 +153,11 @@ def write(ctx: ExportContext) -> list[str]:
             ET.SubElement(props, tag).text = num(mu)
         what = f"SDFormat of task {task.name!r}'s {obj.material} {obj.shape} for Drake (its start pose: <pose>)"
         ctx.write(name, _sdf_document(model, ctx.header(what)))
-        objects[task.name] = {"file": name, "start_position_m": list(obj.start_position), "start_rpy_rad": list(obj.rpy)}
+        objects[task.name] = {
+            "file": name,
+            "start_position_m": list(obj.start_position),
+            "start_rpy_rad": list(obj.rpy),
+        }
 
     config = MultibodyPlantConfig(time_step=s.timestep)
     about = {

@@ -74,7 +74,7 @@ def write(ctx: ExportContext) -> list[str]:
     )
     ctx.write("floor.urdf", urdf.document(floor, ctx.header("URDF of the floor: a static plane z = 0 (PyBullet's)")))
 
-    bodies = [
+    bodies: list[dict] = [
         {"name": "floor", "task": None, "file": "floor.urdf", "position": [0.0, 0.0, 0.0], "orientation": [0, 0, 0, 1]},
         {
             "name": "robot",
@@ -177,10 +177,14 @@ def _changes(ctx: ExportContext, task) -> list[dict]:
         groups[task.object.material] = [("object", None)]
     out = []
     for group, members in groups.items():
-        values = {kw: float(ctx.values[f"{kind}_{group}"]) for kind, kw in _CONTACT.items() if f"{kind}_{group}" in ctx.values}
+        values = {
+            kw: float(ctx.values[f"{kind}_{group}"]) for kind, kw in _CONTACT.items() if f"{kind}_{group}" in ctx.values
+        }
         for body, link in members:
             if values:
-                out.append({"body": body, "link": link, "task": task.name if body == "object" else None, "values": values})
+                out.append(
+                    {"body": body, "link": link, "task": task.name if body == "object" else None, "values": values}
+                )
     return out
 
 
@@ -204,18 +208,22 @@ def load(task, client=None):
     p.setTimeStep(side["time_step"], physicsClientId=c)
     ids = {}
     for body in (b for b in side["bodies"] if b["task"] in (None, task)):
-        ids[body["name"]] = p.loadURDF(str(HERE / body["file"]), body["position"], body["orientation"],
-                                       useFixedBase=body["fixed"], flags=p.URDF_USE_INERTIA_FROM_FILE,
-                                       physicsClientId=c)
-    infos = [p.getJointInfo(ids["robot"], j, physicsClientId=c) for j in range(p.getNumJoints(ids["robot"], physicsClientId=c))]
-    links = {info[12].decode(): info[0] for info in infos}
+        ids[body["name"]] = p.loadURDF(
+            str(HERE / body["file"]), body["position"], body["orientation"], useFixedBase=body["fixed"],
+            flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=c,
+        )
+    count = p.getNumJoints(ids["robot"], physicsClientId=c)
+    infos = [p.getJointInfo(ids["robot"], j, physicsClientId=c) for j in range(count)]
+    links = {info[12].decode(): info[0] for info in infos}  # joint j moves link j
     for change in (ch for ch in side["change_dynamics"] if ch["task"] in (None, task)):
         link = -1 if change["link"] is None else links[change["link"]]
         p.changeDynamics(ids[change["body"]], link, physicsClientId=c, **change["values"])
     joints = {info[1].decode(): info[0] for info in infos}
     motors = [joints[name] for name in side["motors"]["joints"]]
-    p.setJointMotorControlArray(ids["robot"], motors, p.VELOCITY_CONTROL, targetVelocities=[0.0] * len(motors),
-                                forces=side["motors"]["forces"], physicsClientId=c)
+    p.setJointMotorControlArray(
+        ids["robot"], motors, p.VELOCITY_CONTROL, targetVelocities=[0.0] * len(motors),
+        forces=side["motors"]["forces"], physicsClientId=c,
+    )
     return c, ids
 
 
@@ -225,8 +233,9 @@ if __name__ == "__main__":  # load, let it stand one second, print where the wri
     control = yaml.safe_load((HERE / "controller.yaml").read_text())
     task = sys.argv[1] if len(sys.argv) > 1 else next(iter(control["tasks"]))
     client, ids = load(task)
-    for _ in range(round(1.0 / json.loads((HERE / "pybullet.json").read_text())["time_step"])):
+    for _ in range(round(1.0 / p.getPhysicsEngineParameters(physicsClientId=client)["fixedTimeStep"])):
         p.stepSimulation(physicsClientId=client)
-    wrist = next(j for j in range(p.getNumJoints(ids["robot"])) if p.getJointInfo(ids["robot"], j)[12].decode() == control["tracking"]["link"])
-    print(task, "wrist at", p.getLinkState(ids["robot"], wrist, computeForwardKinematics=True)[4])
+    links = {p.getJointInfo(ids["robot"], j)[12].decode(): j for j in range(p.getNumJoints(ids["robot"]))}
+    wrist = p.getLinkState(ids["robot"], links[control["tracking"]["link"]], computeForwardKinematics=True)
+    print(task, "wrist at", wrist[4])
 '''

@@ -86,7 +86,9 @@ def document(root: ET.Element, header: list[str]) -> str:
     return '<?xml version="1.0"?>\n' + xml_comment(header) + ET.tostring(root, encoding="unicode") + "\n"
 
 
-def single_link(name: str, inertial: Inertial, geometry: ET.Element | None, extra: tuple[ET.Element, ...] = ()) -> ET.Element:
+def single_link(
+    name: str, inertial: Inertial, geometry: ET.Element | None, extra: tuple[ET.Element, ...] = ()
+) -> ET.Element:
     """A one-link URDF (a free object, the floor): its mass properties and one collision shape."""
     robot = ET.Element("robot", name=name)
     link = ET.SubElement(robot, "link", name=name)
