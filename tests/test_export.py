@@ -21,33 +21,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from export_replay import (
-    DartFiles,
-    DrakeFiles,
-    MujocoFiles,
-    PybulletFiles,
-    controller_params,
-    task_from_controller,
-)
 
 import simtune
 from simtune.data import data_fingerprint
 from simtune.engines import make_engine
 from simtune.export import export_run, export_runs
-from simtune.fitness import score_rollout
+from simtune.export.replay import replay_task
 from simtune.objective import load_references
 from simtune.reference import REFERENCE_DIR
 from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
 from simtune.tasks import get_task
 
-#: engine -> (random-search evaluations of its cheap tuned run, round-trip tolerance [m], replay class)
-ROUND_TRIPS = {
-    "mujoco": (4, 1e-6, MujocoFiles),
-    "pybullet": (4, 1e-6, PybulletFiles),
-    "dart": (3, 1e-4, DartFiles),
-    "drake": (2, 1e-4, DrakeFiles),
-}
+#: engine -> (random-search evaluations of its cheap tuned run, round-trip tolerance [m])
+ROUND_TRIPS = {"mujoco": (4, 1e-6), "pybullet": (4, 1e-6), "dart": (3, 1e-4), "drake": (2, 1e-4)}
 _RUNS: dict[tuple, Path] = {}
 
 
@@ -76,20 +63,8 @@ def one_line_error(proc, message: str) -> None:
     assert "Traceback" not in proc.stderr
 
 
-def replay(cls, folder: Path, task_name: str, reference):
-    """Drive the exported model of ``task_name`` with controller.yaml's commands; its rollout and score."""
-    task = task_from_controller(folder, task_name, get_task(task_name))
-    params = controller_params(folder, task_name)
-    sim = cls(task, folder)
-    try:
-        rollout = sim.rollout(params, len(reference.times))
-    finally:
-        sim.close()
-    return rollout, score_rollout(rollout, reference, params)
-
-
 def round_trip(tmp_path_factory, tmp_path, engine: str, monkeypatch) -> None:
-    _, tolerance, cls = ROUND_TRIPS[engine]
+    tolerance = ROUND_TRIPS[engine][1]
     run_dir = tuned_run(tmp_path_factory, engine)
     best = json.loads((run_dir / "best_params.json").read_text())
     out = tmp_path / "export"
@@ -107,7 +82,7 @@ def round_trip(tmp_path_factory, tmp_path, engine: str, monkeypatch) -> None:
 
     for name in ("scene_mjcf", "robot_urdf", "robot_urdf_file"):
         monkeypatch.setattr(generate, name, lambda *a, **k: pytest.fail("a simtune model generator was used"))
-    rollout, score = replay(cls, out, "cube", reference)
+    rollout, score = replay_task(engine, out, task, reference)
     assert rollout.stable, rollout.message
     assert yaml.safe_load((out / "controller.yaml").read_text())["tasks"]["cube"]["samples"] == len(reference.times)
     wrist = np.linalg.norm(rollout.wrist_pos - tuned.wrist_pos, axis=1).max()
@@ -154,7 +129,7 @@ def test_several_tasks_and_a_free_joint(tmp_path_factory, tmp_path, two_task_dat
     total = 0.0
     for name in ("single", "cube"):
         reference = load_references(two_task_data, [get_task(name)])[name]
-        total += replay(MujocoFiles, out, name, reference)[1].fitness
+        total += replay_task("mujoco", out, get_task(name), reference)[1].fitness
     assert abs(total - best["fitness"]) <= 1e-6
 
 
@@ -281,4 +256,11 @@ def test_all_engines_exports_each_run_and_skips_unfinished(tmp_path_factory, tmp
     one_line_error(
         simtune_cli("export", str(grid / "mujoco-cube"), str(grid / "pybullet-cube"), "--out", str(tmp_path / "z")),
         "give one run folder",
+    )
+
+
+def test_help():
+    proc = simtune_cli("export", "--help")
+    assert (
+        proc.returncode == 0 and "--all-engines" in proc.stdout and "--dr" in proc.stdout and "--force" in proc.stdout
     )

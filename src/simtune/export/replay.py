@@ -5,6 +5,7 @@ only the files of an export folder (the model files, the sidecar, controller.yam
 The classes are `Engine`s so that simtune's shared control loop
 (`Engine.rollout`: the 20 Hz controller, its phase, the step counting) drives
 them exactly as it drove the tuned run, and simtune's fitness scores them.
+Used by the round-trip tests and ``benchmarks/export_round_trip.py``.
 """
 
 from __future__ import annotations
@@ -16,7 +17,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from simtune.engines.base import Engine
+from simtune.data import TaskData
+from simtune.engines.base import Engine, Rollout
+from simtune.errors import SimtuneError
+from simtune.fitness import TaskScore, score_rollout
 from simtune.tasks.spec import Phase, TaskSpec
 
 
@@ -50,7 +54,9 @@ def controller_params(folder: Path, name: str) -> dict[str, float]:
 
 def load_script(folder: Path, name: str):
     """An export's example script, imported as a module."""
-    spec = importlib.util.spec_from_file_location(f"exported_{name}", folder / name)
+    spec = importlib.util.spec_from_file_location(f"exported_{Path(name).stem}", folder / name)
+    if spec is None or spec.loader is None:
+        raise SimtuneError(f"{folder / name}: cannot load the export's script")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -269,3 +275,28 @@ class DrakeFiles(_FromFiles):
             return None
         body = self.plant.GetBodyByName("object")
         return np.array(self.plant.EvalBodyPoseInWorld(self.plant_context, body).translation())
+
+
+#: engine -> the class that drives its exported files (ODE has none: it has no model file)
+REPLAYS: dict[str, type[_FromFiles]] = {
+    "mujoco": MujocoFiles,
+    "pybullet": PybulletFiles,
+    "dart": DartFiles,
+    "drake": DrakeFiles,
+}
+
+
+def replay_task(engine: str, folder: Path, task: TaskSpec, reference: TaskData) -> tuple[Rollout, TaskScore]:
+    """Drive ``engine``'s exported model of ``task`` with controller.yaml's commands; its rollout and score.
+
+    ``task`` (simtune's) only says whether there is an object to track: its
+    schedule, gain and start pose are taken from controller.yaml.
+    """
+    exported = task_from_controller(folder, task.name, task)
+    params = controller_params(folder, task.name)
+    sim = REPLAYS[engine](exported, folder)
+    try:
+        rollout = sim.rollout(params, len(reference.times))
+    finally:
+        sim.close()
+    return rollout, score_rollout(rollout, reference, params)
