@@ -116,8 +116,9 @@ def write(ctx: ExportContext) -> list[str]:
         "time_step": "seconds per stepSimulation (setTimeStep)",
         "gravity": "setGravity [m/s^2]",
         "bodies": "loadURDF calls, in the run's order: file, basePosition, baseOrientation (x, y, z, w), "
-        "useFixedBase; 'task' null = every task, else only that task's scene. Load each with "
-        "flags=URDF_USE_INERTIA_FROM_FILE: the files hold the inertias PyBullet simulated",
+        "useFixedBase; 'task' null = every task, else only that task's scene",
+        "load_flags": "loadURDF flags for every file: URDF_USE_INERTIA_FROM_FILE (the files hold the inertias "
+        "PyBullet simulated), URDF_USE_IMPLICIT_CYLINDER (a cylinder as the run's: not a convex hull of it)",
         "motors": "the driven joints' VELOCITY_CONTROL motors: their force limits [N m] (the controller sets the "
         "target velocities, see controller.yaml)",
         "change_dynamics": "changeDynamics(body, link, **values) calls of the run, in order; link null = the base",
@@ -129,6 +130,7 @@ def write(ctx: ExportContext) -> list[str]:
             "time_step": float(first.timestep),
             "gravity": [0.0, 0.0, -9.81],
             "bodies": bodies,
+            "load_flags": ["URDF_USE_INERTIA_FROM_FILE", "URDF_USE_IMPLICIT_CYLINDER"],
             "motors": {
                 "joints": list(robot.driven_joints),
                 "forces": [float(ctx.values[f"max_torque_joint_{i}"]) for i in range(1, len(robot.driven_joints) + 1)],
@@ -210,7 +212,7 @@ def load(task, client=None):
     for body in (b for b in side["bodies"] if b["task"] in (None, task)):
         ids[body["name"]] = p.loadURDF(
             str(HERE / body["file"]), body["position"], body["orientation"], useFixedBase=body["fixed"],
-            flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=c,
+            flags=sum(getattr(p, flag) for flag in side["load_flags"]), physicsClientId=c,
         )
     count = p.getNumJoints(ids["robot"], physicsClientId=c)
     infos = [p.getJointInfo(ids["robot"], j, physicsClientId=c) for j in range(count)]
