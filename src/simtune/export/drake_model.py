@@ -155,8 +155,8 @@ def write(ctx: ExportContext) -> list[str]:
         ctx.write(name, _sdf_document(model, ctx.header(what)))
         objects[task.name] = {
             "file": name,
-            "start_position_m": list(obj.start_position),
-            "start_rpy_rad": list(obj.rpy),
+            "start_position_m": [float(v) for v in obj.start_position],
+            "start_rotation": np.asarray(obj.rotation, dtype=float).tolist(),
         }
 
     config = MultibodyPlantConfig(time_step=s.timestep)
@@ -167,6 +167,8 @@ def write(ctx: ExportContext) -> list[str]:
         "files": "parse in this order into one plant: the robot, the floor, then the task's object (objects)",
         "actuators": "the driven joints' PD-controlled actuators as robot.urdf declares them (only the D term: "
         "the velocity servo); feed the robot's desired state input port [q = 0, v = the commanded velocities]",
+        "objects": "per task: the object's file and its start pose (position, rotation matrix): the SDFormat "
+        "<pose> holds it in roll-pitch-yaw, which rounds; load_drake.py sets this one as the default pose",
         "feedforward": "at each control update the run fed the robot's actuation input port the gravity "
         "compensation of the driven joints, -CalcGravityGeneralizedForces at that joint's velocity index",
     }
@@ -236,6 +238,7 @@ import pathlib
 import sys
 
 import numpy as np
+from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.analysis import Simulator
@@ -254,6 +257,10 @@ def load(task):
     (robot,) = parser.AddModels(str(HERE / files[0]))
     for file in files[1:]:
         parser.AddModels(str(HERE / file))
+    if task in side["objects"]:  # the start pose exactly (the SDFormat <pose> is in roll-pitch-yaw, rounded)
+        start = side["objects"][task]
+        pose = RigidTransform(RotationMatrix(np.array(start["start_rotation"])), start["start_position_m"])
+        plant.SetDefaultFloatingBaseBodyPose(plant.GetBodyByName("object"), pose)
     plant.Finalize()
     simulator = Simulator(builder.Build())
     context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
