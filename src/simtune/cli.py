@@ -773,6 +773,70 @@ def sensitivity(
     out.print(f"{result['new_evaluations']} new evaluations; files in {out_dir}: sensitivity.json, .csv, .md, .png")
 
 
+@app.command("export")
+def export_command(
+    run_dirs: Annotated[
+        list[Path],
+        typer.Argument(
+            help="A finished run folder; with --all-engines, run folders or folders holding them (a grid).",
+            show_default=False,
+        ),
+    ],
+    out_dir: Annotated[
+        Path,
+        typer.Option(
+            "--out", "-o", help="Folder to write (with --all-engines: one sub-folder per run).", show_default=False
+        ),
+    ],
+    engine: Annotated[
+        str | None,
+        typer.Option("--engine", "-e", help="The run's engine (checked against it); default: the run's."),
+    ] = None,
+    all_engines: Annotated[
+        bool,
+        typer.Option(
+            "--all-engines", help="Export every finished run found under RUN_DIRS, each as its own engine's files."
+        ),
+    ] = False,
+    dr: Annotated[
+        bool, typer.Option("--dr", help="Also write dr_ranges.yaml: the ranges the exported runs' tuned values span.")
+    ] = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace a previous export in a non-empty --out folder.")
+    ] = False,
+    as_json: JsonOpt = False,
+) -> None:
+    """Export a tuned run as the engine's own model files, with provenance: MJCF, URDF + sidecar, SDFormat ...
+
+    MuJoCo: scene_<task>.xml; PyBullet and DART: URDF files, a JSON sidecar and a
+    load script; Drake: URDF and SDFormat with Drake's tags, a sidecar and a load
+    script; ODE: the sidecar only (ODE has no model file). Every export has
+    controller.yaml (how the run drove the model) and provenance.json (run,
+    versions, data files with SHA-256, fitness, command line). See docs/parameters.md.
+
+    Example: simtune export runs/cube --out exported/cube --dr
+    """
+    from simtune.export import export_run, export_runs
+
+    if all_engines and engine is not None:
+        raise SimtuneError("--all-engines exports each run with its own engine: leave out --engine")
+    if all_engines:
+        results, skipped = export_runs(run_dirs, out_dir, dr=dr, force=force)
+        for path, why in skipped:
+            err.print(f"[yellow]warning:[/] skipped {escape(str(path))}: {escape(why)}", soft_wrap=True)
+    else:
+        if len(run_dirs) != 1:
+            raise SimtuneError(f"give one run folder (got {len(run_dirs)}), or --all-engines for several")
+        results = [export_run(run_dirs[0], out_dir, engine=engine, dr=dr, force=force)]
+    if as_json:
+        print(
+            json.dumps([{"run": str(r.run), "engine": r.engine, "out": str(r.out), "files": r.files} for r in results])
+        )
+        return
+    for r in results:
+        out.print(f"{r.engine}: {r.run} -> {r.out} ({', '.join(r.files)})", highlight=False, soft_wrap=True)
+
+
 app.command()(report)  # defined beside the report package it drives
 
 
