@@ -418,3 +418,44 @@ def test_a_run_killed_while_being_set_up_can_be_started_again(tmp_path):
         resume_run(run_dir, show_progress=False)
     start_run(config(max_generations=1), run_dir, show_progress=False)
     assert RunStore(run_dir).get("status") == "finished"
+
+
+def test_the_lock_is_reentrant_removed_when_done_and_a_stale_file_does_not_block(tmp_path):
+    from simtune.runlock import RunBusy, check_free, holds, run_lock
+
+    (tmp_path / LOCK_FILE).write_text('{"pid": 999999999, "host": "gone"}\n')  # left by a killed process
+    with run_lock(tmp_path):
+        with run_lock(tmp_path):  # start_run inside resume --rescore or a grid unit
+            check_free(tmp_path)
+        assert holds(tmp_path)
+        assert json.loads((tmp_path / LOCK_FILE).read_text())["pid"] == os.getpid()
+        other = subprocess.run(
+            [
+                sys.executable,
+                "-c",
+                "from simtune.runlock import run_lock; import sys; run_lock(sys.argv[1]).__enter__()",
+            ]
+            + [str(tmp_path)],
+            capture_output=True,
+            text=True,
+        )
+        assert "RunBusy" in other.stderr and f"process {os.getpid()}" in other.stderr
+    assert not holds(tmp_path) and not (tmp_path / LOCK_FILE).exists()
+    holder = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import sys, time; from simtune.runlock import run_lock\n"
+            "with run_lock(sys.argv[1]):\n    print('held', flush=True); time.sleep(30)",
+            str(tmp_path),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(RunBusy, match=f"process {holder.pid} "):  # the probe tune runs before loading any data
+            check_free(tmp_path)
+    finally:
+        holder.kill()
+        holder.wait()

@@ -5,8 +5,10 @@ exclusive, never waited for) while they write the run; the holder writes who it
 is into the file (process id, host, command line, start time), so a second
 process is refused at once with one line naming the holder.  The kernel drops
 the lock when its process ends in any way (exit, crash, ``kill -9``), so a lock
-is never stale.  The file itself stays: removing it while another process has
-it open would let two processes hold two different files.
+is never stale.  The holder removes the file when it is done (one left by a
+killed process is harmless: the next holder takes it over); a process that
+locked a file which was removed meanwhile lets go and tries again, so two
+processes never hold two different files of one folder.
 
 Within one process the lock is re-entrant (``resume --rescore`` and grid units
 hold it around ``start_run``/``resume_run``, which take it again).
@@ -119,10 +121,7 @@ def run_lock(run_dir: Path) -> Iterator[None]:
     finally:
         if fd is not None:
             del _HELD[key]
-            try:
-                os.ftruncate(fd, 0)  # nobody holds it now
-            except OSError:
-                pass
+            (run_dir / LOCK_FILE).unlink(missing_ok=True)  # while still holding it: see _acquire
             os.close(fd)
 
 
@@ -131,31 +130,27 @@ def _acquire(run_dir: Path) -> int | None:
     path = run_dir / LOCK_FILE
     if fcntl is None:
         return None
-    try:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError as exc:
-        raise SimtuneError(f"cannot lock run folder {run_dir}: {exc.strerror}") from None
-    try:
-        for attempt in range(ACQUIRE_ATTEMPTS):
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                break
-            except BlockingIOError:
-                # another process's check_free holds a shared lock for an instant; a writer holds it for long
-                if attempt == ACQUIRE_ATTEMPTS - 1:
-                    raise
-                time.sleep(0.05)
-    except BlockingIOError:
-        os.close(fd)
-        raise _busy(run_dir, path) from None
-    except OSError as exc:
-        os.close(fd)
-        warnings.warn(
-            f"{run_dir}: the file system cannot lock files ({exc.strerror}); "
-            "make sure no other simtune process writes this run",
-            stacklevel=3,
-        )
-        return None
+    while True:
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise SimtuneError(f"cannot lock run folder {run_dir}: {exc.strerror}") from None
+        try:
+            _lock(fd)
+        except BlockingIOError:
+            os.close(fd)
+            raise _busy(run_dir, path) from None
+        except OSError as exc:
+            os.close(fd)
+            warnings.warn(
+                f"{run_dir}: the file system cannot lock files ({exc.strerror}); "
+                "make sure no other simtune process writes this run",
+                stacklevel=4,
+            )
+            return None
+        if _still_linked(fd, path):
+            break
+        os.close(fd)  # its holder removed it after we opened it: lock the file that is there now
     holder = {
         "pid": os.getpid(),
         "host": socket.gethostname(),
@@ -165,3 +160,26 @@ def _acquire(run_dir: Path) -> int | None:
     os.ftruncate(fd, 0)
     os.pwrite(fd, (json.dumps(holder) + "\n").encode(), 0)
     return fd
+
+
+def _lock(fd: int) -> None:
+    """Exclusive flock without waiting (BlockingIOError: held elsewhere)."""
+    for attempt in range(ACQUIRE_ATTEMPTS):
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return
+        except BlockingIOError:
+            # another process's check_free holds a shared lock for an instant; a writer holds it for long
+            if attempt == ACQUIRE_ATTEMPTS - 1:
+                raise
+            time.sleep(0.05)
+
+
+def _still_linked(fd: int, path: Path) -> bool:
+    """Whether ``path`` still names the file open as ``fd``."""
+    try:
+        named = os.stat(path)
+    except FileNotFoundError:
+        return False
+    opened = os.fstat(fd)
+    return (named.st_ino, named.st_dev) == (opened.st_ino, opened.st_dev)
