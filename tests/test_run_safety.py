@@ -13,6 +13,7 @@ import subprocess
 import sys
 import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -441,21 +442,40 @@ def test_the_lock_is_reentrant_removed_when_done_and_a_stale_file_does_not_block
         )
         assert "RunBusy" in other.stderr and f"process {os.getpid()}" in other.stderr
     assert not holds(tmp_path) and not (tmp_path / LOCK_FILE).exists()
+    with held_elsewhere(tmp_path) as pid, pytest.raises(RunBusy, match=f"process {pid} "):
+        check_free(tmp_path)  # what tune asks before loading any data
+
+
+@contextmanager
+def held_elsewhere(folder: Path):
+    """Another process holds ``folder``'s run lock meanwhile; yields its process id."""
     holder = subprocess.Popen(
         [
             sys.executable,
             "-c",
             "import sys, time; from simtune.runlock import run_lock\n"
-            "with run_lock(sys.argv[1]):\n    print('held', flush=True); time.sleep(30)",
-            str(tmp_path),
+            "with run_lock(sys.argv[1]):\n    print('held', flush=True); time.sleep(60)",
+            str(folder),
         ],
         stdout=subprocess.PIPE,
         text=True,
     )
     try:
         assert holder.stdout.readline().strip() == "held"
-        with pytest.raises(RunBusy, match=f"process {holder.pid} "):  # the probe tune runs before loading any data
-            check_free(tmp_path)
+        yield holder.pid
     finally:
         holder.kill()
         holder.wait()
+
+
+def test_a_grid_unit_whose_folder_another_process_writes_is_refused(tmp_path):
+    from simtune.grid import GridSpec, Unit, run_unit
+    from simtune.runlock import RunBusy
+
+    unit = Unit("mujoco", "cube", "extended", 0)
+    spec = GridSpec(["mujoco"], ["cube"], ["extended"], 1, str(REFERENCE_DIR), max_generations=1, only=ONLY)
+    folder = tmp_path / unit.id
+    folder.mkdir()
+    with held_elsewhere(folder) as pid, pytest.raises(RunBusy, match=f"process {pid} "):
+        run_unit(unit, str(folder), spec)
+    assert sorted(p.name for p in folder.iterdir()) == [LOCK_FILE]  # no store: only the killed holder's lock file
