@@ -201,7 +201,8 @@ def write_json_atomic(path: Path, data: dict) -> None:
     umask = os.umask(0)
     os.umask(umask)
     try:
-        os.fchmod(fd, 0o666 & ~umask)  # as an ordinary new file (mkstemp makes it private)
+        if hasattr(os, "fchmod"):
+            os.fchmod(fd, 0o666 & ~umask)  # as an ordinary new file (mkstemp makes it private)
         with os.fdopen(fd, "w") as fh:
             fh.write(json.dumps(data, indent=2) + "\n")
         os.replace(tmp, path)
