@@ -147,6 +147,7 @@ def test_provenance_in_every_file(tmp_path_factory, tmp_path):
     assert record["command"] == RunStore(run_dir).get("command") and record["date"]
     assert record["data_files"] == data_fingerprint(REFERENCE_DIR, ["cube"])
     assert len(record["data_files"]["cube"]) == 3
+    assert record["data_note"] == "fingerprint stored by the run"  # not re-read from the folder at export
     digest = record["data_files"]["cube"][0]["sha256"]
     for name in result.files[:-1]:
         text = (out / name).read_text()

@@ -72,7 +72,7 @@ def read_run(run_dir: Path | str) -> TunedRun:
         status = store.get("status")
         versions = store.get("versions") or {}
         command = store.get("command") or []
-        stored_fingerprint = store.get("data_fingerprint")
+        stored_fingerprint = (store.get("fingerprint") or {}).get("data")  # written by runs.run_fingerprint
         evaluations = store.count_evaluations()
         row = store.db.execute("SELECT MAX(finished_at) FROM evaluations").fetchone()
         finished_at = float(row[0]) if row and row[0] is not None else None
