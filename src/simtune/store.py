@@ -9,7 +9,9 @@ Tables
 - ``generations``: one checkpoint per generation: the population, its energies,
   the best member and the run's elapsed time;
 - ``residuals``: for the evaluations of a least-squares refinement, the residual
-  vector (float64 bytes), so a resumed refinement replays without simulating.
+  vector (float64 bytes), so a resumed refinement replays without simulating;
+- ``retried``: the keys of failed evaluations already given their one retry
+  (:meth:`RunStore.release_failures`).
 
 Every evaluation is committed as soon as it finishes (WAL journal), so a kill
 loses at most the evaluations still running.  Evaluations are keyed by the
@@ -25,6 +27,7 @@ import json
 import shutil
 import sqlite3
 import time
+from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -64,7 +67,35 @@ CREATE TABLE IF NOT EXISTS generations (
     finished_at REAL NOT NULL
 );
 CREATE TABLE IF NOT EXISTS residuals (key TEXT PRIMARY KEY, r BLOB NOT NULL);
+CREATE TABLE IF NOT EXISTS retried (key TEXT PRIMARY KEY);
 """
+
+
+def check_store_file(path: Path) -> None:
+    """Refuse a file that is not a run store of this simtune's schema, reading it only (one line naming it).
+
+    A foreign SQLite file (or any other file) named ``run.sqlite`` is left exactly as it was.
+    """
+    path = Path(path)
+    try:
+        db = sqlite3.connect(path.resolve().as_uri() + "?mode=ro", uri=True)
+        try:
+            tables = {row[0] for row in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+            row = None
+            if {"meta", "evaluations", "generations"} <= tables:
+                row = db.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
+        finally:
+            db.close()
+    except sqlite3.DatabaseError as exc:
+        raise SimtuneError(f"{path} cannot be read as a run store ({exc}); it was left unchanged") from None
+    if row is None:
+        raise SimtuneError(f"{path} is not a simtune run store (no simtune tables in it); it was left unchanged")
+    try:
+        version = json.loads(row[0])
+    except ValueError:
+        version = row[0]
+    if version != SCHEMA_VERSION:
+        raise SimtuneError(f"{path}: run store version {version}, this simtune reads version {SCHEMA_VERSION}")
 
 
 def vector_key(x) -> str:
@@ -96,6 +127,8 @@ class RunStore:
                 )
         elif not self.path.exists():
             raise SimtuneError(f"{self.run_dir} is not a run folder (no {filename})")
+        else:
+            check_store_file(self.path)  # read-only: nothing is written into a foreign file
         try:
             self.db = sqlite3.connect(self.path, timeout=30)
             self.db.execute("PRAGMA journal_mode=WAL")
@@ -154,6 +187,20 @@ class RunStore:
                 f"finished evaluations are kept: `simtune resume {self.run_dir}`"
             ) from None
 
+    def verify(self) -> None:
+        """SQLite's quick check of every page; a damaged store is one line naming it and the first problem."""
+        try:
+            problems = [row[0] for row in self.db.execute("PRAGMA quick_check(3)")]
+        except sqlite3.DatabaseError as exc:
+            problems = [str(exc)]
+        if problems != ["ok"]:
+            lines = [line.strip() for p in problems for line in p.splitlines() if line.strip()]
+            first = next((line for line in lines if not line.startswith("***")), lines[0] if lines else "?")
+            raise SimtuneError(
+                f"{self.path} is damaged ({first}): start a new run in another folder "
+                "(`sqlite3 run.sqlite .recover` may salvage its rows)"
+            )
+
     # --- meta ------------------------------------------------------------------------------
     def set(self, **values) -> None:
         with self._writing():
@@ -189,6 +236,21 @@ class RunStore:
                     time.time(),
                 ),
             )
+
+    def release_failures(self, retry: Callable[[Score], bool]) -> int:
+        """Forget the failed evaluations ``retry`` picks that were never retried, so that a replay runs them again.
+
+        Each is remembered in ``retried``: a failure is given one retry, never more.  Returns how many.
+        """
+        rows = self.db.execute(
+            "SELECT key, score FROM evaluations WHERE stable = 0 AND key NOT IN (SELECT key FROM retried)"
+        ).fetchall()
+        keys = [(key,) for key, score in rows if retry(Score.from_dict(json.loads(score)))]
+        with self._writing():
+            self.db.executemany("INSERT OR IGNORE INTO retried VALUES (?)", keys)
+            self.db.executemany("DELETE FROM evaluations WHERE key = ?", keys)
+            self.db.executemany("DELETE FROM residuals WHERE key = ?", keys)
+        return len(keys)
 
     def lookup_residuals(self, x) -> np.ndarray | None:
         row = self.db.execute("SELECT r FROM residuals WHERE key = ?", (vector_key(x),)).fetchone()
@@ -243,15 +305,28 @@ class RunStore:
     def record_generation(
         self, generation: int, population, energies, best_x, best_fitness: float, evaluations: int, elapsed_s: float
     ) -> None:
+        """Checkpoint a generation.  A resumed run replays its earlier generations: one found stored with the same
+        population and energies keeps the evaluation count and time of when it was first reached; one that
+        differs (the replay took another path, e.g. after a retried evaluation) replaces it and every later one.
+        """
+        population_json = json.dumps(np.asarray(population, dtype=float).tolist())
+        energies_json = json.dumps([float(e) for e in energies])
         with self._writing():
+            stored = self.db.execute(
+                "SELECT population, energies FROM generations WHERE generation = ?", (generation,)
+            ).fetchone()
+            if stored == (population_json, energies_json):
+                return
+            if stored is not None:
+                self.db.execute("DELETE FROM generations WHERE generation >= ?", (generation,))
             self.db.execute(
-                "INSERT OR REPLACE INTO generations VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                "INSERT INTO generations VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
                 (
                     generation,
                     float(best_fitness),
                     json.dumps([float(v) for v in best_x]),
-                    json.dumps(np.asarray(population, dtype=float).tolist()),
-                    json.dumps([float(e) for e in energies]),
+                    population_json,
+                    energies_json,
                     evaluations,
                     elapsed_s,
                     time.time(),
@@ -264,9 +339,12 @@ class RunStore:
         ).fetchall()
         return [dict(generation=r[0], best_fitness=r[1], evaluations=r[2], elapsed_s=r[3]) for r in rows]
 
-    def last_checkpoint(self) -> dict | None:
+    def last_checkpoint(self, up_to: int | None = None) -> dict | None:
+        """The latest generation checkpoint (with ``up_to``: the latest at or before that generation)."""
         row = self.db.execute(
-            "SELECT generation, population, energies, elapsed_s FROM generations ORDER BY generation DESC LIMIT 1"
+            "SELECT generation, population, energies, elapsed_s FROM generations WHERE generation <= ?"
+            " ORDER BY generation DESC LIMIT 1",
+            (up_to if up_to is not None else 2**62,),
         ).fetchone()
         if row is None:
             return None

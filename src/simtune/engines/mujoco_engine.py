@@ -135,6 +135,9 @@ class MujocoEngine(Engine):
             for kind, col in _FRICTION_COLUMN.items():
                 if f"{kind}_{group}" in params:
                     m.geom_friction[geoms, col] = params[f"{kind}_{group}"]
+        # the constants MuJoCo derives from masses at compile time (body_invweight0, dof_M0, stat.meaninertia
+        # ..., used by the contact and solver settings) follow the new masses, as a model compiled with them has
+        mujoco.mj_setConst(m, self.data)
         mujoco.mj_resetData(m, self.data)
         self.data.qpos[self._arm_qpos] = np.radians(self.task.start_pose_deg)
         mujoco.mj_forward(m, self.data)

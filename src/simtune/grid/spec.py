@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -61,7 +60,8 @@ class GridSpec:
 
 def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
     """Run or resume one optimisation; returns its summary.  Safe to run again after a crash."""
-    from simtune.runs import RunConfig, resume_run, start_run
+    from simtune.runlock import run_lock
+    from simtune.runs import RunConfig, has_run, resume_run, start_run
     from simtune.store import RunStore
 
     path = Path(run_dir)
@@ -76,17 +76,15 @@ def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
         max_generations=spec.max_generations,
         only=spec.only,
     )
-    if (path / "run.sqlite").exists():
-        try:
-            has_config = RunStore(path).get("config") is not None
-        except SimtuneError:
-            has_config = False
-        if not has_config:  # died before the run was set up: nothing in it is worth keeping
-            shutil.rmtree(path)
-    if (path / "run.sqlite").exists():
-        result = resume_run(path, show_progress=False)
-    else:
-        result = start_run(config, path, show_progress=False)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SimtuneError(f"cannot create run folder {path}: {exc.strerror}") from None
+    with run_lock(path):  # one writer: a unit still running elsewhere (a worker thought lost) refuses this one
+        if has_run(path):
+            result = resume_run(path, show_progress=False)
+        else:  # new, or died before the run was set up: start_run clears such a store
+            result = start_run(config, path, show_progress=False)
     store = RunStore(path)
     summary = dict(
         fitness=result.score.fitness,

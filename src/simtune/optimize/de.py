@@ -49,6 +49,7 @@ def differential_evolution_tune(objective: Objective, store: RunStore, settings:
         search.track(population, energies)
         return search.checkpoint(population, energies)
 
+    start = search.starting_points()
     with search:
         result = differential_evolution(
             lambda x: objective.score_vector(x).fitness,  # never called: the Evaluator does the work
@@ -57,7 +58,8 @@ def differential_evolution_tune(objective: Objective, store: RunStore, settings:
             rng=np.random.default_rng(settings.seed),
             workers=evaluator,
             callback=checkpoint,
-            **DE_SETTINGS,
+            # SciPy needs 5 members or more; a rescored DE run's population always has them
+            **{**DE_SETTINGS, **({"init": start} if start is not None and len(start) >= 5 else {})},
         )
         return search.result(
             search.stop_reason or result.message, converged=search.stop_reason is None and bool(result.success)
