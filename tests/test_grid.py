@@ -56,13 +56,13 @@ def test_local_grid_runs_every_unit_once(local_grid):
 def test_running_again_skips_finished_units(local_grid, two_task_data):
     grid_dir, res = local_grid
     before = {u: RunStore(grid_dir / "runs" / u).count_evaluations() for u in res}
-    t0 = time.time()
     index = run_grid(small_spec(two_task_data), grid_dir, executor="local", workers=2)
     assert results(index) == res
+    # nothing simulated again: every store holds what it held
     assert {u: RunStore(grid_dir / "runs" / u).count_evaluations() for u in res} == before
-    assert time.time() - t0 < 30
 
 
+@pytest.mark.slow
 def test_dask_grid_with_a_killed_worker_matches_local(local_grid, two_task_data, tmp_path):
     _, expected = local_grid
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)

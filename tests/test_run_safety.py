@@ -225,7 +225,10 @@ def test_fingerprint_names_changed_tasks_and_engine_versions():
     assert fingerprint_differences(stored, stored) == []
 
 
-@pytest.mark.parametrize("optimizer", list(OPTIMIZERS))
+# the default tier rescores differential evolution; the other optimisers (about 3 s each) in the slow tier
+@pytest.mark.parametrize(
+    "optimizer", [pytest.param(name, marks=[] if name == "de" else [pytest.mark.slow]) for name in OPTIMIZERS]
+)
 def test_rescore_starts_every_optimizer_from_the_old_population(optimizer, tmp_path):
     data = _data_root(tmp_path)
     cfg = config(optimizer=optimizer, data=str(data), max_evaluations=12, max_generations=1000, workers=1)

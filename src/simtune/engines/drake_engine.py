@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from simtune.engines._shapes import object_mass_properties
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
 from simtune.robot.generate import robot_urdf
 from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, LINKS, WRIST_LINK
 from simtune.tasks.spec import CONTACT_GROUPS, ObjectSpec, TaskSpec
@@ -116,6 +116,10 @@ class DrakeEngine(Engine):
         from importlib.metadata import version
 
         return version("drake")
+
+    @classmethod
+    def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
+        return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KD)
 
     def __init__(self, task: TaskSpec):
         super().__init__(task)

@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
-from simtune.robot.generate import FLOOR, OBJECT_BODY, scene_mjcf
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
+from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf
 from simtune.robot.mico import ARM_JOINTS, LINKS, WRIST_LINK
 from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
 
@@ -49,6 +49,10 @@ class MujocoEngine(Engine):
     @classmethod
     def version(cls) -> str:
         return mujoco.__version__ if mujoco else "not installed"
+
+    @classmethod
+    def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
+        return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KV)
 
     def __init__(self, task: TaskSpec):
         super().__init__(task)
