@@ -107,6 +107,25 @@ def _link_poses(q) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     return {name: forward_kinematics(q, name) for name in ["link_base", *_ARM_LINKS]}
 
 
+def _set_mass(body, mass: float, inertia) -> None:
+    """Give an ODE body its mass and its inertia tensor (about the centre of mass, as ODE expects)."""
+    m = ode.dMass()
+    ode.dMassSetParameters(
+        byref(m),
+        mass,
+        0.0,
+        0.0,
+        0.0,
+        inertia[0, 0],
+        inertia[1, 1],
+        inertia[2, 2],
+        inertia[0, 1],
+        inertia[0, 2],
+        inertia[1, 2],
+    )
+    ode.dBodySetMass(body, byref(m))
+
+
 class OdeEngine(Engine):
     name = "ode"
     engine_parameters = (
@@ -212,21 +231,7 @@ class OdeEngine(Engine):
             body = None
             if host != "link_base":  # the base is static: geoms without a body
                 body = ode.dBodyCreate(world)
-                m = ode.dMass()
-                ode.dMassSetParameters(
-                    byref(m),
-                    mass,
-                    0.0,
-                    0.0,
-                    0.0,
-                    inertia[0, 0],
-                    inertia[1, 1],
-                    inertia[2, 2],
-                    inertia[0, 1],
-                    inertia[0, 2],
-                    inertia[1, 2],
-                )
-                ode.dBodySetMass(body, byref(m))
+                _set_mass(body, mass, inertia)
                 c = pos + rot @ com
                 ode.dBodySetPosition(body, *c)
                 ode.dBodySetRotation(body, _ode_matrix(rot))
@@ -276,21 +281,7 @@ class OdeEngine(Engine):
             mass = p[obj.mass_parameter]
             com, inertia = object_mass_properties(obj, mass)
             body = self._object = ode.dBodyCreate(world)
-            m = ode.dMass()
-            ode.dMassSetParameters(
-                byref(m),
-                mass,
-                0.0,
-                0.0,
-                0.0,
-                inertia[0, 0],
-                inertia[1, 1],
-                inertia[2, 2],
-                inertia[0, 1],
-                inertia[0, 2],
-                inertia[1, 2],
-            )
-            ode.dBodySetMass(body, byref(m))
+            _set_mass(body, mass, inertia)
             self._object_com = com
             if obj.shape in ("cube", "cuboid"):
                 geom = ode.dCreateBox(self._space, *obj.size)

@@ -178,6 +178,19 @@ class ExportContext:
         return self.write(name, json.dumps(data, indent=2) + "\n")
 
 
+def write_cone_mesh(ctx: ExportContext, obj, task: str) -> str:
+    """Write the convex hull of a cone object (the run's collision shape) as ``object_<task>.obj``; its name."""
+    from simtune.engines._shapes import cone_hull
+
+    vertices, faces, _ = cone_hull(obj)
+    name = f"object_{task}.obj"
+    lines = [f"v {num(x)} {num(y)} {num(z)}" for x, y, z in vertices]
+    lines += ["f " + " ".join(str(int(i) + 1) for i in face) for face in faces]
+    header = hash_comment(ctx.header(f"convex hull of task {task!r}'s cone (the run's collision shape)"))
+    ctx.write(name, header + "\n".join(lines) + "\n")
+    return name
+
+
 def controller_yaml(ctx: ExportContext, samples: dict[str, int]) -> str:
     """controller.yaml: everything needed to drive the exported model as the run did, without simtune."""
     params = ctx.run.params

@@ -29,7 +29,7 @@ from typing import cast
 import numpy as np
 
 from simtune.export import urdf
-from simtune.export.common import ExportContext, hash_comment, num, nums, xml_comment
+from simtune.export.common import ExportContext, hash_comment, num, nums, write_cone_mesh, xml_comment
 from simtune.tasks.spec import ObjectSpec
 
 SIDECAR = "drake.json"
@@ -217,14 +217,7 @@ def _geometry(ctx: ExportContext, obj: ObjectSpec, task: str) -> ET.Element:
         ET.SubElement(cylinder, "radius").text = num(obj.size[0])
         ET.SubElement(cylinder, "length").text = num(obj.size[1])
         return cylinder
-    from simtune.engines._shapes import cone_hull
-
-    vertices, faces, _ = cone_hull(obj)
-    name = f"object_{task}.obj"
-    lines = [f"v {num(x)} {num(y)} {num(z)}" for x, y, z in vertices]
-    lines += ["f " + " ".join(str(int(i) + 1) for i in face) for face in faces]
-    header = hash_comment(ctx.header(f"convex hull of task {task!r}'s cone (the run's collision shape)"))
-    ctx.write(name, header + "\n".join(lines) + "\n")
+    name = write_cone_mesh(ctx, obj, task)
     mesh = ET.Element("mesh")
     ET.SubElement(mesh, "uri").text = name
     ET.SubElement(mesh, "drake:declare_convex")

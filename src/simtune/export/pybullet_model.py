@@ -27,7 +27,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from simtune.export import urdf
-from simtune.export.common import ExportContext, hash_comment, num
+from simtune.export.common import ExportContext, hash_comment, num, write_cone_mesh
 from simtune.tasks.spec import ObjectSpec
 
 SIDECAR = "pybullet.json"
@@ -157,14 +157,7 @@ def _geometry(ctx: ExportContext, obj: ObjectSpec, task: str) -> ET.Element:
         return ET.Element("box", size=" ".join(num(s) for s in obj.size))
     if obj.shape == "cylinder":
         return ET.Element("cylinder", radius=num(obj.size[0]), length=num(obj.size[1]))
-    from simtune.engines._shapes import cone_hull
-
-    vertices, faces, _ = cone_hull(obj)
-    name = f"object_{task}.obj"
-    lines = [f"v {num(x)} {num(y)} {num(z)}" for x, y, z in vertices]
-    lines += ["f " + " ".join(str(int(i) + 1) for i in face) for face in faces]
-    header = hash_comment(ctx.header(f"convex hull of task {task!r}'s cone (the run's collision shape)"))
-    ctx.write(name, header + "\n".join(lines) + "\n")
+    name = write_cone_mesh(ctx, obj, task)
     return ET.Element("mesh", filename=name)
 
 
