@@ -50,10 +50,28 @@ class RunConfig:
     optimizer: str = "de"  # a key of simtune.optimize.OPTIMIZERS
     refine: bool = False  # polish the best point with least squares on the residuals afterwards
     max_evaluations: int | None = None  # stop once this many evaluations were used (checked per batch)
+    #: the seed paper's exact search: SciPy's DE with immediate updating and polish, one worker, no
+    #: pruning, and the paper's whole parameter list (parameters the engine lacks kept, without effect)
+    paper_exact: bool = False
 
     def check(self) -> None:
         """One-line ConfigError for settings no optimiser can run with."""
         get_optimizer(self.optimizer)
+        if self.paper_exact:
+            if self.optimizer != "de":
+                raise ConfigError(f"--paper-exact runs differential evolution, not --optimizer {self.optimizer}")
+            if self.space not in ("shared", "individual"):
+                raise ConfigError(
+                    f"--paper-exact needs one of the paper's spaces (shared, individual), not {self.space!r}"
+                )
+            if self.only:
+                raise ConfigError("--paper-exact tunes the paper's whole parameter list: drop --only")
+            if self.workers != 1:
+                raise ConfigError(
+                    "--paper-exact evaluates one trial at a time (SciPy's immediate updating): drop --workers"
+                )
+            if self.refine:
+                raise ConfigError("--paper-exact ends with SciPy's own polish: drop --refine")
         if self.max_evaluations is not None and self.max_evaluations < 1:
             raise ConfigError(f"max_evaluations must be at least 1, got {self.max_evaluations}")
         if self.max_generations < 1:
@@ -74,7 +92,9 @@ def versions(engine: str) -> dict[str, str]:
 
 def build_objective(config: RunConfig) -> Objective:
     tasks = parse_tasks(config.tasks)
-    space = get_space(config.space, engine_class(config.engine).supported(), config.only)
+    # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
+    supported = None if config.paper_exact else engine_class(config.engine).supported()
+    space = get_space(config.space, supported, config.only)
     return Objective(config.engine, tasks, load_references(Path(config.data), tasks), space)
 
 
@@ -99,6 +119,10 @@ def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> T
         command=sys.argv,
         parameters=objective.vector_space().names,
         bounds=objective.vector_space().bounds,
+        # in the search vector without effect in this engine (only --paper-exact keeps such parameters)
+        inactive_parameters=[
+            n for n in objective.vector_space().names if n not in engine_class(config.engine).supported()
+        ],
         generic=generic.to_dict(),
         status="running",
         elapsed_s=0.0,
@@ -138,7 +162,8 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
             max_evaluations=max_evaluations,
             elapsed_before=store.get("search_elapsed_s", store.get("elapsed_s", 0.0)),
             eval_timeout=config.eval_timeout,
-            prune=config.prune,
+            prune=config.prune and not config.paper_exact,
+            paper_exact=config.paper_exact,
             target_fitness=target,
             on_evaluation=progress.evaluation,
             on_generation=progress.generation,

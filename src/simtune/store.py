@@ -234,5 +234,14 @@ class RunStore:
             elapsed_s=row[3],
         )
 
+    def population(self, generation: int) -> tuple[np.ndarray, np.ndarray]:
+        """The population and its fitness values recorded at ``generation``'s checkpoint."""
+        row = self.db.execute(
+            "SELECT population, energies FROM generations WHERE generation = ?", (generation,)
+        ).fetchone()
+        if row is None:
+            raise KeyError(f"no checkpoint of generation {generation}")
+        return np.array(json.loads(row[0]), dtype=float), np.array(json.loads(row[1]), dtype=float)
+
     def close(self) -> None:
         self.db.close()
