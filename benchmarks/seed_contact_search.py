@@ -7,8 +7,9 @@
 2. The search: offsets (d2, d3) in whole degrees, added to joint_2's and joint_3's target in every
    phase, tried in order of |d2| + |d3| (then |d3|: the shoulder alone first), within +-``limit``.
    The first offset with which the generic run of every engine of ``--verify`` touches the object
-   and moves it at least ``MIN_PUSH`` by the time the arm has settled (last phase + 6 s), with no
-   arm box below 5 mm above the floor (in MuJoCo's run), is printed.
+   and moves it at least ``MIN_PUSH`` by the time the arm has settled (last phase + 6 s), for the
+   plastic object and for its wooden replica, with no arm box below 5 mm above the floor (in
+   MuJoCo's run), is printed.
 3. With ``--engines``: the contact table of every seed task with an object, published and fixed
    schedules, in each engine (the full task duration).
 """
@@ -70,32 +71,42 @@ def lowest_arm_point(angles: np.ndarray) -> float:
 
 
 def pushes(engine_name: str, task: TaskSpec) -> bool:
-    probe = probe_contact(make_engine(engine_name, task))
+    """Whether ``engine_name``'s generic run of ``task`` touches the object and moves it at least MIN_PUSH."""
+    engine = make_engine(engine_name, task)
+    if engine_name == "mujoco":  # a cheap first look: an object that did not move was not pushed
+        moved = engine.rollout({}, rollout_samples(task.duration)).object_pos
+        assert moved is not None, "a pushing task has an object"
+        if np.linalg.norm(moved[-1] - moved[0]) < MIN_PUSH:
+            return False
+    probe = probe_contact(engine)
     return probe.touched and probe.stable and probe.object_displacement_m >= MIN_PUSH
 
 
 def search(number: int, limit: int, verify: list[str]) -> tuple[int, int] | None:
-    base = published_task(number)
-    settled = dataclasses.replace(base, duration=min(base.duration, base.phases[-1].start + SETTLE))
+    """The first offset with which both materials' tasks are pushed in every engine of ``verify``."""
+    settled = []
+    for n in (number, number + 1):  # the plastic object, then its heavier wooden replica
+        base = published_task(n)
+        settled.append(dataclasses.replace(base, duration=min(base.duration, base.phases[-1].start + SETTLE)))
     candidates = sorted(
         itertools.product(range(-limit, limit + 1), repeat=2), key=lambda d: (abs(d[0]) + abs(d[1]), abs(d[1]), d)
     )
     for d2, d3 in candidates:
-        task = dataclasses.replace(settled, phases=offset_schedule(settled.phases, d2, d3))
-        engine = make_engine("mujoco", task)
-        probe = probe_contact(engine)
-        if not (probe.touched and probe.stable and probe.object_displacement_m >= MIN_PUSH):
+        tasks = [dataclasses.replace(t, phases=offset_schedule(t.phases, d2, d3)) for t in settled]
+        if not all(pushes("mujoco", task) for task in tasks):
             continue
-        angles = engine.rollout({}, rollout_samples(task.duration)).joint_angles[::2]
-        if lowest_arm_point(angles) < FLOOR_CLEARANCE:
+        angles = make_engine("mujoco", tasks[0]).rollout({}, rollout_samples(tasks[0].duration)).joint_angles
+        if lowest_arm_point(angles[::2]) < FLOOR_CLEARANCE:
             continue
-        if not all(pushes(name, task) for name in verify if name != "mujoco"):
+        if not all(pushes(name, task) for name in verify if name != "mujoco" for task in tasks):
             print(f"seed-{number}: offset {d2:+d}, {d3:+d} pushes in MuJoCo, not in all of {', '.join(verify)}")
             continue
+        probe = probe_contact(make_engine("mujoco", tasks[0]))
         print(
             f"seed-{number}: offset joint_2 {d2:+d} deg, joint_3 {d3:+d} deg: first contact "
             f"{probe.first_contact_s:.2f} s, object moved {probe.object_displacement_m * 100:.1f} cm by "
-            f"{task.duration:g} s"
+            f"{tasks[0].duration:g} s (MuJoCo, plastic)",
+            flush=True,
         )
         return d2, d3
     print(f"seed-{number}: no offset within +-{limit} deg")
