@@ -1,8 +1,31 @@
-"""Shared fixtures: paths to the real data set (when present) and the shipped reference."""
+"""Shared fixtures: the engines to test, paths to the real data set (when present) and the shipped reference."""
 
 from pathlib import Path
 
 import pytest
+
+from simtune.engines import ENGINES, Engine, engine_class
+from simtune.errors import EngineUnavailable
+
+#: Engines whose rollouts cost seconds (DART about 0.7 s, Drake about 4 s per `cube` rollout):
+#: tests that sweep many rollouts run them in the slow tier.
+COSTLY_ENGINES = frozenset({"dart", "drake"})
+#: Engines whose long rollouts (every task, 20 s of `cube`) belong in the slow tier too.
+SLOWEST_ENGINES = frozenset({"drake"})
+
+
+def engine_or_skip(name: str) -> type[Engine]:
+    """The engine class called ``name``; the test is skipped with the engine's install command if it is missing."""
+    try:
+        return engine_class(name)
+    except EngineUnavailable as exc:
+        pytest.skip(str(exc))
+
+
+def every_engine(slow: frozenset[str] = frozenset()) -> list:
+    """Every engine of the registry as a test parameter; those in ``slow`` marked for the slow tier."""
+    return [pytest.param(name, marks=[pytest.mark.slow] if name in slow else []) for name in ENGINES]
+
 
 ROOT = Path(__file__).resolve().parents[1]
 QRG2019 = ROOT.parent / "shared" / "datasets" / "qrg2019"

@@ -90,3 +90,90 @@ def test_broken_recording_names_file_and_line(tmp_path):
     proc = simtune("evaluate", "--task", "cube", "--data", str(tmp_path))
     assert proc.returncode == 2
     assert "bad.tsv" in proc.stderr and "line 41" in proc.stderr
+
+
+LONG_NAME = "x" * 300  # over the 255 bytes file systems allow per name
+
+
+@pytest.mark.parametrize(
+    ("args", "option"),
+    [
+        (["tune", "--seed", "-1"], "--seed"),
+        (["tune", "--seed", "4294967296"], "--seed"),
+        (["tune", "--max-seconds", "-5"], "--max-seconds"),
+        (["tune", "--max-seconds", "nan"], "--max-seconds"),
+        (["tune", "--eval-timeout", "-1"], "--eval-timeout"),
+        (["tune", "--eval-timeout", "0"], "--eval-timeout"),
+        (["tune", "--target-fitness", "nan"], "--target-fitness"),
+        (["tune", "--max-generations", "0"], "--max-generations"),
+        (["tune", "--max-evaluations", "0"], "--max-evaluations"),
+        (["tune", "--workers", "0"], "--workers"),
+        (["tune", "--out", f"runs/{LONG_NAME}"], "--out"),
+        (["tune", "--data", LONG_NAME], "--data"),
+        (["resume", f"runs/{LONG_NAME}"], "run_dir"),
+        (["evaluate", "--params-file", LONG_NAME], "--params-file"),
+        (["demo", "--max-seconds", "-5"], "--max-seconds"),
+        (["demo", "--workers", "0"], "--workers"),
+        (["demo", "--out", LONG_NAME], "--out"),
+        (["grid", "--repeats", "0"], "--repeats"),
+        (["grid", "--max-seconds-per-run", "nan"], "--max-seconds-per-run"),
+        (["grid", "--max-generations", "0"], "--max-generations"),
+        (["grid", "--workers", "0"], "--workers"),
+        (["grid", "--plan", "--cluster-cores", "0"], "--cluster-cores"),
+        (["grid", "--out", LONG_NAME], "--out"),
+        (["synth", "--out", "s", "--noise-mm", "-1"], "--noise-mm"),
+        (["synth", "--out", "s", "--noise-mm", "nan"], "--noise-mm"),
+        (["synth", "--out", "s", "--jitter-s", "-0.1"], "--jitter-s"),
+        (["synth", "--out", "s", "--delay-s", "nan"], "--delay-s"),
+        (["synth", "--out", "s", "--repeats", "0"], "--repeats"),
+        (["synth", "--out", "s", "--seed", "-1"], "--seed"),
+        (["synth", "--out", LONG_NAME], "--out"),
+        (["synth", "--out", "s", "--truth", LONG_NAME], "--truth"),
+        (["compare", "--seeds", "0"], "--seeds"),
+        (["compare", "--budget-evals", "0"], "--budget-evals"),
+        (["compare", "--target", "-1"], "--target"),
+        (["compare", "--eval-timeout", "inf"], "--eval-timeout"),
+        (["compare", "--workers", "0"], "--workers"),
+        (["compare", "--out", LONG_NAME], "--out"),
+        (["transfer", "--seed", "-1"], "--seed"),
+        (["transfer", "--max-seconds", "inf"], "--max-seconds"),
+        (["transfer", "--eval-timeout", "-1"], "--eval-timeout"),
+        (["transfer", "--max-generations", "0"], "--max-generations"),
+        (["transfer", "--max-evaluations", "0"], "--max-evaluations"),
+        (["transfer", "--out", LONG_NAME], "--out"),
+        (["transfer", "--test-data", LONG_NAME], "--test-data"),
+        (["sensitivity", "--samples", "1"], "--samples"),
+        (["sensitivity", "--seed", "-1"], "--seed"),
+        (["sensitivity", "--eval-timeout", "0"], "--eval-timeout"),
+        (["sensitivity", "--workers", "0"], "--workers"),
+        (["sensitivity", "--out", LONG_NAME], "--out"),
+    ],
+)
+def test_every_option_value_is_checked_before_anything_is_written(args, option, tmp_path, monkeypatch, capsys):
+    from simtune.cli import main
+
+    monkeypatch.chdir(tmp_path)  # default output folders (runs/...) would appear here
+    monkeypatch.setattr(sys, "argv", ["simtune", *args])
+    with pytest.raises(SystemExit) as stopped:
+        main()
+    assert stopped.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: Invalid value for") and option in lines[0], lines
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_bad_seed_leaves_no_run_folder_behind(tmp_path):
+    proc = simtune("tune", "--seed", "-1", "--out", str(tmp_path / "run"))
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "--seed" in proc.stderr
+    assert not (tmp_path / "run").exists()
+
+
+def test_params_file_made_for_another_engine_is_refused(tmp_path):
+    made = tmp_path / "best_params.json"
+    made.write_text(json.dumps({"engine": "pybullet", "space": "extended", "params": {"command_delay": 1.4}}))
+    proc = simtune("evaluate", "--engine", "mujoco", "--params-file", str(made))
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == [
+        f"error: {made}: field 'engine' says these values are for 'pybullet', not 'mujoco' "
+        "(use --engine pybullet, or a file made for mujoco)"
+    ]

@@ -49,9 +49,9 @@ def test_resample_rejects_bad_rate() -> None:
 
 
 def test_common_clock_and_statistics(tmp_path: Path) -> None:
-    write_csv(tmp_path / "b.csv", repeat(1.23, offset=0.01))
+    write_csv(tmp_path / "b.csv", repeat(1.05, offset=0.01))
     write_csv(tmp_path / "a.csv", repeat(1.0, t0=5.0))  # time shifted: clock restarts at 0
-    write_qualisys_tsv(tmp_path / "c.tsv.gz", repeat(1.5, rate=120.0, offset=-0.01), header=True)
+    write_qualisys_tsv(tmp_path / "c.tsv.gz", repeat(1.08, rate=120.0, offset=-0.01), header=True)
     (tmp_path / "notes.txt").write_text("ignored")
     td = load_task_data(tmp_path, "push", "wrist", "obj", rate=20.0)
     assert isinstance(td, TaskData) and td.task == "push" and td.rate == 20.0
@@ -111,7 +111,7 @@ def test_long_gap_drops_the_repeat(tmp_path: Path, body: str) -> None:
     bad.positions[body][50:80] = np.nan  # 0.30 s
     write_csv(tmp_path / "b_lost.csv", bad)
     write_csv(tmp_path / "c.csv", repeat(1.0))
-    pattern = rf"b_lost\.csv: left out: '{body}' lost for 0\.30 s \(frames 51-80"
+    pattern = rf"b_lost\.csv: gap check: left out: '{body}' lost for 0\.30 s \(frames 51-80"
     with pytest.warns(RecordingWarning, match=pattern):
         td = load_task_data(tmp_path, "t", "wrist", "obj")
     assert [p.name for p in td.sources] == ["a.csv", "c.csv"]
@@ -122,7 +122,7 @@ def test_trailing_object_loss_too_long(tmp_path: Path) -> None:
     bad = repeat(1.0)
     bad.positions["obj"][60:] = np.nan
     write_csv(tmp_path / "b.csv", bad)
-    with pytest.warns(RecordingWarning, match=r"b\.csv: left out"):
+    with pytest.warns(RecordingWarning, match=r"b\.csv: gap check: left out"):
         td = load_task_data(tmp_path, "t", "wrist", "obj")
     assert len(td.sources) == 1
 

@@ -15,7 +15,7 @@ import pytest
 from conftest import stored_evaluations
 
 from simtune.errors import SimtuneError
-from simtune.grid import GridIndex, GridSpec, Unit, plan_grid, run_grid
+from simtune.grid import GridIndex, GridSpec, PostgresGridIndex, SQLiteGridIndex, Unit, open_index, plan_grid, run_grid
 from simtune.store import RunStore
 
 distributed = pytest.importorskip("distributed")
@@ -56,13 +56,13 @@ def test_local_grid_runs_every_unit_once(local_grid):
 def test_running_again_skips_finished_units(local_grid, two_task_data):
     grid_dir, res = local_grid
     before = {u: RunStore(grid_dir / "runs" / u).count_evaluations() for u in res}
-    t0 = time.time()
     index = run_grid(small_spec(two_task_data), grid_dir, executor="local", workers=2)
     assert results(index) == res
+    # nothing simulated again: every store holds what it held
     assert {u: RunStore(grid_dir / "runs" / u).count_evaluations() for u in res} == before
-    assert time.time() - t0 < 30
 
 
+@pytest.mark.slow
 def test_dask_grid_with_a_killed_worker_matches_local(local_grid, two_task_data, tmp_path):
     _, expected = local_grid
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
@@ -85,7 +85,7 @@ def test_dask_grid_with_a_killed_worker_matches_local(local_grid, two_task_data,
             if any(stored_evaluations(p.parent) >= 3 for p in runs):
                 break
             time.sleep(0.05)
-        counts = GridIndex(grid_dir).counts()
+        counts = open_index(grid_dir).counts()
         assert counts.get("done", 0) < 8, "the kill must land mid-grid"
         pids = client.run(os.getpid)
         victim = sorted(pids.values())[0]
@@ -181,15 +181,55 @@ def test_postgres_index_records_the_same_grid(local_grid, two_task_data, postgre
     # again: finished units are skipped; another grid in the same database is kept apart
     again = run_grid(small_spec(two_task_data), grid_dir, executor="local", workers=2, index_url=postgres_url)
     assert results(again) == results(index)
-    other = GridIndex(tmp_path / "other", postgres_url)
+    other = open_index(tmp_path / "other", postgres_url)
     other.add([Unit("mujoco", "cube", "shared", 0)])
     assert [r["id"] for r in other.rows()] == ["mujoco-cube-shared-s0"]
-    assert len(GridIndex(grid_dir, postgres_url).rows()) == 8
+    assert len(open_index(grid_dir, postgres_url).rows()) == 8
 
 
 def test_bad_index_urls_are_named(tmp_path):
     with pytest.raises(SimtuneError, match="not a postgresql:// URL"):
-        GridIndex(tmp_path, "mysql://someone@host/db")
+        open_index(tmp_path, "mysql://someone@host/db")
     pytest.importorskip("psycopg")
     with pytest.raises(SimtuneError, match=r"cannot open grid index postgresql://bob:\*\*\*@"):
-        GridIndex(tmp_path, f"postgresql://bob:secret@/db?host={tmp_path}/nowhere")
+        open_index(tmp_path, f"postgresql://bob:secret@/db?host={tmp_path}/nowhere")
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def index_url(request) -> str | None:
+    return None if request.param == "sqlite" else request.getfixturevalue("postgres_url")
+
+
+def test_both_index_classes_keep_the_same_record(index_url, tmp_path):
+    index = open_index(tmp_path / "grid", index_url)
+    assert isinstance(index, SQLiteGridIndex if index_url is None else PostgresGridIndex)
+    a, b, c = (
+        Unit("mujoco", "cube", "shared", 0),
+        Unit("mujoco", "cube", "shared", 1),
+        Unit("ode", "single", "shared", 0),
+    )
+    index.add([a, b, c])
+    assert index.counts() == {"pending": 3}
+    index.mark(a, "running")
+    index.mark(a, "done", {"fitness": 0.25, "generic_fitness": 0.5, "evaluations": 7, "generations": 2, "wall_s": 1.5})
+    index.mark(b, "running")
+    index.mark(b, "pending", error="worker process died")
+    index.mark(b, "running")
+    index.mark(b, "done", {"fitness": 0.125})
+    index.mark(c, "running")
+    index.mark(c, "failed", error="no recordings")
+    index.add([a, b, c])  # again: known units keep their rows
+    index.set_meta("spec", "{}")
+    index.set_meta("spec", '{"repeats": 2}')
+    assert (index.status(a), index.attempts(a), index.attempts(b), index.attempts(c)) == ("done", 1, 2, 1)
+    assert index.counts() == {"done": 2, "failed": 1}
+    assert list(index.best()) == [("mujoco", "cube", 0.125)]
+    rows = {r["id"]: r for r in index.rows()}
+    assert list(rows) == sorted(u.id for u in (a, b, c))
+    assert (rows[a.id]["fitness"], rows[a.id]["evaluations"], rows[a.id]["wall_s"]) == (0.25, 7, 1.5)
+    assert rows[b.id]["error"] is None and rows[c.id]["error"] == "no recordings"
+    assert rows[a.id]["run_dir"] == str(index.run_dir(a)) == str(tmp_path / "grid" / "runs" / a.id)
+    index.close()
+    again = open_index(tmp_path / "grid", index_url)  # the record outlives the connection
+    assert again.counts() == {"done": 2, "failed": 1}
+    again.close()

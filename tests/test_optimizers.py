@@ -71,6 +71,7 @@ def test_seeds_differ(tmp_path):
     assert not np.array_equal(a.x, b.x)
 
 
+@pytest.mark.slow
 def test_cmaes_killed_with_sigkill_resumes_without_losing_or_redoing_work(tmp_path):
     reference = start_run(config(optimizer="cmaes", max_evaluations=21), tmp_path / "whole", show_progress=False)
     run_dir = tmp_path / "killed"

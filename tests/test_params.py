@@ -56,3 +56,38 @@ def test_validation_names_the_problem(tmp_path):
         read_params_file(bad)
     with pytest.raises(ConfigError, match="no such parameter file"):
         read_params_file(tmp_path / "missing.json")
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        ('{"command_delay": true}', r"parameter 'command_delay': true is not a number"),
+        ('{"command_delay": "0.5"}', r"parameter 'command_delay': \"0.5\" is not a number"),
+        ('{"command_delay": null}', r"parameter 'command_delay': null is not a number"),
+        ('{"command_delay": [1]}', r"parameter 'command_delay': \[1\] is not a number"),
+        ('{"params": {"timestep": false}}', r"parameter 'timestep': false is not a number"),
+        ("{}", "no parameter values in it"),
+        ('{"params": {}}', "no parameter values in it"),
+        ("[0.01, 1.4]", "expected a JSON object .* got list"),
+        ("0.5", "expected a JSON object .* got float"),
+        ('"timestep"', "expected a JSON object .* got str"),
+        ('{"params": [0.01]}', "field 'params' must be an object"),
+        ('{"space": "huge", "params": {"timestep": 0.01}}', "field 'space': unknown parameter space 'huge'"),
+        ('{"space": "shared", "params": {"command_delay": 1.0}}', "'command_delay' is not in space 'shared'"),
+        ('{"engine": "ode", "params": {"timestep": 0.01}}', "field 'engine' says these values are for 'ode'"),
+    ],
+)
+def test_params_files_are_refused_naming_file_and_field(content, message, tmp_path):
+    path = tmp_path / "p.json"
+    path.write_text(content)
+    supported = engine_class("mujoco").supported()
+    with pytest.raises(ConfigError, match=message) as caught:
+        validate_params(read_params_file(path, "mujoco"), supported, "mujoco", where=str(path))
+    assert str(caught.value).startswith(str(path))
+
+
+def test_params_file_of_its_own_engine_and_space_and_with_a_bom_is_read(tmp_path):
+    path = tmp_path / "best_params.json"
+    text = '{"engine": "mujoco", "space": "extended", "parameters": ["timestep"], "params": {"timestep": 0.01}}'
+    path.write_bytes(b"\xef\xbb\xbf" + text.encode())
+    assert read_params_file(path, "mujoco") == {"timestep": 0.01}

@@ -1,7 +1,9 @@
 """`simtune report` on a small real grid: 2 engines x 2 tasks x 3 seeds, plus broken run folders.
 
 The grid is tuned once per session (short runs, a few parameters); every test
-then checks the report's files against the run stores themselves.
+then checks the report's files against the run stores themselves.  Tuning the grid
+takes about 20 s, so those tests are in the slow tier; the default tier reports on
+one short run.
 """
 
 import base64
@@ -136,6 +138,7 @@ def _good_runs(grid) -> list[Path]:
     return [grid / "grid" / f"{e}-{t}" / f"seed{s}" for e in ENGINES for t in TASKS for s in SEEDS]
 
 
+@pytest.mark.slow
 def test_html_embeds_and_links_every_figure(report):
     index, _ = report
     page = index.read_text()
@@ -151,6 +154,7 @@ def test_html_embeds_and_links_every_figure(report):
     assert "<link" not in page and "<script" not in page
 
 
+@pytest.mark.slow
 def test_every_table_is_written_as_csv_and_markdown_and_shown(report):
     index, _ = report
     page = index.read_text()
@@ -164,6 +168,7 @@ def test_every_table_is_written_as_csv_and_markdown_and_shown(report):
         assert len([r for r in md if r.startswith("| ")]) == len(_table(report, name)) + 1
 
 
+@pytest.mark.slow
 def test_runs_table_matches_every_store(report, grid):
     rows = {Path(r["run"]).resolve(): r for r in _table(report, "runs")}
     assert set(rows) == {p.resolve() for p in _good_runs(grid)}
@@ -178,6 +183,7 @@ def test_runs_table_matches_every_store(report, grid):
         store.close()
 
 
+@pytest.mark.slow
 def test_tuned_tables_match_stores(report, grid):
     best = {}
     for run in _good_runs(grid):
@@ -206,6 +212,7 @@ def test_tuned_tables_match_stores(report, grid):
         assert float(row["improvement [%]"]) == pytest.approx(100 * (g - tuned) / g)
 
 
+@pytest.mark.slow
 def test_generic_table_and_published_sims_use_the_same_fitness(report, grid):
     rows = {(r["engine"], r["source"]): r for r in _table(report, "generic_fitness")}
     for engine in ENGINES:
@@ -223,6 +230,7 @@ def test_generic_table_and_published_sims_use_the_same_fitness(report, grid):
     assert ("Broken", "published") not in rows
 
 
+@pytest.mark.slow
 def test_dr_ranges_span_the_tuned_values(report, grid):
     ranges = yaml.safe_load((report[0].parent / "dr_ranges.yaml").read_text())
     assert set(ranges) == set(ENGINES)
@@ -246,6 +254,7 @@ def test_dr_ranges_span_the_tuned_values(report, grid):
     assert {(r["engine"], r["parameter"]) for r in csv_rows} == {(e, n) for e in ENGINES for n in ONLY}
 
 
+@pytest.mark.slow
 def test_importance_and_mann_whitney_follow_the_stores(report, grid):
     from scipy.stats import mannwhitneyu
 
@@ -280,6 +289,7 @@ def test_importance_and_mann_whitney_follow_the_stores(report, grid):
             assert 0 < float(row["p tuned < untuned"]) <= 1
 
 
+@pytest.mark.slow
 def test_trajectories_resimulate_the_stored_best(report, grid):
     rows = _table(report, "object_final")
     recorded = [r for r in rows if r["source"].startswith("recorded")]
@@ -294,6 +304,7 @@ def test_trajectories_resimulate_the_stored_best(report, grid):
     assert {r["engine"] for r in rows if r["source"] == "published"} == {"Simtune", "Short"}
 
 
+@pytest.mark.slow
 def test_broken_run_folders_are_named_and_left_out(report, grid):
     index, messages = report
     page = index.read_text()
@@ -309,11 +320,13 @@ def test_broken_run_folders_are_named_and_left_out(report, grid):
     assert not any("broken" in r["run"] for r in _table(report, "runs"))
 
 
+@pytest.mark.slow
 def test_report_leaves_run_folders_untouched(report, grid):
     for run in _good_runs(grid)[:2] + [grid / "grid" / "broken" / "corrupt"]:
         assert sorted(p.name for p in run.iterdir()) in (["best_params.json", "run.sqlite"], ["run.sqlite"])
 
 
+@pytest.mark.slow
 def test_single_run_folder_and_no_usable_run(grid, tmp_path):
     run = grid / "grid" / "mujoco-cube" / "seed1"
     # an earlier report in the same folder: its figures and tables go, other files stay
@@ -336,6 +349,7 @@ def test_single_run_folder_and_no_usable_run(grid, tmp_path):
         make_report(tmp_path / "missing", tmp_path / "none", show_progress=False)
 
 
+@pytest.mark.slow
 def test_command_line(grid, tmp_path):
     import typer
     from typer.testing import CliRunner
@@ -352,6 +366,21 @@ def test_command_line(grid, tmp_path):
     assert (tmp_path / "r" / "index.html").exists() and "index.html" in result.output
     result = runner.invoke(app, [str(tmp_path / "nothing"), "--out", str(tmp_path / "r2")])
     assert isinstance(result.exception, SimtuneError)
+
+
+def test_report_of_one_short_run(tmp_path):
+    run = tmp_path / "run"
+    config = RunConfig(
+        engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), max_generations=1, only=ONLY
+    )
+    result = start_run(config, run, show_progress=False)
+    index = make_report(run, tmp_path / "out", show_progress=False)
+    html = index.read_text()
+    assert "trajectory_mujoco_cube_extended_cube.png" in html
+    rows = list(csv.DictReader((tmp_path / "out" / "tables" / "runs.csv").read_text().splitlines()))
+    assert len(rows) == 1 and Path(rows[0]["run"]) == run
+    best = list(csv.DictReader((tmp_path / "out" / "tables" / "best_tuned.csv").read_text().splitlines()))
+    assert float(best[0]["best tuned fitness"]) == result.fitness
 
 
 def test_convergence_aggregation_holds_and_starts_together():
@@ -384,9 +413,25 @@ def test_published_rollout_holds_cuts_and_reads_quaternions():
     np.testing.assert_allclose(pyb.wrist_rot[0], np.diag([-1.0, -1.0, 1.0]), atol=1e-12)  # w=0, axis z: half turn
 
 
+@pytest.mark.slow
 def test_compute_table_shows_blow_ups_and_pruning_from_the_stores(report, grid):
     for row in _table(report, "compute"):
         runs = [p for p in _good_runs(grid) if p.parent.name == f"{row['engine']}-{row['tasks']}"]
         counts = [_store(p).count_outcomes() for p in runs]
         assert int(row["unstable or failed"]) == sum(c["unstable"] for c in counts)
         assert int(row["pruned"]) == sum(c["pruned"] for c in counts)
+
+
+def test_sections_are_numbered_in_order_and_skipped_ones_take_no_number(monkeypatch, tmp_path):
+    from simtune.report import sections
+    from simtune.report.html import Section
+
+    def maker(anchor: str, shown: bool = True):
+        return lambda data, out: Section(anchor, anchor.title()) if shown else None
+
+    monkeypatch.setattr(sections, "SECTIONS", (maker("first"), maker("absent", shown=False), maker("second")))
+    monkeypatch.setattr(sections, "APPENDICES", (maker("appendix"),))
+    out = sections.ReportOutput(tmp_path, warn=lambda message: None)
+    made = sections.make_sections(None, out)  # these makers read no data
+    assert [s.title for s in made] == ["1. First", "2. Second", "Appendix"]
+    assert out.numbers == {"first": 1, "second": 2}

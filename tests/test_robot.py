@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
+from conftest import engine_or_skip, every_engine
 
-from simtune.engines import make_engine
 from simtune.robot import forward_kinematics
 from simtune.robot.generate import robot_urdf, scene_mjcf
 from simtune.tasks import TASKS, get_task
@@ -26,12 +26,9 @@ def test_wrist_at_task_final_poses(targets_deg, expected):
     np.testing.assert_allclose(pos, expected, atol=1.5e-3)
 
 
-ENGINES = ["mujoco", "pybullet", "ode", "dart", "drake"]
-
-
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", every_engine())
 def test_engines_agree_with_kinematics_within_1mm(engine):
-    sim = make_engine(engine, get_task("single"))
+    sim = engine_or_skip(engine)(get_task("single"))
     rng = np.random.default_rng(1)
     worst = 0.0
     for q in rng.uniform(-2.3, 2.3, size=(50, 6)):
@@ -117,12 +114,13 @@ def test_generated_descriptions_are_well_formed():
         assert (mjcf.find(".//freejoint") is not None) == (task.object is not None)
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", every_engine())
 def test_objects_rest_on_the_floor(engine):
     """Each object dropped from 5 cm settles at its resting height within 2 mm."""
+    cls = engine_or_skip(engine)
     for name in ("cube", "seed-5", "seed-7", "seed-9"):
         task = get_task(name)
-        sim = make_engine(engine, task)
+        sim = cls(task)
         sim.reset({})
         lift_object(sim, 0.05)
         assert sim.object_position()[2] == pytest.approx(task.object.rest_height + 0.05, abs=1e-9)

@@ -44,6 +44,7 @@ def test_short_tune_improves_on_generic_and_stores_every_evaluation(tmp_path):
     assert store.get("versions")["mujoco"] and store.get("config")["seed"] == 3
 
 
+@pytest.mark.slow  # a process pool of two workers: about 10 s
 def test_same_seed_same_result_with_one_or_two_workers(tmp_path):
     one = start_run(config(max_generations=2), tmp_path / "one", show_progress=False)
     two = start_run(config(max_generations=2, workers=2), tmp_path / "two", show_progress=False)
@@ -51,6 +52,32 @@ def test_same_seed_same_result_with_one_or_two_workers(tmp_path):
     np.testing.assert_array_equal(one.x, two.x)
 
 
+def test_resume_after_a_crash_redoes_nothing_and_ends_where_an_uninterrupted_run_ends(tmp_path):
+    """The fast form of the kill -9 test below: the store is cut back to what a crash in the last
+    generation leaves (evaluations are committed one by one, the checkpoint once per generation)."""
+    import shutil
+    import sqlite3
+
+    reference = start_run(config(max_generations=2), tmp_path / "uninterrupted", show_progress=False)
+    run_dir = tmp_path / "crashed"
+    shutil.copytree(tmp_path / "uninterrupted", run_dir)
+    (run_dir / "best_params.json").unlink()
+    with sqlite3.connect(run_dir / "run.sqlite") as db:
+        last = db.execute("SELECT MAX(generation) FROM evaluations").fetchone()[0]
+        kept = db.execute("SELECT MIN(id) + 2 FROM evaluations WHERE generation = ?", (last,)).fetchone()[0]
+        lost = db.execute("DELETE FROM evaluations WHERE id > ?", (kept,)).rowcount
+        db.execute("DELETE FROM generations WHERE generation >= ?", (last,))
+        db.execute("UPDATE meta SET value = ? WHERE key = 'status'", ('"running"',))
+    assert lost > 0
+    resumed = resume_run(run_dir, show_progress=False)
+    assert resumed.new_evaluations == lost  # nothing simulated twice
+    assert resumed.evaluations == reference.evaluations  # nothing lost
+    assert resumed.fitness == reference.fitness
+    np.testing.assert_array_equal(resumed.x, reference.x)
+    assert RunStore(run_dir).get("status") == "finished" and (run_dir / "best_params.json").exists()
+
+
+@pytest.mark.slow
 def test_repeated_kill_minus_9_then_resume_loses_and_repeats_nothing(tmp_path):
     import random
 
@@ -104,6 +131,7 @@ def test_a_folder_with_a_run_is_not_overwritten(tmp_path):
         start_run(config(max_generations=1), tmp_path / "r", show_progress=False)
 
 
+@pytest.mark.slow
 def test_short_tune_on_real_recordings_improves_on_generic(mocap_root, tmp_path):
     """A few generations on the real `single` repeats already find the command delay."""
     cfg = RunConfig(
@@ -171,6 +199,7 @@ def test_run_store_from_another_version_is_refused(tmp_path):
         RunStore(tmp_path / "r")
 
 
+@pytest.mark.slow
 def test_pruning_saves_simulation_without_changing_the_search(tmp_path):
     pruned = start_run(config(max_generations=6), tmp_path / "pruned", show_progress=False)
     full = start_run(config(max_generations=6, prune=False), tmp_path / "full", show_progress=False)

@@ -7,7 +7,10 @@ that was still usable print ``warning: ...`` and the command goes on.
 
 from __future__ import annotations
 
+import functools
 import json
+import math
+import os
 import sys
 import time
 import warnings
@@ -36,6 +39,51 @@ app = typer.Typer(
 err = Console(stderr=True)
 out = Console()
 
+# --- values checked where they enter: one line naming the option, exit status 2, nothing written yet ---------
+#: seeds fit every random generator simtune seeds (NumPy's legacy seeding takes 32 bits)
+MAX_SEED = 2**32 - 1
+#: the longest file or folder name common file systems allow [bytes]
+NAME_MAX = 255
+PATH_MAX = 4095
+
+
+def _seconds(value: float | None) -> float | None:
+    """A duration [s]: finite and above zero."""
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise typer.BadParameter(f"{value:g} is not a number of seconds above 0")
+    return value
+
+
+def _not_negative(value: float | None) -> float | None:
+    """A finite number, zero or more."""
+    if value is not None and not (math.isfinite(value) and value >= 0):
+        raise typer.BadParameter(f"{value:g} is not a finite number of 0 or more")
+    return value
+
+
+def _finite(value: float | None) -> float | None:
+    if value is not None and not math.isfinite(value):
+        raise typer.BadParameter(f"{value:g} is not a finite number")
+    return value
+
+
+def _path(value: Path | None) -> Path | None:
+    """A path every file system can hold: no name in it over 255 bytes."""
+    if value is None:
+        return value
+    for part in value.parts:
+        size = len(os.fsencode(part))
+        if size > NAME_MAX:
+            raise typer.BadParameter(
+                f"the name {part[:24]}... is {size} bytes long; file systems allow {NAME_MAX} bytes per name"
+            )
+    if len(os.fsencode(str(value))) > PATH_MAX:
+        raise typer.BadParameter(f"the path is longer than {PATH_MAX} bytes")
+    return value
+
+
+SeedOpt = Annotated[int, typer.Option(min=0, max=MAX_SEED, help="Random seed of the optimiser (same seed, same run).")]
+
 EngineOpt = Annotated[str, typer.Option("--engine", "-e", help="Physics engine: see `simtune engines`.")]
 TaskOpt = Annotated[
     str,
@@ -50,6 +98,7 @@ DataOpt = Annotated[
         "-d",
         help="Folder with one sub-folder of recordings per task (`ROOT/<task>/*.tsv` or `*.csv`). "
         "Default: the reference recordings shipped with simtune.",
+        callback=_path,
     ),
 ]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
@@ -89,7 +138,9 @@ EvalTimeoutOpt = Annotated[
     float,
     typer.Option(
         help="With --workers 2+: an evaluation still running after this "
-        "many seconds is abandoned, stored as failed, its worker replaced."
+        "many seconds (while simtune runs: a paused or sleeping machine does not count) is abandoned, stored as "
+        "failed, its worker replaced; `simtune resume` retries it once.",
+        callback=_seconds,
     ),
 ]
 
@@ -119,6 +170,7 @@ def evaluate(
             "--params-file",
             "-p",
             help="JSON of parameter values (e.g. a run's best_params.json); default: the engine's generic values.",
+            callback=_path,
         ),
     ] = None,
     as_json: JsonOpt = False,
@@ -133,7 +185,7 @@ def evaluate(
     cls = engine_class(engine)
     params = {}
     if params_file is not None:
-        params = validate_params(read_params_file(params_file), cls.supported(), engine, where=str(params_file))
+        params = validate_params(read_params_file(params_file, engine), cls.supported(), engine, where=str(params_file))
     objective = Objective(engine, tasks, load_references(_data_root(data), tasks))
     t0 = time.perf_counter()
     score = objective.score(params)
@@ -217,14 +269,18 @@ def tune(
             "too.",
         ),
     ] = False,
-    seed: Annotated[int, typer.Option(help="Random seed of the optimiser (same seed, same run).")] = 0,
+    seed: SeedOpt = 0,
     workers: WorkersOpt = 1,
-    max_seconds: Annotated[float | None, typer.Option(help="Stop after this much wall time [s].")] = None,
+    max_seconds: Annotated[
+        float | None, typer.Option(help="Stop after this much wall time [s].", callback=_seconds)
+    ] = None,
     max_generations: Annotated[
         int, typer.Option(min=1, help="Stop after this many generations (bo and random: D evaluations count as one).")
     ] = 1000,
     max_evaluations: MaxEvalsOpt = None,
-    target_fitness: Annotated[float | None, typer.Option(help="Stop once the best fitness reaches this.")] = None,
+    target_fitness: Annotated[
+        float | None, typer.Option(help="Stop once the best fitness reaches this.", callback=_not_negative)
+    ] = None,
     no_prune: Annotated[
         bool,
         typer.Option(
@@ -246,7 +302,13 @@ def tune(
         ),
     ] = False,
     out_dir: Annotated[
-        Path, typer.Option("--out", "-o", help="Run folder to create (store, best_params.json).")
+        Path,
+        typer.Option(
+            "--out",
+            "-o",
+            help="Run folder to create (store, best_params.json): a new or empty folder, held by this run alone.",
+            callback=_path,
+        ),
     ] = Path("runs/latest"),
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
@@ -286,26 +348,52 @@ def tune(
 
 @app.command()
 def resume(
-    run_dir: Annotated[Path, typer.Argument(help="A run folder made by `simtune tune`.")],
+    run_dir: Annotated[Path, typer.Argument(help="A run folder made by `simtune tune`.", callback=_path)],
+    rescore: Annotated[
+        bool,
+        typer.Option(
+            "--rescore",
+            help="Start a new run in RUN_DIR on the data as it is now (for when the recordings, a task or the "
+            "engine changed since the run started): same settings, its search starting from the old run's last "
+            "population, every member scored anew; the old store and best_params.json move to RUN_DIR/superseded/.",
+        ),
+    ] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
 ) -> None:
-    """Continue a tuning run that was stopped or killed, keeping every finished evaluation."""
-    from simtune.runs import RunConfig, resume_run
-    from simtune.store import RunStore
+    """Continue a tuning run that was stopped or killed, keeping every finished evaluation.
 
-    result = resume_run(run_dir, show_progress=not quiet and not as_json)
+    Refused (naming what changed) when the data, a task definition or the engine
+    version changed since the run started: its stored fitness values would be
+    stale; --rescore starts over from its last population instead.  Evaluations
+    that failed by running past --eval-timeout are retried once.
+    """
+    from simtune.runs import RunConfig, resume_run
+    from simtune.store import STORE_FILE, RunStore
+
+    result = resume_run(run_dir, show_progress=not quiet and not as_json, rescore=rescore)
     store = RunStore(run_dir)
-    _report_tune(result, run_dir, RunConfig(**store.get("config")), store.get("generic"), as_json)
+    config = RunConfig.from_stored(store.get("config"), str(run_dir / STORE_FILE))
+    rescored = store.get("rescored_from")
+    if rescore and rescored and not as_json:
+        changed = "; ".join(rescored["changes"]) or "nothing changed"
+        start = f"its {rescored['members']} last members" if rescored["members"] else "scratch (it had no checkpoint)"
+        err.print(
+            f"rescored ({changed}): new run from {start}; old run kept in {run_dir / rescored['store']}",
+            markup=False,
+            highlight=False,
+            soft_wrap=True,
+        )
+    _report_tune(result, run_dir, config, store.get("generic"), as_json)
 
 
 @app.command()
 def demo(
-    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Run folder for the demo's tuning run.")] = Path(
-        "runs/demo"
-    ),
+    out_dir: Annotated[
+        Path, typer.Option("--out", "-o", help="Run folder for the demo's tuning run.", callback=_path)
+    ] = Path("runs/demo"),
     workers: Annotated[int, typer.Option("--workers", "-w", min=1)] = 2,
-    max_seconds: Annotated[float, typer.Option(help="Time budget of the tuning run [s].")] = 120.0,
+    max_seconds: Annotated[float, typer.Option(help="Time budget of the tuning run [s].", callback=_seconds)] = 120.0,
 ) -> None:
     """Tune MuJoCo to the shipped reference recording and print generic vs tuned error (about a minute)."""
     from simtune.reference import run_demo
@@ -330,9 +418,9 @@ def grid(
     spaces: Annotated[str, typer.Option(help="Parameter spaces, comma-separated.")] = "shared,individual",
     repeats: Annotated[int, typer.Option(min=1, help="Optimisations per engine x task x space (seeds 0..N-1).")] = 10,
     data: DataOpt = None,
-    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Grid folder: grid.sqlite index and runs/.")] = Path(
-        "runs/grid"
-    ),
+    out_dir: Annotated[
+        Path, typer.Option("--out", "-o", help="Grid folder: grid.sqlite index and runs/.", callback=_path)
+    ] = Path("runs/grid"),
     executor: Annotated[str, typer.Option(help="local (process pool here) or dask (a distributed cluster).")] = "local",
     scheduler: Annotated[
         str | None,
@@ -355,11 +443,13 @@ def grid(
             "default: GRID/grid.sqlite. Needs pip install 'simtune[postgres]'.",
         ),
     ] = None,
-    max_seconds_per_run: Annotated[float | None, typer.Option(help="Wall-time limit of each optimisation [s].")] = None,
+    max_seconds_per_run: Annotated[
+        float | None, typer.Option(help="Wall-time limit of each optimisation [s].", callback=_seconds)
+    ] = None,
     max_generations: Annotated[int, typer.Option(min=1, help="Generation limit of each optimisation.")] = 1000,
     only: Annotated[str | None, typer.Option(help="Tune only these parameters (comma-separated).")] = None,
     plan: Annotated[bool, typer.Option("--plan", help="Print the grid's size and cost estimate; run nothing.")] = False,
-    cluster_cores: Annotated[int, typer.Option(help="With --plan: cores of the cluster to estimate for.")] = 100,
+    cluster_cores: Annotated[int, typer.Option(min=1, help="With --plan: cores of the cluster to estimate for.")] = 100,
 ) -> None:
     """Run an experiment grid (engines x tasks x spaces x repeats), resumably, locally or on Dask.
 
@@ -453,10 +543,10 @@ def engines() -> None:
     from simtune.engines import ENGINES
 
     table = text_table("physics engines", ("engine", "version", "installed", "install"))
-    for name, (module, cls, hint) in ENGINES.items():
-        version = getattr(importlib.import_module(module), cls).version()
+    for name, entry in ENGINES.items():
+        version = getattr(importlib.import_module(entry.module), entry.cls).version()
         installed = version != "not installed"
-        table.add_row(name, version if installed else "-", "yes" if installed else "[red]no[/]", escape(hint))
+        table.add_row(name, version if installed else "-", "yes" if installed else "[red]no[/]", escape(entry.install))
     out.print(table)
 
 
@@ -607,29 +697,41 @@ def synth(
             help="JSON of the true parameter values (a flat mapping or a params file such as "
             "best_params.json), checked against the engine's parameters. Default: the engine's generic values "
             "and a command delay.",
+            callback=_path,
         ),
     ] = None,
     noise_mm: Annotated[
         float,
         typer.Option(
             help="Motion-capture noise: Gaussian, per axis, on every 100 Hz "
-            "sample of the wrist marker [mm] (a quarter of it on base and object)."
+            "sample of the wrist marker [mm] (a quarter of it on base and object).",
+            callback=_not_negative,
         ),
     ] = 2.0,
     delay_s: Annotated[
         float | None,
-        typer.Option(help="True command delay [s], overriding the truth file's (default without --truth: 1.5)."),
+        typer.Option(
+            help="True command delay [s], overriding the truth file's (default without --truth: 1.5).",
+            callback=_finite,
+        ),
     ] = None,
     jitter_s: Annotated[
         float,
-        typer.Option(help="Each repeat's start moves by a uniform jitter within +- this [s], as real repeats do."),
+        typer.Option(
+            help="Each repeat's start moves by a uniform jitter within +- this [s], as real repeats do.",
+            callback=_not_negative,
+        ),
     ] = 0.05,
     repeats: Annotated[int, typer.Option(min=1, help="Recordings per task.")] = 10,
-    seed: Annotated[int, typer.Option(help="Seed of the noise (same seed, same files).")] = 0,
+    seed: Annotated[int, typer.Option(min=0, max=MAX_SEED, help="Seed of the noise (same seed, same files).")] = 0,
     out_dir: Annotated[
         Path,
         typer.Option(
-            "--out", "-o", help="Data root to write: `OUT/<task>/*.tsv` and OUT/truth.json.", show_default=False
+            "--out",
+            "-o",
+            help="Data root to write: `OUT/<task>/*.tsv` and OUT/truth.json.",
+            show_default=False,
+            callback=_path,
         ),
     ],
 ) -> None:
@@ -667,7 +769,8 @@ def compare(
     target: Annotated[
         float | None,
         typer.Option(
-            help="Fitness to reach: the table gives the evaluations each optimiser needed (median over seeds)."
+            help="Fitness to reach: the table gives the evaluations each optimiser needed (median over seeds).",
+            callback=_not_negative,
         ),
     ] = None,
     workers: WorkersOpt = 1,
@@ -680,6 +783,7 @@ def compare(
             "-o",
             help="Folder for the runs (`OUT/<optimizer>/seed-<s>`) and "
             "compare.json; existing finished runs are reused.",
+            callback=_path,
         ),
     ] = Path("runs/compare"),
     as_json: JsonOpt = False,
@@ -726,19 +830,22 @@ def transfer(
     train: Annotated[str, typer.Option(help="Tasks to tune on together (comma-separated).")] = "single,cube",
     test: Annotated[str, typer.Option(help="Unseen tasks to evaluate the tuned parameters on.")] = "double",
     data: DataOpt = None,
-    test_data: Annotated[Path | None, typer.Option(help="Data root of the test tasks (default: --data).")] = None,
+    test_data: Annotated[
+        Path | None, typer.Option(help="Data root of the test tasks (default: --data).", callback=_path)
+    ] = None,
     space: SpaceOpt = "extended",
     optimizer: OptimizerOpt = "de",
     refine: Annotated[bool, typer.Option("--refine", help="Polish the tuned point with least squares.")] = False,
-    seed: Annotated[int, typer.Option(help="Random seed of the optimiser.")] = 0,
+    seed: SeedOpt = 0,
     workers: WorkersOpt = 1,
-    max_seconds: Annotated[float | None, typer.Option(help="Tuning wall-time limit [s].")] = None,
+    max_seconds: Annotated[float | None, typer.Option(help="Tuning wall-time limit [s].", callback=_seconds)] = None,
     max_generations: Annotated[int, typer.Option(min=1, help="Tuning generation limit.")] = 1000,
     max_evaluations: MaxEvalsOpt = None,
     only: OnlyOpt = None,
     eval_timeout: EvalTimeoutOpt = 600.0,
     out_dir: Annotated[
-        Path, typer.Option("--out", "-o", help="Folder for the tuning run (OUT/run) and transfer.json.")
+        Path,
+        typer.Option("--out", "-o", help="Folder for the tuning run (OUT/run) and transfer.json.", callback=_path),
     ] = Path("runs/transfer"),
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
@@ -813,12 +920,15 @@ def sensitivity(
     method: Annotated[
         str, typer.Option(help="morris (elementary effects, cheap screening) or sobol (variance shares S1 and ST).")
     ] = "morris",
-    seed: Annotated[int, typer.Option(help="Seed of the sampling.")] = 0,
+    seed: Annotated[int, typer.Option(min=0, max=MAX_SEED, help="Seed of the sampling.")] = 0,
     workers: WorkersOpt = 1,
     only: OnlyOpt = None,
     eval_timeout: EvalTimeoutOpt = 600.0,
     out_dir: Annotated[
-        Path, typer.Option("--out", "-o", help="Folder for sensitivity.json/.csv/.md/.png and the evaluation cache.")
+        Path,
+        typer.Option(
+            "--out", "-o", help="Folder for sensitivity.json/.csv/.md/.png and the evaluation cache.", callback=_path
+        ),
     ] = Path("runs/sensitivity"),
     as_json: JsonOpt = False,
 ) -> None:
@@ -877,19 +987,125 @@ def sensitivity(
     out.print(f"{result['new_evaluations']} new evaluations; files in {out_dir}: sensitivity.json, .csv, .md, .png")
 
 
+@app.command("export")
+def export_command(
+    run_dirs: Annotated[
+        list[Path],
+        typer.Argument(
+            help="A finished run folder; with --all-engines, run folders or folders holding them (a grid).",
+            show_default=False,
+        ),
+    ],
+    out_dir: Annotated[
+        Path,
+        typer.Option(
+            "--out", "-o", help="Folder to write (with --all-engines: one sub-folder per run).", show_default=False
+        ),
+    ],
+    engine: Annotated[
+        str | None,
+        typer.Option("--engine", "-e", help="The run's engine (checked against it); default: the run's."),
+    ] = None,
+    all_engines: Annotated[
+        bool,
+        typer.Option(
+            "--all-engines", help="Export every finished run found under RUN_DIRS, each as its own engine's files."
+        ),
+    ] = False,
+    dr: Annotated[
+        bool, typer.Option("--dr", help="Also write dr_ranges.yaml: the ranges the exported runs' tuned values span.")
+    ] = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace a previous export in a non-empty --out folder.")
+    ] = False,
+    as_json: JsonOpt = False,
+) -> None:
+    """Export a tuned run as the engine's own model files, with provenance: MJCF, URDF + sidecar, SDFormat ...
+
+    MuJoCo: scene_<task>.xml; PyBullet and DART: URDF files, a JSON sidecar and a
+    load script; Drake: URDF and SDFormat with Drake's tags, a sidecar and a load
+    script; ODE: the sidecar only (ODE has no model file). Every export has
+    controller.yaml (how the run drove the model) and provenance.json (run,
+    versions, data files with SHA-256, fitness, command line). See docs/parameters.md.
+
+    Example: simtune export runs/cube --out exported/cube --dr
+    """
+    from simtune.export import export_run, export_runs
+
+    if all_engines and engine is not None:
+        raise SimtuneError("--all-engines exports each run with its own engine: leave out --engine")
+    if all_engines:
+        results, skipped = export_runs(run_dirs, out_dir, dr=dr, force=force)
+        for path, why in skipped:
+            err.print(f"[yellow]warning:[/] skipped {escape(str(path))}: {escape(why)}", soft_wrap=True)
+    else:
+        if len(run_dirs) != 1:
+            raise SimtuneError(f"give one run folder (got {len(run_dirs)}), or --all-engines for several")
+        results = [export_run(run_dirs[0], out_dir, engine=engine, dr=dr, force=force)]
+    if as_json:
+        print(
+            json.dumps([{"run": str(r.run), "engine": r.engine, "out": str(r.out), "files": r.files} for r in results])
+        )
+        return
+    for r in results:
+        out.print(f"{r.engine}: {r.run} -> {r.out} ({', '.join(r.files)})", highlight=False, soft_wrap=True)
+
+
 app.command()(report)  # defined beside the report package it drives
+
+#: the exception class of the Click that Typer runs on (Typer may bundle its own copy)
+_CLICK_ERROR: type[Exception] = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+
+
+def _say_interrupted(exc: BaseException) -> None:
+    run_dir = getattr(exc, "run_dir", None)
+    message = "interrupted" if run_dir is None else f"interrupted - resume with: simtune resume {run_dir}"
+    err.print(message, markup=False, highlight=False, soft_wrap=True)
+
+
+def _interruptible(command):
+    """Ctrl-C inside a command: say how to resume and exit 130 (Typer itself would exit 130 without a word)."""
+
+    @functools.wraps(command)
+    def run(*args, **kwargs):
+        try:
+            return command(*args, **kwargs)
+        except KeyboardInterrupt as exc:
+            _say_interrupted(exc)
+            raise SystemExit(130) from None
+
+    return run
+
+
+for _info in app.registered_commands:
+    _info.callback = _interruptible(_info.callback)
+
+
+def _usage_error(exc) -> int:
+    """A command-line mistake (an option's value, an unknown option) as one line; its exit status."""
+    ctx = getattr(exc, "ctx", None)
+    message = exc.format_message()
+    if not message and ctx is not None:  # `simtune` alone: the help is the answer
+        ctx.get_help()
+        return exc.exit_code
+    command = f"simtune {ctx.info_name} --help" if ctx is not None and ctx.parent is not None else "simtune --help"
+    err.print(f"[red]error:[/] {escape(message)} (see `{command}`)", highlight=False, soft_wrap=True)
+    return exc.exit_code
 
 
 def main() -> None:
     warnings.showwarning = _show_warning
     try:
-        app()
+        code = app(standalone_mode=False)
     except SimtuneError as exc:
-        err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        err.print(f"[red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True)
         sys.exit(2)
-    except KeyboardInterrupt:
-        err.print("interrupted: finished evaluations are in the run store; `simtune resume RUN_DIR` continues")
+    except _CLICK_ERROR as exc:
+        sys.exit(_usage_error(exc))
+    except KeyboardInterrupt as exc:  # before or after a command
+        _say_interrupted(exc)
         sys.exit(130)
+    sys.exit(code if isinstance(code, int) else 0)
 
 
 if __name__ == "__main__":

@@ -24,3 +24,11 @@ class ConfigError(SimtuneError):
 
 class EngineUnavailable(SimtuneError):
     """A physics engine that is not installed on this machine."""
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """Ctrl-C while a run was tuning: its finished evaluations are stored; ``run_dir`` is where to resume."""
+
+    def __init__(self, run_dir) -> None:
+        super().__init__(str(run_dir))
+        self.run_dir = run_dir

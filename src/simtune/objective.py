@@ -17,11 +17,17 @@ from simtune.engines import Engine, engine_class, make_engine
 from simtune.errors import SimtuneError
 from simtune.fitness import PENALTY, Score, TaskScore, marker_positions, score_rollout
 from simtune.params import ParameterSpace
+from simtune.robot.mico import WRIST_REACH_M
 from simtune.tasks import TaskSpec
+from simtune.tasks.spec import BASE_BODY
 
 
 def load_references(root: Path, tasks: list[TaskSpec]) -> dict[str, TaskData]:
-    """The recordings of each task, from ``root/<task name>/``."""
+    """The recordings of each task, from ``root/<task name>/``, checked against the task and the arm.
+
+    The task's duration and the MICO's reach go to the loader's sanity stage as
+    plain numbers (data/ knows neither tasks nor robots).
+    """
     root = Path(root)
     if not root.is_dir():
         raise SimtuneError(f"data folder {root} does not exist (expected {root}/<task>/*.tsv)")
@@ -35,6 +41,9 @@ def load_references(root: Path, tasks: list[TaskSpec]) -> dict[str, TaskData]:
             task.name,
             wrist_body=task.wrist_body,
             object_body=task.object.mocap_body if task.object is not None else None,
+            duration_s=task.duration,
+            reach_m=WRIST_REACH_M,
+            base_body=BASE_BODY,
         )
     return refs
 

@@ -1,36 +1,77 @@
 """Tuning runs: a run folder with its store, configuration and best parameters.
 
 ``start_run`` creates the folder and records everything needed to repeat the
-run (configuration, versions, command line); ``resume_run`` reads it back and
+run (configuration, versions, command line, a fingerprint of the data, task
+definitions and engine version); ``resume_run`` reads it back and
 continues: the optimiser (``RunConfig.optimizer``, see
 :data:`simtune.optimize.OPTIMIZERS`) replays its search with the same seed,
 taking every finished evaluation from the store, then the optional
 least-squares refinement (``refine``) does the same.  ``best_params.json`` is rewritten atomically after every run
 session, in the format ``--params-file`` reads.
+
+Safety of a run folder:
+
+- one process writes it at a time (:mod:`simtune.runlock`); a second is refused at once;
+- ``start_run`` refuses a folder that holds a run (resume it) or anything else that is
+  not simtune's (the user's files are never overwritten);
+- ``resume_run`` reads a ``run.sqlite`` read-only until it knows it is a run store of
+  this simtune, checks every page of it, refuses an unknown key in its configuration,
+  and refuses when the data, a task definition or the engine version changed since the
+  run started, naming what changed;
+- ``resume_run(..., rescore=True)`` (``simtune resume RUN --rescore``) starts a new run on
+  the data as it is now, in the same folder and with the same configuration: the old
+  store and best parameters move to ``RUN/superseded/`` (``run-<time>.sqlite``,
+  ``best_params-<time>.json``), the generic fitness is scored anew, and the search starts
+  from the old run's last population of its search (every member scored anew): DE takes
+  it as its first population, the other optimisers score it as their first batch;
+- a failed evaluation that ran past the time-out is retried once on resume.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
+import math
 import os
 import platform
+import sqlite3
 import sys
-from dataclasses import asdict, dataclass, replace
+import tempfile
+import time
+from dataclasses import MISSING, asdict, dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
 
 import simtune
+from simtune.data.fingerprint import data_fingerprint, fingerprint_changes
 from simtune.engines import engine_class
-from simtune.errors import ConfigError, SimtuneError
+from simtune.errors import ConfigError, RunInterrupted, SimtuneError
 from simtune.objective import Objective, load_references
 from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squares_refine
+from simtune.optimize.evaluator import timed_out
 from simtune.params import get_space
 from simtune.progress import TuneProgress
-from simtune.store import RunStore
-from simtune.tasks import parse_tasks
+from simtune.runlock import LOCK_FILE, check_free, run_lock
+from simtune.store import STORE_FILE, RunStore, check_store_file
+from simtune.tasks import TaskSpec, parse_tasks
 
 BEST_PARAMS_FILE = "best_params.json"
+#: where ``resume --rescore`` keeps the run it replaces
+SUPERSEDED_DIR = "superseded"
+STORE_FILES = (STORE_FILE, STORE_FILE + "-wal", STORE_FILE + "-shm")
+#: what simtune leaves in a run folder besides the run itself
+_OWN_ENTRIES = frozenset({LOCK_FILE, SUPERSEDED_DIR, *STORE_FILES})
+#: seeds must fit every random generator the optimisers use (NumPy's legacy seeding takes 32 bits)
+MAX_SEED = 2**32 - 1
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
 @dataclass
@@ -54,28 +95,70 @@ class RunConfig:
     #: pruning, and the paper's whole parameter list (parameters the engine lacks kept, without effect)
     paper_exact: bool = False
 
-    def check(self) -> None:
-        """One-line ConfigError for settings no optimiser can run with."""
+    @classmethod
+    def from_stored(cls, values, where: str) -> RunConfig:
+        """The configuration a run store holds; one line naming ``where`` and the key for anything unknown or bad."""
+        if not isinstance(values, dict):
+            raise ConfigError(f"{where}: the stored configuration is not a JSON object")
+        known = {f.name for f in fields(cls)}
+        for key in values:
+            if key not in known:
+                raise ConfigError(
+                    f"{where}: unknown key {key!r} in the stored configuration (written by another simtune version?)"
+                )
+        for f in fields(cls):
+            if f.default is MISSING and f.name not in values:
+                raise ConfigError(f"{where}: the stored configuration has no {f.name!r}")
+        config = cls(**values)
+        config.check(where)
+        return config
+
+    def check(self, where: str = "") -> None:
+        """One-line ConfigError for settings no optimiser can run with (each value's type and range)."""
+        at = f"{where}: " if where else ""
+
+        def bad(key: str, what: str) -> ConfigError:
+            return ConfigError(f"{at}{key} must be {what}, got {getattr(self, key)!r}")
+
+        for key in ("engine", "tasks", "space", "data", "optimizer"):
+            if not isinstance(getattr(self, key), str):
+                raise bad(key, "a string")
+        if not _is_int(self.seed) or not 0 <= self.seed <= MAX_SEED:
+            raise bad("seed", f"an integer from 0 to {MAX_SEED}")
+        for key in ("workers", "max_generations"):
+            if not _is_int(getattr(self, key)) or getattr(self, key) < 1:
+                raise bad(key, "an integer of at least 1")
+        if self.max_evaluations is not None and (not _is_int(self.max_evaluations) or self.max_evaluations < 1):
+            raise bad("max_evaluations", "an integer of at least 1")
+        for key in ("max_seconds", "eval_timeout"):
+            value = getattr(self, key)
+            if value is not None and (not _is_number(value) or value <= 0):
+                raise bad(key, "a finite number of seconds above 0")
+        if self.target_fitness is not None and (not _is_number(self.target_fitness) or self.target_fitness < 0):
+            raise bad("target_fitness", "a finite number of at least 0")
+        for key in ("prune", "refine", "paper_exact"):
+            if not isinstance(getattr(self, key), bool):
+                raise bad(key, "true or false")
+        if self.only is not None and (
+            not isinstance(self.only, list) or not all(isinstance(n, str) for n in self.only)
+        ):
+            raise bad("only", "a list of parameter names")
         get_optimizer(self.optimizer)
         if self.paper_exact:
             if self.optimizer != "de":
-                raise ConfigError(f"--paper-exact runs differential evolution, not --optimizer {self.optimizer}")
+                raise ConfigError(f"{at}--paper-exact runs differential evolution, not --optimizer {self.optimizer}")
             if self.space not in ("shared", "individual"):
                 raise ConfigError(
-                    f"--paper-exact needs one of the paper's spaces (shared, individual), not {self.space!r}"
+                    f"{at}--paper-exact needs one of the paper's spaces (shared, individual), not {self.space!r}"
                 )
             if self.only:
-                raise ConfigError("--paper-exact tunes the paper's whole parameter list: drop --only")
+                raise ConfigError(f"{at}--paper-exact tunes the paper's whole parameter list: drop --only")
             if self.workers != 1:
                 raise ConfigError(
-                    "--paper-exact evaluates one trial at a time (SciPy's immediate updating): drop --workers"
+                    f"{at}--paper-exact evaluates one trial at a time (SciPy's immediate updating): drop --workers"
                 )
             if self.refine:
-                raise ConfigError("--paper-exact ends with SciPy's own polish: drop --refine")
-        if self.max_evaluations is not None and self.max_evaluations < 1:
-            raise ConfigError(f"max_evaluations must be at least 1, got {self.max_evaluations}")
-        if self.max_generations < 1:
-            raise ConfigError(f"max_generations must be at least 1, got {self.max_generations}")
+                raise ConfigError(f"{at}--paper-exact ends with SciPy's own polish: drop --refine")
 
 
 def versions(engine: str) -> dict[str, str]:
@@ -90,6 +173,40 @@ def versions(engine: str) -> dict[str, str]:
     }
 
 
+def task_fingerprint(task: TaskSpec) -> str:
+    """SHA-256 of what a task makes the engine do (its description and catalogue flags left out)."""
+    spec = asdict(task)
+    for key in ("description", "has_public_recordings"):
+        spec.pop(key, None)
+    return hashlib.sha256(json.dumps(spec, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def run_fingerprint(config: RunConfig) -> dict:
+    """What the fitness of a run depends on besides its parameters: data files, task definitions, engine version."""
+    tasks = parse_tasks(config.tasks)
+    return {
+        "data": data_fingerprint(config.data, [t.name for t in tasks]),
+        "tasks": {t.name: task_fingerprint(t) for t in tasks},
+        "engine": f"{config.engine} {engine_class(config.engine).version()}",
+    }
+
+
+def fingerprint_differences(stored: dict, now: dict) -> list[str]:
+    """What changed between two run fingerprints, one phrase each (``cube/cube0002.tsv changed``)."""
+    changes = fingerprint_changes(stored.get("data", {}), now["data"])
+    for name in sorted(set(stored.get("tasks", {})) | set(now["tasks"])):
+        if stored.get("tasks", {}).get(name) != now["tasks"].get(name):
+            changes.append(f"the definition of task {name!r} changed")
+    if stored.get("engine", now["engine"]) != now["engine"]:
+        changes.append(f"engine {stored['engine']} is now {now['engine']}")
+    return changes
+
+
+def _summary(changes: list[str], shown: int = 3) -> str:
+    more = f" and {len(changes) - shown} more" if len(changes) > shown else ""
+    return "; ".join(changes[:shown]) + more
+
+
 def build_objective(config: RunConfig) -> Objective:
     tasks = parse_tasks(config.tasks)
     # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
@@ -99,49 +216,208 @@ def build_objective(config: RunConfig) -> Objective:
 
 
 def write_json_atomic(path: Path, data: dict) -> None:
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2) + "\n")
-    os.replace(tmp, path)
+    """Write ``path`` whole or not at all (a temporary file of a unique name, then renamed over it)."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    umask = os.umask(0)
+    os.umask(umask)
+    try:
+        if hasattr(os, "fchmod"):
+            os.fchmod(fd, 0o666 & ~umask)  # as an ordinary new file (mkstemp makes it private)
+        with os.fdopen(fd, "w") as fh:
+            fh.write(json.dumps(data, indent=2) + "\n")
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
-def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> TuneResult:
-    """Create ``run_dir`` and tune.  A folder that already holds a run is refused (use resume)."""
-    run_dir = Path(run_dir)
-    if (run_dir / "run.sqlite").exists():
+def has_run(run_dir: Path) -> bool:
+    """Whether ``run_dir`` holds a simtune run that was set up (its store has a configuration).
+
+    A ``run.sqlite`` that is not a simtune store is a one-line error (and is left unchanged).
+    """
+    path = Path(run_dir) / STORE_FILE
+    if not path.exists():
+        return False
+    check_store_file(path)
+    store = RunStore(run_dir)
+    try:
+        return store.get("config") is not None
+    finally:
+        store.close()
+
+
+def discard_run(run_dir: Path) -> None:
+    """Delete the run in ``run_dir`` (store, best parameters, superseded runs); the caller holds its lock."""
+    import shutil
+
+    for name in (*STORE_FILES, BEST_PARAMS_FILE):
+        (Path(run_dir) / name).unlink(missing_ok=True)
+    shutil.rmtree(Path(run_dir) / SUPERSEDED_DIR, ignore_errors=True)
+
+
+def _check_vacant(run_dir: Path, locked: bool) -> None:
+    """Refuse a folder that holds a run or anything that is not simtune's; under the lock, clear a store that was
+    never set up (its process died while creating it)."""
+    if not run_dir.exists():
+        return
+    if not run_dir.is_dir():
+        raise SimtuneError(f"{run_dir} is a file, not a run folder")
+    if has_run(run_dir):
         raise SimtuneError(f"{run_dir} already holds a run: `simtune resume {run_dir}` continues it")
-    config.check()
-    objective = build_objective(config)  # checks engine, tasks, space and data before any folder is made
+    others = sorted(p.name for p in run_dir.iterdir() if p.name not in _OWN_ENTRIES)
+    if others:
+        listed = ", ".join(others[:3]) + (f" and {len(others) - 3} more" if len(others) > 3 else "")
+        raise SimtuneError(
+            f"{run_dir} is not empty ({listed}) and holds no simtune run: choose a new or empty folder for --out"
+        )
+    if locked:
+        for name in STORE_FILES:
+            (run_dir / name).unlink(missing_ok=True)
+
+
+def _make_folder(run_dir: Path) -> None:
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SimtuneError(f"cannot create run folder {run_dir}: {exc.strerror}") from None
+
+
+def _create_store(run_dir: Path, config: RunConfig, objective: Objective, generic, **meta) -> RunStore:
     store = RunStore(run_dir, create=True)
-    generic = objective.score({})
     store.set(
-        config=asdict(config),
         versions=versions(config.engine),
         command=sys.argv,
         parameters=objective.vector_space().names,
         bounds=objective.vector_space().bounds,
         # in the search vector without effect in this engine (only --paper-exact keeps such parameters)
-        inactive_parameters=[
+        unmapped_parameters=[
             n for n in objective.vector_space().names if n not in engine_class(config.engine).supported()
         ],
         generic=generic.to_dict(),
+        fingerprint=run_fingerprint(config),
         status="running",
         elapsed_s=0.0,
+        **meta,
     )
-    return _run(objective, config, store, show_progress)
+    store.set(config=asdict(config))  # last: a store with a configuration is a run that was fully set up
+    return store
 
 
-def resume_run(run_dir: Path, show_progress: bool = True) -> TuneResult:
-    """Continue the run in ``run_dir`` where it stopped, reusing every stored evaluation."""
-    store = RunStore(Path(run_dir))
-    stored = store.get("config")
-    if stored is None:
-        raise SimtuneError(f"{run_dir}: run store has no configuration")
-    config = RunConfig(**stored)
+def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> TuneResult:
+    """Create ``run_dir`` and tune.  A folder that holds a run (use resume) or other files is refused."""
+    run_dir = Path(run_dir)
     config.check()
-    objective = build_objective(config)
+    check_free(run_dir)  # a run in progress there: say who runs it, at once
+    _check_vacant(run_dir, locked=False)
+    objective = build_objective(config)  # checks engine, tasks, space and data before any folder is made
+    generic = objective.score({})
+    _make_folder(run_dir)
+    with run_lock(run_dir):
+        _check_vacant(run_dir, locked=True)  # again: another process may have started a run meanwhile
+        store = _create_store(run_dir, config, objective, generic)
+        return _run_interruptible(objective, config, store, show_progress)
+
+
+def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False) -> TuneResult:
+    """Continue the run in ``run_dir`` where it stopped, reusing every stored evaluation.
+
+    With ``rescore``: start a new run from its last population on the data as it is now (see the module's notes).
+    """
+    run_dir = Path(run_dir)
+    path = run_dir / STORE_FILE
+    if not path.exists():
+        raise SimtuneError(f"{run_dir} is not a run folder (no {STORE_FILE})")
+    check_store_file(path)  # read-only: a foreign file gets no lock file beside it and no tables in it
+    with run_lock(run_dir):
+        store = RunStore(run_dir)
+        try:
+            store.verify()
+            stored = store.get("config")
+            if stored is None:
+                raise SimtuneError(
+                    f"{run_dir}: the run was never set up (its process died while creating it): "
+                    f"`simtune tune --out {run_dir}` starts it afresh"
+                )
+            config = RunConfig.from_stored(stored, f"{path}")
+            stored_fingerprint = store.get("fingerprint")
+            changes = []  # a run from before fingerprints has nothing to compare with
+            if stored_fingerprint is not None:
+                changes = fingerprint_differences(stored_fingerprint, run_fingerprint(config))
+            if rescore:
+                return _rescore(run_dir, store, config, changes, show_progress)
+            if changes:
+                raise SimtuneError(
+                    f"{run_dir}: {_summary(changes)} since the run started, so its stored fitness values are stale: "
+                    f"`simtune resume {run_dir} --rescore` starts a new run from its last population on the data "
+                    "as it is now"
+                )
+            objective = build_objective(config)
+            _check_parameters(run_dir, objective, store, config)
+            store.release_failures(timed_out)  # each evaluation that timed out gets one more try
+            return _run_interruptible(objective, config, store, show_progress)
+        except sqlite3.DatabaseError as exc:
+            raise SimtuneError(f"{path} is damaged ({exc})") from None
+        finally:
+            store.close()
+
+
+def _check_parameters(run_dir: Path, objective: Objective, store: RunStore, config: RunConfig) -> None:
     if objective.vector_space().names != store.get("parameters"):
         raise SimtuneError(f"{run_dir}: the stored parameter list differs from this simtune's {config.space!r} space")
-    return _run(objective, config, store, show_progress)
+
+
+def _rescore(run_dir: Path, store: RunStore, config: RunConfig, changes: list[str], show_progress: bool) -> TuneResult:
+    """A new run in ``run_dir`` from the old run's last search population, on the data as it is now."""
+    checkpoint = store.last_checkpoint(up_to=store.get("search_generations"))
+    objective = build_objective(config)  # the new data must load before the old run is moved aside
+    _check_parameters(run_dir, objective, store, config)
+    generic = objective.score({})
+    store.close()
+    kept = _supersede(run_dir)
+    population = None if checkpoint is None else np.atleast_2d(checkpoint["population"])
+    new = _create_store(
+        run_dir,
+        config,
+        objective,
+        generic,
+        initial_population=None if population is None else population.tolist(),
+        rescored_from={
+            "store": str(kept.relative_to(run_dir)),
+            "generation": None if checkpoint is None else checkpoint["generation"],
+            "members": 0 if population is None else len(population),
+            "changes": changes,
+        },
+    )
+    return _run_interruptible(objective, config, new, show_progress)
+
+
+def _supersede(run_dir: Path) -> Path:
+    """Move the run's store and best parameters to ``RUN/superseded/`` (names stamped with the time); the new path."""
+    folder = run_dir / SUPERSEDED_DIR
+    folder.mkdir(exist_ok=True)
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    n = 1
+    while (folder / f"run-{stamp}.sqlite").exists():
+        n += 1
+        stamp = f"{time.strftime('%Y%m%d-%H%M%S')}-{n}"
+    target = folder / f"run-{stamp}.sqlite"
+    for suffix in ("-wal", "-shm", ""):  # the database last: its journal moves with it under the matching name
+        source = run_dir / (STORE_FILE + suffix)
+        if source.exists():
+            os.replace(source, folder / (target.name + suffix))
+    best = run_dir / BEST_PARAMS_FILE
+    if best.exists():
+        os.replace(best, folder / f"best_params-{stamp}.json")
+    return target
+
+
+def _run_interruptible(objective: Objective, config: RunConfig, store: RunStore, show_progress: bool) -> TuneResult:
+    """:func:`_run`; Ctrl-C becomes :class:`RunInterrupted`, naming the folder to resume."""
+    try:
+        return _run(objective, config, store, show_progress)
+    except KeyboardInterrupt:
+        raise RunInterrupted(store.run_dir) from None
 
 
 def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress: bool) -> TuneResult:
@@ -149,6 +425,7 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
     max_seconds, target, max_evaluations = config.max_seconds, config.target_fitness, config.max_evaluations
     searched = store.get("search_evaluations")
     elapsed_at_start = store.get("elapsed_s", 0.0)
+    initial = store.get("initial_population")
     if searched is not None:
         # the search finished in an earlier session (a refinement followed): replay it to the same point,
         # whatever the clock says now
@@ -167,11 +444,13 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
             target_fitness=target,
             on_evaluation=progress.evaluation,
             on_generation=progress.generation,
+            initial_population=None if initial is None else np.array(initial, dtype=float),
         )
         result = tune(objective, store, settings)
         if searched is None:
             store.set(
                 search_evaluations=result.used_evaluations,
+                search_generations=result.generations,
                 search_elapsed_s=result.wall_s,
                 search_message=result.message,
                 search_converged=result.converged,

@@ -26,6 +26,7 @@ import json
 import warnings
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -36,6 +37,7 @@ from simtune.objective import Objective, load_references
 from simtune.optimize.evaluator import Evaluator
 from simtune.params import get_space
 from simtune.store import RunStore
+from simtune.table import Column, Table
 from simtune.tasks import parse_tasks
 
 METHODS = ("morris", "sobol")
@@ -124,6 +126,7 @@ def run_sensitivity(
     finally:
         store.close()
 
+    rows: list[dict[str, Any]]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         if method == "morris":
@@ -177,10 +180,8 @@ def run_sensitivity(
 
 
 # --- presentation (also used by `simtune report`) -------------------------------------------------------
-def sensitivity_table(result: dict, name: str = "sensitivity"):
-    """The result as a report :class:`~simtune.report.tables.Table`, most influential parameter first."""
-    from simtune.report.tables import Column, Table
-
+def sensitivity_table(result: dict, name: str = "sensitivity") -> Table:
+    """The result as a :class:`~simtune.table.Table`, most influential parameter first."""
     where = f"{result['engine']} on {result['tasks']} (space {result['space']})"
     note = (
         f"{result['evaluations']} evaluations ({result['unstable']} unstable, scored as the penalty); fitness "

@@ -9,7 +9,9 @@ Tables
 - ``generations``: one checkpoint per generation: the population, its energies,
   the best member and the run's elapsed time;
 - ``residuals``: for the evaluations of a least-squares refinement, the residual
-  vector (float64 bytes), so a resumed refinement replays without simulating.
+  vector (float64 bytes), so a resumed refinement replays without simulating;
+- ``retried``: the keys of failed evaluations already given their one retry
+  (:meth:`RunStore.release_failures`).
 
 Every evaluation is committed as soon as it finishes (WAL journal), so a kill
 loses at most the evaluations still running.  Evaluations are keyed by the
@@ -25,6 +27,7 @@ import json
 import shutil
 import sqlite3
 import time
+from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -64,7 +67,35 @@ CREATE TABLE IF NOT EXISTS generations (
     finished_at REAL NOT NULL
 );
 CREATE TABLE IF NOT EXISTS residuals (key TEXT PRIMARY KEY, r BLOB NOT NULL);
+CREATE TABLE IF NOT EXISTS retried (key TEXT PRIMARY KEY);
 """
+
+
+def check_store_file(path: Path) -> None:
+    """Refuse a file that is not a run store of this simtune's schema, reading it only (one line naming it).
+
+    A foreign SQLite file (or any other file) named ``run.sqlite`` is left exactly as it was.
+    """
+    path = Path(path)
+    try:
+        db = sqlite3.connect(path.resolve().as_uri() + "?mode=ro", uri=True)
+        try:
+            tables = {row[0] for row in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+            row = None
+            if {"meta", "evaluations", "generations"} <= tables:
+                row = db.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
+        finally:
+            db.close()
+    except sqlite3.DatabaseError as exc:
+        raise SimtuneError(f"{path} cannot be read as a run store ({exc}); it was left unchanged") from None
+    if row is None:
+        raise SimtuneError(f"{path} is not a simtune run store (no simtune tables in it); it was left unchanged")
+    try:
+        version = json.loads(row[0])
+    except ValueError:
+        version = row[0]
+    if version != SCHEMA_VERSION:
+        raise SimtuneError(f"{path}: run store version {version}, this simtune reads version {SCHEMA_VERSION}")
 
 
 def vector_key(x) -> str:
@@ -73,7 +104,12 @@ def vector_key(x) -> str:
 
 
 class RunStore:
-    """SQLite store of one run.  Only the coordinating process writes to it."""
+    """SQLite store of one run.  Only the coordinating process writes to it.
+
+    ``RunStore(run_dir)`` opens it for writing; :meth:`open_read_only` for reading alone.
+    """
+
+    read_only = False
 
     def __init__(self, run_dir: Path, create: bool = False, filename: str = STORE_FILE):
         self.run_dir = Path(run_dir)
@@ -91,6 +127,8 @@ class RunStore:
                 )
         elif not self.path.exists():
             raise SimtuneError(f"{self.run_dir} is not a run folder (no {filename})")
+        else:
+            check_store_file(self.path)  # read-only: nothing is written into a foreign file
         try:
             self.db = sqlite3.connect(self.path, timeout=30)
             self.db.execute("PRAGMA journal_mode=WAL")
@@ -104,9 +142,42 @@ class RunStore:
         if version != SCHEMA_VERSION:
             raise SimtuneError(f"{self.path}: run store version {version}, this simtune reads version {SCHEMA_VERSION}")
 
+    @classmethod
+    def open_read_only(cls, run_dir: Path, filename: str = STORE_FILE) -> RunStore:
+        """The store in ``run_dir`` opened read-only (SQLite ``mode=ro``): every query works, every write fails.
+
+        Reading leaves the run folder as it was.  A store closed cleanly has no ``-wal`` file: all of it
+        is in its one file, which is then opened ``immutable`` so that SQLite creates no side files (it
+        assumes no writer appears while it reads: stores of finished runs have none).  A store with a
+        ``-wal`` file (a run being written, or one that was killed) is read through that file.  A file
+        that is not a SQLite database raises :class:`sqlite3.DatabaseError`, here or at a later query.
+        """
+        store = cls.__new__(cls)
+        store.run_dir = Path(run_dir)
+        store.path = store.run_dir / filename
+        store.read_only = True
+        if not store.path.is_file():
+            raise SimtuneError(f"{store.run_dir} is not a run folder (no {filename})")
+        wal = store.path.with_name(store.path.name + "-wal")
+        flags = "mode=ro" if wal.exists() else "mode=ro&immutable=1"
+        store.db = sqlite3.connect(f"{store.path.resolve().as_uri()}?{flags}", uri=True, timeout=30)
+        try:
+            version = store.get("schema_version")
+        except sqlite3.Error:
+            store.db.close()
+            raise
+        if version != SCHEMA_VERSION:
+            store.db.close()
+            raise SimtuneError(
+                f"{store.path}: run store version {version}, this simtune reads version {SCHEMA_VERSION}"
+            )
+        return store
+
     @contextmanager
     def _writing(self):
         """A committed transaction; a failed write (disk full, folder removed) is one clear error."""
+        if self.read_only:
+            raise SimtuneError(f"{self.path} is open read-only: not written")
         try:
             with self.db:
                 yield
@@ -115,6 +186,20 @@ class RunStore:
                 f"cannot write run store {self.path}: {exc} (disk full or not writable?); "
                 f"finished evaluations are kept: `simtune resume {self.run_dir}`"
             ) from None
+
+    def verify(self) -> None:
+        """SQLite's quick check of every page; a damaged store is one line naming it and the first problem."""
+        try:
+            problems = [row[0] for row in self.db.execute("PRAGMA quick_check(3)")]
+        except sqlite3.DatabaseError as exc:
+            problems = [str(exc)]
+        if problems != ["ok"]:
+            lines = [line.strip() for p in problems for line in p.splitlines() if line.strip()]
+            first = next((line for line in lines if not line.startswith("***")), lines[0] if lines else "?")
+            raise SimtuneError(
+                f"{self.path} is damaged ({first}): start a new run in another folder "
+                "(`sqlite3 run.sqlite .recover` may salvage its rows)"
+            )
 
     # --- meta ------------------------------------------------------------------------------
     def set(self, **values) -> None:
@@ -151,6 +236,21 @@ class RunStore:
                     time.time(),
                 ),
             )
+
+    def release_failures(self, retry: Callable[[Score], bool]) -> int:
+        """Forget the failed evaluations ``retry`` picks that were never retried, so that a replay runs them again.
+
+        Each is remembered in ``retried``: a failure is given one retry, never more.  Returns how many.
+        """
+        rows = self.db.execute(
+            "SELECT key, score FROM evaluations WHERE stable = 0 AND key NOT IN (SELECT key FROM retried)"
+        ).fetchall()
+        keys = [(key,) for key, score in rows if retry(Score.from_dict(json.loads(score)))]
+        with self._writing():
+            self.db.executemany("INSERT OR IGNORE INTO retried VALUES (?)", keys)
+            self.db.executemany("DELETE FROM evaluations WHERE key = ?", keys)
+            self.db.executemany("DELETE FROM residuals WHERE key = ?", keys)
+        return len(keys)
 
     def lookup_residuals(self, x) -> np.ndarray | None:
         row = self.db.execute("SELECT r FROM residuals WHERE key = ?", (vector_key(x),)).fetchone()
@@ -192,6 +292,11 @@ class RunStore:
             for r in rows
         ]
 
+    def initial_fitness(self) -> list[float]:
+        """Fitness of every evaluation of the initial population (generation 0), in store order."""
+        rows = self.db.execute("SELECT fitness FROM evaluations WHERE generation = 0 ORDER BY id").fetchall()
+        return [float(r[0]) for r in rows]
+
     def best_evaluation(self) -> dict | None:
         row = self.db.execute("SELECT x, score FROM evaluations ORDER BY fitness, id LIMIT 1").fetchone()
         return None if row is None else {"x": json.loads(row[0]), "score": json.loads(row[1])}
@@ -200,15 +305,28 @@ class RunStore:
     def record_generation(
         self, generation: int, population, energies, best_x, best_fitness: float, evaluations: int, elapsed_s: float
     ) -> None:
+        """Checkpoint a generation.  A resumed run replays its earlier generations: one found stored with the same
+        population and energies keeps the evaluation count and time of when it was first reached; one that
+        differs (the replay took another path, e.g. after a retried evaluation) replaces it and every later one.
+        """
+        population_json = json.dumps(np.asarray(population, dtype=float).tolist())
+        energies_json = json.dumps([float(e) for e in energies])
         with self._writing():
+            stored = self.db.execute(
+                "SELECT population, energies FROM generations WHERE generation = ?", (generation,)
+            ).fetchone()
+            if stored == (population_json, energies_json):
+                return
+            if stored is not None:
+                self.db.execute("DELETE FROM generations WHERE generation >= ?", (generation,))
             self.db.execute(
-                "INSERT OR REPLACE INTO generations VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                "INSERT INTO generations VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
                 (
                     generation,
                     float(best_fitness),
                     json.dumps([float(v) for v in best_x]),
-                    json.dumps(np.asarray(population, dtype=float).tolist()),
-                    json.dumps([float(e) for e in energies]),
+                    population_json,
+                    energies_json,
                     evaluations,
                     elapsed_s,
                     time.time(),
@@ -221,9 +339,12 @@ class RunStore:
         ).fetchall()
         return [dict(generation=r[0], best_fitness=r[1], evaluations=r[2], elapsed_s=r[3]) for r in rows]
 
-    def last_checkpoint(self) -> dict | None:
+    def last_checkpoint(self, up_to: int | None = None) -> dict | None:
+        """The latest generation checkpoint (with ``up_to``: the latest at or before that generation)."""
         row = self.db.execute(
-            "SELECT generation, population, energies, elapsed_s FROM generations ORDER BY generation DESC LIMIT 1"
+            "SELECT generation, population, energies, elapsed_s FROM generations WHERE generation <= ?"
+            " ORDER BY generation DESC LIMIT 1",
+            (up_to if up_to is not None else 2**62,),
         ).fetchone()
         if row is None:
             return None
@@ -233,15 +354,6 @@ class RunStore:
             energies=np.array(json.loads(row[2])),
             elapsed_s=row[3],
         )
-
-    def population(self, generation: int) -> tuple[np.ndarray, np.ndarray]:
-        """The population and its fitness values recorded at ``generation``'s checkpoint."""
-        row = self.db.execute(
-            "SELECT population, energies FROM generations WHERE generation = ?", (generation,)
-        ).fetchone()
-        if row is None:
-            raise KeyError(f"no checkpoint of generation {generation}")
-        return np.array(json.loads(row[0]), dtype=float), np.array(json.loads(row[1]), dtype=float)
 
     def close(self) -> None:
         self.db.close()

@@ -44,7 +44,7 @@ def load_truth(path: Path | None, engine: str, delay_s: float | None) -> dict[st
     supported = engine_class(engine).supported()
     truth: dict[str, float] = {}
     if path is not None:
-        truth = validate_params(read_params_file(path), supported, engine, where=str(path))
+        truth = validate_params(read_params_file(path, engine), supported, engine, where=str(path))
     if delay_s is not None:
         truth["command_delay"] = delay_s
     elif path is None:

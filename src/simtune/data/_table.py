@@ -7,7 +7,10 @@ Python scan run, which is slow but can name the exact line and column at fault.
 
 from __future__ import annotations
 
+import bz2
+import codecs
 import gzip
+import lzma
 import math
 import warnings
 import zlib
@@ -31,20 +34,97 @@ def display_name(path: Path) -> str:
 
 
 def read_bytes(path: Path, display: str) -> bytes:
-    """Read a file, decompressing ``.gz``; any I/O or gzip problem becomes a RecordingError."""
+    """A file's text as UTF-8 bytes, whatever its compression or encoding (see :func:`decode_content`)."""
     path = Path(path)
     if not path.exists():
         raise RecordingError(f"{display}: no such file ({path})")
     if not path.is_file():
         raise RecordingError(f"{display}: not a file ({path})")
     try:
-        if path.name.lower().endswith(".gz"):
-            with gzip.open(path, "rb") as fh:
-                return fh.read()
-        return path.read_bytes()
-    except (OSError, EOFError, zlib.error) as exc:
-        # gzip.BadGzipFile is an OSError; truncated archives raise EOFError.
+        data = path.read_bytes()
+    except OSError as exc:
         raise RecordingError(f"{display}: cannot read file ({exc})") from None
+    return decode_content(data, display)
+
+
+# Compressed content, told by its first bytes: (magic, what it is, how to decompress it).
+_COMPRESSIONS = (
+    (b"\x1f\x8b", "gzip", gzip.decompress),
+    (b"BZh", "bzip2", bz2.decompress),
+    (b"\xfd7zXZ\x00", "xz", lzma.decompress),
+)
+# Content that is no recording at all, told by its first bytes, and what it is.
+_NOT_RECORDINGS = (
+    (b"PK\x03\x04", "a zip archive (a spreadsheet or zipped folder?)"),
+    (b"\x28\xb5\x2f\xfd", "zstd-compressed"),
+    (b"\x00\x05\x16\x07", "a macOS AppleDouble metadata file (the '._' companion of a copied file)"),
+)
+# Byte-order marks, longest first: UTF-32's little-endian mark starts with UTF-16's.
+_BOMS = (
+    (codecs.BOM_UTF32_LE, "utf-32-le"),
+    (codecs.BOM_UTF32_BE, "utf-32-be"),
+    (codecs.BOM_UTF8, "utf-8"),
+    (codecs.BOM_UTF16_LE, "utf-16-le"),
+    (codecs.BOM_UTF16_BE, "utf-16-be"),
+)
+
+
+def decode_content(data: bytes, display: str) -> bytes:
+    """Decompress and re-encode file content as UTF-8 text, judged by the bytes, never by the name.
+
+    Excel, PowerShell and Windows editors save text with a byte-order mark or as
+    UTF-16, and files get compressed or renamed on the way between machines; a
+    reader that trusted the name would report a misleading "not a number" on
+    line 1.  Encoding check: gzip, bzip2 and xz content is decompressed;
+    UTF-8, UTF-16 and UTF-32 with a byte-order mark, and UTF-16 without one
+    (told by its NUL high bytes), are decoded; archives and metadata files are
+    refused, saying what they are.
+    """
+    for magic, kind, decompress in _COMPRESSIONS:
+        if data.startswith(magic):
+            try:
+                data = decompress(data)
+            except (OSError, EOFError, ValueError, zlib.error, lzma.LZMAError) as exc:
+                # gzip.BadGzipFile is an OSError; truncated archives raise EOFError.
+                raise RecordingError(
+                    f"{display}: encoding check: cannot read its {kind}-compressed content ({exc})"
+                ) from None
+            break
+    for magic, what in _NOT_RECORDINGS:
+        if data.startswith(magic):
+            raise RecordingError(f"{display}: encoding check: the file is {what}, not a recording")
+    bom, encoding = next(((bom, enc) for bom, enc in _BOMS if data.startswith(bom)), (b"", None))
+    data = data[len(bom) :]
+    encoding = encoding or _utf16_without_bom(data)
+    if encoding is None or encoding == "utf-8":
+        return data
+    try:
+        return data.decode(encoding).encode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise RecordingError(
+            f"{display}: encoding check: looks like {encoding.upper()} text but cannot be decoded "
+            f"(byte {exc.start}: {exc.reason})"
+        ) from None
+
+
+def _utf16_without_bom(data: bytes) -> str | None:
+    """'utf-16-le' or 'utf-16-be' when the NUL bytes say so, else None.
+
+    Text of a recording is ASCII, so in UTF-16 every other byte is NUL: the
+    odd bytes (little-endian) or the even ones (big-endian).  A few stray NULs
+    in a UTF-8 file are damage, left for the parser to report by line.
+    """
+    sample = data[:4096]
+    half = len(sample) // 2
+    if half < 2:
+        return None
+    even_nul = sample[0::2].count(0)
+    odd_nul = sample[1::2].count(0)
+    if odd_nul >= 0.9 * half and even_nul <= 0.1 * half:
+        return "utf-16-le"
+    if even_nul >= 0.9 * half and odd_nul <= 0.1 * half:
+        return "utf-16-be"
+    return None
 
 
 def split_lines(data: bytes) -> list[bytes]:

@@ -22,6 +22,9 @@ def is_recording_file(path: Path) -> bool:
 def load_recording(path: Path | str, body_names: list[str] | None = None) -> Recording:
     """Load a recording: ``.tsv[.gz]`` as Qualisys 6D TSV (mm), ``.csv[.gz]`` as simtune CSV (m).
 
+    The name picks the format only: compression and text encoding are read
+    from the content (see :func:`simtune.data._table.decode_content`).
+
     ``body_names`` names the bodies of a headerless TSV in column order
     (default QRG2019_BODIES); a TSV header's BODY_NAMES wins, and CSV files
     carry their own names.

@@ -27,13 +27,22 @@ class Recording:
 
     ``positions[name]`` is (n, 3) in metres and ``rotations[name]`` is (n, 3, 3)
     body-to-world rotation matrices (column j = body axis j in world frame);
-    both are NaN at frames where the body's markers were lost.
+    both are NaN at frames where the body's markers were lost.  ``lines`` is
+    each frame's line number in its file (for messages); None when the
+    recording was made in memory.
     """
 
     source: Path
     time: np.ndarray
     positions: dict[str, np.ndarray] = field(default_factory=dict)
     rotations: dict[str, np.ndarray] = field(default_factory=dict)
+    lines: np.ndarray | None = None
+
+    def where(self, frame: int) -> str:
+        """``line N`` (or ``frame N`` without line numbers) of a 0-based frame index, for messages."""
+        if self.lines is None:
+            return f"frame {frame + 1}"
+        return f"line {int(self.lines[frame])}"
 
     @property
     def bodies(self) -> list[str]:
@@ -95,7 +104,9 @@ def check_units(positions: dict[str, np.ndarray], linenos: np.ndarray, display: 
             continue
         row = int(np.flatnonzero((mag > MAX_ABS_COORD_M).any(axis=1))[0])
         peak = float(np.nanmax(mag))
-        raise RecordingError(f"{display} line {int(linenos[row])}: body {name!r} " + message.format(peak=peak))
+        raise RecordingError(
+            f"{display} line {int(linenos[row])}: units check: body {name!r} " + message.format(peak=peak)
+        )
 
 
 def finish_recording(
@@ -110,19 +121,20 @@ def finish_recording(
     bad = np.flatnonzero(~np.isfinite(time))
     if bad.size:
         i = int(bad[0])
-        raise RecordingError(f"{display} line {int(linenos[i])}: time is missing or not finite")
+        raise RecordingError(f"{display} line {int(linenos[i])}: time check: the time is missing or not finite")
     step = np.diff(time)
     back = np.flatnonzero(step < 0)
     if back.size:
         i = int(back[0]) + 1
         raise RecordingError(
-            f"{display} line {int(linenos[i])}: time goes backwards ({time[i]:.6g} s after {time[i - 1]:.6g} s)"
+            f"{display} line {int(linenos[i])}: time check: the time goes backwards "
+            f"({time[i]:.6g} s after {time[i - 1]:.6g} s)"
         )
     dup = np.flatnonzero(step == 0) + 1
     if dup.size:
         # Qualisys repeats a frame when a buffer is re-sent; the first copy is kept.
         warnings.warn(
-            f"{display}: dropped {dup.size} duplicate frame(s) repeating the previous time "
+            f"{display}: time check: dropped {dup.size} duplicate frame(s) repeating the previous time "
             f"at lines {frame_list(linenos[dup])}",
             RecordingWarning,
             stacklevel=4,
@@ -135,7 +147,7 @@ def finish_recording(
         rotations = {k: v[keep] for k, v in rotations.items()}
     if time.shape[0] < 2:
         raise RecordingError(f"{display} line {int(linenos[0])}: only {time.shape[0]} valid frame; need at least 2")
-    return Recording(source=Path(source), time=time, positions=positions, rotations=rotations)
+    return Recording(source=Path(source), time=time, positions=positions, rotations=rotations, lines=linenos)
 
 
 def check_for_writing(rec: Recording, display: str, forbidden: str) -> int:

@@ -13,6 +13,14 @@ from simtune.data._table import display_name
 from simtune.data.fingerprint import task_files
 from simtune.data.loaders import load_recording
 from simtune.data.recording import Recording
+from simtune.data.sanity import (
+    GENERIC_REACH_M,
+    check_same_units,
+    check_time,
+    check_units,
+    duration_floor,
+    wrist_distance,
+)
 from simtune.errors import ConfigError, RecordingError, RecordingWarning
 
 
@@ -113,78 +121,118 @@ def load_task_data(
     rate: float = 20.0,
     body_names: list[str] | None = None,
     max_gap_s: float = 0.25,
+    *,
+    duration_s: float | None = None,
+    reach_m: float = GENERIC_REACH_M,
+    base_body: str | None = None,
 ) -> TaskData:
-    """Load every repeat in ``folder`` (sorted by name) and put them on a common clock.
+    """Load every repeat in ``folder`` (sorted by name), check it, and put the repeats on a common clock.
 
-    Short marker drop-outs are interpolated; a repeat whose wrist or object is
-    lost for longer than ``max_gap_s`` is left out with a RecordingWarning.
+    The sanity stage (:mod:`simtune.data.sanity`) checks each repeat against
+    the task's commanded ``duration_s`` and the arm's ``reach_m`` (the wrist's
+    largest possible distance from ``base_body``, or from the origin): a file
+    in the wrong units or with impossible times is an error; a repeat much
+    shorter than the task or the other repeats is left out with a
+    RecordingWarning.  Short marker drop-outs are interpolated; a repeat whose
+    wrist or object is lost for longer than ``max_gap_s`` is left out with a
+    RecordingWarning.  The result holds no NaN.
     """
     if not (math.isfinite(rate) and rate > 0):
         raise ConfigError(f"rate must be a positive number of samples per second, got {rate!r}")
     if not (math.isfinite(max_gap_s) and max_gap_s >= 0):
         raise ConfigError(f"max_gap_s must be a non-negative number of seconds, got {max_gap_s!r}")
+    if duration_s is not None and not (math.isfinite(duration_s) and duration_s > 0):
+        raise ConfigError(f"duration_s must be a positive number of seconds, got {duration_s!r}")
+    if not (math.isfinite(reach_m) and reach_m > 0):
+        raise ConfigError(f"reach_m must be a positive number of metres, got {reach_m!r}")
     folder = Path(folder)
     if not folder.is_dir():
         raise RecordingError(f"no recordings (*.tsv, *.csv) in {folder}: no such folder")
     files = task_files(folder)
     if not files:
         raise RecordingError(f"no recordings (*.tsv, *.csv) in {folder}")
+    bodies = [wrist_body] + ([object_body] if object_body is not None else [])
 
-    times_list: list[np.ndarray] = []
-    wrists: list[np.ndarray] = []
-    finals: list[np.ndarray] = []
-    starts: list[np.ndarray] = []
-    kept: list[Path] = []
+    # Sanity stage, per file: bodies present, times, units; then units across the folder.
+    recordings: list[Recording] = []
+    distances: list[tuple[str, float]] = []
     for path in files:
         display = display_name(path)
         rec = load_recording(path, body_names)
+        for body in bodies:
+            _find_body(rec, body, display)
+        check_time(rec, display, duration_s)
+        distance = wrist_distance(rec, wrist_body, base_body)
+        if distance is not None:  # a wrist never seen is left out by the gap rule below
+            check_units(distance, display, wrist_body, reach_m)
+            distances.append((display, distance))
+        recordings.append(rec)
+    check_same_units(distances)
+
+    # Marker drop-outs: short ones bridged, a repeat with a long one left out.
+    repeats: list[tuple[Recording, np.ndarray, dict[str, np.ndarray]]] = []
+    for rec in recordings:
+        display = display_name(rec.source)
         # The common clock starts at each recording's own first frame.
         t = rec.time - rec.time[0]
-        bodies = [wrist_body] + ([object_body] if object_body is not None else [])
         filled: dict[str, np.ndarray] = {}
-        dropped = False
         for body in bodies:
-            xyz = _find_body(rec, body, display)
-            result, gap = _fill_gaps(t, xyz, max_gap_s)
+            result, gap = _fill_gaps(t, rec.positions[body], max_gap_s)
             if gap is not None:
                 start, stop, length = gap
                 warnings.warn(
-                    f"{display}: left out: {body!r} lost for {length:.2f} s "
+                    f"{display}: gap check: left out: {body!r} lost for {length:.2f} s "
                     f"(frames {start + 1}-{stop}, {t[start]:.2f}-{t[stop - 1]:.2f} s), "
                     f"longer than max_gap_s={max_gap_s:g}",
                     RecordingWarning,
                     stacklevel=2,
                 )
-                dropped = True
                 break
             filled[body] = result
-        if dropped:
-            continue
-        times_list.append(t)
-        wrists.append(filled[wrist_body])
-        if object_body is not None:
-            raw = rec.positions[object_body]
-            seen = np.flatnonzero(~np.isnan(raw).any(axis=1))
-            starts.append(raw[seen[0]].copy())
-            finals.append(raw[seen[-1]].copy())
-        kept.append(path)
+        else:
+            repeats.append((rec, t, filled))
+    lost = len(recordings) - len(repeats)
 
-    if not kept:
+    # Duration check: a repeat cut off early would cut every repeat's reference to its length.
+    short, reason = 0, ""
+    if repeats:
+        floor, reason = duration_floor([float(t[-1]) for _, t, _ in repeats], duration_s)
+        for rec, t, _ in repeats:
+            if t[-1] < floor:
+                warnings.warn(
+                    f"{display_name(rec.source)}: duration check: left out: lasts {t[-1]:.2f} s "
+                    f"({len(t)} frames), less than {reason}",
+                    RecordingWarning,
+                    stacklevel=2,
+                )
+        kept = [r for r in repeats if r[1][-1] >= floor]
+        short = len(repeats) - len(kept)
+        repeats = kept
+    if not repeats:
+        reasons = [f"{lost} with markers lost for longer than max_gap_s={max_gap_s:g} s"] if lost else []
+        if short:
+            reasons.append(f"{short} shorter than {reason}")
         raise RecordingError(
-            f"no usable repeats in {folder}: all {len(files)} left out "
-            f"(markers lost for longer than max_gap_s={max_gap_s:g} s)"
+            f"no usable repeats in {folder}: all {len(files)} left out ({', '.join(reasons)}; see the warnings)"
         )
-    shortest = min(float(t[-1]) for t in times_list)
+
+    shortest = min(float(t[-1]) for _, t, _ in repeats)
     # floor(duration * rate) + 1 samples: every repeat covers the last one.
     n = int(math.floor(shortest * rate + 1e-9)) + 1
-    repeats = np.stack([resample(t, w, rate, n) for t, w in zip(times_list, wrists)])
+    wrists = np.stack([resample(t, filled[wrist_body], rate, n) for _, t, filled in repeats])
+    starts = finals = None
+    if object_body is not None:
+        # The object's first and last tracked positions (never a NaN of a lost first or last frame).
+        seen = [np.flatnonzero(np.isfinite(rec.positions[object_body]).all(axis=1)) for rec, _, _ in repeats]
+        starts = np.stack([rec.positions[object_body][s[0]] for (rec, _, _), s in zip(repeats, seen)])
+        finals = np.stack([rec.positions[object_body][s[-1]] for (rec, _, _), s in zip(repeats, seen)])
     return TaskData(
         task=task,
         rate=float(rate),
         times=np.arange(n) / rate,
-        wrist_mean=repeats.mean(axis=0),
-        wrist_repeats=repeats,
-        object_final=np.stack(finals) if object_body is not None else None,
-        object_start=np.stack(starts) if object_body is not None else None,
-        sources=kept,
+        wrist_mean=wrists.mean(axis=0),
+        wrist_repeats=wrists,
+        object_final=finals,
+        object_start=starts,
+        sources=[rec.source for rec, _, _ in repeats],
     )

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from simtune.robot.mico import JOINTS, LINK_BY_NAME, LINKS, rpy_matrix
+from simtune.geometry import rpy_matrix
+from simtune.robot.mico import JOINTS, LINK_BY_NAME, LINKS
 from simtune.tasks.spec import ObjectSpec
 
 

@@ -32,6 +32,51 @@ RIGID_BODY_PARAMETERS = frozenset(
     | {f"joint_damping_{i}" for i in range(1, 7)}
 )
 
+#: Parameter kinds that come once per material group (``<kind>_<group>``, groups gripper,
+#: floor and the two object materials): surfaces and body damping.
+GROUP_KINDS = (
+    "lateral_friction",
+    "rolling_friction",
+    "spinning_friction",
+    "restitution",
+    "linear_damping",
+    "angular_damping",
+)
+#: The kinds of those that act only where two surfaces touch.
+CONTACT_KINDS = GROUP_KINDS[:4]
+
+#: The lowest motor force limit [N m] the parameter spaces tune (`max_torque_joint_i`), which is
+#: also every engine's generic limit.
+LOWEST_TORQUE_LIMIT = 100.0
+
+
+def unreachable_servo_limits(gain: float) -> dict[str, str]:
+    """The torque limits of velocity servos with gain ``gain`` [N m s/rad]: parameter -> why they never act.
+
+    Such a servo's force is the gain times the velocity error, and the error stays under
+    1 rad/s (the commanded speeds are at most 40 deg/s, 0.7 rad/s): below the lowest limit.
+    """
+    why = (
+        f"the velocity servo's force ({gain:g} N m s/rad times the velocity error, under 1 rad/s) "
+        f"never reaches {LOWEST_TORQUE_LIMIT:g} N m, the lowest tunable limit"
+    )
+    return {f"max_torque_joint_{i}": why for i in range(1, 7)}
+
+
+def unloaded_hard_motors(engine: str, joints: tuple[int, ...], damping: tuple[int, ...]) -> dict[str, str]:
+    """Parameters that never act where a hard velocity motor (a constraint up to its force limit)
+    never reaches the lowest tunable limit: that joint's force limit, and its damping, whose torque
+    the motor overrides.  ``joints`` and ``damping`` list those joints (measured on every task and
+    probe of tests/test_engines.py: only a joint that drives the hand into the floor or an object,
+    or takes the 20 Hz velocity steps with the whole arm's inertia, reaches the limit)."""
+    limit = (
+        f"{engine}'s hard velocity motor of this joint never needs {LOWEST_TORQUE_LIMIT:g} N m, "
+        "the lowest tunable limit, in simtune's tasks"
+    )
+    held = f"{engine}'s hard velocity motor holds this joint's commanded velocity against its damping torque"
+    return {f"max_torque_joint_{i}": limit for i in joints} | {f"joint_damping_{i}": held for i in damping}
+
+
 #: A simulation whose wrist leaves this radius [m] around the base, or whose object flies
 #: further than this from its start, has exploded.
 WRIST_LIMIT = 2.0
@@ -64,6 +109,10 @@ class Engine(ABC):
     engine_parameters: ClassVar[frozenset[str]]
 
     def __init__(self, task: TaskSpec):
+        if self.version() == "not installed":
+            from simtune.engines import not_installed  # the registry holds each engine's install command
+
+            raise not_installed(self.name)
         self.task = task
 
     @classmethod
@@ -73,6 +122,37 @@ class Engine(ABC):
     @classmethod
     def version(cls) -> str:
         return "unknown"
+
+    @classmethod
+    def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
+        """Parameters of this engine that cannot change a rollout of ``task``: name -> why.
+
+        Here, what the task's scene rules out in every engine: the masses of objects it
+        does not have, the surfaces and damping of a material it has no object of, and,
+        without an object, the surfaces of the gripper and the floor (the arm never
+        reaches the floor).  An engine whose own model ignores a parameter in a task adds
+        it with the reason (``super().inactive_parameters(task) | {...}``).  Every other
+        parameter of an engine's ``extended`` space must change a rollout where it can
+        act: ``tests/test_engines.py`` checks both directions.
+        """
+        obj = task.object
+        inactive: dict[str, str] = {}
+        for shape in SHAPES:
+            for material in MATERIALS:
+                if obj is None or (shape, material) != (obj.shape, obj.material):
+                    inactive[f"mass_{shape}_{material}"] = f"task {task.name!r} has no {material} {shape}"
+        for material in MATERIALS:
+            if obj is None or obj.material != material:
+                for kind in GROUP_KINDS:
+                    inactive[f"{kind}_{material}"] = f"task {task.name!r} has no {material} object"
+        if obj is None:
+            for group in ("gripper", "floor"):
+                for kind in CONTACT_KINDS:
+                    inactive[f"{kind}_{group}"] = (
+                        f"task {task.name!r} has no object, and the arm never reaches the floor"
+                    )
+        supported = cls.supported()
+        return {name: why for name, why in inactive.items() if name in supported}
 
     # --- what each engine implements -------------------------------------------------
     @abstractmethod

@@ -35,11 +35,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from simtune.engines._shapes import object_mass_properties
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
-from simtune.errors import EngineUnavailable
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
 from simtune.robot.generate import robot_urdf
 from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, LINKS, WRIST_LINK
-from simtune.tasks.spec import ObjectSpec, TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, ObjectSpec, TaskSpec
 
 if TYPE_CHECKING:  # for the annotations of _System (mypy reads pydrake as untyped: see pyproject.toml)
     from pydrake.geometry import GeometryId, SceneGraph
@@ -77,7 +76,6 @@ else:
     # contact (there is none here); keep the log to errors
     logging.getLogger("drake").setLevel(logging.ERROR)
 
-INSTALL_HINT = "pip install drake"
 DEFAULT_MAX_TORQUE = 100.0
 SERVO_KD = 100.0  # [N m s/rad] the velocity servo's gain, as MuJoCo's kv
 #: hydroelastic mesh resolution for the objects [m]: at 1 cm the faceted 37.5 mm cylinder rolls off a
@@ -112,9 +110,7 @@ class _System:
 
 class DrakeEngine(Engine):
     name = "drake"
-    engine_parameters = RIGID_BODY_PARAMETERS | {
-        f"lateral_friction_{g}" for g in ("gripper", "floor", "wood", "plastic")
-    }
+    engine_parameters = RIGID_BODY_PARAMETERS | {f"lateral_friction_{g}" for g in CONTACT_GROUPS}
 
     @classmethod
     def version(cls) -> str:
@@ -124,9 +120,11 @@ class DrakeEngine(Engine):
 
         return version("drake")
 
+    @classmethod
+    def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
+        return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KD)
+
     def __init__(self, task: TaskSpec):
-        if pydrake is None:
-            raise EngineUnavailable(f"engine 'drake' is not installed: {INSTALL_HINT}")
         super().__init__(task)
         self._systems: OrderedDict[float, _System] = OrderedDict()
         self._urdf = robot_urdf()

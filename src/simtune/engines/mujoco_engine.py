@@ -20,11 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
-from simtune.errors import EngineUnavailable
-from simtune.robot.generate import FLOOR, OBJECT_BODY, scene_mjcf
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
+from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf
 from simtune.robot.mico import ARM_JOINTS, LINKS, WRIST_LINK
-from simtune.tasks.spec import MATERIALS, TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
 
 try:
     import mujoco
@@ -43,7 +42,7 @@ class MujocoEngine(Engine):
     name = "mujoco"
     engine_parameters = (
         RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in _FRICTION_COLUMN for g in ("gripper", "floor", "wood", "plastic")}
+        | {f"{kind}_{g}" for kind in _FRICTION_COLUMN for g in CONTACT_GROUPS}
         | {f"{kind}_{m}" for kind in ("linear_damping", "angular_damping") for m in MATERIALS}
     )
 
@@ -51,9 +50,11 @@ class MujocoEngine(Engine):
     def version(cls) -> str:
         return mujoco.__version__ if mujoco else "not installed"
 
+    @classmethod
+    def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
+        return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KV)
+
     def __init__(self, task: TaskSpec):
-        if mujoco is None:
-            raise EngineUnavailable("engine 'mujoco' is not installed: pip install mujoco")
         super().__init__(task)
         self.model = mujoco.MjModel.from_xml_string(scene_mjcf(task.object))
         self.data = mujoco.MjData(self.model)
@@ -137,6 +138,9 @@ class MujocoEngine(Engine):
             for kind, col in _FRICTION_COLUMN.items():
                 if f"{kind}_{group}" in params:
                     m.geom_friction[geoms, col] = params[f"{kind}_{group}"]
+        # the constants MuJoCo derives from masses at compile time (body_invweight0, dof_M0, stat.meaninertia
+        # ..., used by the contact and solver settings) follow the new masses, as a model compiled with them has
+        mujoco.mj_setConst(m, self.data)
         mujoco.mj_resetData(m, self.data)
         self.data.qpos[self._arm_qpos] = np.radians(self.task.start_pose_deg)
         mujoco.mj_forward(m, self.data)

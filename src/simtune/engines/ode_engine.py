@@ -18,8 +18,8 @@ Collision: boxes for the links, a plane for the floor, a box / cylinder for
 the objects and a convex hull for the cone; contact joints are made in the
 near callback with Coulomb friction (pyramid approximation, so ``mu`` is a
 coefficient), restitution (``dContactBounce``) and ODE's rolling friction
-(``dContactRolling``: ``rho`` about the tangent axes = rolling, ``rhoN`` about
-the normal = spinning).  ODE leaves combining two surfaces to the near
+(``dContactRolling`` with ``dContactAxisDep``: ``rho`` about the tangent axes =
+rolling, ``rhoN`` about the normal = spinning).  ODE leaves combining two surfaces to the near
 callback: simtune takes the geometric mean of the two groups' values.
 
 The world is rebuilt on every reset, so no contact or solver state carries
@@ -38,18 +38,15 @@ from typing import Any
 import numpy as np
 
 from simtune.engines._shapes import cone_hull, host_mass_properties, link_boxes_in_host, object_mass_properties
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine
-from simtune.errors import EngineUnavailable
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
 from simtune.robot.mico import ARM_JOINTS, JOINTS, LINK_BY_NAME, WRIST_LINK, forward_kinematics
-from simtune.tasks.spec import MATERIALS, ObjectSpec, TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, ObjectSpec, TaskSpec
 
 try:
     import odepy as ode
 except Exception:  # pragma: no cover - ImportError, or odepy's OdePyError when libode is missing
     ode = None
 
-INSTALL_HINT = "apt-get install libode8; pip install ode-python"
-_GROUPS = ("gripper", "floor", "wood", "plastic")
 _CONTACT_KINDS = ("lateral_friction", "rolling_friction", "spinning_friction", "restitution")
 _ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
 
@@ -114,7 +111,7 @@ class OdeEngine(Engine):
     name = "ode"
     engine_parameters = (
         RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in _CONTACT_KINDS for g in _GROUPS}
+        | {f"{kind}_{g}" for kind in _CONTACT_KINDS for g in CONTACT_GROUPS}
         | {f"{kind}_{g}" for kind in ("linear_damping", "angular_damping") for g in ("gripper", *MATERIALS)}
     )
 
@@ -132,9 +129,14 @@ class OdeEngine(Engine):
             pass
         return f"{lib} (ode-python {version('ode-python')})"
 
+    @classmethod
+    def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
+        # measured on every task and probe: only joints 1 and 2, pushing or pressing an object, reach the limit
+        return super().inactive_parameters(task) | unloaded_hard_motors(
+            "ODE", joints=(3, 4, 5, 6), damping=(3, 4, 5, 6)
+        )
+
     def __init__(self, task: TaskSpec):
-        if ode is None:
-            raise EngineUnavailable(f"engine 'ode' is not installed: {INSTALL_HINT}")
         super().__init__(task)
         self._world = None
         self._callback = _NearCallback(self._near)  # kept alive as long as the engine
@@ -330,7 +332,10 @@ class OdeEngine(Engine):
             s.mu = mean("lateral_friction")
             rolling, spinning, bounce = mean("rolling_friction"), mean("spinning_friction"), mean("restitution")
             if rolling > 0 or spinning > 0:
-                s.mode |= ode.dContactRolling
+                # without dContactAxisDep ODE ignores rho2 and rhoN and uses rho about all three
+                # axes (contact.cpp); the flag also makes the second friction direction read mu2
+                s.mode |= ode.dContactRolling | ode.dContactAxisDep
+                s.mu2 = s.mu
                 s.rho, s.rho2, s.rhoN = rolling, rolling, spinning
             if bounce > 0:
                 s.mode |= ode.dContactBounce

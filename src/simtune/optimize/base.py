@@ -16,6 +16,11 @@ is spent:
 
 Every optimiser built on it is deterministic given its seed and the fitness
 values, so resuming a run replays it with every stored evaluation reused.
+
+``settings.initial_population`` (``simtune resume --rescore``: the last
+population of a run whose data changed) is where a search starts: DE takes it
+as its first population; the others score it as their first batch
+(:meth:`BatchSearch.initial_batch`) and go on from there.
 """
 
 from __future__ import annotations
@@ -118,6 +123,26 @@ class BatchSearch:
             if self.generation_size and self.used >= s.max_generations * self.generation_size:
                 return f"used {s.max_generations} generations of {self.generation_size} evaluations"
         return None
+
+    def starting_points(self) -> np.ndarray | None:
+        """``settings.initial_population`` within the bounds (None: start as usual)."""
+        start = self.settings.initial_population
+        if start is None or len(start) == 0:
+            return None
+        return np.clip(np.atleast_2d(np.asarray(start, dtype=float)), self.lows, self.highs)
+
+    def initial_batch(self) -> tuple[np.ndarray, np.ndarray, bool] | None:
+        """Score the starting points (cut to the evaluation budget) as the first generation.
+
+        ``(vectors, fitness, stop)``, or None without starting points; ``stop``: a budget is spent.
+        """
+        start = self.starting_points()
+        if start is None:
+            return None
+        left = self.remaining()
+        batch = start if left is None else start[: max(1, left)]
+        fitness = self.evaluate(batch)
+        return batch, fitness, self.checkpoint(batch, fitness)
 
     # --- one batch ----------------------------------------------------------------------------------
     def evaluate(self, vectors) -> np.ndarray:

@@ -42,6 +42,9 @@ def bayesian_tune(objective: Objective, store: RunStore, settings: TuneSettings)
     study = optuna.create_study(direction="minimize", sampler=sampler)
     distributions = {p.name: optuna.distributions.FloatDistribution(p.low, p.high) for p in space.parameters}
     search = BatchSearch(objective, store, settings, generation_size=len(space))
+    start = search.starting_points()
+    for row in start if start is not None else []:  # asked first, before TPE proposes anything
+        study.enqueue_trial(dict(zip(distributions, (float(v) for v in row))))
     size = max(1, int(settings.workers))
     with search:
         while True:

@@ -37,8 +37,15 @@ def cmaes_tune(objective: Objective, store: RunStore, settings: TuneSettings) ->
     search = BatchSearch(objective, store, settings)
     bounds = np.tile([0.0, 1.0], (dim, 1))
     restarts = 0
-    optimizer = CMA(mean=np.full(dim, 0.5), sigma=SIGMA0, bounds=bounds, seed=settings.seed)
     with search:
+        mean = np.full(dim, 0.5)
+        first = search.initial_batch()
+        if first is not None:  # start from the best of the given points
+            batch, fitness, stop = first
+            if stop:
+                return search.result(search.stop_reason)
+            mean = np.clip(search.to_unit(batch[int(np.argmin(fitness))]), 0.0, 1.0)
+        optimizer = CMA(mean=mean, sigma=SIGMA0, bounds=bounds, seed=settings.seed)
         while True:
             u = np.array([optimizer.ask() for _ in range(optimizer.population_size)])
             left = search.remaining()

@@ -64,6 +64,7 @@ def differential_evolution_tune(objective: Objective, store: RunStore, settings:
         search.track(population, energies)
         return search.checkpoint(population, energies)
 
+    start = search.starting_points()
     with search:
         result = differential_evolution(
             # deferred: never called, the Evaluator is SciPy's ``workers`` map and does the work
@@ -73,7 +74,8 @@ def differential_evolution_tune(objective: Objective, store: RunStore, settings:
             rng=np.random.default_rng(settings.seed),
             workers=1 if exact else evaluator,
             callback=checkpoint,
-            **de_settings,
+            # SciPy needs 5 members or more; a rescored DE run's population always has them
+            **{**de_settings, **({"init": start} if start is not None and len(start) >= 5 else {})},
         )
         if exact and result.fun < search.best_fitness:  # the polish found a better point
             search.track(np.atleast_2d(result.x), np.array([result.fun]))

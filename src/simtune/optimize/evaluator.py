@@ -6,15 +6,23 @@ builds its engines once).  In worker processes an evaluation that crashes its
 process (a segfault inside an engine) or runs past ``eval_timeout`` seconds
 costs only itself: the worker is replaced, the evaluation is stored as failed
 with a penalty fitness, and the run goes on.
+
+The time-out counts the seconds this (the coordinating) process was running
+while the evaluation ran, not the clock on the wall: a coordinator that was
+stopped (SIGSTOP, Ctrl-Z, a cluster's pre-emption) or a machine that slept
+does not turn the evaluations that were running meanwhile into failures.
+An evaluation that failed by time-out is retried once when the run is
+resumed (:func:`timed_out`, :meth:`simtune.store.RunStore.release_failures`).
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import signal
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import Future, as_completed
-from concurrent.futures import TimeoutError as FutureTimeout
+from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, wait
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -50,6 +58,8 @@ class TuneSettings:
     target_fitness: float | None = None
     on_evaluation: Callable[[Score, bool], None] | None = None  # (score, taken from the store)
     on_generation: Callable[[int, float], None] | None = None  # (generation, best fitness)
+    #: points the search starts from (rows of parameter vectors; ``simtune resume --rescore``), scored anew
+    initial_population: np.ndarray | None = None
 
 
 @dataclass
@@ -80,6 +90,39 @@ def failed_score(reason: str) -> Score:
     return Score(PENALTY, PENALTY, None, [TaskScore("all", PENALTY, PENALTY, None, False, reason)])
 
 
+#: how the reason of an evaluation that ran past ``eval_timeout`` begins
+TIMEOUT_REASON = "evaluation ran past "
+
+
+def timed_out(score: Score) -> bool:
+    """Whether ``score`` records an evaluation abandoned for running past the time-out (retried on resume)."""
+    return not score.stable and any(t.message.startswith(TIMEOUT_REASON) for t in score.tasks)
+
+
+#: how often the coordinator looks at its running evaluations [s]
+POLL_S = 0.1
+#: the most one look may add to an evaluation's running time [s]: a longer gap means this process was stopped
+MAX_STEP_S = 1.0
+
+
+class RunningClock:
+    """Seconds this process ran, read at least every :data:`POLL_S`.
+
+    A gap between two readings longer than :data:`MAX_STEP_S` is a pause (the
+    process was stopped, or the machine slept) and counts as ``MAX_STEP_S``.
+    """
+
+    def __init__(self) -> None:
+        self._last = time.monotonic()
+        self.seconds = 0.0
+
+    def read(self) -> float:
+        now = time.monotonic()
+        self.seconds += min(now - self._last, MAX_STEP_S)
+        self._last = now
+        return self.seconds
+
+
 # --- what one evaluation computes, in this process or a worker ------------------------------------------
 def _score(objective: Objective, x: np.ndarray, bound: float | None) -> tuple[None, Score]:
     return None, objective.score_vector(x, bound)
@@ -92,9 +135,31 @@ def _residuals(objective: Objective, x: np.ndarray) -> tuple[np.ndarray, Score]:
 _WORKER_OBJECTIVE: Objective | None = None
 
 
+@contextmanager
+def _sigint_blocked() -> Iterator[None]:
+    """Hold back Ctrl-C in this thread for a moment; a Ctrl-C meanwhile arrives when it ends.
+
+    Worker processes (and the pool's threads, which start more of them later)
+    inherit the blocked signal from the thread that starts them, so a Ctrl-C
+    while a worker is still importing never reaches it: the coordinator alone
+    handles Ctrl-C and stops the pool.
+    """
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 def _init_worker(objective: Objective) -> None:
     global _WORKER_OBJECTIVE
     _WORKER_OBJECTIVE = objective
+    # Ctrl-C reaches the whole process group: the coordinator stops the pool, workers must not print tracebacks
+    # (SIGINT is blocked in them from the start, see _sigint_blocked; ignored, a pending one is dropped)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _in_worker(work: Callable, *args) -> tuple[object, dict, float]:
@@ -192,24 +257,35 @@ class Evaluator:
                     payload, score = None, self._failed(f"{type(exc).__name__}: {exc}")
                 yield i, payload, score, time.perf_counter() - t0
             return
-        futures: dict[Future[tuple[object, dict, float]], int] = {
-            self._pool.schedule(_in_worker, (work, *args), timeout=self.eval_timeout): i for i, args in jobs.items()
-        }
-        started = time.perf_counter()
-        for future in as_completed(futures):
-            wall_s, payload = time.perf_counter() - started, None
-            try:
-                payload, score_dict, wall_s = future.result()
-                score = Score.from_dict(score_dict)
-            except FutureTimeout:
-                score = self._failed(f"evaluation ran past {self.eval_timeout:g} s; worker replaced")
-            except ProcessExpired as exc:
-                score = self._failed(f"worker process died (exit code {exc.exitcode}); worker replaced")
-            except SimtuneError:
-                raise
-            except Exception as exc:
-                score = self._failed(f"{type(exc).__name__}: {exc}")
-            yield futures[future], payload, score, wall_s
+        with _sigint_blocked():  # the pool's workers and threads start here, and inherit this
+            futures: dict[Future, int] = {self._pool.schedule(_in_worker, (work, *args)): i for i, args in jobs.items()}
+        clock, began = RunningClock(), time.perf_counter()
+        started: dict = {}  # future -> running time of this process when its evaluation started
+        pending: set[Future] = set(futures)
+        while pending:
+            done, pending = wait(pending, timeout=POLL_S, return_when=FIRST_COMPLETED)
+            now = clock.read()
+            for future in done:
+                wall_s, payload = time.perf_counter() - began, None
+                try:
+                    payload, score_dict, wall_s = future.result()
+                    score = Score.from_dict(score_dict)
+                except ProcessExpired as exc:
+                    score = self._failed(f"worker process died (exit code {exc.exitcode}); worker replaced")
+                except CancelledError:
+                    score = self._failed("evaluation cancelled; worker replaced")
+                except SimtuneError:
+                    raise
+                except Exception as exc:
+                    score = self._failed(f"{type(exc).__name__}: {exc}")
+                yield futures[future], payload, score, wall_s
+            if self.eval_timeout is None:
+                continue
+            for future in [f for f in pending if f.running()]:
+                if now - started.setdefault(future, now) > self.eval_timeout and future.cancel():
+                    pending.discard(future)  # pebble stops its worker and starts another
+                    reason = f"{TIMEOUT_REASON}{self.eval_timeout:g} s; worker replaced"
+                    yield futures[future], None, self._failed(reason), time.perf_counter() - began
 
     def _end_batch(self, simulated: int) -> None:
         if simulated and len(self._batch_failures) == simulated:

@@ -21,6 +21,9 @@ def random_search_tune(objective: Objective, store: RunStore, settings: TuneSett
     rng = np.random.default_rng(settings.seed)
     search = BatchSearch(objective, store, settings, generation_size=dim)
     with search:
+        first = search.initial_batch()
+        if first is not None and first[2]:
+            return search.result()
         while True:
             left = search.remaining()
             size = dim if left is None else min(dim, left)

@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from simtune.errors import ConfigError
+from simtune.tasks.spec import CONTACT_GROUPS
 
-GROUPS = ("gripper", "floor", "wood", "plastic")
 #: Nominal masses [kg] the seed paper's mass ranges are relative to (links 1..6, then objects).
 ARM_MASS_NOMINAL = (0.7477, 0.7477, 0.606, 0.1785, 0.1785, 0.727)
 OBJECT_MASS_NOMINAL = {
@@ -43,10 +43,11 @@ class Parameter:
     def check(self, value: float, where: str = "") -> float:
         """``value`` as a float, or a ConfigError naming the parameter and its range."""
         at = f"{where}: " if where else ""
-        try:
-            v = float(value)
-        except (TypeError, ValueError):
-            raise ConfigError(f"{at}parameter {self.name!r}: {value!r} is not a number") from None
+        # a number, not something that merely converts to one (true, "0.5")
+        if isinstance(value, bool | str) or not isinstance(value, int | float | np.integer | np.floating):
+            shown = json.dumps(value) if isinstance(value, bool | str | None) else repr(value)
+            raise ConfigError(f"{at}parameter {self.name!r}: {shown} is not a number")
+        v = float(value)
         if not math.isfinite(v) or v < self.low or v > self.high:
             raise ConfigError(
                 f"{at}parameter {self.name!r} = {value!r} is outside its range "
@@ -69,7 +70,7 @@ def _shared() -> list[Parameter]:
         ps.append(
             Parameter(f"max_velocity_joint_{i}", 10.0, 40.0, "deg/s", f"velocity clamp of joint {i}'s controller")
         )
-    for g in GROUPS:
+    for g in CONTACT_GROUPS:
         ps.append(Parameter(f"lateral_friction_{g}", 0.0001, 1.25, "", f"sliding friction coefficient of the {g}"))
     return ps
 
@@ -85,7 +86,7 @@ def _individual_extra() -> list[Parameter]:
         ("linear_damping", 0.9, "", "linear velocity damping"),
         ("angular_damping", 0.9, "", "angular velocity damping"),
     ):
-        for g in GROUPS:
+        for g in CONTACT_GROUPS:
             ps.append(Parameter(f"{kind}_{g}", 0.0001, high, unit, f"{what} of the {g}"))
     return ps
 
@@ -170,10 +171,16 @@ def validate_params(values: dict, supported: frozenset[str], engine: str, where:
     return out
 
 
-def read_params_file(path: Path) -> dict:
-    """Parameter values from a JSON file: ``{"params": {...}}`` as ``tune`` writes it, or a flat mapping."""
+def read_params_file(path: Path, engine: str | None = None) -> dict:
+    """Parameter values from a JSON file: ``{"params": {...}}`` as ``tune`` writes it, or a flat mapping.
+
+    A file in the first form may say which engine and space its values are for
+    (``best_params.json`` and ``truth.json`` do): with ``engine``, a file made for
+    another engine is refused; its values must lie in the space it names.  An empty
+    file, or one that is not an object of names and values, is refused.
+    """
     try:
-        data = json.loads(Path(path).read_text())
+        data = json.loads(Path(path).read_text(encoding="utf-8-sig"))  # a byte-order mark is harmless
     except FileNotFoundError:
         raise ConfigError(f"{path}: no such parameter file") from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -181,14 +188,42 @@ def read_params_file(path: Path) -> dict:
     except json.JSONDecodeError as exc:
         raise ConfigError(f"{path} line {exc.lineno}: not valid JSON ({exc.msg})") from None
     if not isinstance(data, dict):
-        raise ConfigError(f"{path}: expected a JSON object of parameter names and values")
-    if isinstance(data.get("params"), dict):
-        listed, data = data.get("parameters"), data["params"]
-        if isinstance(listed, list):  # a run's file says which parameters it holds: all of them, no others
-            for name in listed:
-                if name not in data:
-                    raise ConfigError(f"{path}: no value for parameter {name!r}, which the file lists")
-            for name in data:
-                if name not in listed:
-                    raise ConfigError(f"{path}: parameter {name!r} is not among those the file lists")
-    return data
+        raise ConfigError(f"{path}: expected a JSON object of parameter names and values, got {type(data).__name__}")
+    if "params" in data:
+        values = data["params"]
+        if not isinstance(values, dict):
+            raise ConfigError(f"{path}: field 'params' must be an object of parameter names and values")
+        _check_file_fields(path, data, values, engine)
+    else:
+        values = data
+    if not values:
+        raise ConfigError(f"{path}: no parameter values in it")
+    return values
+
+
+def _check_file_fields(path: Path, data: dict, values: dict, engine: str | None) -> None:
+    """The fields beside ``params`` that say what the values are: ``parameters``, ``engine``, ``space``."""
+    listed = data.get("parameters")
+    if listed is not None:  # a run's file says which parameters it holds: all of them, no others
+        if not isinstance(listed, list):
+            raise ConfigError(f"{path}: field 'parameters' must be a list of parameter names")
+        for name in listed:
+            if name not in values:
+                raise ConfigError(f"{path}: no value for parameter {name!r}, which the file lists")
+        for name in values:
+            if name not in listed:
+                raise ConfigError(f"{path}: parameter {name!r} is not among those the file lists")
+    made_for = data.get("engine")
+    if made_for is not None and engine is not None and made_for != engine:
+        raise ConfigError(
+            f"{path}: field 'engine' says these values are for {made_for!r}, not {engine!r} "
+            f"(use --engine {made_for}, or a file made for {engine})"
+        )
+    space = data.get("space")
+    if space is not None:
+        if space not in SPACES:
+            raise ConfigError(f"{path}: field 'space': unknown parameter space {space!r} (known: {', '.join(SPACES)})")
+        names = {p.name for p in SPACES[space]}
+        for name in values:
+            if name not in names:
+                raise ConfigError(f"{path}: parameter {name!r} is not in space {space!r}, which field 'space' names")

@@ -9,7 +9,8 @@ from rich.console import Console
 
 from simtune.console import text_table
 from simtune.reference import REFERENCE_DIR
-from simtune.runs import RunConfig, start_run
+from simtune.runlock import run_lock
+from simtune.runs import RunConfig, discard_run, has_run, start_run
 from simtune.store import RunStore
 
 #: What the demo tunes: the parameters the reference recording hides, in the extended space's ranges.
@@ -34,10 +35,9 @@ def run_demo(out_dir: Path, workers: int = 2, max_seconds: float = 120.0, consol
         f"parameters and {truth['noise_m'] * 1000:g} mm motion-capture noise."
     )
     out_dir = Path(out_dir)
-    if (out_dir / "run.sqlite").exists():
-        import shutil
-
-        shutil.rmtree(out_dir)  # the demo always starts afresh
+    if has_run(out_dir):
+        with run_lock(out_dir):  # the demo always starts afresh, but never under a run in progress
+            discard_run(out_dir)
     config = RunConfig(
         engine="mujoco",
         tasks=truth["task"],

@@ -1,39 +1,34 @@
-"""Assemble the report: read runs, score published simulations, re-simulate, draw, write files."""
+"""Assemble the report: read the runs, compute what the sections share, make the sections, write index.html.
+
+The sections themselves are in :mod:`simtune.report.sections`, one function each.
+"""
 
 from __future__ import annotations
 
 import datetime as _dt
-import html
-import re
 import warnings
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
-import numpy as np
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
 
 import simtune
-from simtune.engines import Rollout
 from simtune.errors import SimtuneError
-from simtune.report import figures as F
 from simtune.report import tables as T
-from simtune.report.collect import RunRecord, Skipped, find_run_dirs, group_runs, load_run
-from simtune.report.dr import dr_ranges, write_dr_yaml
-from simtune.report.html import FigureRef, Section, render
+from simtune.report.collect import Group, RunRecord, Skipped, find_run_dirs, group_runs, load_run
+from simtune.report.html import render
 from simtune.report.published import PublishedSim, find_published, score_published
+from simtune.report.sections import ReportData, ReportOutput, make_sections
 from simtune.report.simulate import GroupSimulation, References, nominal_values, simulate_group
 
 INDEX = "index.html"
-DR_FILE = "dr_ranges.yaml"
+
+Warn = Callable[[str], None]
 
 
 class ReportWarning(UserWarning):
     """A run folder or file left out of the report, or a doubt about what it shows."""
-
-
-def slug(*parts: str) -> str:
-    return "_".join(re.sub(r"[^A-Za-z0-9.-]+", "-", p).strip("-") for p in parts if p)
 
 
 class _Progress:
@@ -49,7 +44,7 @@ class _Progress:
             console=Console(stderr=True),
             disable=not enabled,
         )
-        self._task = None
+        self._task = TaskID(0)
 
     def __enter__(self) -> _Progress:
         self._bar.__enter__()
@@ -86,14 +81,13 @@ def make_report(
     :class:`ReportWarning` naming them.  Raises :class:`SimtuneError` when no
     usable run is found.
     """
-    if isinstance(paths, (str, Path)):
-        paths = [paths]
-    paths = [Path(p) for p in paths]
-    run_dirs = find_run_dirs(paths)
-    if published_sims is not None and not Path(published_sims).is_dir():
+    inputs = [Path(p) for p in ([paths] if isinstance(paths, (str, Path)) else paths)]
+    run_dirs = find_run_dirs(inputs)
+    published_folder = None if published_sims is None else Path(published_sims)
+    if published_folder is not None and not published_folder.is_dir():
         raise SimtuneError(f"--published-sims {published_sims}: no such folder")
-    out = Path(out)
-    _prepare(out)
+    folder = Path(out)
+    _prepare(folder)
 
     problems: list[str] = []  # shown as warnings and at the top of the report
 
@@ -102,270 +96,146 @@ def make_report(
         warnings.warn(message, ReportWarning, stacklevel=3)
 
     with _Progress(show_progress) as progress:
-        # --- read ----------------------------------------------------------------------------------
         progress.stage("reading runs", len(run_dirs))
-        runs: list[RunRecord] = []
-        for d in run_dirs:
-            loaded = load_run(d)
-            if isinstance(loaded, Skipped):
-                warn(f"{loaded.label}: skipped: {loaded.reason}")
-            else:
-                runs.append(loaded)
-            progress.step()
-        groups, duplicates = group_runs(runs)
-        for dup in duplicates:
-            warn(f"{dup.label}: skipped: {dup.reason}")
+        groups = _read_runs(run_dirs, warn, progress.step)
         if not groups:
             raise SimtuneError(
-                f"no finished runs to report in {', '.join(map(str, paths))} "
+                f"no finished runs to report in {', '.join(map(str, inputs))} "
                 f"({len(run_dirs)} run folder(s), none usable: see the warnings)"
             )
-        kept = [r for g in groups for r in g.runs]
-        task_names: list[str] = []
-        for g in groups:
-            task_names.extend(t for t in g.task_names if t not in task_names)
-        parameter_keys = sorted({(g.tasks, g.space) for g in groups})
         engines = sorted({g.engine for g in groups})
+        experiments = {(g.tasks, g.space) for g in groups}
+        figures = 4 + len(experiments) + sum(len(g.task_names) for g in groups)  # overview, convergence x 3, ...
+        progress.stage("scoring published simulations", 1 + len(engines) + len(groups) + figures + 1)
 
-        n_traj = sum(len(g.task_names) for g in groups)
-        total = 1 + len(engines) + len(groups) + 4 + len(parameter_keys) + n_traj + 1
-        progress.stage("scoring published simulations", total)
-
-        # --- 1. generic fitness, published simulations ------------------------------------------------
         references = References()
         entries, notes = T.generic_entries(groups)
         for note in notes:
             warn(note)
-        published: list[PublishedSim] = []
-        published_scores: dict[tuple[str, str], Rollout] = {}
-        if published_sims is not None:
-            for item in find_published(Path(published_sims), task_names):
-                if not isinstance(item, PublishedSim):
-                    warn(f"{item[0]}: skipped: {item[1]}")
-                    continue
-                run = next(r for g in groups if item.task in g.task_names for r in g.runs)
-                try:
-                    reference = references.get(run.data, item.task)
-                except SimtuneError as exc:
-                    warn(f"{item.path}: not scored: recordings of {item.task!r} unavailable ({exc})")
-                    continue
-                score, rollout = score_published(item, reference)
-                published.append(item)
-                published_scores[(item.engine, item.task)] = rollout
-                entries.append(
-                    T.GenericEntry(
-                        item.engine,
-                        "published",
-                        "",
-                        item.task,
-                        score.fitness,
-                        score.wrist_error,
-                        score.object_error,
-                        score.stable,
-                    )
-                )
-            if not published:
-                warn(
-                    f"--published-sims {published_sims}: no files <task>_<Engine>.csv for the tasks "
-                    f"{', '.join(task_names)}"
-                )
-        progress.step()
-
-        # --- nominal (generic) parameter values per engine ----------------------------------------------
-        nominal: dict[str, dict[str, float]] = {}
-        tasks_by_engine: dict[str, list[str]] = {}
-        progress.describe("nominal parameter values")
-        for engine in engines:
-            names: list[str] = []
-            for g in groups:
-                if g.engine == engine:
-                    names.extend(t for t in g.task_names if t not in names)
-            tasks_by_engine[engine] = names
-            try:
-                nominal[engine] = nominal_values(engine, names)
-            except SimtuneError as exc:
-                warn(f"engine {engine}: no nominal values ({exc})")
-                nominal[engine] = {}
-            progress.step()
-
-        # --- 6. re-simulation ------------------------------------------------------------------------------
-        sims: list[GroupSimulation] = []
-        for g in groups:
-            progress.describe(f"re-simulating {g.label}")
-            try:
-                sim = simulate_group(g, references)
-            except SimtuneError as exc:
-                warn(f"{g.label}: trajectories not drawn ({exc})")
-                continue
-            finally:
-                progress.step()
-            stored = g.best_run.best_fitness
-            if abs(sim.tuned_fitness - stored) > 1e-6 * max(1.0, abs(stored)):
-                warn(
-                    f"{g.best_run.label}: re-simulating its best parameters gives fitness {sim.tuned_fitness:.6f}, "
-                    f"the store has {stored:.6f} (different engine version or recordings?)"
-                )
-            sims.append(sim)
-
-        # --- figures ---------------------------------------------------------------------------------------
-        fig_dir = out / "figures"
-        figs: dict[str, list[FigureRef]] = {"overview": [], "convergence": [], "parameters": [], "trajectories": []}
-
-        def draw(kind: str, stem: str, fig, caption: str) -> None:
-            figs[kind].append(FigureRef(stem, F.save(fig, fig_dir, stem), caption))
-            progress.step()
-
-        progress.describe("drawing figures")
-        draw(
-            "overview",
-            "fitness_overview",
-            F.fitness_overview_figure(groups, entries),
-            "Generic fitness (grey bars; hatched: published simulations) and tuned fitness of each repeat (dots) "
-            "and their mean (line), per task and parameter space.",
-        )
-        for axis, what in (
-            ("generation", "generation"),
-            ("evaluations", "number of evaluations"),
-            ("time", "wall time"),
-        ):
-            draw(
-                "convergence",
-                f"convergence_{axis}",
-                F.convergence_figure(groups, axis),
-                f"Best fitness so far against {what}: mean over repeats (line) and min-max band, one panel per "
-                "task, one line per engine. A repeat that stopped early holds its final value."
-                + (" Generation 0 is the best of the initial population." if axis != "time" else ""),
+        published = _score_published(published_folder, groups, references, warn) if published_folder else []
+        entries += [
+            T.GenericEntry(
+                sim.engine,
+                "published",
+                "",
+                sim.task,
+                score.fitness,
+                score.wrist_error,
+                score.object_error,
+                score.stable,
             )
-        for tasks, space in parameter_keys:
-            mine = [g for g in groups if (g.tasks, g.space) == (tasks, space)]
-            draw(
-                "parameters",
-                slug("parameters", tasks, space),
-                F.parameters_figure(mine, nominal),
-                f"Tuned parameter values across repeats for task {tasks}, space {space}: box (quartiles, whiskers "
-                "to the extremes) and one dot per repeat, each parameter normalised to its tuning range [0, 1]; "
-                "diamond: the generic value.",
-            )
-        for sim in sims:
-            for task in sim.group.task_names:
-                g = sim.group
-                draw(
-                    "trajectories",
-                    slug("trajectory", g.engine, g.tasks, g.space, task),
-                    F.trajectory_figure(sim, task),
-                    f"{g.engine} on {task} (space {g.space}): the recorded wrist marker (mean of "
-                    f"{len(sim.tasks[task].reference.wrist_repeats)} repeats, and each repeat / min-max band) "
-                    f"against the untuned simulation (generic parameters) and the tuned one (best repeat, "
-                    f"{sim.run.label}), in 3-D and as x, y, z against time"
-                    + (
-                        "; right: final object positions."
-                        if sim.tasks[task].tuned_object is not None
-                        and sim.tasks[task].reference.object_final is not None
-                        else "."
-                    ),
-                )
-
-        # --- tables ---------------------------------------------------------------------------------------
-        progress.describe("writing tables")
-        finals: list[T.FinalPosition] = []
-        for task in task_names:
-            task_sims = [s for s in sims if task in s.tasks and s.tasks[task].reference.object_final is not None]
-            if not task_sims:
-                continue
-            ref = task_sims[0].tasks[task].reference
-            mean = ref.object_final.mean(axis=0)
-            spread = float(np.linalg.norm(ref.object_final - mean, axis=1).mean())
-            finals.append(T.FinalPosition(task, f"recorded (mean of {len(ref.object_final)})", "", "", mean, spread))
-            for s in task_sims:
-                traj = s.tasks[task]
-                n = len(ref.times)
-                if traj.untuned_object is not None:
-                    finals.append(
-                        T.FinalPosition(task, "untuned", s.group.engine, s.group.space, traj.untuned_object[n - 1])
-                    )
-                    finals.append(
-                        T.FinalPosition(task, "tuned", s.group.engine, s.group.space, traj.tuned_object[n - 1])
-                    )
-            for p in published:
-                if p.task == task:
-                    finals.append(
-                        T.FinalPosition(
-                            task, "published", p.engine, "", published_scores[(p.engine, task)].object_pos[-1]
-                        )
-                    )
-
-        ranges = dr_ranges(groups, nominal)
-        write_dr_yaml(out / DR_FILE, ranges, tasks_by_engine)
-        importance = T.importance_table(groups)
-        tables = {
-            "generic": T.generic_table(entries, task_names),
-            "best": T.best_tuned_table(groups, entries),
-            "by_group": T.tuned_by_group_table(groups),
-            "importance": importance,
-            "importance_top": T.importance_top_table(importance),
-            "mann_whitney": T.mann_whitney_table(groups),
-            "object_final": T.object_final_table(finals),
-            "compute": T.compute_table(groups),
-            "dr": T.dr_table(ranges),
-            "runs": T.runs_table(kept),
-        }
-        for table in tables.values():
-            (out / "tables" / f"{table.name}.csv").write_text(table.to_csv())
-            (out / "tables" / f"{table.name}.md").write_text(table.to_markdown())
-        progress.step()
-
-        sensitivity = _sensitivity_items(paths, out, warn)
-
-        # --- html -----------------------------------------------------------------------------------------------
-        progress.describe("writing index.html")
-        sections = _sections(tables, figs, published_sims is not None)
-        if sensitivity:
-            sections.insert(
-                -1,
-                Section(
-                    "sensitivity",
-                    "9. Global sensitivity",
-                    "Results of <code>simtune sensitivity</code> found in or next to the "
-                    "input folders: how much the fitness changes with each parameter over the "
-                    "whole space, to compare with the importance of section 5.",
-                    sensitivity,
-                ),
-            )
-        meta = [
-            f"simtune {simtune.__version__}, {_dt.datetime.now().astimezone().strftime('%Y-%m-%d %H:%M %Z')}. "
-            f"Inputs: {', '.join(str(p) for p in paths)}"
-            + (f"; published simulations: {published_sims}" if published_sims is not None else "")
-            + ".",
-            f"{len(kept)} runs in {len(groups)} groups (engine x tasks x space; repeats = seeds): engines "
-            f"{', '.join(engines)}; tasks {', '.join(sorted({g.tasks for g in groups}))}; spaces "
-            f"{', '.join(sorted({g.space for g in groups}))}. Fitness is in metres (lower is better).",
+            for sim, score, _ in published
         ]
-        index = out / INDEX
-        index.write_text(render("simtune report: simulator tuning results", meta, problems, sections))
+        progress.step()
+        progress.describe("nominal parameter values")
+        nominal, tasks_by_engine = _nominal_values(groups, warn, progress.step)
+        data = ReportData(
+            paths=inputs,
+            groups=groups,
+            entries=entries,
+            published=[(sim, rollout) for sim, _, rollout in published],
+            published_folder=published_folder,
+            nominal=nominal,
+            tasks_by_engine=tasks_by_engine,
+            sims=_resimulate(groups, references, warn, progress),
+        )
+
+        progress.describe("drawing figures and writing tables")
+        sections = make_sections(data, ReportOutput(folder, warn, progress.step))
+        progress.describe("writing index.html")
+        index = folder / INDEX
+        index.write_text(render("simtune report: simulator tuning results", _meta(data), problems, sections))
         progress.finish()
     return index
 
 
-def _sensitivity_items(paths: list[Path], out: Path, warn) -> list:
-    """Table and figure of each ``sensitivity.json`` under or next to the inputs (written into the report)."""
-    import json
+def _read_runs(run_dirs: list[Path], warn: Warn, step: Callable[[], None]) -> list[Group]:
+    """The finished runs, grouped into repeats; every folder left out is named in a warning."""
+    runs: list[RunRecord] = []
+    for d in run_dirs:
+        loaded = load_run(d)
+        if isinstance(loaded, Skipped):
+            warn(f"{loaded.label}: skipped: {loaded.reason}")
+        else:
+            runs.append(loaded)
+        step()
+    groups, duplicates = group_runs(runs)
+    for dup in duplicates:
+        warn(f"{dup.label}: skipped: {dup.reason}")
+    return groups
 
-    from simtune.sensitivity import find_results, sensitivity_figure, sensitivity_table
 
-    items: list = []
-    for k, path in enumerate(find_results(paths), start=1):
-        try:
-            result = json.loads(path.read_text())
-            table = sensitivity_table(result, name=f"sensitivity_{k}")
-            fig = sensitivity_figure(result)
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            warn(f"{path}: skipped: not a readable sensitivity result ({type(exc).__name__}: {exc})")
+def _score_published(folder: Path, groups: list[Group], references: References, warn: Warn) -> list[tuple]:
+    """(simulation, score, rollout) of each readable published simulation of a task the runs have."""
+    task_names = list(dict.fromkeys(t for g in groups for t in g.task_names))
+    scored = []
+    for item in find_published(folder, task_names):
+        if not isinstance(item, PublishedSim):
+            warn(f"{item[0]}: skipped: {item[1]}")
             continue
-        table.note = f"From {path}. " + table.note
-        (out / "tables" / f"{table.name}.csv").write_text(table.to_csv())
-        (out / "tables" / f"{table.name}.md").write_text(table.to_markdown())
-        items += [table, FigureRef(table.name, F.save(fig, out / "figures", table.name), table.title + ".")]
-    return items
+        run = next(r for g in groups if item.task in g.task_names for r in g.runs)
+        try:
+            reference = references.get(run.data, item.task)
+        except SimtuneError as exc:
+            warn(f"{item.path}: not scored: recordings of {item.task!r} unavailable ({exc})")
+            continue
+        score, rollout = score_published(item, reference)
+        scored.append((item, score, rollout))
+    if not scored:
+        warn(f"--published-sims {folder}: no files <task>_<Engine>.csv for the tasks {', '.join(task_names)}")
+    return scored
+
+
+def _nominal_values(
+    groups: list[Group], warn: Warn, step: Callable[[], None]
+) -> tuple[dict[str, dict[str, float]], dict[str, list[str]]]:
+    """Each engine's generic parameter values, and the tasks its runs cover."""
+    nominal: dict[str, dict[str, float]] = {}
+    tasks_by_engine: dict[str, list[str]] = {}
+    for engine in sorted({g.engine for g in groups}):
+        names = list(dict.fromkeys(t for g in groups if g.engine == engine for t in g.task_names))
+        tasks_by_engine[engine] = names
+        try:
+            nominal[engine] = nominal_values(engine, names)
+        except SimtuneError as exc:
+            warn(f"engine {engine}: no nominal values ({exc})")
+            nominal[engine] = {}
+        step()
+    return nominal, tasks_by_engine
+
+
+def _resimulate(groups: list[Group], references: References, warn: Warn, progress: _Progress) -> list[GroupSimulation]:
+    """The best run of each group simulated again; a fitness other than the stored one is warned about."""
+    sims: list[GroupSimulation] = []
+    for g in groups:
+        progress.describe(f"re-simulating {g.label}")
+        try:
+            sim = simulate_group(g, references)
+        except SimtuneError as exc:
+            warn(f"{g.label}: trajectories not drawn ({exc})")
+            continue
+        finally:
+            progress.step()
+        stored = g.best_run.best_fitness
+        if abs(sim.tuned_fitness - stored) > 1e-6 * max(1.0, abs(stored)):
+            warn(
+                f"{g.best_run.label}: re-simulating its best parameters gives fitness {sim.tuned_fitness:.6f}, "
+                f"the store has {stored:.6f} (different engine version or recordings?)"
+            )
+        sims.append(sim)
+    return sims
+
+
+def _meta(data: ReportData) -> list[str]:
+    """The lines under the report's title: version, date, inputs, and what the runs cover."""
+    published = f"; published simulations: {data.published_folder}" if data.published_folder is not None else ""
+    return [
+        f"simtune {simtune.__version__}, {_dt.datetime.now().astimezone().strftime('%Y-%m-%d %H:%M %Z')}. "
+        f"Inputs: {', '.join(str(p) for p in data.paths)}{published}.",
+        f"{len(data.runs)} runs in {len(data.groups)} groups (engine x tasks x space; repeats = seeds): engines "
+        f"{', '.join(data.engines)}; tasks {', '.join(sorted({g.tasks for g in data.groups}))}; spaces "
+        f"{', '.join(sorted({g.space for g in data.groups}))}. Fitness is in metres (lower is better).",
+    ]
 
 
 def _prepare(out: Path) -> None:
@@ -382,55 +252,3 @@ def _prepare(out: Path) -> None:
         (out / "tables").mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise SimtuneError(f"--out {out}: cannot write the report folder ({exc.strerror})") from None
-
-
-def _sections(tables: dict[str, T.Table], figs: dict[str, list[FigureRef]], with_published: bool) -> list[Section]:
-    published = (
-        ""
-        if with_published
-        else " Run with <code>--published-sims DIR</code> to add the published simulations of the data set."
-    )
-    return [
-        Section(
-            "generic",
-            "1. Generic (untuned) fitness",
-            "How far each engine with its own default parameters is from the recordings (the paper's "
-            "Table II)." + published,
-            [tables["generic"]],
-        ),
-        Section(
-            "tuned",
-            "2. Tuned fitness",
-            "The best fitness tuning reached per task and parameter space, with the engine that reached it "
-            "(the paper's Table III), and every engine's tuned fitness over repeats.",
-            [tables["best"], *figs["overview"], tables["by_group"]],
-        ),
-        Section("convergence", "3. Convergence", "", figs["convergence"]),
-        Section(
-            "parameters",
-            "4. Parameter distributions",
-            "Where the tuned values of each parameter fall in their range, across repeats.",
-            figs["parameters"],
-        ),
-        Section(
-            "importance",
-            "5. Parameter importance and significance",
-            "",
-            [tables["importance_top"], tables["importance"], tables["mann_whitney"]],
-        ),
-        Section(
-            "trajectories",
-            "6. Trajectories",
-            "The recorded end-effector path against the untuned and the tuned simulation (the paper's "
-            "Figure 1), re-simulated for the best repeat of each engine, tasks and space.",
-            [*figs["trajectories"], tables["object_final"]],
-        ),
-        Section("compute", "7. Compute", "", [tables["compute"]]),
-        Section(
-            "dr",
-            "8. Domain-randomisation ranges",
-            f'Written as <a href="{DR_FILE}">{html.escape(DR_FILE)}</a>.',
-            [tables["dr"]],
-        ),
-        Section("runs", "Appendix: runs", "", [tables["runs"]]),
-    ]

@@ -17,34 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from simtune.errors import SimtuneError
-from simtune.store import SCHEMA_VERSION, STORE_FILE, RunStore
+from simtune.store import STORE_FILE, RunStore
 from simtune.tasks import parse_tasks
-
-
-class ReadOnlyStore(RunStore):
-    """A run store opened for reading only: the query methods of :class:`RunStore`, no writes.
-
-    The connection is read-write at the file level but ``query_only``: SQLite
-    can then tidy its ``-wal``/``-shm`` side files when it closes, leaving the
-    run folder as it found it, while the report can change nothing in it.
-    """
-
-    def __init__(self, run_dir: Path):  # replaces RunStore.__init__, which may write
-        self.run_dir = Path(run_dir)
-        self.path = self.run_dir / STORE_FILE
-        if not self.path.is_file():
-            raise SimtuneError(f"{self.run_dir} is not a run folder (no {STORE_FILE})")
-        self.db = sqlite3.connect(self.path.resolve().as_uri() + "?mode=rw", uri=True, timeout=30)
-        self.db.execute("PRAGMA query_only = 1")
-        version = self.get("schema_version")
-        if version != SCHEMA_VERSION:
-            self.db.close()
-            raise SimtuneError(f"run store version {version}, this simtune reads version {SCHEMA_VERSION}")
-
-    def initial_fitness(self) -> list[float]:
-        """Fitness of every evaluation of the initial population (generation 0), in store order."""
-        rows = self.db.execute("SELECT fitness FROM evaluations WHERE generation = 0 ORDER BY id").fetchall()
-        return [float(r[0]) for r in rows]
 
 
 @dataclass
@@ -172,7 +146,7 @@ def find_run_dirs(paths: list[Path]) -> list[Path]:
     return found
 
 
-def _require(store: ReadOnlyStore, key: str):
+def _require(store: RunStore, key: str):
     value = store.get(key)
     if value is None:
         raise SimtuneError(f"store has no {key!r} (not written by `simtune tune`?)")
@@ -185,7 +159,7 @@ def load_run(run_dir: Path, label: str | None = None) -> RunRecord | Skipped:
     label = label or str(run_dir)
     store = None
     try:
-        store = ReadOnlyStore(run_dir)
+        store = RunStore.open_read_only(run_dir)
         config = _require(store, "config")
         if not isinstance(config, dict):
             raise SimtuneError("stored config is not a mapping")
@@ -241,7 +215,7 @@ def load_run(run_dir: Path, label: str | None = None) -> RunRecord | Skipped:
         return Skipped(run_dir, label, f"unusable run store: {type(exc).__name__}: {exc}")
     finally:
         if store is not None:
-            store.db.close()
+            store.close()
 
 
 def group_runs(runs: list[RunRecord]) -> tuple[list[Group], list[Skipped]]:

@@ -111,7 +111,7 @@ def convergence_figure(groups: list[Group], axis: str) -> Figure:
     axes = fig.subplots(nrows, ncols, squeeze=False)
     for k, tasks in enumerate(experiments):
         ax = axes[k // ncols][k % ncols]
-        every = []
+        every: list[float] = []
         for g in (g for g in groups if g.tasks == tasks):
             x, mean, lo, hi = aggregate_curves([run_curve(r, axis) for r in g.runs])
             if not x.size:
@@ -290,7 +290,8 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
 
     traj = sim.tasks[task]
     ref = traj.reference
-    has_object = ref.object_final is not None and traj.tuned_object is not None
+    finals, untuned_object, tuned_object = ref.object_final, traj.untuned_object, traj.tuned_object
+    has_object = finals is not None and untuned_object is not None and tuned_object is not None
     ncols = 3 if has_object else 2
     fig = new_figure(5.2 * ncols, 6.4)
     gs = fig.add_gridspec(3, ncols, width_ratios=[1.25, 1.0, 1.0][:ncols])
@@ -333,9 +334,8 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
         if i == 2:
             ax.set_xlabel("time [s]")
 
-    if has_object:
+    if finals is not None and untuned_object is not None and tuned_object is not None:
         ax = fig.add_subplot(gs[:, 2])
-        finals = ref.object_final
         ax.scatter(finals[:, 0], finals[:, 1], s=14, color="#999999", label=f"recorded repeats ({len(finals)})")
         mean = finals.mean(axis=0)
         ax.scatter([mean[0]], [mean[1]], s=60, color=RECORDED, marker="x", label="recorded mean")
@@ -344,9 +344,9 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
             ax.scatter(
                 [start[0]], [start[1]], s=40, facecolor="none", edgecolor=RECORDED, marker="s", label="recorded start"
             )
-        for label, obj, color, marker in (
-            ("untuned", traj.untuned_object, UNTUNED, "v"),
-            ("tuned", traj.tuned_object, TUNED, "^"),
+        for label, obj, color, symbol in (
+            ("untuned", untuned_object, UNTUNED, "v"),
+            ("tuned", tuned_object, TUNED, "^"),
         ):
             ax.plot(obj[:n, 0], obj[:n, 1], color=color, linewidth=0.8, alpha=0.7)
             ax.scatter(
@@ -354,7 +354,7 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
                 [obj[n - 1, 1]],
                 s=50,
                 color=color,
-                marker=marker,
+                marker=symbol,
                 label=f"{label} final ({np.linalg.norm(obj[n - 1] - mean) * 1000:.1f} mm off)",
             )
         ax.set_aspect("equal", adjustable="datalim")

@@ -6,7 +6,7 @@ import base64
 import html
 from dataclasses import dataclass, field
 
-from simtune.report.tables import Table
+from simtune.table import Table
 
 LONG_TABLE = 40  # rows; longer tables start folded
 

@@ -12,25 +12,13 @@ import hashlib
 import os
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Protocol
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from simtune.robot.mico import (
-    ARM_JOINTS,
-    BASE_POSITION,
-    JOINTS,
-    LINKS,
-    Joint,
-    Link,
-    children,
-    matrix_quat_wxyz,
-    rpy_matrix,
-)
-
-if TYPE_CHECKING:  # tasks import the robot module; only the type is needed here
-    from simtune.tasks.spec import ObjectSpec
+from simtune.geometry import matrix_quat_wxyz, rpy_matrix
+from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, JOINTS, LINKS, Joint, Link, children
 
 #: Gain of MuJoCo's joint velocity servos [N m s/rad].
 SERVO_KV = 50.0
@@ -38,6 +26,25 @@ SERVO_KV = 50.0
 #: Name of the MuJoCo/URDF body that carries the task's object.
 OBJECT_BODY = "object"
 FLOOR = "floor"
+
+
+class SceneObject(Protocol):
+    """What the model files need of a task's object (:class:`simtune.tasks.spec.ObjectSpec` is one).
+
+    Declared here, below the tasks, so that the robot's model generator does not depend on them.
+    """
+
+    @property
+    def shape(self) -> str: ...  # "cube", "cuboid", "cylinder" or "cone"
+    @property
+    def size(self) -> tuple[float, ...]: ...
+    @property
+    def mass(self) -> float: ...
+    @property
+    def rotation(self) -> np.ndarray: ...
+    @property
+    def start_position(self) -> tuple[float, float, float]: ...
+    def cone_vertices(self, segments: int = 24) -> np.ndarray: ...
 
 
 def _f(values) -> str:
@@ -78,7 +85,7 @@ def _mjcf_link(link: Link, joint: Joint | None, indent: str) -> list[str]:
     return lines
 
 
-def _mjcf_object(obj: ObjectSpec) -> tuple[list[str], list[str]]:
+def _mjcf_object(obj: SceneObject) -> tuple[list[str], list[str]]:
     """(asset lines, worldbody lines) for the task's object."""
     quat = _f(matrix_quat_wxyz(obj.rotation))
     pos = _f(obj.start_position)
@@ -100,7 +107,7 @@ def _mjcf_object(obj: ObjectSpec) -> tuple[list[str], list[str]]:
     return assets, body
 
 
-def scene_mjcf(obj: ObjectSpec | None = None) -> str:
+def scene_mjcf(obj: SceneObject | None = None) -> str:
     """MJCF of the arm on the floor with velocity actuators on its six joints, plus ``obj``.
 
     Timestep, masses, frictions, gains and limits are MuJoCo's defaults or the
@@ -178,7 +185,7 @@ def _urdf_joint(joint: Joint) -> list[str]:
     ]
     if kind != "fixed":
         lines.append('    <axis xyz="0 0 1"/>')
-    if kind == "revolute":
+    if kind == "revolute" and joint.limit is not None:
         # effort/velocity here are placeholders: the controller sets both every update
         lines.append(f'    <limit lower="{-joint.limit:.9g}" upper="{joint.limit:.9g}" effort="9000" velocity="10"/>')
     lines.append("  </joint>")

@@ -17,6 +17,8 @@ from math import pi
 
 import numpy as np
 
+from simtune.geometry import rpy_matrix
+
 #: Where the arm's base frame sits in the world (the floor is z = 0).
 BASE_POSITION = (0.0, 0.0, 0.055)
 
@@ -156,30 +158,24 @@ END_EFFECTOR_OFFSET = ((0, 0, -0.16), (pi, 0, 0))
 LINK_BY_NAME = {link.name: link for link in LINKS}
 
 
+def _chain_length(link: str) -> float:
+    """Base height plus the lengths of the joint offsets from the base up to ``link``."""
+    length = float(np.linalg.norm(BASE_POSITION))
+    while link != "link_base":
+        joint = next(j for j in JOINTS if j.child == link)
+        length += float(np.linalg.norm(joint.xyz))
+        link = joint.parent
+    return length
+
+
+#: No pose puts the wrist farther than this from the world origin [m] (about 0.89 m): the
+#: chain's offsets laid end to end.  The recordings' units are judged by it.
+WRIST_REACH_M = _chain_length(WRIST_LINK)
+
+
 def children(link_name: str) -> list[Joint]:
     """The joints whose parent is ``link_name``, in table order."""
     return [j for j in JOINTS if j.parent == link_name]
-
-
-def rpy_matrix(rpy) -> np.ndarray:
-    """Rotation matrix of URDF roll-pitch-yaw angles (Rz(yaw) @ Ry(pitch) @ Rx(roll))."""
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
-
-
-def matrix_quat_wxyz(m: np.ndarray) -> tuple[float, float, float, float]:
-    """Unit quaternion (w, x, y, z) of a rotation matrix."""
-    from scipy.spatial.transform import Rotation
-
-    x, y, z, w = Rotation.from_matrix(m).as_quat()
-    return (float(w), float(x), float(y), float(z))
 
 
 def forward_kinematics(q, link: str = WRIST_LINK) -> tuple[np.ndarray, np.ndarray]:

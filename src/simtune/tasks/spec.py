@@ -12,7 +12,7 @@ from functools import cached_property
 
 import numpy as np
 
-from simtune.robot.mico import rpy_matrix
+from simtune.geometry import rpy_matrix
 
 #: Body names of the qrg2019 motion-capture exports (robot base, wrist, object).
 BASE_BODY = "RB2(Black)"
@@ -20,6 +20,9 @@ WRIST_BODY = "RB1(Orange)"
 
 SHAPES = ("cube", "cylinder", "cone", "cuboid")
 MATERIALS = ("plastic", "wood")
+#: The surfaces with contact parameters of their own (``lateral_friction_<group>`` and the like): the
+#: gripper, the floor and each object material.  Their order is those parameters' order in a space.
+CONTACT_GROUPS = ("gripper", "floor", "wood", "plastic")
 
 
 @dataclass(frozen=True)

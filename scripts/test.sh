@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# The test suite from a fresh clone, the README's test command and CI's (.ci/run) alike.
+#
+#   scripts/test.sh              the default tier: python -m pytest (about 2 minutes on 2 cores)
+#   scripts/test.sh -m slow      the slow tier: end-to-end tuning, kill -9 and hang tests, real data
+#   scripts/test.sh --ci         CI: ruff check, ruff format --check, mypy, the default tier, the slow tier
+#   scripts/test.sh ARGS...      any other arguments go to pytest
+#
+# It installs the system packages the tests need when they are missing and it can (root, apt-get):
+# Debian's libode8 (the library the ODE engine's binding loads) and postgresql (a throwaway server
+# for the grid's PostgreSQL index). Without them the tests that need them skip, naming the command
+# that installs them. Then it makes .venv (PYTHON, default python3.11) and installs simtune with its
+# test extras (and, for --ci, its lint extras) into it.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PYTHON="${PYTHON:-python3.11}"
+
+ci=0
+if [ "${1:-}" = "--ci" ]; then
+    ci=1
+    shift
+fi
+
+if ! command -v "$PYTHON" >/dev/null; then
+    echo "error: $PYTHON not found: simtune needs Python 3.11 or later (PYTHON=... names another)" >&2
+    exit 2
+fi
+
+missing=()
+# the ODE binding (ode-python) finds libode with ctypes.util.find_library, as checked here
+"$PYTHON" -c "import ctypes.util, sys; sys.exit(ctypes.util.find_library('ode') is None)" || missing+=(libode8)
+# the PostgreSQL index tests start a server from Debian's postgresql programs (tests/test_grid.py)
+compgen -G "/usr/lib/postgresql/*/bin/initdb" >/dev/null || command -v initdb >/dev/null || missing+=(postgresql)
+# Debian's own Python makes virtual environments only with its -venv package
+"$PYTHON" -c "import ensurepip" 2>/dev/null || missing+=("${PYTHON##*/}-venv")
+
+if [ ${#missing[@]} -gt 0 ]; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+        echo "installing ${missing[*]} (apt-get)"
+        apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null
+    else
+        echo "note: ${missing[*]} missing and not installable here (needs root and apt-get);" \
+            "the tests that need them skip: apt-get install ${missing[*]}" >&2
+    fi
+fi
+
+[ -x .venv/bin/python ] || "$PYTHON" -m venv .venv
+extras="test"
+[ "$ci" = 1 ] && extras="test,lint"
+.venv/bin/python -m pip install -q -e ".[$extras]"
+
+if [ "$ci" = 1 ]; then
+    .venv/bin/ruff check src tests benchmarks
+    .venv/bin/ruff format --check src tests benchmarks
+    .venv/bin/mypy
+    .venv/bin/python -m pytest "$@"
+    .venv/bin/python -m pytest -m slow "$@"
+else
+    .venv/bin/python -m pytest "$@"
+fi

@@ -1,0 +1,158 @@
+"""Recording sanity: the checks that tell a usable repeat of a task from a mis-scaled, mis-timed or cut-off one.
+
+They form one stage of :func:`simtune.data.load_task_data`, between reading
+each file and putting the repeats on a common clock.  Every check has a name
+that its message carries (``units check``, ``time check``, ``duration check``;
+the readers add ``encoding check``), listed in docs/recordings.md.
+
+data/ is the lowest layer: what a check must know about the arm and the task
+(the wrist's reach, the task's duration, the base marker's name) comes in as
+plain numbers from the caller, with generous generic values when it does not.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from simtune.data.recording import Recording
+from simtune.errors import RecordingError
+
+#: Reach [m] to judge units by when the caller does not know the arm: longer than any
+#: table-top arm's (the MICO's wrist reaches 0.89 m, a UR10's 1.3 m), and with the
+#: bounds below still far from both unit mistakes.
+GENERIC_REACH_M = 1.5
+
+#: The wrist's median distance from the base must lie between these shares of the reach.
+#: Below (9 mm for the MICO): the wrist's and the base's rigid bodies are marker clusters
+#: centimetres across on different links, which cannot sit inside each other or inside the
+#: arm's 8 cm wide base column for most of a take; a file in metres read as millimetres
+#: puts the wrist at most reach/1000 away.  Above: a wrist cannot be farther than the
+#: reach; twice leaves room for marker offsets and a base marker off the arm's axis, while
+#: millimetres read as metres are 1000x out.
+UNITS_LOW_SHARE = 0.01
+UNITS_HIGH_SHARE = 2.0
+
+#: Repeats of one task move the same way, so their wrist distances agree within a few
+#: per cent; a repeat off by more than this factor from the median is in other units
+#: (centimetres, inches) than the rest.
+SAME_UNITS_FACTOR = 3.0
+
+#: A repeat lasting less than this share of the task's duration or of the median repeat
+#: is left out: kept, it would cut every repeat's reference to its own length.
+MIN_DURATION_SHARE = 0.9
+
+#: A recording running more than this multiple of the task's duration past its first
+#: frame is not a recording of the task (a time column in ms, or a damaged frame).
+MAX_DURATION_MULTIPLE = 10.0
+
+#: Without a task duration: no motion-capture take of a table-top task lasts a day.
+MAX_SPAN_S = 86400.0
+
+
+def check_time(rec: Recording, display: str, duration_s: float | None) -> None:
+    """Time check: no frame lies further from the first than a sane multiple of the task's duration.
+
+    (Finite and increasing times are checked by the readers, see
+    :func:`simtune.data.recording.finish_recording`.)
+    """
+    span = rec.time - rec.time[0]
+    if duration_s is None:
+        limit, what = MAX_SPAN_S, "a day"
+    else:
+        limit = MAX_DURATION_MULTIPLE * duration_s
+        what = f"{MAX_DURATION_MULTIPLE:g} x the task's {duration_s:g} s"
+    beyond = np.flatnonzero(span > limit)
+    if beyond.size:
+        i = int(beyond[0])
+        raise RecordingError(
+            f"{display} {rec.where(i)}: time check: the time {rec.time[i]:.6g} s is more than {what} after the "
+            f"first frame's {rec.time[0]:.6g} s (a time column in other units, or a damaged frame?)"
+        )
+
+
+def wrist_distance(rec: Recording, wrist_body: str, base_body: str | None) -> float | None:
+    """Median distance [m] of the wrist from the base over its tracked frames; None if never tracked.
+
+    The base is where ``base_body`` was tracked (its median position), else the
+    world origin, where the recordings' frame puts the arm's base.
+    """
+    wrist = rec.positions[wrist_body]
+    seen = np.isfinite(wrist).all(axis=1)
+    if not seen.any():
+        return None
+    base = np.zeros(3)
+    if base_body is not None and base_body in rec.positions:
+        marker = rec.positions[base_body]
+        tracked = np.isfinite(marker).all(axis=1)
+        if tracked.any():
+            base = np.median(marker[tracked], axis=0)
+    return float(np.median(np.linalg.norm(wrist[seen] - base, axis=1)))
+
+
+def check_units(distance: float, display: str, wrist_body: str, reach_m: float) -> None:
+    """Units check: the wrist's median distance from the base must fit the arm's workspace."""
+    low, high = UNITS_LOW_SHARE * reach_m, UNITS_HIGH_SHARE * reach_m
+    if low <= distance <= high:
+        return
+    if distance < low:
+        where = f"at least {low:.3g} m away (not inside the arm)"
+        hint = "positions look too small - metres in a millimetre file?"
+    else:
+        where = f"within {high:.3g} m (twice its reach)"
+        hint = "positions look too large - millimetres in a metre file?"
+    raise RecordingError(
+        f"{display}: units check: the wrist {wrist_body!r} stays {distance:.3g} m from the base (median), "
+        f"but an arm reaching {reach_m:.3g} m keeps it {where}: {hint}"
+    )
+
+
+def check_same_units(distances: list[tuple[str, float]]) -> None:
+    """Units check across a folder: every repeat's wrist distance agrees with the others'.
+
+    ``distances`` holds (file name, :func:`wrist_distance`) per repeat.  A
+    repeat off the median of the others by more than SAME_UNITS_FACTOR is odd;
+    a minority of odd repeats is named, and when no majority agrees (two
+    repeats, or half and half) the two extremes are.
+    """
+    if len(distances) < 2:
+        return
+    values = np.array([d for _, d in distances])
+    # Each repeat against the median of the others: with two repeats, the median of both would hide a factor 4.
+    others = [float(np.median(np.delete(values, i))) for i in range(len(values))]
+    odd = [
+        (name, d)
+        for (name, d), ref in zip(distances, others)
+        if not (1 / SAME_UNITS_FACTOR <= d / ref <= SAME_UNITS_FACTOR)
+    ]
+    if not odd:
+        return
+    if len(odd) < len(distances) / 2:
+        name, d = odd[0]
+        agreeing = float(np.median([x for n, x in distances if (n, x) not in odd]))
+        ratio = d / agreeing
+        size = f"{ratio:.3g} x larger" if ratio > 1 else f"{1 / ratio:.3g} x smaller"
+        more = f" (as is {', '.join(n for n, _ in odd[1:])})" if len(odd) > 1 else ""
+        raise RecordingError(
+            f"{name}: units check: the wrist stays {d:.3g} m from the base (median), {size} than in the other "
+            f"repeats ({agreeing:.3g} m): this repeat is in other units than the rest{more}"
+        )
+    (near, d_near), (far, d_far) = min(distances, key=lambda x: x[1]), max(distances, key=lambda x: x[1])
+    raise RecordingError(
+        f"{near}: units check: the wrist stays {d_near:.3g} m from the base (median) but {d_far:.3g} m in {far}: "
+        f"the repeats are in different units"
+    )
+
+
+def duration_floor(durations: list[float], duration_s: float | None) -> tuple[float, str]:
+    """Duration check: the shortest repeat [s] to keep, and the reason for that length, for messages.
+
+    MIN_DURATION_SHARE of the task's duration or of the median repeat, whichever
+    is longer: a repeat cut off early cannot cut the reference of all the others,
+    and a folder of cut-off repeats cannot pass for the task.
+    """
+    median = float(np.median(durations))
+    by_median = MIN_DURATION_SHARE * median
+    share = f"{MIN_DURATION_SHARE * 100:g} %"
+    if duration_s is not None and MIN_DURATION_SHARE * duration_s >= by_median:
+        return MIN_DURATION_SHARE * duration_s, f"{share} of the task's {duration_s:g} s"
+    return by_median, f"{share} of the median repeat's {median:.2f} s"

@@ -1,0 +1,254 @@
+"""What every engine's export shares: provenance, the header comment, controller.yaml, number formatting.
+
+Every exported file names where it comes from: XML files and scripts in a
+header comment, JSON sidecars in a ``provenance`` member, and the folder as a
+whole in ``provenance.json`` (which also lists each file with its SHA-256).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+import simtune
+from simtune.controller import CONTROL_PERIOD, JointController
+from simtune.engines import Engine, engine_class
+from simtune.export.source import TunedRun
+from simtune.robot import generate, mico
+from simtune.tasks.spec import ObjectSpec
+
+PROVENANCE_FILE = "provenance.json"
+CONTROLLER_FILE = "controller.yaml"
+
+
+@dataclass(frozen=True)
+class RobotDescription:
+    """The robot as export sees it: names and the generic model files, never the engines' internals.
+
+    Every exporter takes the robot from here, so a robot described another way (a
+    URDF of the user's) needs only another constructor, not other exporters.
+    Tuning parameter ``<kind>_<i>`` of a joint or link (``joint_damping_3``,
+    ``mass_link_3``) belongs to the i-th driven joint and to that joint's child link.
+    """
+
+    name: str
+    driven_joints: tuple[str, ...]
+    driven_links: tuple[str, ...]  # the child link of each driven joint
+    wrist_link: str
+    base_link: str
+    base_position: tuple[float, float, float]
+    urdf: str  # the robot alone, with generic values, base frame at the origin
+    link_materials: dict[str, str]  # link -> material group of the friction/restitution parameters
+    floor: str  # names of the floor and object elements in the scenes the engines build
+    object: str
+
+    def scene_mjcf(self, obj: ObjectSpec | None) -> str:
+        """The MuJoCo scene (robot, floor, the task's object) with generic values."""
+        return generate.scene_mjcf(obj)
+
+
+def bundled_robot() -> RobotDescription:
+    """The Kinova MICO that simtune's engines build (:mod:`simtune.robot.mico`)."""
+    joints = {j.name: j for j in mico.JOINTS}
+    return RobotDescription(
+        name="kinova_mico",
+        driven_joints=tuple(mico.ARM_JOINTS),
+        driven_links=tuple(joints[j].child for j in mico.ARM_JOINTS),
+        wrist_link=mico.WRIST_LINK,
+        base_link=mico.LINKS[0].name,
+        base_position=tuple(float(v) for v in mico.BASE_POSITION),  # type: ignore[arg-type]
+        urdf=generate.robot_urdf(),
+        link_materials={link.name: link.material for link in mico.LINKS},
+        floor=generate.FLOOR,
+        object=generate.OBJECT_BODY,
+    )
+
+
+def num(value: float) -> str:
+    """A float written so that parsing it gives the same double back (Python's shortest round-trip form)."""
+    return repr(float(value))
+
+
+def nums(values) -> str:
+    return " ".join(num(v) for v in np.asarray(values, dtype=float).ravel())
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def provenance(run: TunedRun, engine: str, when: dt.datetime) -> dict:
+    """The record of where an export comes from (provenance.json, and each sidecar's ``provenance``)."""
+    best = run.best
+    return {
+        "exported_by": f"simtune {simtune.__version__}",
+        "date": when.isoformat(timespec="seconds"),
+        "run": str(run.path),
+        "engine": engine,
+        "engine_version": engine_class(engine).version(),
+        "engine_version_of_run": run.versions.get(engine),
+        "simtune_version": simtune.__version__,
+        "versions_of_run": run.versions,
+        "tasks": run.task_names,
+        "space": run.config.get("space"),
+        "seed": run.config.get("seed"),
+        "optimizer": run.config.get("optimizer", "de"),
+        "evaluations": run.evaluations,
+        "run_finished": (
+            dt.datetime.fromtimestamp(run.finished_at, dt.UTC).isoformat(timespec="seconds")
+            if run.finished_at is not None
+            else None
+        ),
+        "command": run.command,
+        "fitness": best.get("fitness"),
+        "wrist_error": best.get("wrist_error"),
+        "object_error": best.get("object_error"),
+        "generic_fitness": best.get("generic_fitness"),
+        "data": str(run.config.get("data")),
+        "data_note": run.data_note,
+        "data_files": run.data_files,
+        "tuned_parameters": run.params,
+    }
+
+
+def header_lines(prov: dict, what: str) -> list[str]:
+    """The provenance as comment lines (without comment markers); values are JSON, so they parse back exactly."""
+    j = json.dumps
+    fitness = prov["fitness"]
+    lines = [
+        f"{what}",
+        f"Exported by {prov['exported_by']} on {prov['date']} from a tuned run; provenance.json has the full record.",
+        f"run: {j(prov['run'])}",
+        f"engine: {j(prov['engine'])} {j(prov['engine_version'])} (run tuned with {j(prov['engine_version_of_run'])})",
+        f"simtune: {j(prov['simtune_version'])}",
+        f"tasks: {j(prov['tasks'])}  space: {j(prov['space'])}  seed: {j(prov['seed'])}  "
+        f"optimizer: {j(prov['optimizer'])}  evaluations: {prov['evaluations']}",
+        f"tuned fitness: {j(fitness)} m (wrist {j(prov['wrist_error'])} m, object {j(prov['object_error'])} m; "
+        f"generic {j(prov['generic_fitness'])} m)",
+        f"command: {j(prov['command'])}",
+        f"data: {j(prov['data'])} ({prov['data_note']})",
+    ]
+    for task, files in prov["data_files"].items():
+        lines += [f"data file: {j(task + '/' + f['file'])} {f['bytes']} bytes sha256 {f['sha256']}" for f in files]
+    return lines
+
+
+def xml_comment(lines: list[str]) -> str:
+    # "--" may not appear inside an XML comment: it is written as "-\u002d", which JSON reads back as "--"
+    body = "\n".join("  " + line.replace("--", "-\\u002d") for line in lines)
+    return f"<!--\n{body}\n-->\n"
+
+
+def hash_comment(lines: list[str]) -> str:
+    return "".join(f"# {line}\n" if line else "#\n" for line in lines)
+
+
+@dataclass
+class ExportContext:
+    """One export in progress: the run, the folder, and one engine per task with the tuned values applied."""
+
+    run: TunedRun
+    engine: str
+    robot: RobotDescription
+    out: Path
+    engines: dict[str, Engine]  # task name -> engine after reset(values)
+    values: dict[str, float]  # every engine parameter in force: the engine's generic values, then the tuned
+    provenance: dict
+    files: list[str] = field(default_factory=list)
+
+    def header(self, what: str) -> list[str]:
+        return header_lines(self.provenance, what)
+
+    def write(self, name: str, text: str) -> Path:
+        path = self.out / name
+        path.write_text(text)
+        if name not in self.files:
+            self.files.append(name)
+        return path
+
+    def write_json(self, name: str, about: dict, body: dict) -> Path:
+        """A JSON sidecar: ``about`` (what each member means), ``provenance``, then ``body``."""
+        data = {"about": about, "provenance": self.provenance, **body}
+        return self.write(name, json.dumps(data, indent=2) + "\n")
+
+
+def controller_yaml(ctx: ExportContext, samples: dict[str, int]) -> str:
+    """controller.yaml: everything needed to drive the exported model as the run did, without simtune."""
+    params = ctx.run.params
+    tasks = {}
+    for task in ctx.run.tasks:
+        ctl = JointController(task, params)
+        starts, table = task.schedule
+        tasks[task.name] = {
+            "description": task.description,
+            "duration_s": float(task.duration),
+            "samples": samples.get(task.name),
+            "kp_per_s": ctl.kp,
+            "max_velocity_deg_s": [  # as the controller takes them (in degrees, converted once)
+                float(params.get(f"max_velocity_joint_{i}", task.max_velocity_deg))
+                for i in range(1, len(ctx.robot.driven_joints) + 1)
+            ],
+            "start_pose_deg": [float(v) for v in task.start_pose_deg],
+            "schedule": [
+                {"start_s": float(s), "targets_deg": [float(v) for v in row]} for s, row in zip(starts, table[1:])
+            ],
+            "object": None
+            if task.object is None
+            else {
+                "body": ctx.robot.object,
+                "shape": task.object.shape,
+                "material": task.object.material,
+                "size_m": [float(v) for v in task.object.size],
+                "start_position_m": [float(v) for v in task.object.start_position],
+                "start_rpy_rad": [float(v) for v in task.object.rpy],
+            },
+        }
+    delay = float(params.get("command_delay", 0.0))
+    values = ctx.values
+    data = {
+        "control": {
+            "rate_hz": 1.0 / CONTROL_PERIOD,
+            "period_s": CONTROL_PERIOD,
+            "joints": list(ctx.robot.driven_joints),
+            "command_delay_s": delay,
+            "update_phase_s": delay % CONTROL_PERIOD,
+            "max_torque_n_m": [
+                float(values[f"max_torque_joint_{i}"]) for i in range(1, len(ctx.robot.driven_joints) + 1)
+            ],
+        },
+        "tracking": {
+            "link": ctx.robot.wrist_link,
+            "marker_offset_m": [float(params.get(f"marker_offset_{a}", 0.0)) for a in "xyz"],
+        },
+        "tasks": tasks,
+    }
+    notes = [
+        "",
+        "How the run drove the model (simtune's controller, written out so that any program can do the same):",
+        "- control.joints are driven by velocity motors whose force is limited to control.max_torque_n_m",
+        "  (the model files hold the same limits).  At control.rate_hz, for each joint:",
+        "    velocity [deg/s] = clamp(kp_per_s * (target - angle), -max_velocity_deg_s, +max_velocity_deg_s)",
+        "  sent as the motor's velocity target and held until the next update.",
+        "- The arm starts at rest at the task's start_pose_deg.  Phase i of the schedule is in force from",
+        "  command_delay_s + start_s on; before the first phase the target is the start pose.",
+        "- Samples are taken at k * period_s (k = 0 .. samples - 1); update k happens update_phase_s later,",
+        "  at k * period_s + update_phase_s, from the joint angles at that instant, with the targets in force",
+        "  then.  Physics steps are counted so that simulated time stays within half a step of both clocks.",
+        "- The fitness compares tracking.link's origin moved by marker_offset_m (in that link's frame) with",
+        "  the mean recorded wrist at each sample, plus the object's final position (tasks with an object).",
+        "- samples: how many 20 Hz samples the run's recordings of the task span (null if its data is gone).",
+        "",
+    ]
+    lines = ctx.header(f"controller.yaml: the controller that drove the {ctx.engine} model of this export")
+    text = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=110)
+    return hash_comment(lines + notes) + text
+
+
+def now_utc() -> dt.datetime:
+    return dt.datetime.now(dt.UTC)

@@ -1,0 +1,126 @@
+"""MuJoCo export: one MJCF per task (robot, floor, the task's object), every tuned value written in.
+
+The generic scene MJCF is edited element by element with the values of the
+engine's compiled model after the tuned parameters were applied: body masses
+and inertias (scaled together, as the engine does), joint damping, the three
+friction coefficients and the contact softness (``solref``/``solimp``, MuJoCo's
+defaults: simtune does not tune them) of every geom, the velocity servos' force
+ranges, and the time step.  Values are written with 17 significant digits, so
+the file compiles to the very model the run simulated.
+
+MJCF gives a joint one damping value, but the engine damps an object's
+translation and rotation separately (``linear_damping_*``, ``angular_damping_*``
+on the free joint's six degrees of freedom).  When the two differ, the object's
+free joint is written as three slide joints along the world axes (``ref`` = its
+start position, so their positions are the world coordinates of the object's
+origin) and a ball joint (its orientation relative to the start orientation):
+the same six degrees of freedom, seven position coordinates and damping per
+degree of freedom.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from simtune.errors import SimtuneError
+from simtune.export.common import ExportContext, num, nums, xml_comment
+
+
+def write(ctx: ExportContext) -> list[str]:
+    names = []
+    for task in ctx.run.tasks:
+        engine = ctx.engines[task.name]
+        name = f"scene_{task.name}.xml"
+        root = ET.fromstring(ctx.robot.scene_mjcf(task.object))
+        _write_values(root, engine.model)  # type: ignore[attr-defined]
+        lines = ctx.header(
+            f"MJCF of the tuned {ctx.robot.name} scene for task {task.name!r}: load with mujoco.MjModel.from_xml_path"
+        )
+        lines.append(f"Drive it with controller.yaml (actuators named after the joints they drive: {name}).")
+        ctx.write(name, xml_comment(lines) + ET.tostring(root, encoding="unicode") + "\n")
+        names.append(name)
+    return names
+
+
+def _write_values(root: ET.Element, model) -> None:
+    option = root.find("option")
+    if option is None:
+        option = ET.SubElement(root, "option")
+    option.set("timestep", num(model.opt.timestep))
+    world = root.find("worldbody")
+    if world is None:
+        raise SimtuneError("the scene MJCF has no worldbody")
+    for element in world.iter():
+        if element.tag in ("body", "joint", "freejoint", "geom") and not element.get("name"):
+            raise SimtuneError(f"the scene MJCF has a {element.tag} without a name: export finds elements by name")
+    for body in world.iter("body"):
+        b = model.body(body.get("name")).id
+        inertial = body.find("inertial")
+        if inertial is None:  # mass and inertia came from the geoms: write the tuned ones explicitly
+            inertial = ET.Element("inertial", pos=nums(model.body_ipos[b]), quat=nums(model.body_iquat[b]))
+            inertial.tail = body.text
+            body.insert(0, inertial)
+            for geom in body.findall("geom"):
+                for attr in ("mass", "density"):
+                    geom.attrib.pop(attr, None)
+        elif "fullinertia" in inertial.attrib:  # the compiled inertia is diagonal in body_iquat's frame
+            del inertial.attrib["fullinertia"]
+            inertial.set("quat", nums(model.body_iquat[b]))
+        inertial.set("mass", num(model.body_mass[b]))
+        inertial.set("diaginertia", nums(model.body_inertia[b]))
+        for kind in ("joint", "freejoint"):
+            for joint in list(body.findall(kind)):
+                _write_joint(body, joint, model)
+    for geom in world.iter("geom"):
+        g = model.geom(geom.get("name")).id
+        geom.set("friction", nums(model.geom_friction[g]))
+        geom.set("solref", nums(model.geom_solref[g]))
+        geom.set("solimp", nums(model.geom_solimp[g]))
+    actuators = root.find("actuator")
+    for actuator in actuators if actuators is not None else []:
+        a = model.actuator(actuator.get("name")).id
+        actuator.set("forcerange", nums(model.actuator_forcerange[a]))
+
+
+def _write_joint(body: ET.Element, joint: ET.Element, model) -> None:
+    j = model.joint(joint.get("name")).id
+    dof = model.jnt_dofadr[j]
+    free = joint.tag == "freejoint" or joint.get("type") == "free"
+    if not free:
+        joint.set("damping", num(model.dof_damping[dof]))
+        return
+    damping = model.dof_damping[dof : dof + 6]
+    index = list(body).index(joint)
+    body.remove(joint)
+    if np.all(damping == damping[0]):  # one value: MJCF's free joint holds it (<freejoint> takes no damping)
+        body.insert(index, ET.Element("joint", name=joint.get("name", ""), type="free", damping=num(damping[0])))
+        return
+    start = model.body_pos[model.jnt_bodyid[j]]
+    turn = model.body_quat[model.jnt_bodyid[j]]
+    rotation = np.zeros(9)
+    _quat_to_matrix(turn, rotation)
+    axes = rotation.reshape(3, 3).T  # world x, y, z in the body's frame, where MJCF gives joint axes
+    elements = [
+        ET.Element(
+            "joint",
+            name=f"{joint.get('name')}_{axis}",
+            type="slide",
+            axis=nums(axes[:, k]),
+            ref=num(start[k]),
+            damping=num(damping[k]),
+        )
+        for k, axis in enumerate("xyz")
+    ]
+    # a ball joint has one damping for its three rotational DOFs: they are equal (one parameter)
+    elements.append(ET.Element("joint", name=joint.get("name", ""), type="ball", damping=num(damping[3])))
+    for offset, element in enumerate(elements):
+        element.tail = joint.tail
+        body.insert(index + offset, element)
+
+
+def _quat_to_matrix(quat, out) -> None:
+    import mujoco
+
+    mujoco.mju_quat2Mat(out, np.asarray(quat, dtype=float))

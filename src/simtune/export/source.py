@@ -1,0 +1,157 @@
+"""A finished tuning run, read and checked before anything is exported from it.
+
+Export refuses (one line, :class:`~simtune.errors.SimtuneError`) a folder that
+is not a run (no ``run.sqlite``), a run store of another store version, a run
+made by another simtune version (its engine mapping may differ from this
+one's, so the files would not reproduce it), and an unfinished run: one whose
+store status is not ``finished`` or that has no ``best_params.json``.  Both are
+needed: ``best_params.json`` holds the tuned values and fitness that the
+exported files reproduce, and the status says the optimiser wrote it at the
+end of its last session rather than a killed session leaving an older file.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import simtune
+from simtune.data import data_fingerprint, fingerprint_changes
+from simtune.engines import engine_class
+from simtune.errors import SimtuneError
+from simtune.params import validate_params
+from simtune.runs import BEST_PARAMS_FILE
+from simtune.store import STORE_FILE, RunStore
+from simtune.tasks import TaskSpec, parse_tasks
+
+
+class ExportWarning(UserWarning):
+    """Something about a run that does not stop its export but that its user should know."""
+
+
+@dataclass
+class TunedRun:
+    """What export needs from one finished run folder."""
+
+    path: Path
+    config: dict
+    engine: str
+    tasks: list[TaskSpec]
+    params: dict[str, float]  # the tuned values (best_params.json); the rest keep the engine's generic ones
+    best: dict  # best_params.json as written by the run
+    versions: dict[str, str]  # as stored by the run
+    command: list[str]
+    finished_at: float | None  # time of the run's last stored evaluation (seconds since the epoch)
+    evaluations: int
+    data_files: dict[str, list[dict]]  # task -> [{file, bytes, sha256}] of the recordings it was tuned on
+    data_note: str  # where the fingerprint comes from, or why it is missing
+
+    @property
+    def task_names(self) -> list[str]:
+        return [t.name for t in self.tasks]
+
+
+def read_run(run_dir: Path | str) -> TunedRun:
+    """The finished run in ``run_dir``, checked; a one-line SimtuneError if it cannot be exported."""
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise SimtuneError(f"{run_dir}: no such run folder")
+    if not (run_dir / STORE_FILE).is_file():
+        raise SimtuneError(f"{run_dir} is not a run folder: its store {STORE_FILE} is missing")
+    try:
+        store = RunStore.open_read_only(run_dir)
+    except sqlite3.Error as exc:
+        raise SimtuneError(f"{run_dir / STORE_FILE}: cannot read the run store ({exc})") from None
+    except SimtuneError as exc:
+        raise SimtuneError(f"{run_dir / STORE_FILE}: {exc}") from None
+    try:
+        config = store.get("config")
+        status = store.get("status")
+        versions = store.get("versions") or {}
+        command = store.get("command") or []
+        stored_fingerprint = (store.get("fingerprint") or {}).get("data")  # written by runs.run_fingerprint
+        evaluations = store.count_evaluations()
+        row = store.db.execute("SELECT MAX(finished_at) FROM evaluations").fetchone()
+        finished_at = float(row[0]) if row and row[0] is not None else None
+    except sqlite3.Error as exc:
+        raise SimtuneError(f"{run_dir / STORE_FILE}: cannot read the run store ({exc})") from None
+    finally:
+        store.db.close()
+    if not isinstance(config, dict) or not all(k in config for k in ("engine", "tasks", "space", "data", "seed")):
+        raise SimtuneError(f"{run_dir / STORE_FILE}: no run configuration (not written by `simtune tune`?)")
+    if status != "finished":
+        raise SimtuneError(
+            f"{run_dir} is an unfinished run (status {status!r}): `simtune resume {run_dir}` finishes it, then export"
+        )
+    best_file = run_dir / BEST_PARAMS_FILE
+    if not best_file.is_file():
+        raise SimtuneError(f"{run_dir} is an unfinished run: no {BEST_PARAMS_FILE}")
+    try:
+        best = json.loads(best_file.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise SimtuneError(f"{best_file}: cannot read ({exc})") from None
+    if not isinstance(best, dict) or not isinstance(best.get("params"), dict) or "fitness" not in best:
+        raise SimtuneError(f"{best_file}: not a run's best parameters (no 'params' and 'fitness')")
+    made_by = versions.get("simtune")
+    if made_by != simtune.__version__:
+        raise SimtuneError(
+            f"{run_dir} was tuned by simtune {made_by}, this is simtune {simtune.__version__}: "
+            f"its engine mapping may differ, export it with simtune {made_by}"
+        )
+    engine = str(config["engine"])
+    if best.get("engine", engine) != engine:
+        raise SimtuneError(f"{best_file}: engine {best.get('engine')!r} differs from the run's {engine!r}")
+    cls = engine_class(engine)
+    params = validate_params(best["params"], cls.supported(), engine, where=str(best_file))
+    tasks = parse_tasks(str(config["tasks"]))
+    installed = cls.version()
+    if versions.get(engine) not in (None, installed):
+        warnings.warn(
+            f"{run_dir} was tuned with {engine} {versions.get(engine)}, exported with {installed}: "
+            "the exported files may not reproduce its fitness exactly",
+            ExportWarning,
+            stacklevel=2,
+        )
+    data_files, note = _data_files(Path(str(config["data"])), [t.name for t in tasks], stored_fingerprint, run_dir)
+    return TunedRun(
+        path=run_dir.resolve(),
+        config=config,
+        engine=engine,
+        tasks=tasks,
+        params=params,
+        best=best,
+        versions={str(k): str(v) for k, v in versions.items()},
+        command=[str(c) for c in command],
+        finished_at=finished_at,
+        evaluations=int(evaluations),
+        data_files=data_files,
+        data_note=note,
+    )
+
+
+def _data_files(
+    root: Path, task_names: list[str], stored: dict | None, run_dir: Path
+) -> tuple[dict[str, list[dict]], str]:
+    """The recordings' fingerprint: the one the run stored if it has one, else the data folder's now."""
+    present = root.is_dir()
+    now = data_fingerprint(root, task_names) if present else None
+    if isinstance(stored, dict):
+        if now is not None and (changes := fingerprint_changes(stored, now)):
+            warnings.warn(
+                f"{run_dir}: the recordings in {root} changed since the run ({', '.join(changes[:3])}"
+                f"{' ...' if len(changes) > 3 else ''}); provenance gives the ones it was tuned on",
+                ExportWarning,
+                stacklevel=3,
+            )
+        return stored, "fingerprint stored by the run"
+    if now is None:
+        warnings.warn(
+            f"{run_dir}: its data folder {root} is gone: provenance cannot name the recordings' SHA-256",
+            ExportWarning,
+            stacklevel=3,
+        )
+        return {name: [] for name in task_names}, f"data folder {root} missing at export"
+    return now, "fingerprint of the data folder at export (the run stored none)"

@@ -1,0 +1,97 @@
+"""A grid's specification, its units, and the work one unit does (in a worker process)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from simtune.errors import ConfigError, SimtuneError
+
+
+@dataclass(frozen=True)
+class Unit:
+    """One optimisation of the grid."""
+
+    engine: str
+    tasks: str  # "cube", or "single,cube" for tasks tuned together
+    space: str
+    seed: int
+
+    @property
+    def id(self) -> str:
+        return f"{self.engine}-{self.tasks.replace(',', '+')}-{self.space}-s{self.seed}"
+
+
+@dataclass
+class GridSpec:
+    engines: list[str]
+    tasks: list[str]  # each entry one experiment; "single+cube" tunes both at once
+    spaces: list[str]
+    repeats: int
+    data: str
+    max_seconds_per_run: float | None = None
+    max_generations: int = 1000
+    only: list[str] | None = None  # tune just these parameters of each space
+
+    def units(self) -> list[Unit]:
+        return [
+            Unit(e, t.replace("+", ","), s, r)
+            for e in self.engines
+            for t in self.tasks
+            for s in self.spaces
+            for r in range(self.repeats)
+        ]
+
+    def validate(self) -> None:
+        """Fail before any compute on an unknown engine, task or space, or missing data."""
+        from simtune.engines import engine_class
+        from simtune.objective import load_references
+        from simtune.params import get_space
+        from simtune.tasks import parse_tasks
+
+        if self.repeats < 1:
+            raise ConfigError("--repeats must be at least 1")
+        for name in self.engines:
+            for space in self.spaces:
+                get_space(space, engine_class(name).supported(), self.only)
+        tasks = {t.name: t for entry in self.tasks for t in parse_tasks(entry.replace("+", ","))}
+        load_references(Path(self.data), list(tasks.values()))
+
+
+def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
+    """Run or resume one optimisation; returns its summary.  Safe to run again after a crash."""
+    from simtune.runlock import run_lock
+    from simtune.runs import RunConfig, has_run, resume_run, start_run
+    from simtune.store import RunStore
+
+    path = Path(run_dir)
+    config = RunConfig(
+        engine=unit.engine,
+        tasks=unit.tasks,
+        space=unit.space,
+        data=spec.data,
+        seed=unit.seed,
+        workers=1,
+        max_seconds=spec.max_seconds_per_run,
+        max_generations=spec.max_generations,
+        only=spec.only,
+    )
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SimtuneError(f"cannot create run folder {path}: {exc.strerror}") from None
+    with run_lock(path):  # one writer: a unit still running elsewhere (a worker thought lost) refuses this one
+        if has_run(path):
+            result = resume_run(path, show_progress=False)
+        else:  # new, or died before the run was set up: start_run clears such a store
+            result = start_run(config, path, show_progress=False)
+    store = RunStore(path)
+    summary = dict(
+        fitness=result.score.fitness,
+        generic_fitness=store.get("generic")["fitness"],
+        evaluations=result.evaluations,
+        generations=result.generations,
+        wall_s=result.wall_s,
+    )
+    store.close()
+    return summary

@@ -1,0 +1,314 @@
+"""The report's sections, one function each, in the order they appear.
+
+Each section function takes the :class:`ReportData` (the runs and what was computed
+from them once) and the :class:`ReportOutput` (which writes its tables and figures
+into the report folder) and returns its :class:`~simtune.report.html.Section`, or
+None to leave it out.  The builder numbers the sections of :data:`SECTIONS` in order
+and appends those of :data:`APPENDICES` unnumbered: adding, removing or moving a
+section is one line there.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from simtune.engines import Rollout
+from simtune.report import figures as F
+from simtune.report import tables as T
+from simtune.report.collect import Group, RunRecord
+from simtune.report.dr import dr_ranges, write_dr_yaml
+from simtune.report.html import FigureRef, Section
+from simtune.report.published import PublishedSim
+from simtune.report.simulate import GroupSimulation
+from simtune.table import Table
+
+DR_FILE = "dr_ranges.yaml"
+
+
+@dataclass
+class ReportData:
+    """The report's runs, grouped into repeats, and what the sections share, computed once."""
+
+    paths: list[Path]  # the folders given
+    groups: list[Group]
+    entries: list[T.GenericEntry]  # generic fitness per engine and task, published simulations included
+    published: list[tuple[PublishedSim, Rollout]]  # the published simulations scored, and their rollouts
+    published_folder: Path | None  # --published-sims, if given
+    nominal: dict[str, dict[str, float]]  # engine -> generic parameter values
+    tasks_by_engine: dict[str, list[str]]
+    sims: list[GroupSimulation]  # the best run of each group, re-simulated
+
+    @property
+    def runs(self) -> list[RunRecord]:
+        return [r for g in self.groups for r in g.runs]
+
+    @property
+    def task_names(self) -> list[str]:
+        names: list[str] = []
+        for g in self.groups:
+            names.extend(t for t in g.task_names if t not in names)
+        return names
+
+    @property
+    def engines(self) -> list[str]:
+        return sorted({g.engine for g in self.groups})
+
+    @property
+    def experiments(self) -> list[tuple[str, str]]:
+        """(tasks, space) of every group, sorted: the panels of the figures per experiment."""
+        return sorted({(g.tasks, g.space) for g in self.groups})
+
+
+@dataclass
+class ReportOutput:
+    """Writes a section's tables and figures into the report folder as the section makes them."""
+
+    folder: Path
+    warn: Callable[[str], None]  # a ReportWarning, also listed at the top of the report
+    on_figure: Callable[[], None] = lambda: None  # progress: one more figure drawn
+    numbers: dict[str, int] = field(default_factory=dict)  # anchor -> number of the sections made so far
+
+    def table(self, table: Table) -> Table:
+        """Write ``tables/<name>.csv`` and ``.md``; return the table for the page."""
+        (self.folder / "tables" / f"{table.name}.csv").write_text(table.to_csv())
+        (self.folder / "tables" / f"{table.name}.md").write_text(table.to_markdown())
+        return table
+
+    def figure(self, stem: str, fig: Figure, caption: str) -> FigureRef:
+        """Write ``figures/<stem>.png`` and ``.svg``; return the figure for the page."""
+        ref = FigureRef(stem, F.save(fig, self.folder / "figures", stem), caption)
+        self.on_figure()
+        return ref
+
+
+def slug(*parts: str) -> str:
+    return "_".join(re.sub(r"[^A-Za-z0-9.-]+", "-", p).strip("-") for p in parts if p)
+
+
+# --- the sections ----------------------------------------------------------------------------------------
+def generic_section(data: ReportData, out: ReportOutput) -> Section:
+    hint = (
+        ""
+        if data.published_folder is not None
+        else " Run with <code>--published-sims DIR</code> to add the published simulations of the data set."
+    )
+    return Section(
+        "generic",
+        "Generic (untuned) fitness",
+        "How far each engine with its own default parameters is from the recordings (the paper's Table II)." + hint,
+        [out.table(T.generic_table(data.entries, data.task_names))],
+    )
+
+
+def tuned_section(data: ReportData, out: ReportOutput) -> Section:
+    overview = out.figure(
+        "fitness_overview",
+        F.fitness_overview_figure(data.groups, data.entries),
+        "Generic fitness (grey bars; hatched: published simulations) and tuned fitness of each repeat (dots) "
+        "and their mean (line), per task and parameter space.",
+    )
+    return Section(
+        "tuned",
+        "Tuned fitness",
+        "The best fitness tuning reached per task and parameter space, with the engine that reached it "
+        "(the paper's Table III), and every engine's tuned fitness over repeats.",
+        [
+            out.table(T.best_tuned_table(data.groups, data.entries)),
+            overview,
+            out.table(T.tuned_by_group_table(data.groups)),
+        ],
+    )
+
+
+def convergence_section(data: ReportData, out: ReportOutput) -> Section:
+    figures = [
+        out.figure(
+            f"convergence_{axis}",
+            F.convergence_figure(data.groups, axis),
+            f"Best fitness so far against {what}: mean over repeats (line) and min-max band, one panel per "
+            "task, one line per engine. A repeat that stopped early holds its final value."
+            + (" Generation 0 is the best of the initial population." if axis != "time" else ""),
+        )
+        for axis, what in (
+            ("generation", "generation"),
+            ("evaluations", "number of evaluations"),
+            ("time", "wall time"),
+        )
+    ]
+    return Section("convergence", "Convergence", "", figures)
+
+
+def parameters_section(data: ReportData, out: ReportOutput) -> Section:
+    figures = [
+        out.figure(
+            slug("parameters", tasks, space),
+            F.parameters_figure([g for g in data.groups if (g.tasks, g.space) == (tasks, space)], data.nominal),
+            f"Tuned parameter values across repeats for task {tasks}, space {space}: box (quartiles, whiskers "
+            "to the extremes) and one dot per repeat, each parameter normalised to its tuning range [0, 1]; "
+            "diamond: the generic value.",
+        )
+        for tasks, space in data.experiments
+    ]
+    return Section(
+        "parameters",
+        "Parameter distributions",
+        "Where the tuned values of each parameter fall in their range, across repeats.",
+        figures,
+    )
+
+
+def importance_section(data: ReportData, out: ReportOutput) -> Section:
+    importance = T.importance_table(data.groups)
+    return Section(
+        "importance",
+        "Parameter importance and significance",
+        "",
+        [
+            out.table(T.importance_top_table(importance)),
+            out.table(importance),
+            out.table(T.mann_whitney_table(data.groups)),
+        ],
+    )
+
+
+def _trajectory_caption(sim: GroupSimulation, task: str) -> str:
+    g, traj = sim.group, sim.tasks[task]
+    with_object = traj.tuned_object is not None and traj.reference.object_final is not None
+    return (
+        f"{g.engine} on {task} (space {g.space}): the recorded wrist marker (mean of "
+        f"{len(traj.reference.wrist_repeats)} repeats, and each repeat / min-max band) "
+        f"against the untuned simulation (generic parameters) and the tuned one (best repeat, "
+        f"{sim.run.label}), in 3-D and as x, y, z against time"
+        + ("; right: final object positions." if with_object else ".")
+    )
+
+
+def _final_positions(data: ReportData) -> list[T.FinalPosition]:
+    """Per task with an object: the recorded final position, each group's untuned and tuned one, the published ones."""
+    finals: list[T.FinalPosition] = []
+    for task in data.task_names:
+        task_sims = [s for s in data.sims if task in s.tasks and s.tasks[task].reference.object_final is not None]
+        if not task_sims:
+            continue
+        ref = task_sims[0].tasks[task].reference
+        assert ref.object_final is not None  # the filter above
+        mean = ref.object_final.mean(axis=0)
+        spread = float(np.linalg.norm(ref.object_final - mean, axis=1).mean())
+        finals.append(T.FinalPosition(task, f"recorded (mean of {len(ref.object_final)})", "", "", mean, spread))
+        n = len(ref.times)
+        for s in task_sims:
+            traj = s.tasks[task]
+            if traj.untuned_object is not None and traj.tuned_object is not None:
+                finals.append(
+                    T.FinalPosition(task, "untuned", s.group.engine, s.group.space, traj.untuned_object[n - 1])
+                )
+                finals.append(T.FinalPosition(task, "tuned", s.group.engine, s.group.space, traj.tuned_object[n - 1]))
+        for sim, rollout in data.published:
+            if sim.task == task and rollout.object_pos is not None:
+                finals.append(T.FinalPosition(task, "published", sim.engine, "", rollout.object_pos[-1]))
+    return finals
+
+
+def trajectories_section(data: ReportData, out: ReportOutput) -> Section:
+    figures = [
+        out.figure(
+            slug("trajectory", sim.group.engine, sim.group.tasks, sim.group.space, task),
+            F.trajectory_figure(sim, task),
+            _trajectory_caption(sim, task),
+        )
+        for sim in data.sims
+        for task in sim.group.task_names
+    ]
+    return Section(
+        "trajectories",
+        "Trajectories",
+        "The recorded end-effector path against the untuned and the tuned simulation (the paper's "
+        "Figure 1), re-simulated for the best repeat of each engine, tasks and space.",
+        [*figures, out.table(T.object_final_table(_final_positions(data)))],
+    )
+
+
+def compute_section(data: ReportData, out: ReportOutput) -> Section:
+    return Section("compute", "Compute", "", [out.table(T.compute_table(data.groups))])
+
+
+def dr_section(data: ReportData, out: ReportOutput) -> Section:
+    ranges = dr_ranges(data.groups, data.nominal)
+    write_dr_yaml(out.folder / DR_FILE, ranges, data.tasks_by_engine)
+    return Section(
+        "dr",
+        "Domain-randomisation ranges",
+        f'Written as <a href="{DR_FILE}">{html.escape(DR_FILE)}</a>.',
+        [out.table(T.dr_table(ranges))],
+    )
+
+
+def sensitivity_section(data: ReportData, out: ReportOutput) -> Section | None:
+    """Table and figure of each ``sensitivity.json`` under or next to the inputs; None when there is none."""
+    from simtune.sensitivity import find_results, sensitivity_figure, sensitivity_table
+
+    items: list[Table | FigureRef] = []
+    for k, path in enumerate(find_results(data.paths), start=1):
+        try:
+            result = json.loads(path.read_text())
+            table = sensitivity_table(result, name=f"sensitivity_{k}")
+            fig = sensitivity_figure(result)
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            out.warn(f"{path}: skipped: not a readable sensitivity result ({type(exc).__name__}: {exc})")
+            continue
+        table.note = f"From {path}. " + table.note
+        items += [out.table(table), out.figure(table.name, fig, table.title + ".")]
+    if not items:
+        return None
+    importance = out.numbers.get("importance")
+    compare = f", to compare with the importance of section {importance}" if importance else ""
+    return Section(
+        "sensitivity",
+        "Global sensitivity",
+        "Results of <code>simtune sensitivity</code> found in or next to the input folders: how much the "
+        f"fitness changes with each parameter over the whole space{compare}.",
+        items,
+    )
+
+
+def runs_appendix(data: ReportData, out: ReportOutput) -> Section:
+    return Section("runs", "Appendix: runs", "", [out.table(T.runs_table(data.runs))])
+
+
+SectionMaker = Callable[[ReportData, ReportOutput], Section | None]
+
+#: The numbered sections, in order (numbers are given as they come: a section left out takes none).
+SECTIONS: tuple[SectionMaker, ...] = (
+    generic_section,
+    tuned_section,
+    convergence_section,
+    parameters_section,
+    importance_section,
+    trajectories_section,
+    compute_section,
+    dr_section,
+    sensitivity_section,
+)
+#: Unnumbered sections after them.
+APPENDICES: tuple[SectionMaker, ...] = (runs_appendix,)
+
+
+def make_sections(data: ReportData, out: ReportOutput) -> list[Section]:
+    """Every section that has something to show, the numbered ones titled "N. title"."""
+    sections: list[Section] = []
+    for make in SECTIONS:
+        section = make(data, out)
+        if section is not None:
+            out.numbers[section.anchor] = len(out.numbers) + 1
+            section.title = f"{out.numbers[section.anchor]}. {section.title}"
+            sections.append(section)
+    sections += [s for make in APPENDICES if (s := make(data, out)) is not None]
+    return sections
