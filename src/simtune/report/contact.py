@@ -8,7 +8,6 @@ instant (turned as at its start: at first contact it has not moved yet).
 from __future__ import annotations
 
 import itertools
-import textwrap
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -17,7 +16,7 @@ from matplotlib.patches import Polygon
 from scipy.spatial import ConvexHull
 
 from simtune.engines.contact import ContactProbe
-from simtune.report.figures import PALETTE, new_figure
+from simtune.report.figures import PALETTE, new_figure, panel_title
 from simtune.robot.mico import LINKS, forward_kinematics
 from simtune.tasks import get_task
 
@@ -99,7 +98,7 @@ def contact_figure(probes: list[ContactProbe]) -> Figure:
                     else "no contact (final pose)"
                 )
                 title = f"{probe.task} ({probe.engine}): {when}, moved {probe.object_displacement_m * 100:.1f} cm"
-                ax.set_title("\n".join(textwrap.wrap(title, 34)), fontsize=8.5)
+                panel_title(ax, title, cols, fontsize=8.5)
             if view == "side":  # the whole arm
                 ax.set_xlim(-0.15, 0.85)
                 ax.set_ylim(-0.05, 0.95)
