@@ -23,8 +23,8 @@ from simtune.tasks import get_task
 ARM_COLOR = "#9a9a9a"
 HAND_COLOR = PALETTE[0]
 OBJECT_COLOR = PALETTE[1]
-#: the two views: (name, horizontal axis, vertical axis) as world coordinate indices
-VIEWS = (("side", 0, 2), ("top", 0, 1))
+#: the views: (name, horizontal axis, vertical axis as world coordinate indices, close to the object)
+VIEWS = (("side", 0, 2, False), ("side", 0, 2, True), ("top", 0, 1, True))
 _AXIS_NAMES = "xyz"
 _CORNERS = np.array(list(itertools.product((-1.0, 1.0), repeat=3)))
 TASKS_PER_ROW = 4
@@ -48,23 +48,22 @@ def _outline(points: np.ndarray, i: int, j: int) -> np.ndarray:
 
 
 def contact_figure(probes: list[ContactProbe]) -> Figure:
-    """Side view (x-z, the whole arm) and top view (x-y, near the object) at each probe's first contact.
-
-    A probe without contact shows the arm's final pose.
+    """The arm at each probe's first contact: from the side (the whole arm, then near the object) and
+    from above (near the object).  A probe without contact shows the arm's final pose.
     """
     n = len(probes)
     cols = max(1, min(n, TASKS_PER_ROW))
     rows = (n + cols - 1) // cols
-    fig = new_figure(3.0 * cols, 5.4 * rows + 0.4)
-    grid = fig.add_gridspec(2 * rows, cols)
+    fig = new_figure(3.0 * cols, 8.0 * rows + 0.4)
+    grid = fig.add_gridspec(len(VIEWS) * rows, cols)
     for k, probe in enumerate(probes):
         row, col = divmod(k, cols)
         obj = get_task(probe.task).object
         assert obj is not None, "a probe is made for a task with an object"
         object_points = probe.pose_object + obj.surface_points() @ obj.rotation.T
         boxes = arm_boxes(probe.pose_angles)
-        for v, (view, i, j) in enumerate(VIEWS):
-            ax = fig.add_subplot(grid[2 * row + v, col])
+        for v, (view, i, j, close) in enumerate(VIEWS):
+            ax = fig.add_subplot(grid[len(VIEWS) * row + v, col])
             for material, corners in boxes:
                 color = HAND_COLOR if material == "gripper" else ARM_COLOR
                 ax.add_patch(
@@ -92,6 +91,7 @@ def contact_figure(probes: list[ContactProbe]) -> Figure:
             )
             if view == "side":
                 ax.axhline(0.0, color="#222222", linewidth=0.8)
+            if v == 0:
                 when = (
                     f"contact at {probe.first_contact_s:.2f} s"
                     if probe.first_contact_s is not None
@@ -99,13 +99,13 @@ def contact_figure(probes: list[ContactProbe]) -> Figure:
                 )
                 title = f"{probe.task} ({probe.engine}): {when}, moved {probe.object_displacement_m * 100:.1f} cm"
                 panel_title(ax, title, cols, fontsize=8.5)
-            if view == "side":  # the whole arm
+            if not close:  # the whole arm
                 ax.set_xlim(-0.15, 0.85)
                 ax.set_ylim(-0.05, 0.95)
-            else:  # close to the object
-                cx, cy = probe.object_start[0], probe.object_start[1]
+            else:  # around the object (from the side: from the floor up)
+                cx, cy = probe.object_start[i], probe.object_start[j]
                 ax.set_xlim(cx - ZOOM, cx + ZOOM)
-                ax.set_ylim(cy - ZOOM, cy + ZOOM)
+                ax.set_ylim(*((cy - ZOOM, cy + ZOOM) if view == "top" else (-0.02, 2 * ZOOM - 0.02)))
             ax.set_aspect("equal")
             ax.tick_params(labelsize=7)
             ax.set_xlabel(f"{_AXIS_NAMES[i]} [m]", fontsize=7.5)

@@ -260,9 +260,11 @@ def paper_generic_table(entries: list[GenericEntry], tasks: list[str]) -> Table:
         "491-995). Columns after the engines are simtune's.",
     )
     for i, row in enumerate(rows):
-        values = [(v, j) for j, v in enumerate(row[1 : 1 + len(engines)], start=1) if v is not None]
-        if values:
-            table.highlight.add((i, min(values)[1]))
+        cells: list[tuple[float, int]] = [
+            (float(v), j) for j, v in enumerate(row[1 : 1 + len(engines)], start=1) if v is not None
+        ]
+        if cells:
+            table.highlight.add((i, min(cells)[1]))
     return table
 
 
@@ -284,7 +286,7 @@ def paper_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table
         Column("stopped by time cap", "d"),
         Column("search"),
     ]
-    rows = []
+    rows: list[list] = []
     for g in sorted(groups, key=lambda g: (g.tasks, g.space, g.engine)):
         lo, mean, _, std = _stats([r.best_fitness for r in g.runs])
         generic = experiment_generic(entries, g.task_names, None)
@@ -323,9 +325,9 @@ def paper_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table
     )
     best_rows: dict[tuple, tuple[float, int]] = {}
     for i, row in enumerate(rows):
-        key = (row[0], row[1])
-        if key not in best_rows or row[5] < best_rows[key][0]:
-            best_rows[key] = (row[5], i)
+        key, fitness = (row[0], row[1]), float(row[5])
+        if key not in best_rows or fitness < best_rows[key][0]:
+            best_rows[key] = (fitness, i)
     for _, i in best_rows.values():
         table.highlight.add((i, 5))
     return table
@@ -333,7 +335,7 @@ def paper_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table
 
 def summary_counts_table(groups: list[Group]) -> Table:
     """The paper's summary counts: individual against shared parameters, and how the runs stopped."""
-    pairs = defaultdict(dict)
+    pairs: dict[tuple[str, str], dict[str, Group]] = defaultdict(dict)
     for g in groups:
         pairs[(g.engine, g.tasks)][g.space] = g
     compared = [(k, v["shared"], v["individual"]) for k, v in pairs.items() if "shared" in v and "individual" in v]
