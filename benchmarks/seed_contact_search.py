@@ -9,7 +9,8 @@
    The first offset with which the generic run of every engine of ``--verify`` touches the object
    and moves it at least ``MIN_PUSH`` by the time the arm has settled (last phase + 6 s), for the
    plastic object and for its wooden replica, with no arm box below 5 mm above the floor (in
-   MuJoCo's run), is printed.
+   MuJoCo's run), and with which, over the whole task, every engine's simulation stays stable and
+   the object ends within ``MAX_TRAVEL`` of its start, is printed.
 3. With ``--engines``: the contact table of every seed task with an object, published and fixed
    schedules, in each engine (the full task duration).
 """
@@ -32,6 +33,7 @@ from simtune.tasks.seed import offset_schedule, published_task
 from simtune.tasks.spec import TaskSpec
 
 MIN_PUSH = 0.01  # [m]
+MAX_TRAVEL = 1.0  # [m] by the end of the task: a pushed object stays near the arm (a lying cylinder can roll away)
 FLOOR_CLEARANCE = 0.005  # [m]
 SETTLE = 6.0  # [s] after the last phase starts
 
@@ -82,14 +84,22 @@ def pushes(engine_name: str, task: TaskSpec) -> bool:
     return probe.touched and probe.stable and probe.object_displacement_m >= MIN_PUSH
 
 
-def search(number: int, limit: int, verify: list[str]) -> tuple[int, int] | None:
+def stays(engine_name: str, task: TaskSpec) -> bool:
+    """Whether ``engine_name``'s generic run of the whole task is stable and leaves the object near its start."""
+    rollout = make_engine(engine_name, task).rollout({}, rollout_samples(task.duration))
+    assert rollout.object_pos is not None, "a pushing task has an object"
+    return rollout.stable and float(np.linalg.norm(rollout.object_pos[-1] - rollout.object_pos[0])) <= MAX_TRAVEL
+
+
+def search(number: int, limit: int, verify: list[str], min_l1: int = 0) -> tuple[int, int] | None:
     """The first offset with which both materials' tasks are pushed in every engine of ``verify``."""
     settled = []
     for n in (number, number + 1):  # the plastic object, then its heavier wooden replica
         base = published_task(n)
         settled.append(dataclasses.replace(base, duration=min(base.duration, base.phases[-1].start + SETTLE)))
     candidates = sorted(
-        itertools.product(range(-limit, limit + 1), repeat=2), key=lambda d: (abs(d[0]) + abs(d[1]), abs(d[1]), d)
+        (d for d in itertools.product(range(-limit, limit + 1), repeat=2) if abs(d[0]) + abs(d[1]) >= min_l1),
+        key=lambda d: (abs(d[0]) + abs(d[1]), abs(d[1]), d),
     )
     for d2, d3 in candidates:
         tasks = [dataclasses.replace(t, phases=offset_schedule(t.phases, d2, d3)) for t in settled]
@@ -100,6 +110,16 @@ def search(number: int, limit: int, verify: list[str]) -> tuple[int, int] | None
             continue
         if not all(pushes(name, task) for name in verify if name != "mujoco" for task in tasks):
             print(f"seed-{number}: offset {d2:+d}, {d3:+d} pushes in MuJoCo, not in all of {', '.join(verify)}")
+            continue
+        whole = [
+            dataclasses.replace(published_task(n), phases=offset_schedule(published_task(n).phases, d2, d3))
+            for n in (number, number + 1)
+        ]
+        if not all(stays(name, task) for name in verify for task in whole):
+            print(
+                f"seed-{number}: offset {d2:+d}, {d3:+d} pushes, but an object travels past {MAX_TRAVEL:g} m "
+                "or a simulation blows up over the whole task"
+            )
             continue
         probe = probe_contact(make_engine("mujoco", tasks[0]))
         print(
@@ -120,6 +140,7 @@ def main() -> None:
     ap.add_argument("--engines", default="", help="also print the contact table in these engines")
     ap.add_argument("--verify", default="mujoco,pybullet,ode,dart,drake", help="engines that must all push")
     ap.add_argument("--no-search", action="store_true")
+    ap.add_argument("--min-l1", type=int, default=0, help="skip offsets with |d2| + |d3| below this")
     args = ap.parse_args()
     numbers = [int(n) for n in args.tasks.split(",")]
     for n in numbers:
@@ -127,7 +148,7 @@ def main() -> None:
         print(f"seed-{n} as published: closest approach {dist * 100:.1f} cm at t={time:.2f} s ({link})")
     if not args.no_search:
         for n in numbers:
-            search(n, args.limit, args.verify.split(","))
+            search(n, args.limit, args.verify.split(","), args.min_l1)
     if args.engines:
         print("| task | schedule | engine | touched | first contact [s] | object moved [cm] |")
         print("|---|---|---|---|---|---|")

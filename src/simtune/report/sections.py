@@ -160,7 +160,7 @@ def parameters_section(data: ReportData, out: ReportOutput) -> Section:
     if any(parameter in g.parameters for g in data.groups):
         figure4.append(
             out.figure(
-                slug("figure4", parameter),
+                f"figure4_{parameter}",  # a known parameter name: safe as a file name
                 F.figure4(data.groups, parameter),
                 f"The paper's Figure 4 for {parameter}: its tuned value in each repeat (dots) and their spread "
                 "(box: quartiles, whiskers to the extremes), raw, per experiment and engine, one panel per "

@@ -104,7 +104,7 @@ _SCHEDULES = {
 
 #: Degrees added to joint_2's and joint_3's target in every phase of a pushing schedule (odd task number;
 #: the even task shares it), found by benchmarks/seed_contact_search.py: see docs/seed-tasks.md.
-SCHEDULE_FIXES: dict[int, tuple[int, int]] = {3: (-2, 0), 7: (-2, 0), 9: (-18, 0)}
+SCHEDULE_FIXES: dict[int, tuple[int, int]] = {3: (-2, 0), 5: (-18, -20), 7: (-2, 0), 9: (-18, 0)}
 
 
 def offset_schedule(phases: tuple[Phase, ...], joint_2: float, joint_3: float) -> tuple[Phase, ...]:
