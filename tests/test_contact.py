@@ -6,26 +6,21 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import COSTLY_ENGINES, SLOWEST_ENGINES, engine_or_skip, every_engine
 
-from simtune.engines import ENGINES, make_engine
+from simtune.engines import make_engine
 from simtune.engines.contact import probe_contact
 from simtune.tasks import TASKS, get_task
 from simtune.tasks.seed import published_task
 
-#: engines whose probes of the pushing seed tasks take minutes: the long tier
-EXPENSIVE = {"dart", "drake"}
 PUSHING = [name for name, task in TASKS.items() if name.startswith("seed-") and task.object is not None]
 
 
-def _tiered(engines, expensive=EXPENSIVE):
-    return [pytest.param(e, marks=pytest.mark.slow) if e in expensive else e for e in engines]
-
-
-@pytest.mark.parametrize("engine", list(ENGINES))
+@pytest.mark.parametrize("engine", every_engine(slow=SLOWEST_ENGINES))
 def test_every_engine_sees_the_hand_reach_the_cube(engine):
     """The cube task (qrg2019): no contact at rest, first contact when the arm swings into its third
     phase (t = 14 s), at the same instant in every engine."""
-    sim = make_engine(engine, get_task("cube"))
+    sim = engine_or_skip(engine)(get_task("cube"))
     sim.reset({})
     sim.step(1)
     assert not sim.arm_object_contact()
@@ -35,10 +30,10 @@ def test_every_engine_sees_the_hand_reach_the_cube(engine):
     sim.close()
 
 
-@pytest.mark.parametrize("engine", list(ENGINES))
+@pytest.mark.parametrize("engine", every_engine())
 def test_watching_every_step_changes_no_trajectory(engine):
     """A rollout that calls back after every physics step is the same rollout."""
-    sim = make_engine(engine, get_task("cube"))
+    sim = engine_or_skip(engine)(get_task("cube"))
     params = {"timestep": 0.004}
     plain = sim.rollout(params, 60)
     calls = []
@@ -57,13 +52,14 @@ def test_every_pushing_seed_task_moves_its_object_in_mujoco(task):
     assert probe.object_displacement_m > 0.01, f"{task}: object moved {probe.object_displacement_m * 1000:.1f} mm"
 
 
-@pytest.mark.parametrize("engine", _tiered(ENGINES))
+@pytest.mark.parametrize("engine", every_engine(slow=COSTLY_ENGINES))
 def test_every_pushing_seed_task_is_touched_in_every_engine(engine):
     """The contact table of docs/seed-tasks.md: every engine's hand reaches every seed task's object and
     pushes it at least 1 cm (in PyBullet and DART the cylinder of tasks 5 and 6 then rolls past the
     blow-up limit, as that page says: stability is not asserted here)."""
+    cls = engine_or_skip(engine)
     for task in PUSHING:
-        sim = make_engine(engine, get_task(task))
+        sim = cls(get_task(task))
         probe = probe_contact(sim)
         sim.close()
         assert probe.touched, f"{engine} on {task}: the hand never touches the object"
