@@ -83,6 +83,17 @@ def test_paper_exact_is_scipys_own_run(single_data, tmp_path):
     assert store.get("de_settings")["updating"] == "immediate" and store.get("de_settings")["polish"] is True
     assert "restitution_floor" not in store.get("parameters")  # shared space: no restitution
     assert set(store.get("unmapped_parameters")) <= set(store.get("parameters"))
+    store.close()
+
+    # the report says how the run searched: in its header and in Table III
+    import csv
+
+    from simtune.report import make_report
+
+    index = make_report(tmp_path / "run", tmp_path / "report", show_progress=False)
+    assert "1 of 1 runs searched exactly as the paper ran SciPy" in index.read_text()
+    rows = list(csv.DictReader((tmp_path / "report" / "tables" / "paper_table_iii.csv").read_text().splitlines()))
+    assert rows[0]["search"] == "de, paper-exact" and rows[0]["D"] == "31" and rows[0]["population"] == "31"
 
 
 @pytest.mark.parametrize(

@@ -30,11 +30,13 @@ from simtune.optimize.base import BatchSearch
 from simtune.optimize.evaluator import TuneResult, TuneSettings
 from simtune.store import RunStore
 
+POPSIZE = 1  # members per parameter: the paper's population of 1 x D
+
 DE_SETTINGS = dict(
     strategy="best1bin",
     recombination=0.7,
     mutation=(0.5, 1.0),
-    popsize=1,
+    popsize=POPSIZE,
     init="latinhypercube",
     tol=0.01,
     atol=0.0,
@@ -65,20 +67,38 @@ def differential_evolution_tune(objective: Objective, store: RunStore, settings:
         return search.checkpoint(population, energies)
 
     start = search.starting_points()
+    init = start if start is not None and len(start) >= 5 else None  # SciPy needs 5 members or more
+    members = _population_size(search.space.bounds, init)
+
+    def score_one(x) -> float:
+        """One trial at a time (immediate updating); the ones after the initial population are generation 1's."""
+        if evaluator.requested == members:
+            evaluator.generation = 1
+        return evaluator.score_one(x)
+
     with search:
         result = differential_evolution(
             # deferred: never called, the Evaluator is SciPy's ``workers`` map and does the work
-            evaluator.score_one if exact else (lambda x: objective.score_vector(x).fitness),
+            score_one if exact else (lambda x: objective.score_vector(x).fitness),
             bounds=search.space.bounds,
             maxiter=settings.max_generations if settings.max_generations is not None else 10**9,
             rng=np.random.default_rng(settings.seed),
             workers=1 if exact else evaluator,
             callback=checkpoint,
-            # SciPy needs 5 members or more; a rescored DE run's population always has them
-            **{**de_settings, **({"init": start} if start is not None and len(start) >= 5 else {})},
+            # a rescored DE run starts from its last population (it always has 5 members or more)
+            **{**de_settings, **({"init": init} if init is not None else {})},
         )
         if exact and result.fun < search.best_fitness:  # the polish found a better point
             search.track(np.atleast_2d(result.x), np.array([result.fun]))
         return search.result(
             search.stop_reason or result.message, converged=search.stop_reason is None and bool(result.success)
         )
+
+
+def _population_size(bounds: list[tuple[float, float]], init: np.ndarray | None) -> int:
+    """Members of SciPy's population: those of ``init``, else popsize (1) x the parameters whose bounds
+    differ, at least 5 (SciPy's rule)."""
+    if init is not None:
+        return len(init)
+    varying = sum(1 for low, high in bounds if high != low)
+    return max(5, POPSIZE * max(1, varying))
