@@ -424,6 +424,31 @@ def test_a_run_killed_while_being_set_up_can_be_started_again(tmp_path):
     assert RunStore(run_dir).get("status") == "finished"
 
 
+@pytest.mark.parametrize("left", ["empty file", "empty database", "tables without a version"])
+def test_a_store_killed_while_being_created_is_replaced_not_refused(tmp_path, left):
+    # a kill -9 (or a Dask worker killed) inside RunStore(create=True) leaves one of these behind
+    import sqlite3
+
+    from simtune.store import _SCHEMA
+
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    path = run_dir / "run.sqlite"
+    if left == "empty file":
+        path.write_bytes(b"")
+    else:
+        db = sqlite3.connect(path)
+        db.execute("PRAGMA user_version = 0")
+        if left == "tables without a version":
+            db.executescript(_SCHEMA)
+        db.commit()
+        db.close()
+    with pytest.raises(SimtuneError, match="never set up"):
+        resume_run(run_dir, show_progress=False)
+    start_run(config(max_generations=1), run_dir, show_progress=False)
+    assert RunStore(run_dir).get("status") == "finished"
+
+
 def test_the_lock_is_reentrant_removed_when_done_and_a_stale_file_does_not_block(tmp_path):
     from simtune.runlock import RunBusy, check_free, holds, run_lock
 

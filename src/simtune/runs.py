@@ -239,7 +239,8 @@ def has_run(run_dir: Path) -> bool:
     path = Path(run_dir) / STORE_FILE
     if not path.exists():
         return False
-    check_store_file(path)
+    if not check_store_file(path):
+        return False
     store = RunStore(run_dir)
     try:
         return store.get("config") is not None
@@ -328,7 +329,11 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
     path = run_dir / STORE_FILE
     if not path.exists():
         raise SimtuneError(f"{run_dir} is not a run folder (no {STORE_FILE})")
-    check_store_file(path)  # read-only: a foreign file gets no lock file beside it and no tables in it
+    if not check_store_file(path):  # read-only: a foreign file gets no lock file beside it and no tables in it
+        raise SimtuneError(
+            f"{run_dir}: the run was never set up (its process died while creating it): "
+            f"`simtune tune --out {run_dir}` starts it afresh"
+        )
     with run_lock(run_dir):
         store = RunStore(run_dir)
         try:

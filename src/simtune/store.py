@@ -69,12 +69,15 @@ CREATE TABLE IF NOT EXISTS generations (
 CREATE TABLE IF NOT EXISTS residuals (key TEXT PRIMARY KEY, r BLOB NOT NULL);
 CREATE TABLE IF NOT EXISTS retried (key TEXT PRIMARY KEY);
 """
+_OWN_TABLES = frozenset({"meta", "evaluations", "generations", "residuals", "retried"})
 
 
-def check_store_file(path: Path) -> None:
+def check_store_file(path: Path) -> bool:
     """Refuse a file that is not a run store of this simtune's schema, reading it only (one line naming it).
 
-    A foreign SQLite file (or any other file) named ``run.sqlite`` is left exactly as it was.
+    A foreign SQLite file (or any other file) named ``run.sqlite`` is left exactly as it was.  False for a
+    store that was never set up: an empty database, or one holding only simtune's tables and no schema
+    version yet (its process died while creating it; nothing of a user's is in it, so it may be replaced).
     """
     path = Path(path)
     try:
@@ -89,6 +92,8 @@ def check_store_file(path: Path) -> None:
     except sqlite3.DatabaseError as exc:
         raise SimtuneError(f"{path} cannot be read as a run store ({exc}); it was left unchanged") from None
     if row is None:
+        if tables <= _OWN_TABLES:
+            return False
         raise SimtuneError(f"{path} is not a simtune run store (no simtune tables in it); it was left unchanged")
     try:
         version = json.loads(row[0])
@@ -96,6 +101,7 @@ def check_store_file(path: Path) -> None:
         version = row[0]
     if version != SCHEMA_VERSION:
         raise SimtuneError(f"{path}: run store version {version}, this simtune reads version {SCHEMA_VERSION}")
+    return True
 
 
 def vector_key(x) -> str:
@@ -127,8 +133,11 @@ class RunStore:
                 )
         elif not self.path.exists():
             raise SimtuneError(f"{self.run_dir} is not a run folder (no {filename})")
-        else:
-            check_store_file(self.path)  # read-only: nothing is written into a foreign file
+        elif not check_store_file(self.path):  # read-only: nothing is written into a foreign file
+            raise SimtuneError(
+                f"{self.run_dir}: the run was never set up (its process died while creating it): "
+                f"`simtune tune --out {self.run_dir}` starts it afresh"
+            )
         try:
             self.db = sqlite3.connect(self.path, timeout=30)
             self.db.execute("PRAGMA journal_mode=WAL")
