@@ -139,7 +139,8 @@ def _seed_task(number: int) -> TaskSpec:
     fix = SCHEDULE_FIXES.get(number if number % 2 else number - 1)
     if fix is None:
         return task
-    return replace(task, phases=offset_schedule(task.phases, *fix))
+    note = " (schedule re-aimed: docs/seed-tasks.md)"
+    return replace(task, phases=offset_schedule(task.phases, *fix), description=task.description + note)
 
 
 TASKS = tuple(_seed_task(n) for n in range(1, 11))
