@@ -35,15 +35,23 @@ ENGINES = ("mujoco", "pybullet")
 TASKS = ("single", "cube")
 SEEDS = (0, 1, 2)
 ONLY = ["command_delay", "max_velocity_joint_2", "lateral_friction_plastic"]
-FIGURES = {
-    "fitness_overview",
-    "convergence_generation",
-    "convergence_evaluations",
-    "convergence_time",
-    "parameters_cube_extended",
-    "parameters_single_extended",
-} | {f"trajectory_{e}_{t}_extended_{t}" for e in ENGINES for t in TASKS}
+FIGURES = (
+    {
+        "fitness_overview",
+        "convergence_generation",
+        "convergence_evaluations",
+        "convergence_time",
+        "parameters_cube_extended",
+        "parameters_single_extended",
+    }
+    | {f"trajectory_{e}_{t}_extended_{t}" for e in ENGINES for t in TASKS}
+    | {f"contact_{e}" for e in ENGINES}
+)
 TABLES = {
+    "paper_table_ii",
+    "paper_table_iii",
+    "summary_counts",
+    "contact",
     "generic_fitness",
     "best_tuned",
     "tuned_by_group",
@@ -381,6 +389,87 @@ def test_report_of_one_short_run(tmp_path):
     assert len(rows) == 1 and Path(rows[0]["run"]) == run
     best = list(csv.DictReader((tmp_path / "out" / "tables" / "best_tuned.csv").read_text().splitlines()))
     assert float(best[0]["best tuned fitness"]) == result.fitness
+
+
+def _titles_inside(fig) -> list[str]:
+    """The titles of ``fig`` (its own and its panels') that reach past the figure's edges once drawn."""
+    fig.canvas.draw()
+    box = fig.bbox
+    texts = [fig._suptitle] if fig._suptitle is not None else []
+    texts += [ax.title for ax in fig.axes if ax.get_visible() and ax.get_title()]
+    return [
+        t.get_text()
+        for t in texts
+        if (e := t.get_window_extent()).x0 < box.x0 - 0.5 or e.x1 > box.x1 + 0.5 or e.y1 > box.y1 + 0.5
+    ]
+
+
+def test_paper_tables_figure4_and_titles_of_a_short_run(tmp_path):
+    """Tables II and III in the paper's layout, Figure 4 for a chosen parameter, and no title past its figure."""
+    from simtune.engines.contact import probe_contact
+    from simtune.report import figures as F
+    from simtune.report.collect import group_runs, load_run
+    from simtune.report.contact import contact_figure
+
+    runs = []
+    for seed in (0, 1):
+        config = RunConfig(
+            engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), max_generations=1,
+            only=ONLY, seed=seed, max_seconds=600,
+        )  # fmt: skip
+        start_run(config, tmp_path / f"run{seed}", show_progress=False)
+        runs.append(load_run(tmp_path / f"run{seed}"))
+    index = make_report(tmp_path, tmp_path / "out", show_progress=False, figure4_parameter="command_delay")
+    out = index.parent
+    assert (out / "figures" / "figure4_command_delay.png").exists()
+    table_ii = list(csv.DictReader((out / "tables" / "paper_table_ii.csv").read_text().splitlines()))
+    assert [r["experiment"] for r in table_ii] == ["cube"] and r"unstable (blew up)" in table_ii[0]
+    assert float(table_ii[0]["mujoco"]) == pytest.approx(runs[0].generic_fitness)
+    table_iii = list(csv.DictReader((out / "tables" / "paper_table_iii.csv").read_text().splitlines()))
+    assert len(table_iii) == 1
+    assert int(table_iii[0]["D"]) == len(ONLY) and int(table_iii[0]["population"]) == max(5, len(ONLY))
+    assert float(table_iii[0]["best tuned fitness"]) == min(r.best_fitness for r in runs)
+    counts = {r["count"]: (int(r["N"]), int(r["of M"])) for r in csv.DictReader(
+        (out / "tables" / "summary_counts.csv").read_text().splitlines())}  # fmt: skip
+    assert counts["runs stopped by the time cap (--max-seconds)"] == (0, 2)
+    importance = list(csv.DictReader((out / "tables" / "parameter_importance.csv").read_text().splitlines()))
+    assert {r["parameter"] for r in importance} == set(ONLY)
+    assert all(0.0 <= float(r["p (Brown-Forsythe)"]) <= 1.0 for r in importance)
+    with pytest.raises(SimtuneError, match="--figure4-parameter"):
+        make_report(tmp_path / "run0", tmp_path / "out2", show_progress=False, figure4_parameter="no_such")
+
+    groups, _ = group_runs(runs)
+    drawn = [
+        F.figure4(groups, "command_delay"),
+        contact_figure([probe_contact(make_engine("mujoco", get_task("cube")))]),
+    ]
+    drawn += [F.convergence_figure(groups, axis) for axis in ("generation", "evaluations", "time")]
+    drawn += [F.parameters_figure(groups, {}), F.fitness_overview_figure(groups, [])]
+    for fig in drawn:
+        assert _titles_inside(fig) == []
+
+
+def test_long_titles_are_wrapped_to_their_figure():
+    from simtune.report.figures import new_figure, suptitle
+
+    long = "Convergence: best fitness vs generation (line: mean over repeats, band: min-max)"
+    fig = new_figure(4.0, 3.0)
+    fig.subplots()
+    fig.suptitle(long)
+    assert _titles_inside(fig) == [long]  # as matplotlib draws it: cut at both sides
+    suptitle(fig, long)
+    assert "\n" in fig._suptitle.get_text()
+    assert _titles_inside(fig) == []
+
+
+def test_spread_test_tells_a_narrowed_parameter_from_a_wandering_one():
+    from simtune.report.tables import spread_test
+
+    rng = np.random.default_rng(0)
+    initial = rng.uniform(0.0, 1.0, 200)
+    assert spread_test(np.array([0.41, 0.42, 0.40, 0.43, 0.41]), initial) < 0.001
+    assert spread_test(rng.uniform(0.0, 1.0, 5), initial) > 0.05
+    assert spread_test(np.array([0.4]), initial) is None  # one repeat: no spread
 
 
 def test_convergence_aggregation_holds_and_starts_together():

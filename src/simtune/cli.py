@@ -292,6 +292,15 @@ def tune(
     ] = False,
     only: OnlyOpt = None,
     eval_timeout: EvalTimeoutOpt = 600.0,
+    paper_exact: Annotated[
+        bool,
+        typer.Option(
+            "--paper-exact",
+            help="Differential evolution exactly as the paper ran SciPy: immediate updating, SciPy's polish, "
+            "one worker, no pruning, the paper's whole parameter list (--space shared or individual; "
+            "parameters the engine lacks are kept, without effect).",
+        ),
+    ] = False,
     out_dir: Annotated[
         Path,
         typer.Option(
@@ -331,6 +340,7 @@ def tune(
         optimizer=optimizer,
         refine=refine,
         max_evaluations=max_evaluations,
+        paper_exact=paper_exact,
     )
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
     _report_tune(result, out_dir, config, RunStore(out_dir).get("generic"), as_json)
@@ -541,10 +551,39 @@ def engines() -> None:
 
 
 @app.command()
-def tasks() -> None:
-    """List the tasks: duration, object and whether public recordings exist."""
+def tasks(
+    contact: Annotated[
+        bool,
+        typer.Option(
+            "--contact",
+            help="Simulate each seed task with an object (generic parameters) and report whether and when "
+            "the arm first touches the object, and how far the object moves.",
+        ),
+    ] = False,
+    engine: Annotated[
+        str | None,
+        typer.Option("--engine", "-e", help="With --contact: this engine only (default: every installed engine)."),
+    ] = None,
+    task: Annotated[
+        str | None,
+        typer.Option("--task", "-t", help="With --contact: these tasks (default: the seed tasks with an object)."),
+    ] = None,
+    figure: Annotated[
+        Path | None,
+        typer.Option(help="With --contact: write the arm at first contact to FIGURE/contact-<engine>.png (and .svg)."),
+    ] = None,
+    as_json: Annotated[
+        bool, typer.Option("--json", help="With --contact: one JSON object per line, one per engine and task.")
+    ] = False,
+) -> None:
+    """List the tasks: duration, object and whether public recordings exist (--contact: simulate their contact)."""
     from simtune.tasks import GROUPS, TASKS
 
+    if contact:
+        _tasks_contact(engine, task, figure, as_json)
+        return
+    if engine or task or figure or as_json:
+        raise SimtuneError("--engine, --task, --figure and --json go with --contact")
     table = text_table("tasks", ("task", "duration [s]", "object", "public recordings", "description"))
     for t in TASKS.values():
         obj = f"{t.object.material} {t.object.shape} {t.object.mass:g} kg" if t.object else "-"
@@ -552,6 +591,71 @@ def tasks() -> None:
     for name, members in GROUPS.items():
         table.add_row(name, "-", "-", "-", f"all of {members[0]} .. {members[-1]}, fitness summed")
     out.print(table)
+
+
+def _tasks_contact(engine: str | None, task: str | None, figure: Path | None, as_json: bool) -> None:
+    import importlib
+
+    from simtune.engines import ENGINES, engine_class, make_engine
+    from simtune.engines.contact import probe_contact
+    from simtune.tasks import TASKS, parse_tasks
+
+    if task is None:
+        chosen = [t for t in TASKS.values() if t.name.startswith("seed-") and t.object is not None]
+    else:
+        chosen = parse_tasks(task)
+        for t in chosen:
+            if t.object is None:
+                raise SimtuneError(f"task {t.name!r} has no object: --contact needs tasks with one")
+    if engine is not None:
+        engine_class(engine)  # unknown or not installed: one line, before any simulation
+        names = [engine]
+    else:
+        names = [
+            name
+            for name, (module, cls, _) in ENGINES.items()
+            if getattr(importlib.import_module(module), cls).version() != "not installed"
+        ]
+        skipped = [name for name in ENGINES if name not in names]
+        if skipped:
+            err.print(f"[yellow]note:[/] not installed, skipped: {', '.join(skipped)}")
+    for name in names:
+        probes = []
+        for t in chosen:
+            sim = make_engine(name, t)
+            try:
+                probe = probe_contact(sim)
+            finally:
+                sim.close()
+            probes.append(probe)
+            if not probe.stable:
+                err.print(f"[yellow]warning:[/] {name} on {t.name}: {probe.message}")
+            if as_json:
+                print(json.dumps(probe.as_json()), flush=True)
+        if not as_json:
+            table = text_table(
+                f"contact in {name} (generic parameters)",
+                ("task", "object", "touched", "first contact [s]", "object moved [cm]"),
+                right=("first contact [s]", "object moved [cm]"),
+            )
+            for t, p in zip(chosen, probes):
+                assert t.object is not None, "chosen for its object"
+                table.add_row(
+                    p.task,
+                    f"{t.object.material} {t.object.shape}",
+                    "yes" if p.touched else "[red]no[/]",
+                    "-" if p.first_contact_s is None else f"{p.first_contact_s:.3f}",
+                    f"{p.object_displacement_m * 100:.1f}",
+                )
+            out.print(table)
+        if figure is not None:
+            from simtune.report.contact import contact_figure
+            from simtune.report.figures import save
+
+            figure.mkdir(parents=True, exist_ok=True)
+            save(contact_figure(probes), figure, f"contact-{name}")
+            if not as_json:
+                out.print(f"figure: {figure / f'contact-{name}.png'}")
 
 
 @app.command()

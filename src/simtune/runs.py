@@ -91,6 +91,9 @@ class RunConfig:
     optimizer: str = "de"  # a key of simtune.optimize.OPTIMIZERS
     refine: bool = False  # polish the best point with least squares on the residuals afterwards
     max_evaluations: int | None = None  # stop once this many evaluations were used (checked per batch)
+    #: the seed paper's exact search: SciPy's DE with immediate updating and polish, one worker, no
+    #: pruning, and the paper's whole parameter list (parameters the engine lacks kept, without effect)
+    paper_exact: bool = False
 
     @classmethod
     def from_stored(cls, values, where: str) -> RunConfig:
@@ -133,7 +136,7 @@ class RunConfig:
                 raise bad(key, "a finite number of seconds above 0")
         if self.target_fitness is not None and (not _is_number(self.target_fitness) or self.target_fitness < 0):
             raise bad("target_fitness", "a finite number of at least 0")
-        for key in ("prune", "refine"):
+        for key in ("prune", "refine", "paper_exact"):
             if not isinstance(getattr(self, key), bool):
                 raise bad(key, "true or false")
         if self.only is not None and (
@@ -141,6 +144,21 @@ class RunConfig:
         ):
             raise bad("only", "a list of parameter names")
         get_optimizer(self.optimizer)
+        if self.paper_exact:
+            if self.optimizer != "de":
+                raise ConfigError(f"{at}--paper-exact runs differential evolution, not --optimizer {self.optimizer}")
+            if self.space not in ("shared", "individual"):
+                raise ConfigError(
+                    f"{at}--paper-exact needs one of the paper's spaces (shared, individual), not {self.space!r}"
+                )
+            if self.only:
+                raise ConfigError(f"{at}--paper-exact tunes the paper's whole parameter list: drop --only")
+            if self.workers != 1:
+                raise ConfigError(
+                    f"{at}--paper-exact evaluates one trial at a time (SciPy's immediate updating): drop --workers"
+                )
+            if self.refine:
+                raise ConfigError(f"{at}--paper-exact ends with SciPy's own polish: drop --refine")
 
 
 def versions(engine: str) -> dict[str, str]:
@@ -191,7 +209,9 @@ def _summary(changes: list[str], shown: int = 3) -> str:
 
 def build_objective(config: RunConfig) -> Objective:
     tasks = parse_tasks(config.tasks)
-    space = get_space(config.space, engine_class(config.engine).supported(), config.only)
+    # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
+    supported = None if config.paper_exact else engine_class(config.engine).supported()
+    space = get_space(config.space, supported, config.only)
     return Objective(config.engine, tasks, load_references(Path(config.data), tasks), space)
 
 
@@ -271,6 +291,10 @@ def _create_store(run_dir: Path, config: RunConfig, objective: Objective, generi
         command=sys.argv,
         parameters=objective.vector_space().names,
         bounds=objective.vector_space().bounds,
+        # in the search vector without effect in this engine (only --paper-exact keeps such parameters)
+        unmapped_parameters=[
+            n for n in objective.vector_space().names if n not in engine_class(config.engine).supported()
+        ],
         generic=generic.to_dict(),
         fingerprint=run_fingerprint(config),
         status="running",
@@ -420,7 +444,8 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
             max_evaluations=max_evaluations,
             elapsed_before=store.get("search_elapsed_s", store.get("elapsed_s", 0.0)),
             eval_timeout=config.eval_timeout,
-            prune=config.prune,
+            prune=config.prune and not config.paper_exact,
+            paper_exact=config.paper_exact,
             target_fitness=target,
             on_evaluation=progress.evaluation,
             on_generation=progress.generation,

@@ -306,6 +306,11 @@ class RunStore:
         rows = self.db.execute("SELECT fitness FROM evaluations WHERE generation = 0 ORDER BY id").fetchall()
         return [float(r[0]) for r in rows]
 
+    def initial_population(self) -> list[list[float]]:
+        """The parameter vector of every evaluation of the initial population (generation 0), in store order."""
+        rows = self.db.execute("SELECT x FROM evaluations WHERE generation = 0 ORDER BY id").fetchall()
+        return [json.loads(r[0]) for r in rows]
+
     def best_evaluation(self) -> dict | None:
         row = self.db.execute("SELECT x, score FROM evaluations ORDER BY fitness, id LIMIT 1").fetchone()
         return None if row is None else {"x": json.loads(row[0]), "score": json.loads(row[1])}

@@ -188,6 +188,16 @@ class Engine(ABC):
     def object_position(self) -> np.ndarray | None:
         """World position of the object's origin, or None if the task has none."""
 
+    def arm_object_contact(self) -> bool:
+        """Whether an arm or finger shape touches the task's object now.
+
+        Read from the engine's own contact list of the last physics step (shapes
+        overlapping or touching, not merely near); False for a task without an object.
+        Every engine of the registry implements it (tests/test_contact.py); the
+        export round trip's file-driven engines need no contacts.
+        """
+        raise NotImplementedError(f"{self.name} does not report contacts")
+
     def diverged(self) -> str:
         """A reason if the engine itself reports the simulation as broken, else ''."""
         return ""
@@ -202,6 +212,7 @@ class Engine(ABC):
         n_samples: int,
         rate: float = 1.0 / CONTROL_PERIOD,
         monitor: Callable[[int, np.ndarray, np.ndarray], bool] | None = None,
+        after_step: Callable[[], None] | None = None,
     ) -> Rollout:
         """Run the task for ``n_samples`` control periods and sample the state at each.
 
@@ -211,7 +222,10 @@ class Engine(ABC):
         steps are counted so that simulated time stays within half a step of
         both clocks whatever the time step.  ``monitor(k, wrist_pos, wrist_rot)``,
         if given, sees every sample and may stop the rollout by returning True
-        (the rollout is then marked ``pruned``).
+        (the rollout is then marked ``pruned``).  ``after_step()``, if given, is
+        called after every single physics step (the steps are then taken one at
+        a time, which changes no engine's result): for probes of events shorter
+        than a control period, such as a first contact.
         """
         period = 1.0 / rate
         self.reset(params)
@@ -261,19 +275,27 @@ class Engine(ABC):
             if phase:  # run on to the controller's update instant, which reads the state there
                 n = int(round((k * period + phase - t_sim) / dt))
                 if n > 0:
-                    self.step(n)
+                    self._advance(n, after_step)
                     t_sim += n * dt
                     steps += n
                     q = self.joint_angles()
             self.set_joint_velocities(controller.velocity(targets[k], q))
             n = max(1, int(round(((k + 1) * period - t_sim) / dt)))
-            self.step(n)
+            self._advance(n, after_step)
             t_sim += n * dt
             steps += n
         if 0 < samples_run < n_samples:  # ended early: hold the last good sample for the rest
             for samples in (wrist_pos, wrist_rot, angles, *([object_pos] if object_pos is not None else [])):
                 samples[samples_run:] = samples[samples_run - 1]
         return Rollout(times, wrist_pos, wrist_rot, angles, object_pos, stable, message, steps, samples_run, pruned)
+
+    def _advance(self, n: int, after_step: Callable[[], None] | None) -> None:
+        if after_step is None:
+            self.step(n)
+            return
+        for _ in range(n):
+            self.step(1)
+            after_step()
 
 
 def _first_bad(pos, rot, q, obj, obj_start) -> tuple[int | None, str]:

@@ -215,6 +215,20 @@ class DartEngine(Engine):
         for _ in range(n):
             world.step(False)  # False: keep the servo commands for the next step
 
+    def arm_object_contact(self) -> bool:
+        if self.object is None:
+            return False
+        # the detector's contacts of the last step, each between two shapes: arm skeleton vs object skeleton
+        arm, obj = self.robot.getName(), self.object.getSkeleton().getName()
+        for contact in self.world.getLastCollisionResult().getContacts():
+            owners = {
+                shape.getShapeFrame().asShapeNode().getBodyNode().getSkeleton().getName()
+                for shape in (contact.collisionObject1, contact.collisionObject2)
+            }
+            if owners == {arm, obj}:
+                return True
+        return False
+
     def joint_angles(self) -> np.ndarray:
         return np.array(self.robot.getPositions())
 

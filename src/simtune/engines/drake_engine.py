@@ -103,6 +103,9 @@ class _System:
     wrist: RigidBody
     object_body: RigidBody | None
     geometries: dict[str, list[GeometryId]]  # contact group -> its collision geometries
+    arm_bodies: frozenset[int]  # body indices of the arm's links and fingers
+    arm_geometries: frozenset[GeometryId]
+    object_geometry: GeometryId | None
 
 
 class DrakeEngine(Engine):
@@ -180,7 +183,7 @@ class DrakeEngine(Engine):
                 for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link.name, arm))
             ],
         }
-        body = None
+        body, object_geometry = None, None
         obj = self.task.object
         if obj is not None:
             instance = plant.AddModelInstance("object")
@@ -196,7 +199,8 @@ class DrakeEngine(Engine):
             AddCompliantHydroelasticProperties(
                 RESOLUTION_HINT, sg_config.default_proximity_properties.hydroelastic_modulus, props
             )
-            geometries[obj.material] = [plant.RegisterCollisionGeometry(body, RigidTransform(), shape, "object", props)]
+            object_geometry = plant.RegisterCollisionGeometry(body, RigidTransform(), shape, "object", props)
+            geometries[obj.material] = [object_geometry]
         plant.Finalize()
         # arm shapes touch the floor and the object, never each other
         scene_graph.collision_filter_manager().Apply(
@@ -222,6 +226,9 @@ class DrakeEngine(Engine):
             wrist=plant.GetBodyByName(WRIST_LINK, arm),
             object_body=body,
             geometries=geometries,
+            arm_bodies=frozenset(int(plant.GetBodyByName(link.name, arm).index()) for link in LINKS),
+            arm_geometries=frozenset(arm_geometries),
+            object_geometry=object_geometry,
         )
         plant.get_desired_state_input_port(arm).FixValue(plant_context, np.zeros(12))
         plant.get_actuation_input_port(arm).FixValue(plant_context, np.zeros(6))
@@ -314,6 +321,27 @@ class DrakeEngine(Engine):
             s.simulator.AdvanceTo(self._steps * s.timestep)
         except RuntimeError as exc:  # e.g. the contact solver failing to converge
             self._failed = str(exc).splitlines()[0]
+
+    def arm_object_contact(self) -> bool:
+        s = self._sys
+        if s.object_body is None:
+            return False
+        results = s.plant.get_contact_results_output_port().Eval(s.plant_context)
+        # the arm's boxes have no hydroelastic properties, so they touch the object through point
+        # contact; hydroelastic surfaces are checked too, should that ever change
+        body = int(s.object_body.index())
+        for i in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(i)
+            a, b = int(info.bodyA_index()), int(info.bodyB_index())
+            if (a == body and b in s.arm_bodies) or (b == body and a in s.arm_bodies):
+                return True
+        geometry = s.object_geometry
+        for i in range(results.num_hydroelastic_contacts()):
+            surface = results.hydroelastic_contact_info(i).contact_surface()
+            m, n = surface.id_M(), surface.id_N()
+            if (m == geometry and n in s.arm_geometries) or (n == geometry and m in s.arm_geometries):
+                return True
+        return False
 
     def diverged(self) -> str:
         return f"Drake: {self._failed}" if self._failed else ""

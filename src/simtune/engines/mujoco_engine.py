@@ -64,6 +64,9 @@ class MujocoEngine(Engine):
         self._wrist = m.body(WRIST_LINK).id
         self._object = m.body(OBJECT_BODY).id if task.object is not None else None
         self._object_dof = m.jnt_dofadr[m.joint(OBJECT_BODY).id] if task.object is not None else None
+        # body id -> whether it is a part of the arm (links and fingers)
+        self._arm_body = np.zeros(m.nbody, dtype=bool)
+        self._arm_body[[m.body(link.name).id for link in LINKS]] = True
         self._groups = {
             "floor": [m.geom(FLOOR).id],
             "gripper": [
@@ -153,6 +156,16 @@ class MujocoEngine(Engine):
         if self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
             return "MuJoCo reported bad accelerations (simulation exploded)"
         return ""
+
+    def arm_object_contact(self) -> bool:
+        n = self.data.ncon
+        if self._object is None or not n:
+            return False
+        # MuJoCo's contact list holds overlapping geom pairs only (no margins in the scene)
+        bodies = self.model.geom_bodyid
+        b1 = bodies[self.data.contact.geom1[:n]]
+        b2 = bodies[self.data.contact.geom2[:n]]
+        return bool(np.any(((b1 == self._object) & self._arm_body[b2]) | ((b2 == self._object) & self._arm_body[b1])))
 
     def joint_angles(self) -> np.ndarray:
         return self.data.qpos[self._arm_qpos].copy()

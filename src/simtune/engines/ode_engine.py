@@ -218,6 +218,9 @@ class OdeEngine(Engine):
         self._world_ptr = ctypes.cast(world, c_void_p).value
         self._contacts_ptr = ctypes.cast(self._contacts, c_void_p).value
         self._geoms: dict[int, tuple[str, int | None]] = {}  # geom address -> (group, body address)
+        self._arm_geoms: set[int] = set()  # addresses of the arm's and fingers' geoms
+        self._object_geom: int | None = None
+        self._touching = False  # the last step's collision pass found an arm-object contact
         self._keep: list = []  # arrays ODE keeps pointers to (convex hull data)
 
         poses = _link_poses(np.zeros(6))
@@ -249,6 +252,7 @@ class OdeEngine(Engine):
                     ode.dGeomSetPosition(geom, *(pos + rot @ centre))
                     ode.dGeomSetRotation(geom, _ode_matrix(rot @ box_rot))
                 self._register(geom, member_group, body, _ARM, _FLOOR | _OBJECT)
+                self._arm_geoms.add(ctypes.cast(geom, c_void_p).value or 0)
 
         floor = ode.dCreatePlane(self._space, 0.0, 0.0, 1.0, 0.0)
         self._register(floor, "floor", None, _FLOOR, _ARM | _OBJECT)
@@ -298,6 +302,7 @@ class OdeEngine(Engine):
             ode.dGeomSetBody(geom, body)
             ode.dGeomSetOffsetPosition(geom, *(-com))
             self._register(geom, obj.material, body, _OBJECT, _FLOOR | _ARM)
+            self._object_geom = ctypes.cast(geom, c_void_p).value
             self._place_object(obj)
 
         for g, body in self._damped_bodies().items():
@@ -371,6 +376,8 @@ class OdeEngine(Engine):
         n = _collide(g1, g2, MAX_CONTACTS, self._contact_geoms, ctypes.sizeof(ode.dContactGeom))
         if not n:
             return
+        if (g1 == self._object_geom and g2 in self._arm_geoms) or (g2 == self._object_geom and g1 in self._arm_geoms):
+            self._touching = True
         contact = self._contact
         contact.surface = self._surfaces[(group1, group2)]
         for k in range(n):
@@ -396,11 +403,15 @@ class OdeEngine(Engine):
         for _ in range(n):
             for joint, d in damped:  # viscous joint damping as a joint torque (ODE has none built in)
                 _add_hinge_torque(joint, -d * _hinge_rate(joint))
+            self._touching = False
             _space_collide(self._space_ptr, None, self._callback)
             ok = _world_step(self._world_ptr, self._timestep)
             _group_empty(self._contacts_ptr)
             if not ok and not self._failed:
                 self._failed = "dWorldStep failed"
+
+    def arm_object_contact(self) -> bool:
+        return self._touching
 
     def diverged(self) -> str:
         # ODE's messages ("LCP internal error ...": one step's LCP solved inexactly) are

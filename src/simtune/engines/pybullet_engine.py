@@ -222,6 +222,13 @@ class PybulletEngine(Engine):
             return None
         return np.array(pybullet.getBasePositionAndOrientation(self.object, physicsClientId=self.client)[0])
 
+    def arm_object_contact(self) -> bool:
+        if self.object is None:
+            return False
+        points = pybullet.getContactPoints(self.robot, self.object, physicsClientId=self.client)
+        # Bullet keeps manifold points up to its breaking distance apart: only touching ones count
+        return any(point[8] <= 0.0 for point in points)
+
     def close(self) -> None:
         if pybullet is not None and self.client is not None and pybullet.isConnected(self.client):
             pybullet.disconnect(self.client)

@@ -53,6 +53,8 @@ class TuneSettings:
     elapsed_before: float = 0.0
     eval_timeout: float | None = None
     prune: bool = True  # only differential evolution has parents to prune against
+    #: differential evolution exactly as the seed paper ran SciPy's: immediate updating, polish, no pruning
+    paper_exact: bool = False
     target_fitness: float | None = None
     on_evaluation: Callable[[Score, bool], None] | None = None  # (score, taken from the store)
     on_generation: Callable[[int, float], None] | None = None  # (generation, best fitness)
@@ -289,6 +291,25 @@ class Evaluator:
         if simulated and len(self._batch_failures) == simulated:
             raise SimtuneError(f"every evaluation of generation {self.generation} failed: {self._batch_failures[0]}")
         self.generation += 1
+
+    def score_one(self, x) -> float:
+        """Fitness of one vector, from the store or simulated: an objective function for SciPy.
+
+        For searches that update after every evaluation (SciPy's immediate
+        updating and its polish): the vector counts towards the current
+        ``generation``, which the caller advances.
+        """
+        x = np.asarray(x, dtype=float)
+        self.requested += 1
+        known = self.store.lookup(x)
+        if known is not None:
+            if self.on_evaluation:
+                self.on_evaluation(known, True)
+            return known.fitness
+        for _, _, score, wall_s in self._run(_score, {0: (x, None)}):
+            self._record(x, score, wall_s)
+            return score.fitness
+        raise AssertionError("one job gives one result")
 
     def evaluate(self, vectors) -> np.ndarray:
         """Fitness of each vector of a batch (one generation), from the store or simulated."""

@@ -14,18 +14,21 @@ from __future__ import annotations
 from pathlib import Path
 
 
-def make_report(paths, out, published_sims=None, *, show_progress: bool = True) -> Path:
+def make_report(
+    paths, out, published_sims=None, *, show_progress: bool = True, figure4_parameter: str = "timestep"
+) -> Path:
     """Write the report for the runs under ``paths`` into folder ``out``; return its ``index.html``.
 
     ``paths``: run folders (holding run.sqlite) or folders searched recursively
     for them.  ``published_sims``: optional folder of ``<task>_<Engine>.csv``
     published simulations to score next to the engines' generic fitness.
     Unfinished or unreadable runs are skipped with a
-    :class:`simtune.report.builder.ReportWarning` naming them.
+    :class:`simtune.report.builder.ReportWarning` naming them.  ``figure4_parameter``:
+    the parameter whose tuned values the paper's Figure 4 shows.
     """
     from simtune.report.builder import make_report as _make
 
-    return _make(paths, out, published_sims, show_progress=show_progress)
+    return _make(paths, out, published_sims, show_progress=show_progress, figure4_parameter=figure4_parameter)
 
 
 __all__ = ["make_report"]

@@ -14,6 +14,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
 
 import simtune
+from simtune.engines.contact import ContactProbe, probe_contact
 from simtune.errors import SimtuneError
 from simtune.report import tables as T
 from simtune.report.collect import Group, RunRecord, Skipped, find_run_dirs, group_runs, load_run
@@ -74,13 +75,19 @@ def make_report(
     published_sims: Path | str | None = None,
     *,
     show_progress: bool = True,
+    figure4_parameter: str = "timestep",
 ) -> Path:
     """Write the report for the runs under ``paths`` into ``out``; return the path of its ``index.html``.
 
     Run folders that are unfinished or unreadable are left out with a
     :class:`ReportWarning` naming them.  Raises :class:`SimtuneError` when no
-    usable run is found.
+    usable run is found, or for an unknown ``figure4_parameter`` (the parameter
+    of the paper's Figure 4).
     """
+    from simtune.params.space import PARAMETERS
+
+    if figure4_parameter not in PARAMETERS:
+        raise SimtuneError(f"--figure4-parameter {figure4_parameter!r}: unknown parameter (see `simtune params`)")
     inputs = [Path(p) for p in ([paths] if isinstance(paths, (str, Path)) else paths)]
     run_dirs = find_run_dirs(inputs)
     published_folder = None if published_sims is None else Path(published_sims)
@@ -105,7 +112,8 @@ def make_report(
             )
         engines = sorted({g.engine for g in groups})
         experiments = {(g.tasks, g.space) for g in groups}
-        figures = 4 + len(experiments) + sum(len(g.task_names) for g in groups)  # overview, convergence x 3, ...
+        # overview, convergence x 3, Figure 4, contact per engine, parameters per experiment, trajectories
+        figures = 5 + len(engines) + len(experiments) + sum(len(g.task_names) for g in groups)
         progress.stage("scoring published simulations", 1 + len(engines) + len(groups) + figures + 1)
 
         references = References()
@@ -138,6 +146,8 @@ def make_report(
             nominal=nominal,
             tasks_by_engine=tasks_by_engine,
             sims=_resimulate(groups, references, warn, progress),
+            figure4_parameter=figure4_parameter,
+            contacts=_probe_contacts(groups, warn, progress),
         )
 
         progress.describe("drawing figures and writing tables")
@@ -226,15 +236,48 @@ def _resimulate(groups: list[Group], references: References, warn: Warn, progres
     return sims
 
 
+def _probe_contacts(groups: list[Group], warn: Warn, progress: _Progress) -> list[ContactProbe]:
+    """Each engine's generic simulation of each of its tasks with an object, watched for arm-object contact."""
+    from simtune.engines import make_engine
+    from simtune.tasks import get_task
+
+    probes: list[ContactProbe] = []
+    for engine in sorted({g.engine for g in groups}):
+        names = list(dict.fromkeys(t for g in groups if g.engine == engine for t in g.task_names))
+        for name in names:
+            task = get_task(name)
+            if task.object is None:
+                continue
+            progress.describe(f"contact: {engine} on {name}")
+            try:
+                sim = make_engine(engine, task)
+            except SimtuneError as exc:
+                warn(f"engine {engine}: no contact probe of {name} ({exc})")
+                break
+            try:
+                probes.append(probe_contact(sim))
+            finally:
+                sim.close()
+    return probes
+
+
 def _meta(data: ReportData) -> list[str]:
     """The lines under the report's title: version, date, inputs, and what the runs cover."""
     published = f"; published simulations: {data.published_folder}" if data.published_folder is not None else ""
+    exact = [r for r in data.runs if r.paper_exact]
+    search = (
+        f"Search: {len(exact)} of {len(data.runs)} runs searched exactly as the paper ran SciPy (--paper-exact: "
+        "immediate updating, SciPy's polish, one worker, no pruning, the paper's whole parameter list); "
+        "the others with simtune's differential evolution (deferred updating, pruning, no polish) or another "
+        "optimiser, as Table III's search column says."
+    )
     return [
         f"simtune {simtune.__version__}, {_dt.datetime.now().astimezone().strftime('%Y-%m-%d %H:%M %Z')}. "
         f"Inputs: {', '.join(str(p) for p in data.paths)}{published}.",
         f"{len(data.runs)} runs in {len(data.groups)} groups (engine x tasks x space; repeats = seeds): engines "
         f"{', '.join(data.engines)}; tasks {', '.join(sorted({g.tasks for g in data.groups}))}; spaces "
         f"{', '.join(sorted({g.space for g in data.groups}))}. Fitness is in metres (lower is better).",
+        search,
     ]
 
 

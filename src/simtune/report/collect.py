@@ -46,6 +46,25 @@ class RunRecord:
     message: str
     versions: dict = field(default_factory=dict)
     outcomes: dict = field(default_factory=dict)  # store.count_outcomes(): unstable and pruned evaluations
+    initial_population: list[list[float]] = field(default_factory=list)  # generation 0's parameter vectors
+    de_settings: dict | None = None  # SciPy's settings of a differential-evolution run (None: other optimiser)
+    converged: bool = False  # the search met its convergence criterion (store meta search_converged)
+
+    @property
+    def paper_exact(self) -> bool:
+        """Whether the run searched exactly as the seed paper ran SciPy (``simtune tune --paper-exact``)."""
+        return bool(self.config.get("paper_exact", False))
+
+    @property
+    def stopped_by_time_cap(self) -> bool:
+        """Whether the run's wall-time budget (``--max-seconds``) ended its search."""
+        cap = self.config.get("max_seconds")
+        return cap is not None and self.elapsed_s >= float(cap)
+
+    @property
+    def population_size(self) -> int:
+        """Members of the initial population (the first batch of evaluations)."""
+        return len(self.initial_fitness)
 
     @property
     def best_fitness(self) -> float:
@@ -206,6 +225,9 @@ def load_run(run_dir: Path, label: str | None = None) -> RunRecord | Skipped:
             message=str(store.get("message", "")),
             versions=store.get("versions", {}) or {},
             outcomes=store.count_outcomes(),
+            initial_population=store.initial_population(),
+            de_settings=store.get("de_settings"),
+            converged=bool(store.get("search_converged", False)),
         )
     except sqlite3.Error as exc:
         return Skipped(run_dir, label, f"corrupt run store ({exc})")

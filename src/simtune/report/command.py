@@ -34,6 +34,13 @@ def report(
             "qrg2019/published_sims), scored with simtune's fitness next to the engines' generic fitness.",
         ),
     ] = None,
+    figure4_parameter: Annotated[
+        str,
+        typer.Option(
+            "--figure4-parameter",
+            help="The parameter of the paper's Figure 4: its tuned values, raw, per experiment and engine.",
+        ),
+    ] = "timestep",
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Write an HTML report of tuning runs: fitness tables, convergence, parameters, trajectories.
@@ -47,5 +54,5 @@ def report(
 
     from simtune.report import make_report
 
-    index = make_report(runs, out, published_sims, show_progress=not quiet)
+    index = make_report(runs, out, published_sims, show_progress=not quiet, figure4_parameter=figure4_parameter)
     Console().print(f"report: {index}", highlight=False, soft_wrap=True)

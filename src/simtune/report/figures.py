@@ -7,6 +7,7 @@ it as PNG and SVG and returns the PNG bytes for embedding.
 from __future__ import annotations
 
 import io
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +42,28 @@ def save(fig: Figure, folder: Path, stem: str) -> bytes:
     (folder / f"{stem}.png").write_bytes(png)
     fig.savefig(folder / f"{stem}.svg", format="svg", metadata={"Date": None})
     return png
+
+
+#: average width of a glyph of matplotlib's default font (DejaVu Sans), in ems: enough to wrap a title
+#: before it runs past its figure or panel (a narrower estimate would let wide titles clip)
+GLYPH_EM = 0.62
+TITLE_PT = 14.4  # matplotlib's default title size ("large" of 12 pt)
+
+
+def fit_text(text: str, width_in: float, fontsize: float = TITLE_PT) -> str:
+    """``text`` wrapped into lines that fit ``width_in`` inches at ``fontsize`` points."""
+    chars = max(16, int(width_in * 72 / (fontsize * GLYPH_EM)))
+    return "\n".join(textwrap.wrap(text, chars, break_on_hyphens=False)) or text
+
+
+def suptitle(fig: Figure, text: str, fontsize: float = TITLE_PT) -> None:
+    """The figure's title, wrapped to the figure's width (a long title is never cut at the edges)."""
+    fig.suptitle(fit_text(text, 0.94 * fig.get_figwidth(), fontsize), fontsize=fontsize)
+
+
+def panel_title(ax, text: str, columns: int = 1, fontsize: float = 12.0) -> None:
+    """A panel's title, wrapped to the width of one of ``columns`` panels side by side."""
+    ax.set_title(fit_text(text, 0.85 * ax.figure.get_figwidth() / max(1, columns), fontsize), fontsize=fontsize)
 
 
 def engine_colors(engines: list[str]) -> dict[str, str]:
@@ -132,7 +155,7 @@ def convergence_figure(groups: list[Group], axis: str) -> Figure:
             every.extend(lo)
             every.extend(hi)
         _maybe_log(ax, every)
-        ax.set_title(f"task: {tasks}")
+        panel_title(ax, f"task: {tasks}", ncols)
         ax.set_xlabel(CONVERGENCE_AXES[axis])
         if axis != "time":
             ax.xaxis.set_major_locator(MaxNLocator(integer=True))
@@ -141,7 +164,7 @@ def convergence_figure(groups: list[Group], axis: str) -> Figure:
         ax.legend(fontsize="small")
     for k in range(len(experiments), nrows * ncols):
         axes[k // ncols][k % ncols].set_visible(False)
-    fig.suptitle(f"Convergence: best fitness vs {CONVERGENCE_AXES[axis]} (line: mean over repeats, band: min-max)")
+    suptitle(fig, f"Convergence: best fitness vs {CONVERGENCE_AXES[axis]}")
     return fig
 
 
@@ -187,7 +210,7 @@ def fitness_overview_figure(groups: list[Group], entries: list[GenericEntry]) ->
             rotation_mode="anchor",
         )
         ax.set_ylabel("fitness [m]")
-        ax.set_title(f"task: {tasks}, space: {space}")
+        panel_title(ax, f"task: {tasks}, space: {space}", ncols)
         ax.grid(axis="y", alpha=0.3)
     for k in range(len(keys), nrows * ncols):
         axes[k // ncols][k % ncols].set_visible(False)
@@ -206,7 +229,7 @@ def fitness_overview_figure(groups: list[Group], entries: list[GenericEntry]) ->
         Line2D([], [], color="#555555", linewidth=2, label="tuned mean"),
     ]
     fig.legend(handles=handles, loc="outside lower center", ncols=3, fontsize="small")
-    fig.suptitle("Fitness: generic vs tuned (lower is better)")
+    suptitle(fig, "Fitness: generic vs tuned (lower is better)")
     return fig
 
 
@@ -261,7 +284,7 @@ def parameters_figure(groups: list[Group], nominal: dict[str, dict[str, float]])
         if data:
             _boxplot(ax, data, where)
         ax.set_xlim(-0.03, 1.03)
-        ax.set_title(f"{g.engine} (n={len(g.runs)})")
+        panel_title(ax, f"{g.engine} (n={len(g.runs)})", len(groups))
         ax.set_xlabel("tuned value, normalised to [low, high]")
         ax.grid(axis="x", alpha=0.3)
     axes[0].set_yticks(positions)
@@ -280,7 +303,7 @@ def parameters_figure(groups: list[Group], nominal: dict[str, dict[str, float]])
         ),
     ]
     fig.legend(handles=handles, loc="outside lower center", ncols=2, fontsize="small")
-    fig.suptitle(f"Tuned parameters across repeats: task {groups[0].tasks}, space {groups[0].space}")
+    suptitle(fig, f"Tuned parameters across repeats: task {groups[0].tasks}, space {groups[0].space}")
     return fig
 
 
@@ -316,7 +339,7 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
     ax3.set_xlabel("x [m]")
     ax3.set_ylabel("y [m]")
     ax3.set_zlabel("z [m]")
-    ax3.set_title("end-effector path")
+    panel_title(ax3, "end-effector path", ncols)
     ax3.legend(fontsize="small", loc="upper left")
 
     lo, hi = ref.wrist_repeats.min(axis=0), ref.wrist_repeats.max(axis=0)
@@ -329,7 +352,7 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
         ax.set_ylabel(f"{axis} [m]")
         ax.grid(alpha=0.3)
         if i == 0:
-            ax.set_title("end effector against time")
+            panel_title(ax, "end effector against time", ncols)
             ax.legend(fontsize="x-small", ncols=2)
         if i == 2:
             ax.set_xlabel("time [s]")
@@ -362,13 +385,79 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
         ax.yaxis.set_major_locator(MaxNLocator(6))
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
-        ax.set_title("object, seen from above")
+        panel_title(ax, "object, seen from above", ncols)
         ax.grid(alpha=0.3)
         ax.legend(fontsize="x-small", loc="best")
 
     g = sim.group
-    fig.suptitle(
+    suptitle(
+        fig,
         f"{g.engine} on {task} (space {g.space}): fitness untuned {traj.untuned_score.fitness:.4f}, "
-        f"tuned {traj.tuned_score.fitness:.4f} (best repeat: seed {sim.run.seed})"
+        f"tuned {traj.tuned_score.fitness:.4f} (best repeat: seed {sim.run.seed})",
     )
     return fig
+
+
+# --- the paper's Figure 4: one parameter's tuned values, raw, engines x experiments ------------------------
+def figure4(groups: list[Group], parameter: str) -> Figure:
+    """The tuned values of ``parameter`` in its own units: one panel per space, the experiments along x,
+    a box and one dot per repeat for each engine side by side, the tuning range as the y limits."""
+    from simtune.params.space import PARAMETERS
+    from simtune.report.tables import experiment_label
+
+    mine = [g for g in groups if parameter in g.parameters]
+    spaces = sorted({g.space for g in mine})
+    experiments = sorted({g.tasks for g in mine}, key=_experiment_order)
+    engines = sorted({g.engine for g in mine})
+    colors = engine_colors(engines)
+    width = max(6.4, 1.2 + 0.5 * len(experiments) * max(1, len(engines)))
+    fig = new_figure(width, 3.4 * len(spaces) + 0.8)
+    axes = fig.subplots(len(spaces), 1, squeeze=False)[:, 0]
+    step = 0.8 / max(1, len(engines))
+    for ax, space in zip(axes, spaces):
+        low, high = next(g.bounds(parameter) for g in mine if g.space == space)
+        for e, engine in enumerate(engines):
+            for x, tasks in enumerate(experiments):
+                group = next((g for g in mine if (g.engine, g.tasks, g.space) == (engine, tasks, space)), None)
+                if group is None:
+                    continue
+                values = np.asarray(group.values(parameter))
+                at = x - 0.4 + step * (e + 0.5)
+                ax.boxplot(
+                    [values],
+                    positions=[at],
+                    widths=0.8 * step,
+                    patch_artist=True,
+                    showfliers=False,
+                    whis=(0, 100),
+                    boxprops=dict(facecolor=colors[engine], alpha=0.35, edgecolor=colors[engine]),
+                    medianprops=dict(color=colors[engine]),
+                    whiskerprops=dict(color=colors[engine]),
+                    capprops=dict(color=colors[engine]),
+                )
+                jitter = np.linspace(-0.25, 0.25, values.size) * step if values.size > 1 else np.zeros(1)
+                ax.scatter(at + jitter, values, s=14, color=colors[engine], edgecolor="black", linewidth=0.3, zorder=3)
+        ax.set_xticks(range(len(experiments)))
+        ax.set_xticklabels([experiment_label(t) for t in experiments], fontsize="small")
+        ax.set_xlim(-0.6, len(experiments) - 0.4)
+        margin = 0.03 * (high - low)
+        ax.set_ylim(low - margin, high + margin)
+        unit = PARAMETERS[parameter].unit if parameter in PARAMETERS else ""
+        ax.set_ylabel(f"{parameter} [{unit}]" if unit else parameter)
+        ax.set_xlabel("experiment")
+        ax.grid(axis="y", alpha=0.3)
+        panel_title(ax, f"space: {space}")
+    fig.legend(
+        handles=[Line2D([], [], color=colors[e], marker="s", linestyle="", markersize=8, label=e) for e in engines],
+        loc="outside lower center",
+        ncols=min(len(engines), 5),
+        fontsize="small",
+    )
+    suptitle(fig, f"Tuned {parameter} per experiment and engine (raw values; y range: the tuning range)")
+    return fig
+
+
+def _experiment_order(tasks: str) -> tuple[int, str]:
+    """Seed tasks in the paper's order (seed-2 before seed-10), then the others by name."""
+    number = tasks.removeprefix("seed-")
+    return (int(number), "") if tasks.startswith("seed-") and number.isdigit() else (10**6, tasks)

@@ -21,6 +21,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from simtune.engines import Rollout
+from simtune.engines.contact import ContactProbe
 from simtune.report import figures as F
 from simtune.report import tables as T
 from simtune.report.collect import Group, RunRecord
@@ -45,6 +46,8 @@ class ReportData:
     nominal: dict[str, dict[str, float]]  # engine -> generic parameter values
     tasks_by_engine: dict[str, list[str]]
     sims: list[GroupSimulation]  # the best run of each group, re-simulated
+    figure4_parameter: str = "timestep"  # the parameter of the paper's Figure 4
+    contacts: list[ContactProbe] = field(default_factory=list)  # each engine's generic contact with each object
 
     @property
     def runs(self) -> list[RunRecord]:
@@ -104,7 +107,10 @@ def generic_section(data: ReportData, out: ReportOutput) -> Section:
         "generic",
         "Generic (untuned) fitness",
         "How far each engine with its own default parameters is from the recordings (the paper's Table II)." + hint,
-        [out.table(T.generic_table(data.entries, data.task_names))],
+        [
+            out.table(T.paper_generic_table(data.entries, data.task_names)),
+            out.table(T.generic_table(data.entries, data.task_names)),
+        ],
     )
 
 
@@ -121,6 +127,8 @@ def tuned_section(data: ReportData, out: ReportOutput) -> Section:
         "The best fitness tuning reached per task and parameter space, with the engine that reached it "
         "(the paper's Table III), and every engine's tuned fitness over repeats.",
         [
+            out.table(T.paper_tuned_table(data.groups, data.entries)),
+            out.table(T.summary_counts_table(data.groups)),
             out.table(T.best_tuned_table(data.groups, data.entries)),
             overview,
             out.table(T.tuned_by_group_table(data.groups)),
@@ -147,7 +155,19 @@ def convergence_section(data: ReportData, out: ReportOutput) -> Section:
 
 
 def parameters_section(data: ReportData, out: ReportOutput) -> Section:
-    figures = [
+    parameter = data.figure4_parameter
+    figure4: list[FigureRef] = []
+    if any(parameter in g.parameters for g in data.groups):
+        figure4.append(
+            out.figure(
+                f"figure4_{parameter}",  # a known parameter name: safe as a file name
+                F.figure4(data.groups, parameter),
+                f"The paper's Figure 4 for {parameter}: its tuned value in each repeat (dots) and their spread "
+                "(box: quartiles, whiskers to the extremes), raw, per experiment and engine, one panel per "
+                "space. `simtune report --figure4-parameter NAME` draws it for another parameter.",
+            )
+        )
+    figures = figure4 + [
         out.figure(
             slug("parameters", tasks, space),
             F.parameters_figure([g for g in data.groups if (g.tasks, g.space) == (tasks, space)], data.nominal),
@@ -157,10 +177,11 @@ def parameters_section(data: ReportData, out: ReportOutput) -> Section:
         )
         for tasks, space in data.experiments
     ]
+    missing = "" if figure4 else f" No run tuned {parameter}: the paper's Figure 4 (--figure4-parameter) is left out."
     return Section(
         "parameters",
         "Parameter distributions",
-        "Where the tuned values of each parameter fall in their range, across repeats.",
+        "Where the tuned values of each parameter fall in their range, across repeats." + missing,
         figures,
     )
 
@@ -236,6 +257,31 @@ def trajectories_section(data: ReportData, out: ReportOutput) -> Section:
     )
 
 
+def contact_section(data: ReportData, out: ReportOutput) -> Section | None:
+    """Whether each engine's generic simulation touches each task's object (``simtune tasks --contact``)."""
+    if not data.contacts:
+        return None
+    from simtune.report.contact import contact_figure
+
+    engines = list(dict.fromkeys(p.engine for p in data.contacts))
+    figures = [
+        out.figure(
+            slug("contact", engine),
+            contact_figure([p for p in data.contacts if p.engine == engine]),
+            f"{engine}, generic parameters: the arm at its first contact with each task's object, from the side "
+            "(the whole arm) and from above (near the object); a task without contact shows the final pose.",
+        )
+        for engine in engines
+    ]
+    return Section(
+        "contact",
+        "Contact with the objects",
+        "Whether the hand reaches each object in the engine's generic simulation, when, and how far the object "
+        "moves: a task whose object is never touched is a kinematic task (see docs/seed-tasks.md).",
+        [out.table(T.contact_table(data.contacts)), *figures],
+    )
+
+
 def compute_section(data: ReportData, out: ReportOutput) -> Section:
     return Section("compute", "Compute", "", [out.table(T.compute_table(data.groups))])
 
@@ -293,6 +339,7 @@ SECTIONS: tuple[SectionMaker, ...] = (
     parameters_section,
     importance_section,
     trajectories_section,
+    contact_section,
     compute_section,
     dr_section,
     sensitivity_section,

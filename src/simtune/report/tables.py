@@ -15,6 +15,9 @@ from simtune.params.space import PARAMETERS
 from simtune.report.collect import Group, RunRecord
 from simtune.table import Column, Table
 
+#: q below which the report calls a parameter's narrowing by tuning significant
+SIGNIFICANCE = 0.05
+
 
 def _f(x) -> float | None:
     return None if x is None else float(x)
@@ -211,8 +214,189 @@ def tuned_by_group_table(groups: list[Group]) -> Table:
     )
 
 
+# --- the paper's Tables II and III, in its layout -------------------------------------------------------
+def experiment_label(tasks: str) -> str:
+    """The paper's experiment number for a seed task (``seed-3`` -> ``3``) or task group; else the tasks as named."""
+    from simtune.tasks import GROUPS
+
+    if tasks in GROUPS:
+        return f"{tasks.removeprefix('seed-')} (all of {GROUPS[tasks][0]} .. {GROUPS[tasks][-1]})"
+    return tasks.removeprefix("seed-") if tasks.startswith("seed-") else tasks
+
+
+def paper_generic_table(entries: list[GenericEntry], tasks: list[str]) -> Table:
+    """Table II as the paper prints it: one row per experiment (and one summing them all, as its
+    experiment 11), one column per engine, and which engines' simulations were unstable."""
+    engines = list(dict.fromkeys(e.engine if e.source == "simtune" else f"{e.engine} (published)" for e in entries))
+    index = {(e.engine if e.source == "simtune" else f"{e.engine} (published)", e.task): e for e in entries}
+    columns = [Column("experiment"), *(Column(name, ".4f") for name in engines)]
+    columns += [Column("unstable (blew up)"), Column("best engine"), Column("best generic fitness", ".4f")]
+    rows: list[list] = []
+    for task in tasks:
+        found = [index.get((name, task)) for name in engines]
+        values = [None if e is None else e.fitness for e in found]
+        unstable = [name for name, e in zip(engines, found) if e is not None and not e.stable]
+        scored = [(v, name) for v, name in zip(values, engines) if v is not None]
+        best = min(scored) if scored else (None, None)
+        rows.append([experiment_label(task), *values, ", ".join(unstable) or "-", best[1], best[0]])
+    if len(tasks) > 1:  # the paper's experiment 11: the sum over the tasks, for engines that ran them all
+        complete = [
+            sum(index[name, t].fitness for t in tasks) if all((name, t) in index for t in tasks) else None
+            for name in engines
+        ]
+        unstable = [name for name in engines if any((name, t) in index and not index[name, t].stable for t in tasks)]
+        scored = [(v, name) for v, name in zip(complete, engines) if v is not None]
+        best = min(scored) if scored else (None, None)
+        label = "11 (sum of 1-10)" if tasks == [f"seed-{n}" for n in range(1, 11)] else f"all {len(tasks)} (sum)"
+        rows.append([label, *complete, ", ".join(unstable) or "-", best[1], best[0]])
+    table = Table(
+        "paper_table_ii",
+        "Table II (the paper's layout). Generic fitness per experiment and engine",
+        columns,
+        rows,
+        note="Rows: experiments (seed task N = the paper's experiment N; other tasks by name), the last row "
+        "their sum (the paper's experiment 11 sums tasks 1-10). Unstable: engines whose generic simulation "
+        "blew up on that experiment (scored with the finite penalty; the paper printed the raw values, "
+        "491-995). Columns after the engines are simtune's.",
+    )
+    for i, row in enumerate(rows):
+        cells: list[tuple[float, int]] = [
+            (float(v), j) for j, v in enumerate(row[1 : 1 + len(engines)], start=1) if v is not None
+        ]
+        if cells:
+            table.highlight.add((i, min(cells)[1]))
+    return table
+
+
+def paper_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table:
+    """Table III as the paper prints it, one row per experiment, space and engine, with each engine's
+    dimension D and population size; then simtune's columns (spread over repeats, budgets, how the run searched)."""
+    columns = [
+        Column("experiment"),
+        Column("space"),
+        Column("engine"),
+        Column("D", "d"),
+        Column("population", "d"),
+        Column("best tuned fitness", ".4f"),
+        Column("improvement over best generic [%]", ".1f"),
+        Column("repeats", "d"),
+        Column("mean tuned", ".4f"),
+        Column("std tuned", ".4f"),
+        Column("generations (mean)", ".1f"),
+        Column("stopped by time cap", "d"),
+        Column("search"),
+    ]
+    rows: list[list] = []
+    for g in sorted(groups, key=lambda g: (g.tasks, g.space, g.engine)):
+        lo, mean, _, std = _stats([r.best_fitness for r in g.runs])
+        generic = experiment_generic(entries, g.task_names, None)
+        best_generic = min(generic.values()) if generic else None
+        sizes = sorted({r.population_size for r in g.runs})
+        exact = sum(r.paper_exact for r in g.runs)
+        search = "paper-exact" if exact == len(g.runs) else "simtune" if exact == 0 else f"{exact} paper-exact"
+        optimizer = str(g.runs[0].config.get("optimizer", "de"))
+        rows.append(
+            [
+                experiment_label(g.tasks),
+                g.space,
+                g.engine,
+                len(g.parameters),
+                sizes[0] if len(sizes) == 1 else None,
+                lo,
+                100.0 * (best_generic - lo) / best_generic if best_generic else None,
+                len(g.runs),
+                mean,
+                std,
+                float(np.mean([len(r.generations) for r in g.runs])),
+                sum(r.stopped_by_time_cap for r in g.runs),
+                f"{optimizer}, {search}",
+            ]
+        )
+    table = Table(
+        "paper_table_iii",
+        "Table III (the paper's layout). Best tuned fitness per experiment, space and engine",
+        columns,
+        rows,
+        note="D: parameters in the search vector (the space as the engine maps it; --paper-exact keeps the "
+        "paper's whole list). Population: members of the initial population (SciPy: max(5, 1 x D)). "
+        "Improvement: over the best generic engine of the experiment, published simulations included. "
+        "Search: simtune = deferred updating, pruning, no polish; paper-exact = SciPy's immediate "
+        "updating and polish, one worker. Bold: the best engine per experiment and space.",
+    )
+    best_rows: dict[tuple, tuple[float, int]] = {}
+    for i, row in enumerate(rows):
+        key, fitness = (row[0], row[1]), float(row[5])
+        if key not in best_rows or fitness < best_rows[key][0]:
+            best_rows[key] = (fitness, i)
+    for _, i in best_rows.values():
+        table.highlight.add((i, 5))
+    return table
+
+
+def summary_counts_table(groups: list[Group]) -> Table:
+    """The paper's summary counts: individual against shared parameters, and how the runs stopped."""
+    pairs: dict[tuple[str, str], dict[str, Group]] = defaultdict(dict)
+    for g in groups:
+        pairs[(g.engine, g.tasks)][g.space] = g
+    compared = [(k, v["shared"], v["individual"]) for k, v in pairs.items() if "shared" in v and "individual" in v]
+    best_wins = sum(ind.best_run.best_fitness < sh.best_run.best_fitness for _, sh, ind in compared)
+    mean_wins = sum(
+        np.mean([r.best_fitness for r in ind.runs]) < np.mean([r.best_fitness for r in sh.runs])
+        for _, sh, ind in compared
+    )
+    runs = [r for g in groups for r in g.runs]
+    capped = sum(r.stopped_by_time_cap for r in runs)
+    converged = sum(r.converged for r in runs)
+    rows = [
+        ["individual better than shared (best repeat)", best_wins, len(compared)],
+        ["individual better than shared (mean over repeats)", mean_wins, len(compared)],
+        ["runs stopped by the time cap (--max-seconds)", capped, len(runs)],
+        ["runs that met the convergence criterion", converged, len(runs)],
+        ["runs searched as the paper did (--paper-exact)", sum(r.paper_exact for r in runs), len(runs)],
+    ]
+    return Table(
+        "summary_counts",
+        "Summary counts (as the paper reports them): N of M",
+        [Column("count"), Column("N", "d"), Column("of M", "d")],
+        rows,
+        note="Individual vs shared: engine x experiment pairs tuned in both spaces, compared by the best "
+        "repeat's fitness and by the mean over repeats. Time cap: runs whose wall time reached their "
+        "--max-seconds. Convergence: SciPy's criterion (population fitness std below 1 % of its mean).",
+    )
+
+
 # --- 5. parameter importance and Mann-Whitney U ------------------------------------------------------
+def spread_test(tuned: np.ndarray, initial: np.ndarray) -> float | None:
+    """One-sided Brown-Forsythe test: p of "the tuned values spread less than the initial population's".
+
+    Brown-Forsythe compares the absolute deviations from each sample's median; with two samples its
+    F statistic is the square of the pooled two-sample t statistic of those deviations, whose one-sided
+    p-value is returned.  None when either sample has fewer than two values or neither varies.
+    """
+    import warnings
+
+    from scipy.stats import ttest_ind
+
+    if tuned.size < 2 or initial.size < 2:
+        return None
+    dev_tuned = np.abs(tuned - np.median(tuned))
+    dev_initial = np.abs(initial - np.median(initial))
+    if not dev_tuned.any() and not dev_initial.any():
+        return None
+    with warnings.catch_warnings():  # repeats that agree closely: SciPy warns of precision, the p stands
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return float(ttest_ind(dev_tuned, dev_initial, alternative="less").pvalue)
+
+
+def _initial_values(group: Group, name: str) -> np.ndarray:
+    """The values of parameter ``name`` in the initial populations of the group's repeats, pooled."""
+    values = [x[r.parameters.index(name)] for r in group.runs if name in r.parameters for x in r.initial_population]
+    return np.asarray(values, dtype=float)
+
+
 def importance_table(groups: list[Group]) -> Table:
+    from scipy.stats import false_discovery_control
+
     columns = [
         Column("engine"),
         Column("tasks"),
@@ -222,6 +406,10 @@ def importance_table(groups: list[Group]) -> Table:
         Column("repeats", "d"),
         Column("std / range", ".3f"),
         Column("(max - min) / range", ".3f"),
+        Column("initial std / range", ".3f"),
+        Column("p (Brown-Forsythe)", ".3g"),
+        Column("q (BH)", ".3g"),
+        Column("significant", ""),
         Column("mean (normalised)", ".3f"),
         Column("mean", ".4g"),
         Column("unit"),
@@ -231,14 +419,29 @@ def importance_table(groups: list[Group]) -> Table:
         entries = []
         for name in g.parameters:
             values = np.asarray(g.values(name))
+            initial = _initial_values(g, name)
             low, high = g.bounds(name)
             width = high - low if high > low else 1.0
             std = float(values.std(ddof=1)) / width if values.size > 1 else None
             spread = float(values.max() - values.min()) / width
-            entries.append((name, values.size, std, spread, float((values.mean() - low) / width), float(values.mean())))
-        entries.sort(key=lambda e: (math.inf if e[2] is None else e[2], e[3], e[0]))
-        for rank, (name, n, std, spread, mean_norm, mean) in enumerate(entries, start=1):
+            initial_std = float(initial.std(ddof=1)) / width if initial.size > 1 else None
+            p = spread_test(values, initial)
+            entries.append(
+                [name, values.size, std, spread, initial_std, p, float((values.mean() - low) / width), values.mean()]
+            )
+        tested = [i for i, e in enumerate(entries) if e[5] is not None]
+        q: dict[int, float] = {}
+        if tested:  # Benjamini-Hochberg over the parameters of this engine, tasks and space
+            adjusted = false_discovery_control([entries[i][5] for i in tested], method="bh")
+            q = {i: float(v) for i, v in zip(tested, np.atleast_1d(adjusted))}
+        order = sorted(
+            range(len(entries)),
+            key=lambda i: (math.inf if entries[i][2] is None else entries[i][2], entries[i][3], entries[i][0]),
+        )
+        for rank, i in enumerate(order, start=1):
+            name, n, std, spread, initial_std, p, mean_norm, mean = entries[i]
             unit = PARAMETERS[name].unit if name in PARAMETERS else ""
+            significant = None if i not in q else ("yes" if q[i] < SIGNIFICANCE else "no")
             rows.append(
                 [
                     g.engine,
@@ -249,27 +452,48 @@ def importance_table(groups: list[Group]) -> Table:
                     n,
                     std,
                     spread,
+                    initial_std,
+                    p,
+                    q.get(i),
+                    significant,
                     mean_norm,
-                    mean,
+                    float(mean),
                     unit,
                 ]
             )
     return Table(
         "parameter_importance",
-        "Table 4. Parameter importance: spread of tuned values across repeats",
+        "Table 4. Parameter importance: spread of tuned values across repeats, and its significance",
         columns,
         rows,
         note="The paper's measure: a parameter whose tuned value is tightly bounded across independent "
         "repeats matters to the fitness; one that wanders over its range does not. Spread = sample "
         "std (and max - min) of the best value of each repeat, divided by the parameter's range. "
         "Rank 1 = the tightest (most influential) parameter of that engine, tasks and space. "
-        "With one repeat there is no spread and no rank.",
+        "With one repeat there is no spread and no rank. Significance: the one-sided Brown-Forsythe "
+        "test (absolute deviations from the median; scipy.stats.ttest_ind on them, whose square is the "
+        "Brown-Forsythe F) of the tuned values across repeats against the values of the initial "
+        "Latin-hypercube populations, pooled over repeats: p = chance of a spread this small if tuning "
+        "had not narrowed it. q: Benjamini-Hochberg adjusted over the parameters of the row's engine, "
+        f"tasks and space; significant: q < {SIGNIFICANCE:g}.",
     )
 
 
 def importance_top_table(full: Table, top: int = 5) -> Table:
     """The ``top`` most tightly bounded parameters of each engine, tasks and space (ranked groups only)."""
-    keep = ["engine", "tasks", "space", "rank", "parameter", "repeats", "std / range", "(max - min) / range"]
+    keep = [
+        "engine",
+        "tasks",
+        "space",
+        "rank",
+        "parameter",
+        "repeats",
+        "std / range",
+        "(max - min) / range",
+        "initial std / range",
+        "q (BH)",
+        "significant",
+    ]
     idx = [full.headers.index(k) for k in keep]
     rows = [[row[i] for i in idx] for row in full.rows if row[3] is not None and row[3] <= top]
     return Table(
@@ -371,6 +595,38 @@ def object_final_table(finals: list[FinalPosition]) -> Table:
         note="Recorded: mean over the kept repeats of the last seen object position (spread = mean "
         "distance of a repeat from that mean). Untuned / tuned: re-simulated with the engine's generic "
         "parameters and with the best run's tuned parameters. The distance is the fitness's object term.",
+    )
+
+
+# --- contact ---------------------------------------------------------------------------------------------
+def contact_table(probes) -> Table:
+    """One row per engine and task with an object: ``simtune tasks --contact``'s fields."""
+    rows = [
+        [
+            p.task,
+            p.engine,
+            "yes" if p.touched else "no",
+            p.first_contact_s,
+            100.0 * p.object_displacement_m,
+            "yes" if p.stable else p.message,
+        ]
+        for p in probes
+    ]
+    return Table(
+        "contact",
+        "Arm-object contact in each engine's generic simulation",
+        [
+            Column("task"),
+            Column("engine"),
+            Column("touched"),
+            Column("first contact [s]", ".3f"),
+            Column("object moved [cm]", ".1f"),
+            Column("stable"),
+        ],
+        rows,
+        note="From each engine's own contact list after every physics step (Engine.arm_object_contact): "
+        "the first instant an arm or finger shape touches the object, and the distance between the "
+        "object's start and end positions.",
     )
 
 

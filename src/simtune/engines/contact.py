@@ -1,0 +1,87 @@
+"""Whether, when and how the arm touches a task's object in one engine's simulation.
+
+A task with an object is only a pushing task if the hand reaches the object: a
+schedule that misses it leaves a kinematic task with a still object (the seed
+tasks' schedules come from the authors' code and no recording checks them
+here).  The probe runs the ordinary rollout with the engine's generic
+parameters, watches the engine's own contact list after every physics step, and
+reports the first instant an arm or finger shape touches the object, the arm's
+pose and the object's position then, and how far the object has moved at the
+end of the task.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from simtune.engines.base import Engine
+
+
+def rollout_samples(duration: float, rate: float = 20.0) -> int:
+    """Samples of a rollout that covers ``duration`` seconds at ``rate``, both ends included."""
+    return int(round(duration * rate)) + 1
+
+
+@dataclass(frozen=True)
+class ContactProbe:
+    """What one engine's simulation of one task shows about arm-object contact."""
+
+    task: str
+    engine: str
+    touched: bool
+    first_contact_s: float | None  # simulated time of the first physics step with contact
+    object_displacement_m: float  # distance between the object's start and end positions
+    object_start: np.ndarray  # (3,) [m]
+    object_end: np.ndarray  # (3,) [m]
+    #: the arm's joint angles [rad] and the object's position [m] at first contact (at the end if none)
+    pose_angles: np.ndarray
+    pose_object: np.ndarray
+    stable: bool = True
+    message: str = ""
+
+    def as_json(self) -> dict:
+        """The fields of ``simtune tasks --contact --json``, exactly."""
+        return {
+            "task": self.task,
+            "engine": self.engine,
+            "touched": self.touched,
+            "first_contact_s": None if self.first_contact_s is None else round(self.first_contact_s, 6),
+            "object_displacement_m": round(self.object_displacement_m, 6),
+        }
+
+
+def probe_contact(engine: Engine, params: dict[str, float] | None = None) -> ContactProbe:
+    """Simulate ``engine``'s task with ``params`` (default: generic) and record its first arm-object contact."""
+    task = engine.task
+    if task.object is None:
+        raise ValueError(f"task {task.name!r} has no object to touch")
+    steps = 0
+    first: tuple[float, np.ndarray, np.ndarray] | None = None
+
+    def watch() -> None:
+        nonlocal steps, first
+        steps += 1
+        if first is None and engine.arm_object_contact():
+            position = engine.object_position()
+            assert position is not None, "a task with an object has its position"
+            first = (steps * engine.timestep, engine.joint_angles(), position)
+
+    rollout = engine.rollout(params or {}, rollout_samples(task.duration), after_step=watch)
+    assert rollout.object_pos is not None, "a task with an object samples its position"
+    start, end = rollout.object_pos[0], rollout.object_pos[-1]
+    time, angles, position = first if first is not None else (None, rollout.joint_angles[-1], end)
+    return ContactProbe(
+        task=task.name,
+        engine=engine.name,
+        touched=first is not None,
+        first_contact_s=time,
+        object_displacement_m=float(np.linalg.norm(end - start)),
+        object_start=start.copy(),
+        object_end=end.copy(),
+        pose_angles=np.asarray(angles, dtype=float),
+        pose_object=np.asarray(position, dtype=float),
+        stable=rollout.stable,
+        message=rollout.message,
+    )
