@@ -102,6 +102,21 @@ DataOpt = Annotated[
     ),
 ]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
+WeightsOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--weights",
+        help="Weights of the fitness's parts, e.g. joint=0.1,wrist=1,object=1 (keys left out keep their "
+        "defaults: wrist 1, object 1, joint 0.5 m/rad); a part the recordings lack counts nothing.",
+    ),
+]
+JointTopicOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--joint-topic",
+        help="ROS 2 joint logs: the sensor_msgs/msg/JointState topic to read (default: each log's only one).",
+    ),
+]
 SpaceOpt = Annotated[
     str,
     typer.Option(
@@ -173,20 +188,25 @@ def evaluate(
             callback=_path,
         ),
     ] = None,
+    weights: WeightsOpt = None,
+    joint_topic: JointTopicOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks."""
     from simtune.engines import engine_class
+    from simtune.fitness import FitnessWeights, TaskScore
     from simtune.objective import Objective, load_references
     from simtune.params import read_params_file, validate_params
     from simtune.tasks import parse_tasks
 
+    fitness_weights = FitnessWeights() if weights is None else FitnessWeights.parse(weights)
     tasks = parse_tasks(task)
     cls = engine_class(engine)
     params = {}
     if params_file is not None:
         params = validate_params(read_params_file(params_file, engine), cls.supported(), engine, where=str(params_file))
-    objective = Objective(engine, tasks, load_references(_data_root(data), tasks))
+    references = load_references(_data_root(data), tasks, joint_topic)
+    objective = Objective(engine, tasks, references, weights=fitness_weights)
     t0 = time.perf_counter()
     score = objective.score(params)
     wall = time.perf_counter() - t0
@@ -198,6 +218,7 @@ def evaluate(
         "fitness": score.fitness,
         "wrist_error": score.wrist_error,
         "object_error": score.object_error,
+        "joint_error": score.joint_error,
         "generic_fitness": generic.fitness,
         "stable": score.stable,
         "wall_s": wall,
@@ -206,14 +227,24 @@ def evaluate(
     if as_json:
         print(json.dumps(result))
         return
+    # the joint column only where joint logs were scored: motion-capture tables stay as they were
+    joint_col = score.joint_error is not None
     table = text_table(
         f"{engine} on {task}" + (f" with {params_file}" if params_file else " (generic parameters)"),
-        ("task", "fitness", "wrist error [m]", "object error [m]", "note"),
+        (
+            "task",
+            "fitness",
+            "wrist error [m]",
+            "object error [m]",
+            *(["joint error [rad]"] if joint_col else []),
+            "note",
+        ),
     )
-    for t in score.tasks:
-        table.add_row(t.task, _fmt(t.fitness), _fmt(t.wrist_error), _fmt(t.object_error), t.message)
-    if len(score.tasks) > 1:
-        table.add_row("all", _fmt(score.fitness), _fmt(score.wrist_error), _fmt(score.object_error), "")
+    rows = [(t.task, t) for t in score.tasks] + ([("all", score)] if len(score.tasks) > 1 else [])
+    for name, part in rows:
+        joint = [_fmt(part.joint_error)] if joint_col else []
+        note = part.message if isinstance(part, TaskScore) else ""
+        table.add_row(name, _fmt(part.fitness), _fmt(part.wrist_error), _fmt(part.object_error), *joint, note)
     out.print(table)
     if params:
         out.print(f"generic fitness: {generic.fitness:.4f}")
@@ -230,6 +261,7 @@ def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bo
         "fitness": result.score.fitness,
         "wrist_error": result.score.wrist_error,
         "object_error": result.score.object_error,
+        "joint_error": result.score.joint_error,
         "generic_fitness": store_generic["fitness"],
         "evaluations": result.evaluations,
         "generations": result.generations,
@@ -245,8 +277,9 @@ def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bo
         f"{config.optimizer}{' + least squares' if config.refine else ''}: "
         f"fitness {store_generic['fitness']:.4f} (generic) -> [bold green]{result.score.fitness:.4f}[/] (tuned)"
     )
+    joint = "" if result.score.joint_error is None else f", joint error {_fmt(result.score.joint_error)} rad"
     out.print(
-        f"  wrist error {_fmt(result.score.wrist_error)} m, object error {_fmt(result.score.object_error)} m; "
+        f"  wrist error {_fmt(result.score.wrist_error)} m, object error {_fmt(result.score.object_error)} m{joint}; "
         f"{result.evaluations} evaluations, {result.generations} generations, {result.wall_s:.0f} s "
         f"({result.message})"
     )
@@ -310,6 +343,8 @@ def tune(
             callback=_path,
         ),
     ] = Path("runs/latest"),
+    weights: WeightsOpt = None,
+    joint_topic: JointTopicOpt = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
 ) -> None:
@@ -321,6 +356,7 @@ def tune(
 
     Example: simtune tune --engine mujoco --task cube --data DATA --optimizer cmaes --refine --max-evaluations 2000
     """
+    from simtune.fitness import FitnessWeights
     from simtune.runs import RunConfig, start_run
     from simtune.store import RunStore
 
@@ -341,6 +377,8 @@ def tune(
         refine=refine,
         max_evaluations=max_evaluations,
         paper_exact=paper_exact,
+        weights=None if weights is None else FitnessWeights.parse(weights).as_dict(),
+        joint_topic=joint_topic,
     )
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
     _report_tune(result, out_dir, config, RunStore(out_dir).get("generic"), as_json)

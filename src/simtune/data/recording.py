@@ -1,7 +1,8 @@
-"""The in-memory form of one motion-capture recording, and the checks every loader shares."""
+"""The in-memory form of one recording (marker poses, joint angles or both), and the checks every loader shares."""
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +21,11 @@ MAX_ABS_COORD_M = 10.0
 # Largest tolerated |R R^T - I| entry; Qualisys rounds Rot[] to 5 decimals.
 _ORTHO_TOL = 1e-2
 
+#: A joint angle beyond two turns [rad] is not one an arm reaches in a take: such values are
+#: degrees in a file (or a column) that promises radians.  Degrees of a motion that stays
+#: within +-12.6 deg pass unnoticed; the check catches the common case of any real motion.
+MAX_ABS_JOINT_RAD = 4 * math.pi
+
 
 @dataclass
 class Recording:
@@ -27,9 +33,11 @@ class Recording:
 
     ``positions[name]`` is (n, 3) in metres and ``rotations[name]`` is (n, 3, 3)
     body-to-world rotation matrices (column j = body axis j in world frame);
-    both are NaN at frames where the body's markers were lost.  ``lines`` is
-    each frame's line number in its file (for messages); None when the
-    recording was made in memory.
+    both are NaN at frames where the body's markers were lost.  ``joints[name]``
+    is (n,) joint angles in radians, never NaN (an encoder is read every frame;
+    readers refuse a missing value).  A recording may hold marker bodies, joints
+    or both.  ``lines`` is each frame's line number in its file (for messages);
+    None when the recording was made in memory or read from a binary log.
     """
 
     source: Path
@@ -37,6 +45,7 @@ class Recording:
     positions: dict[str, np.ndarray] = field(default_factory=dict)
     rotations: dict[str, np.ndarray] = field(default_factory=dict)
     lines: np.ndarray | None = None
+    joints: dict[str, np.ndarray] = field(default_factory=dict)
 
     def where(self, frame: int) -> str:
         """``line N`` (or ``frame N`` without line numbers) of a 0-based frame index, for messages."""
@@ -116,8 +125,10 @@ def finish_recording(
     linenos: np.ndarray,
     positions: dict[str, np.ndarray],
     rotations: dict[str, np.ndarray],
+    joints: dict[str, np.ndarray] | None = None,
 ) -> Recording:
     """Check the time column, drop duplicate frames and build the Recording."""
+    joints = {} if joints is None else joints
     bad = np.flatnonzero(~np.isfinite(time))
     if bad.size:
         i = int(bad[0])
@@ -145,9 +156,12 @@ def finish_recording(
         linenos = linenos[keep]
         positions = {k: v[keep] for k, v in positions.items()}
         rotations = {k: v[keep] for k, v in rotations.items()}
+        joints = {k: v[keep] for k, v in joints.items()}
     if time.shape[0] < 2:
         raise RecordingError(f"{display} line {int(linenos[0])}: only {time.shape[0]} valid frame; need at least 2")
-    return Recording(source=Path(source), time=time, positions=positions, rotations=rotations, lines=linenos)
+    return Recording(
+        source=Path(source), time=time, positions=positions, rotations=rotations, lines=linenos, joints=joints
+    )
 
 
 def check_for_writing(rec: Recording, display: str, forbidden: str) -> int:
@@ -170,5 +184,12 @@ def check_for_writing(rec: Recording, display: str, forbidden: str) -> int:
             raise RecordingError(
                 f"{display}: cannot write: rotations[{name!r}] has shape "
                 f"{np.shape(rec.rotations[name])}, expected ({n}, 3, 3)"
+            )
+    for name, angles in rec.joints.items():
+        if not name or name in rec.positions or any(ch in name for ch in forbidden):
+            raise RecordingError(f"{display}: cannot write: joint name {name!r} is not allowed")
+        if np.shape(angles) != (n,):
+            raise RecordingError(
+                f"{display}: cannot write: joints[{name!r}] has shape {np.shape(angles)}, expected ({n},)"
             )
     return n
