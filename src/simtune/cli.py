@@ -762,12 +762,30 @@ def synth(
     ] = 0.05,
     repeats: Annotated[int, typer.Option(min=1, help="Recordings per task.")] = 10,
     seed: Annotated[int, typer.Option(min=0, max=MAX_SEED, help="Seed of the noise (same seed, same files).")] = 0,
+    fmt: Annotated[
+        str,
+        typer.Option(
+            "--format",
+            help="What each recording holds: tsv (markers, Qualisys TSV), csv (markers and joint angles, simtune "
+            "CSV), joints-csv (joint angles alone), mcap or rosbag2 (joint angles alone as ROS 2 JointState "
+            "messages: an MCAP file, a rosbag2 folder).",
+        ),
+    ] = "tsv",
+    joint_noise_deg: Annotated[
+        float | None,
+        typer.Option(
+            help="Encoder noise of the joint logs: Gaussian, on every 100 Hz sample of each joint angle [deg] "
+            "(default 0.05).",
+            callback=_not_negative,
+            show_default=False,
+        ),
+    ] = None,
     out_dir: Annotated[
         Path,
         typer.Option(
             "--out",
             "-o",
-            help="Data root to write: `OUT/<task>/*.tsv` and OUT/truth.json.",
+            help="Data root to write: `OUT/<task>/<task>NNNN.tsv` (or --format's kind) and OUT/truth.json.",
             show_default=False,
             callback=_path,
         ),
@@ -775,17 +793,27 @@ def synth(
 ) -> None:
     """Make recordings with a known ground truth: simulate with chosen parameters, add mocap-like noise.
 
-    Writes Qualisys 6D TSV files (with header) to `OUT/<task>/`, read by every
-    command's --data OUT like real recordings, and OUT/truth.json (also a
-    --params-file). Tune on them to check that tuning recovers the truth.
+    Writes Qualisys 6D TSV files (with header) to `OUT/<task>/` (or joint logs:
+    --format), read by every command's --data OUT like real recordings, and
+    OUT/truth.json (also a --params-file). Tune on them to check that tuning
+    recovers the truth.
 
     Example: simtune synth --engine mujoco --task single,cube,double --delay-s 1.5 --out data/synthetic
     """
-    from simtune.synth import load_truth, make_synthetic
+    from simtune.synth import DEFAULT_JOINT_NOISE_DEG, load_truth, make_synthetic
 
     values = load_truth(truth, engine, delay_s)
     result = make_synthetic(
-        engine, task, out_dir, truth=values, noise_m=noise_mm / 1000.0, repeats=repeats, seed=seed, jitter_s=jitter_s
+        engine,
+        task,
+        out_dir,
+        truth=values,
+        noise_m=noise_mm / 1000.0,
+        repeats=repeats,
+        seed=seed,
+        jitter_s=jitter_s,
+        fmt=fmt,
+        joint_noise_rad=math.radians(DEFAULT_JOINT_NOISE_DEG if joint_noise_deg is None else joint_noise_deg),
     )
     for name, files in result.files.items():
         out.print(f"{name}: {len(files)} recordings in {out_dir / name}")
