@@ -818,7 +818,12 @@ def synth(
     for name, files in result.files.items():
         out.print(f"{name}: {len(files)} recordings in {out_dir / name}")
     shown = ", ".join(f"{k}={v:g}" for k, v in values.items())
-    out.print(f"truth ({engine}): {shown}; noise {noise_mm:g} mm, jitter +-{jitter_s:g} s -> {out_dir / 'truth.json'}")
+    noises = {
+        "tsv": f"{noise_mm:g} mm",
+        "csv": f"{noise_mm:g} mm and {math.degrees(result.joint_noise_rad):g} deg",
+    }
+    noise = noises.get(fmt, f"{math.degrees(result.joint_noise_rad):g} deg")
+    out.print(f"truth ({engine}): {shown}; noise {noise}, jitter +-{jitter_s:g} s -> {out_dir / 'truth.json'}")
 
 
 @app.command()

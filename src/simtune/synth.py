@@ -50,6 +50,7 @@ class SynthResult:
     out: Path
     truth: dict[str, float]
     files: dict[str, list[Path]]  # task -> written recordings
+    joint_noise_rad: float = 0.0  # of the joint logs written
 
 
 def load_truth(path: Path | None, engine: str, delay_s: float | None) -> dict[str, float]:
@@ -140,7 +141,7 @@ def make_synthetic(
         "params": truth,
     }
     (out / TRUTH_FILE).write_text(json.dumps(meta, indent=2) + "\n")
-    return SynthResult(out, truth, files)
+    return SynthResult(out, truth, files, joint_noise_rad)
 
 
 def write_recording(path: Path, rec: Recording, fmt: str) -> Path:

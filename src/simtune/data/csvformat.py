@@ -139,13 +139,14 @@ def _joint_angles(
         beyond = np.flatnonzero(np.abs(angles) > MAX_ABS_JOINT_RAD)
         if beyond.size:
             i = int(beyond[0])
+            value = f"{raw[i]:.6g} rad" if jc.unit == "rad" else f"{raw[i]:.6g} deg ({angles[i]:.4g} rad)"
             if jc.unit == "rad":
                 hint = f"looks like degrees: declare the unit in the header as '{jc.name} [deg]'"
             else:
                 hint = "more than two turns, not a joint angle"
             raise RecordingError(
                 f"{display} line {int(linenos[i])}, column {jc.column + 1}: units check: joint {jc.name!r} is "
-                f"{raw[i]:.6g} {jc.unit} ({angles[i]:.4g} rad): {hint}"
+                f"{value}: {hint}"
             )
         joints[jc.name] = angles
     return joints
