@@ -4,6 +4,7 @@ import json
 import math
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -381,3 +382,70 @@ def test_tuning_on_a_synthetic_joint_log_beats_generic(tmp_path: Path, fmt: str)
     assert result["fitness"] < 0.25 * result["generic_fitness"]
     best = json.loads((tmp_path / "run" / "best_params.json").read_text())["params"]
     assert best["command_delay"] == pytest.approx(1.2, abs=0.15)
+
+
+# --- C3D marker files ---------------------------------------------------------------------------------------
+
+
+def write_c3d(path: Path, rec: Recording, units: str = "mm", seen=None) -> Path:
+    """The recording's body positions as C3D points (float32, in ``units``); ``seen`` False marks lost frames."""
+    c3d = pytest.importorskip("c3d")
+    scale = {"mm": 1000.0, "m": 1.0}[units]
+    writer = c3d.Writer(point_rate=float(round(1 / (rec.time[1] - rec.time[0]))), point_units=units)
+    writer.set_point_labels(rec.bodies)
+    frames = []
+    for i in range(len(rec)):
+        points = np.zeros((len(rec.bodies), 5), dtype=np.float32)
+        for k, body in enumerate(rec.bodies):
+            points[k, :3] = rec.positions[body][i] * scale
+            if seen is not None and not seen[i]:
+                points[k, 3] = -1.0
+        frames.append((points, np.zeros((0, 1), dtype=np.float32)))
+    writer.add_frames(frames)
+    with open(path, "wb") as handle, warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the library warns that the file has no analog channels
+        writer.write(handle)
+    return path
+
+
+def test_c3d_points_read_as_bodies_in_metres(tmp_path: Path) -> None:
+    from simtune.data import load_recording as load
+    from simtune.reference import REFERENCE_DIR
+
+    rec = load(sorted((REFERENCE_DIR / "cube").glob("*.tsv.gz"))[0])
+    seen = np.ones(len(rec), dtype=bool)
+    seen[5:8] = False
+    back = load(write_c3d(tmp_path / "cube.c3d", rec, seen=seen))
+    assert back.bodies == rec.bodies and back.joints == {}
+    np.testing.assert_allclose(back.time, rec.time - rec.time[0], atol=1e-9)
+    for body in rec.bodies:
+        assert np.isnan(back.positions[body][5:8]).all() and np.isnan(back.rotations[body]).all()
+        np.testing.assert_allclose(back.positions[body][seen], rec.positions[body][seen], atol=1e-6)
+
+
+def test_c3d_task_data_matches_the_tsv_one(tmp_path: Path) -> None:
+    from simtune.data import load_recording as load
+    from simtune.reference import REFERENCE_DIR
+
+    folder = tmp_path / "cube"
+    folder.mkdir()
+    for path in sorted((REFERENCE_DIR / "cube").glob("*.tsv.gz")):
+        write_c3d(folder / path.name.replace(".tsv.gz", ".c3d"), load(path), units="m")
+    kwargs = {"wrist_body": "RB1(Orange)", "object_body": "PCube", "duration_s": 20.0}
+    ours = load_task_data(folder, "cube", **kwargs)
+    tsv = load_task_data(REFERENCE_DIR / "cube", "cube", **kwargs)
+    assert ours.wrist_mean is not None and tsv.wrist_mean is not None and ours.joint_mean is None
+    np.testing.assert_allclose(ours.wrist_mean, tsv.wrist_mean, atol=1e-6)
+    np.testing.assert_allclose(ours.object_final, tsv.object_final, atol=1e-6)
+
+
+def test_bad_c3d_files_are_one_line_errors(tmp_path: Path) -> None:
+    path = tmp_path / "bad.c3d"
+    path.write_bytes(b"\x02P" + b"\x00" * 300)
+    with pytest.raises(RecordingError, match="/bad.c3d: cannot read as a C3D file \\(") as info:
+        load_recording(path)
+    assert "\n" not in str(info.value)
+    t = np.arange(20) / RATE
+    far = Recording(Path("x"), t, {"wrist": np.tile([0.1, 20.0, 0.5], (20, 1))}, {"wrist": np.zeros((20, 3, 3))})
+    with pytest.raises(RecordingError, match="far.c3d frame 1: units check: body 'wrist' is 20 m away"):
+        load_recording(write_c3d(tmp_path / "far.c3d", far, units="m"))

@@ -6,6 +6,7 @@ from collections.abc import Collection
 from pathlib import Path
 
 from simtune.data._table import display_name
+from simtune.data.c3dformat import read_c3d
 from simtune.data.csvformat import read_csv
 from simtune.data.qualisys import read_qualisys_tsv
 from simtune.data.recording import Recording
@@ -13,7 +14,7 @@ from simtune.data.rosbag import is_bag_folder, read_joint_bag
 from simtune.errors import RecordingError
 
 #: File endings load_recording understands (lower case); a rosbag2 folder is a recording too.
-RECORDING_SUFFIXES = (".tsv", ".tsv.gz", ".csv", ".csv.gz", ".mcap")
+RECORDING_SUFFIXES = (".tsv", ".tsv.gz", ".csv", ".csv.gz", ".c3d", ".mcap")
 
 
 def is_recording_file(path: Path) -> bool:
@@ -34,7 +35,8 @@ def load_recording(
     """Load a recording, its format told by its name (see docs/recordings.md).
 
     ``.tsv[.gz]``: Qualisys 6D TSV (mm); ``.csv[.gz]``: simtune CSV (m, and
-    joint angles); ``.mcap`` or a rosbag2 folder: ROS 2 JointState messages
+    joint angles); ``.c3d``: C3D marker points (positions only);
+    ``.mcap`` or a rosbag2 folder: ROS 2 JointState messages
     (of ``joint_topic``, by default the one JointState topic).  For text files
     the name picks the format only: compression and text encoding are read
     from the content (see :func:`simtune.data._table.decode_content`).
@@ -52,6 +54,8 @@ def load_recording(
         return read_qualisys_tsv(path, body_names)
     if name.endswith((".csv", ".csv.gz")):
         return read_csv(path, joint_names)
+    if name.endswith(".c3d"):
+        return read_c3d(path)
     raise RecordingError(
         f"{display_name(path)}: unknown recording format "
         f"(expected {', '.join(RECORDING_SUFFIXES)}, or a rosbag2 folder)"

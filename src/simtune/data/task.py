@@ -119,7 +119,7 @@ def _fill_gaps(time: np.ndarray, xyz: np.ndarray, max_gap_s: float) -> tuple[np.
     return filled, None
 
 
-_KINDS = "*.tsv, *.csv, *.mcap, rosbag2 folders"
+_KINDS = "*.tsv, *.csv, *.c3d, *.mcap, rosbag2 folders"
 
 
 def _check_joints(rec: Recording, joints: list[str], display: str) -> None:
