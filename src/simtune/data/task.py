@@ -204,7 +204,7 @@ def load_task_data(
         if not recordings:
             # the first repeat sets what the task's recordings hold
             joints = list(rec.joints)
-            if rec.positions or not joints:
+            if wrist_body in rec.positions or not joints:
                 bodies = [wrist_body] + ([object_body] if object_body is not None else [])
         for body in bodies:
             _find_body(rec, body, display)
