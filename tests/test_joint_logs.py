@@ -449,3 +449,44 @@ def test_bad_c3d_files_are_one_line_errors(tmp_path: Path) -> None:
     far = Recording(Path("x"), t, {"wrist": np.tile([0.1, 20.0, 0.5], (20, 1))}, {"wrist": np.zeros((20, 3, 3))})
     with pytest.raises(RecordingError, match="far.c3d frame 1: units check: body 'wrist' is 20 m away"):
         load_recording(write_c3d(tmp_path / "far.c3d", far, units="m"))
+
+
+# --- the objective on markers and joints together --------------------------------------------------------------
+
+
+def test_motion_capture_fitness_is_the_plain_sum_to_the_last_digit() -> None:
+    rng = np.random.default_rng(3)
+    wrist, obj = rng.normal(size=(40, 3)), rng.normal(size=(40, 3))
+    from simtune.data import TaskData
+
+    ref = TaskData("t", 20.0, np.arange(40) / 20.0, wrist, wrist[None], obj[-1:] + 0.1, obj[:1], [])
+    rollout = Rollout(np.arange(40) / 20.0, wrist + 0.01, np.tile(np.eye(3), (40, 1, 1)), np.zeros((40, 6)), obj)
+    s = score_rollout(rollout, ref, {})
+    assert s.joint_error is None
+    assert s.fitness == s.wrist_error + s.object_error  # exactly: weights of 1 leave the sum alone
+
+
+def test_residuals_weigh_markers_and_joints_like_the_fitness(tmp_path: Path) -> None:
+    pytest.importorskip("mujoco")
+    from simtune.fitness import marker_positions
+    from simtune.objective import Objective, load_references
+    from simtune.synth import make_synthetic
+    from simtune.tasks import parse_tasks
+
+    make_synthetic("mujoco", "single", tmp_path, truth={"command_delay": 1.3}, repeats=2, fmt="csv")
+    tasks = parse_tasks("single")
+    refs = load_references(tmp_path, tasks)
+    ref = refs["single"]
+    assert ref.wrist_mean is not None and ref.joint_mean is not None and ref.joint_names == list(ARM_JOINTS)
+    weights = FitnessWeights(joint=0.3, wrist=2.0)
+    objective = Objective("mujoco", tasks, refs, weights=weights)
+    residuals, score = objective.residuals_and_score({})
+    n = len(ref.times)
+    assert residuals.shape == (objective.residual_size,) == (3 * n + 6 * n,)
+    rollout = objective.rollouts({})["single"]
+    wrist_sq = np.mean(np.sum((marker_positions(rollout, {}) - ref.wrist_mean) ** 2, axis=1))
+    joint_sq = np.mean((rollout.joint_angles - ref.joint_mean) ** 2)
+    assert np.sum(residuals**2) == pytest.approx(2.0 * wrist_sq + 0.3 * joint_sq, rel=1e-12)
+    assert score.fitness == pytest.approx(2.0 * score.wrist_error + 0.3 * score.joint_error, rel=1e-12)
+    assert objective.score({}).fitness == score.fitness
+    objective.close()
