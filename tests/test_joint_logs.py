@@ -239,6 +239,7 @@ def test_weights_combine_the_parts_that_are_there() -> None:
         ("joint=nan", "weight 'joint' must be a finite number"),
         ("joint", "expected KEY=NUMBER items"),
         ("wrist=1,wrist=2", "weight 'wrist' given twice"),
+        ("joint=0,wrist=0,object=0", "every weight is 0"),
     ],
 )
 def test_bad_weights_are_one_line_errors(text: str, message: str) -> None:

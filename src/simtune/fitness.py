@@ -64,7 +64,10 @@ class FitnessWeights:
             if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) or value < 0:
                 raise ConfigError(f"{where}: weight {key!r} must be a finite number of at least 0, got {value!r}")
             checked[key] = float(value)
-        return cls(**checked)
+        weights = cls(**checked)
+        if not any(asdict(weights).values()):
+            raise ConfigError(f"{where}: every weight is 0: nothing would be fitted")
+        return weights
 
     @classmethod
     def parse(cls, text: str, where: str = "--weights") -> FitnessWeights:
