@@ -96,7 +96,8 @@ DataOpt = Annotated[
     typer.Option(
         "--data",
         "-d",
-        help="Folder with one sub-folder of recordings per task (`ROOT/<task>/*.tsv` or `*.csv`). "
+        help="Folder with one sub-folder of recordings per task (`ROOT/<task>/*.tsv`, `*.csv`, `*.c3d`; joint logs "
+        "also `*.mcap` or rosbag2 folders). "
         "Default: the reference recordings shipped with simtune.",
         callback=_path,
     ),
