@@ -1,0 +1,179 @@
+"""Task files and projects: the schema's one-line errors, TOML = YAML, and the bundled MICO project as files."""
+
+import subprocess
+import sys
+from dataclasses import fields
+from pathlib import Path
+
+import pytest
+import yaml
+
+from simtune.errors import ProjectError
+from simtune.project import bundled_project, load_project
+from simtune.tasks.files import load_task_file
+
+CUBE = """\
+name = "push"
+description = "push a box"
+duration = 10.0
+joints = ["joint_1", "joint_2", "joint_3", "joint_4", "joint_5", "joint_6"]
+start_pose_deg = [0, 0, 0, 0, 0, 0]
+
+[controller]
+law = "clamped-p-velocity"
+gain = 10.0
+max_velocity_deg = 30.0
+
+[mocap]
+link = "link_6"
+body = "wrist"
+
+[object]
+shape = "cube"
+material = "plastic"
+mass = 0.1
+size = [0.075, 0.075, 0.075]
+xy = [0.5, 0.0]
+mocap_body = "box"
+
+[[phases]]
+start = 0.0
+targets_deg = [0, 30, 120, 90, 0, 0]
+
+[[phases]]
+start = 5.0
+targets_deg = [0, -60, 65, 90, 0, 0]
+"""
+
+
+def project(tmp_path: Path, task_text: str = CUBE, name: str = "push.toml", extra: str = "", robot="mico") -> Path:
+    (tmp_path / "tasks").mkdir(exist_ok=True)
+    (tmp_path / "tasks" / name).write_text(task_text)
+    robot_line = f'robot = "{robot}"\n' if robot else ""
+    (tmp_path / "simtune.toml").write_text(f'{robot_line}tasks = ["tasks/{name}"]\n{extra}')
+    return tmp_path
+
+
+def test_a_task_file_reads_into_a_task(tmp_path):
+    task = load_project(project(tmp_path)).task("push")
+    assert task.duration == 10.0 and task.kp == 10.0 and task.wrist_body == "wrist"
+    assert [p.start for p in task.phases] == [0.0, 5.0]
+    assert task.phases[1].targets_deg == (0.0, -60.0, 65.0, 90.0, 0.0, 0.0)
+    assert task.object is not None and task.object.mocap_body == "box" and task.object.mass == 0.1
+    assert task.base_body is None and task.recordings is None
+
+
+def test_yaml_and_toml_give_the_same_task(tmp_path):
+    import tomllib
+
+    doc = tomllib.loads(CUBE)
+    (tmp_path / "push.yaml").write_text(yaml.safe_dump(doc))
+    (tmp_path / "push.toml").write_text(CUBE)
+    robot = bundled_project().robot
+    assert load_task_file(tmp_path / "push.yaml", robot) == load_task_file(tmp_path / "push.toml", robot)
+
+
+def test_a_csv_schedule_is_the_same_as_its_phases(tmp_path):
+    rows = "time,joint_1,joint_2,joint_3,joint_4,joint_5,joint_6\n0,0,30,120,90,0,0\n5,0,-60,65,90,0,0\n"
+    (tmp_path / "targets.csv").write_text(rows)
+    head, _, _ = CUBE.partition("[[phases]]")
+    (tmp_path / "csv.toml").write_text(
+        head.replace("duration = 10.0\n", 'duration = 10.0\nschedule_csv = "targets.csv"\n')
+    )
+    (tmp_path / "phases.toml").write_text(CUBE)
+    robot = bundled_project().robot
+    assert load_task_file(tmp_path / "csv.toml", robot).phases == load_task_file(tmp_path / "phases.toml", robot).phases
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (("gain = 10.0", "gain = 10.0\nkd = 1.0"), "push.toml: controller.kd: unknown key"),
+        (("duration = 10.0", 'duration = "ten"'), "push.toml: duration: expected a number, got a string"),
+        (("duration = 10.0", "duration = -1.0"), "push.toml: duration: must be above 0 seconds, got -1"),
+        (
+            ("targets_deg = [0, 30, 120, 90, 0, 0]", "targets_deg = [0, 30, 120]"),
+            "push.toml: phases[0].targets_deg: expected 6 numbers (one per driven joint: joint_1",
+        ),
+        (("start = 5.0", "start = 0.0"), "push.toml: phases[1].start: 0 s is not after the previous phase's start"),
+        (('shape = "cube"', 'shape = "sphere"'), "push.toml: object.shape: unknown shape 'sphere'"),
+        (('material = "plastic"', 'material = "rubber"'), "push.toml: object.material: unknown material group"),
+        (('link = "link_6"', 'link = "link_9"'), "push.toml: mocap.link: robot mico has no link 'link_9'"),
+        (('"joint_6"]\nstart', '"joint_7"]\nstart'), "push.toml: joints[5]: robot mico has no movable joint 'joint_7'"),
+        (
+            ("size = [0.075, 0.075, 0.075]", "size = [0.075, 0.075]"),
+            "push.toml: object.size: expected 3 numbers for a cube",
+        ),
+        (('law = "clamped-p-velocity"', 'law = "torque"'), "push.toml: controller.law: unknown control law 'torque'"),
+        (("mass = 0.1", "mass = 0.0"), "push.toml: object.mass: must be above 0, got 0"),
+        (('body = "wrist"', ""), "push.toml: mocap.body: missing (required)"),
+        (("duration = 10.0", "duration = 4.0"), "push.toml: phases[1].start: starts at 5 s, not before the task's end"),
+        (("[[phases]]\nstart = 0.0", "[[phase]]\nstart = 0.0"), "push.toml: phase: unknown key"),
+    ],
+)
+def test_bad_task_files_are_one_line_naming_file_and_key(tmp_path, edit, message):
+    old, new = edit
+    assert old in CUBE
+    root = project(tmp_path, CUBE.replace(old, new, 1))
+    with pytest.raises(ProjectError) as info:
+        load_project(root)
+    text = str(info.value)
+    assert message in text and "\n" not in text
+    assert str(root / "tasks" / "push.toml") in text
+
+
+def test_bad_yaml_is_one_line(tmp_path):
+    root = project(tmp_path, "name: push\nduration: [1,\n", name="push.yaml")
+    with pytest.raises(ProjectError, match=r"push.yaml: not valid YAML: .*line \d+") as info:
+        load_project(root)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        ('urdf = "arm.urdf"\n', "urdf: robots from URDF files are not supported yet"),
+        ("colour = 1\n", "simtune.toml: colour: unknown key"),
+        ('[groups]\nboth = ["push", "pull"]\n', "simtune.toml: groups.both: unknown task 'pull'"),
+        ('[groups]\npush = ["push"]\n', "simtune.toml: groups.push: 'push' already names a task"),
+    ],
+)
+def test_bad_project_files(tmp_path, extra, message):
+    with pytest.raises(ProjectError, match=message):
+        load_project(project(tmp_path, extra=extra, robot=None if extra.startswith("urdf") else "mico"))
+
+
+def test_a_project_folder_without_a_project_file(tmp_path):
+    with pytest.raises(ProjectError, match=r"no project file \(simtune.toml or simtune.yaml"):
+        load_project(tmp_path)
+
+
+def test_recordings_are_relative_to_the_project(tmp_path):
+    text = CUBE.replace("duration = 10.0\n", 'duration = 10.0\nrecordings = "data/push"\n')
+    proj = load_project(project(tmp_path, text, extra='data = "elsewhere"\n'))
+    assert proj.task("push").recordings == str((tmp_path / "data" / "push").resolve())
+    assert proj.data_root() is None  # the task's own folder, not elsewhere/push
+    assert any("recordings folder" in p and "does not exist" in p for p in proj.validate())
+
+
+def test_the_cli_reports_a_bad_project_in_one_line(tmp_path):
+    root = project(tmp_path, CUBE.replace("duration = 10.0", "duration = -1.0"))
+    run = subprocess.run(
+        [sys.executable, "-m", "simtune.cli", "tasks", "--project", str(root)], capture_output=True, text=True
+    )
+    assert run.returncode == 2, run.stderr
+    assert run.stderr.startswith("error: ") and run.stderr.count("\n") == 1 and "duration" in run.stderr
+
+
+def test_bundled_tasks_equal_the_python_definitions():
+    from simtune.tasks import qrg2019, seed
+
+    python = {t.name: t for t in (*qrg2019.TASKS, *seed.TASKS)}
+    files = bundled_project().tasks
+    assert list(files) == list(python)
+    for name, task in python.items():
+        for f in fields(task):
+            if f.name == "recordings":  # the bundled project's data root: the shipped reference recording
+                continue
+            assert getattr(files[name], f.name) == getattr(task, f.name), (name, f.name)
+    assert bundled_project().groups == {"seed-11": tuple(f"seed-{n}" for n in range(1, 11))}
