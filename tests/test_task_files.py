@@ -2,7 +2,6 @@
 
 import subprocess
 import sys
-from dataclasses import fields
 from pathlib import Path
 
 import pytest
@@ -165,15 +164,56 @@ def test_the_cli_reports_a_bad_project_in_one_line(tmp_path):
     assert run.stderr.startswith("error: ") and run.stderr.count("\n") == 1 and "duration" in run.stderr
 
 
-def test_bundled_tasks_equal_the_python_definitions():
-    from simtune.tasks import qrg2019, seed
+#: task_fingerprint of every task as Python defined it before tasks were files (the fingerprints that run
+#: stores hold): the files must define the very same tasks, field for field (a test comparing the two
+#: passed before the Python definitions were deleted)
+PYTHON_FINGERPRINTS = {
+    "single": "c1f7ab884c68a1bdbe2ed2db3d95f37e374293cfdb90ce869c160519038c0482",
+    "double": "5d5bf0964f0279e146e088df7e3b4d9241d8cc4959c4cf438d69ac230925d047",
+    "cube": "3692f3b6c26dd9ee6186571b8617bc8980d98f05918f2fac987ba7abedb1094d",
+    "seed-1": "045dccf5799f153c1466b9eccb2e1d3d771c2bcd5d78f59bc4200b8b05f21640",
+    "seed-2": "6d932e3ffab8bf7b5b14cc428b144bf5dbfa67e341d12bb93b5459dbae2e3f93",
+    "seed-3": "55d2e137a126f1747b718cbe0c3e9b5d56e18e0726bcbb7a0bba13a99e32e394",
+    "seed-4": "5605e256c2a8c366c5bc759d50d40c1efa69df92fea89306f54b2e3716f5c133",
+    "seed-5": "fccf971829ba49005c7c1bdcf5e3a031363e7d57e240f692c38968648584d1d8",
+    "seed-6": "9ae7835e5f8a17b8294949e71d6bb08a69117ffdc21fb593f48ea4057d96bc40",
+    "seed-7": "d4bbb6b32010a260425420e49f3a57f66b745e53831ca5ad7e6a09607a25c615",
+    "seed-8": "61cecfd423959aa8ae2f6ee8af87d63324e722fa6a407b46dd27d29a4af981b9",
+    "seed-9": "fdfdd46354a45ac56a8703af70cc0b1f6be45e383a9ad7145dde8654663048ed",
+    "seed-10": "63246ee990f9e889553c83f73f66a2140a8048d943793725416cb48d9d490b85",
+}
 
-    python = {t.name: t for t in (*qrg2019.TASKS, *seed.TASKS)}
-    files = bundled_project().tasks
-    assert list(files) == list(python)
-    for name, task in python.items():
-        for f in fields(task):
-            if f.name == "recordings":  # the bundled project's data root: the shipped reference recording
-                continue
-            assert getattr(files[name], f.name) == getattr(task, f.name), (name, f.name)
-    assert bundled_project().groups == {"seed-11": tuple(f"seed-{n}" for n in range(1, 11))}
+
+def test_bundled_tasks_are_the_former_python_tasks():
+    from simtune.runs import FORMER_TASK_FINGERPRINTS, task_fingerprint
+
+    project = bundled_project()
+    assert list(project.tasks) == list(PYTHON_FINGERPRINTS)
+    for name, task in project.tasks.items():
+        now = task_fingerprint(task)
+        assert PYTHON_FINGERPRINTS[name] in (now, FORMER_TASK_FINGERPRINTS.get(now)), name
+    assert [n for n, t in project.tasks.items() if t.has_public_recordings] == ["single", "cube"]
+    assert project.task("seed-3").description.endswith("(schedule re-aimed: docs/seed-tasks.md)")
+    assert project.groups == {"seed-11": tuple(f"seed-{n}" for n in range(1, 11))}
+
+
+def test_a_run_stored_before_task_files_resumes_without_changes():
+    """A fingerprint as runs stored it: no task definition changed."""
+    from simtune.runs import fingerprint_differences, task_fingerprint
+
+    tasks = {n: PYTHON_FINGERPRINTS[n] for n in ("single", "cube", "seed-3")}
+    now = {n: task_fingerprint(bundled_project().task(n)) for n in tasks}
+    assert fingerprint_differences({"data": {}, "tasks": tasks}, {"data": {}, "tasks": now, "engine": "x"}) == []
+    changed = dict(now, cube=PYTHON_FINGERPRINTS["double"])
+    assert fingerprint_differences({"data": {}, "tasks": tasks}, {"data": {}, "tasks": changed, "engine": "x"}) == [
+        "the definition of task 'cube' changed"
+    ]
+
+
+def test_published_seed_tasks_drop_the_offset():
+    from simtune.tasks.seed import published_task
+
+    fixed, published = bundled_project().task("seed-5"), published_task(5)
+    assert published.phases[0].targets_deg == (0.0, -11.0, 105.0, 87.0, -4.0, 1.0)
+    assert fixed.phases[0].targets_deg == (0.0, -29.0, 85.0, 87.0, -4.0, 1.0)
+    assert published.description == "seed paper task 5: push the plastic cylinder"
