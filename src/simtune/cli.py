@@ -692,7 +692,7 @@ def _tasks_contact(engine: str | None, task: str | None, figure: Path | None, as
             from simtune.report.figures import save
 
             figure.mkdir(parents=True, exist_ok=True)
-            save(contact_figure(probes), figure, f"contact-{name}")
+            save(contact_figure(probes, {t.name: t for t in chosen}), figure, f"contact-{name}")
             if not as_json:
                 out.print(f"figure: {figure / f'contact-{name}.png'}")
 
