@@ -1,5 +1,6 @@
 """Task files and projects: the schema's one-line errors, TOML = YAML, and the bundled MICO project as files."""
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -46,7 +47,7 @@ targets_deg = [0, -60, 65, 90, 0, 0]
 
 
 def project(tmp_path: Path, task_text: str = CUBE, name: str = "push.toml", extra: str = "", robot="mico") -> Path:
-    (tmp_path / "tasks").mkdir(exist_ok=True)
+    (tmp_path / "tasks").mkdir(parents=True, exist_ok=True)
     (tmp_path / "tasks" / name).write_text(task_text)
     robot_line = f'robot = "{robot}"\n' if robot else ""
     (tmp_path / "simtune.toml").write_text(f'{robot_line}tasks = ["tasks/{name}"]\n{extra}')
@@ -217,3 +218,55 @@ def test_published_seed_tasks_drop_the_offset():
     assert published.phases[0].targets_deg == (0.0, -11.0, 105.0, 87.0, -4.0, 1.0)
     assert fixed.phases[0].targets_deg == (0.0, -29.0, 85.0, 87.0, -4.0, 1.0)
     assert published.description == "seed paper task 5: push the plastic cylinder"
+
+
+REACH = """\
+name = "reach"
+description = "bend joints 2 and 3"
+duration = 3.0
+recordings = "recordings/reach"
+
+[controller]
+gain = 10.0
+
+[mocap]
+body = "RB1(Orange)"
+
+[[phases]]
+start = 0.0
+targets_deg = [0, -30, 30, 0, 0, 0]
+"""
+
+
+def cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "simtune.cli", *args], capture_output=True, text=True, timeout=600)
+
+
+def test_a_project_from_synth_to_tune_and_report(tmp_path):
+    """A project of its own: listed, recorded by synth (generic truth), evaluated, tuned and reported."""
+    root = project(tmp_path / "arm", REACH, name="reach.toml")
+    listed = cli("tasks", "--project", str(root))
+    assert listed.returncode == 0 and "reach" in listed.stdout and "seed-3" not in listed.stdout
+    made = cli("synth", "--project", str(root), "--engine", "mujoco", "--task", "reach", "--repeats", "2",
+               "--out", str(root / "recordings"))  # fmt: skip
+    assert made.returncode == 0, made.stderr
+    truth = json.loads((root / "recordings" / "truth.json").read_text())
+    assert truth["params"] == {"command_delay": 1.5}  # the engine's generic values (and the default delay)
+    # no --data: the task file's recordings folder
+    scored = cli("evaluate", "--project", str(root), "--engine", "mujoco", "--task", "reach", "--json",
+                 "--params-file", str(root / "recordings" / "truth.json"))  # fmt: skip
+    assert scored.returncode == 0, scored.stderr
+    result = json.loads(scored.stdout)
+    assert result["fitness"] < 0.005 < result["generic_fitness"]  # the truth fits within the noise; no delay does not
+    run = tmp_path / "run"
+    tuned = cli("tune", "--project", str(root), "--engine", "mujoco", "--task", "reach", "--space", "extended",
+                "--only", "command_delay", "--max-evaluations", "8", "--out", str(run), "--json", "-q")  # fmt: skip
+    assert tuned.returncode == 0, tuned.stderr
+    assert json.loads(tuned.stdout)["fitness"] < result["generic_fitness"]
+    resumed = cli("resume", str(run), "--json", "-q")  # the run names its project: found from anywhere
+    assert resumed.returncode == 0, resumed.stderr
+    # the bundled project has no task "reach": the run's own project is read
+    assert cli("tasks").stdout.count("reach") == 0
+    report = cli("report", str(run), "--out", str(tmp_path / "report"), "-q")
+    assert report.returncode == 0, report.stderr
+    assert (tmp_path / "report" / "index.html").is_file()
