@@ -207,21 +207,9 @@ def evaluate(
     as_json: JsonOpt = False,
 ) -> None:
     """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks."""
-    from simtune.engines import engine_class
-    from simtune.objective import Objective, load_references
-    from simtune.params import read_params_file, validate_params
-    from simtune.tasks import parse_tasks
+    from simtune import api
 
-    tasks = parse_tasks(task, project)
-    cls = engine_class(engine)
-    params = {}
-    if params_file is not None:
-        params = validate_params(read_params_file(params_file, engine), cls.supported(), engine, where=str(params_file))
-    objective = Objective(engine, tasks, load_references(_project_data(data, project), tasks))
-    t0 = time.perf_counter()
-    score = objective.score(params)
-    wall = time.perf_counter() - t0
-    generic = score if not params else objective.score({})
+    score = api.evaluate(engine, task, project=project, data=_project_data(data, project), params=params_file)
     result = {
         "engine": engine,
         "task": task,
@@ -229,10 +217,10 @@ def evaluate(
         "fitness": score.fitness,
         "wrist_error": score.wrist_error,
         "object_error": score.object_error,
-        "generic_fitness": generic.fitness,
+        "generic_fitness": score.generic_fitness,
         "stable": score.stable,
-        "wall_s": wall,
-        "tasks": [t.__dict__ for t in score.tasks],
+        "wall_s": score.wall_s,
+        "tasks": [t.__dict__ for t in score.parts.values()],
     }
     if as_json:
         print(json.dumps(result))
@@ -241,13 +229,13 @@ def evaluate(
         f"{engine} on {task}" + (f" with {params_file}" if params_file else " (generic parameters)"),
         ("task", "fitness", "wrist error [m]", "object error [m]", "note"),
     )
-    for t in score.tasks:
+    for t in score.parts.values():
         table.add_row(t.task, _fmt(t.fitness), _fmt(t.wrist_error), _fmt(t.object_error), t.message)
-    if len(score.tasks) > 1:
+    if len(score.parts) > 1:
         table.add_row("all", _fmt(score.fitness), _fmt(score.wrist_error), _fmt(score.object_error), "")
     out.print(table)
-    if params:
-        out.print(f"generic fitness: {generic.fitness:.4f}")
+    if score.x:
+        out.print(f"generic fitness: {score.generic_fitness:.4f}")
 
 
 def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bool) -> None:
