@@ -270,3 +270,20 @@ def test_a_project_from_synth_to_tune_and_report(tmp_path):
     report = cli("report", str(run), "--out", str(tmp_path / "report"), "-q")
     assert report.returncode == 0, report.stderr
     assert (tmp_path / "report" / "index.html").is_file()
+
+
+def test_the_documented_examples_load(tmp_path):
+    """docs/task-files.md: its task file in TOML and in YAML define the same motion and object."""
+    import re
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "task-files.md").read_text()
+    toml_blocks = re.findall(r"```toml\n(.*?)```", text, re.S)
+    yaml_block = re.search(r"```yaml\n(.*?)```", text, re.S)
+    assert yaml_block is not None
+    task_toml = next(b for b in toml_blocks if b.startswith("# myproject/tasks/push.toml"))
+    (tmp_path / "push.toml").write_text(task_toml)
+    (tmp_path / "push.yaml").write_text(yaml_block.group(1))
+    robot = bundled_project().robot
+    a, b = load_task_file(tmp_path / "push.toml", robot), load_task_file(tmp_path / "push.yaml", robot)
+    assert (a.phases, a.object, a.kp, a.duration, a.joints) == (b.phases, b.object, b.kp, b.duration, b.joints)
+    assert a.base_body == "RB2(Black)" and b.base_body is None
