@@ -140,7 +140,7 @@ def tune(
     """Tune ``engine`` on ``tasks`` of ``project`` into the new run folder ``out`` (``simtune tune``).
 
     The run is an ordinary one: ``simtune resume OUT`` continues it, ``read_run(OUT)`` reads it.
-    A project given as a folder is stored with the run; a :class:`Project` object by its folder.
+    The run stores the project by its project file (the bundled MICO project: not at all).
     """
     proj = get_project(project)
     config = RunConfig(
@@ -158,7 +158,7 @@ def tune(
         optimizer=optimizer,
         refine=refine,
         max_evaluations=max_evaluations,
-        project=None if proj is get_project(None) else str(proj.root.resolve()),
+        project=None if proj is get_project(None) else str(proj.file.resolve()),
     )
     start_run(config, Path(out), show_progress=show_progress)
     return read_run(out)

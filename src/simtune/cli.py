@@ -175,10 +175,10 @@ def _run_data(data: Path | None, project: Path | None) -> str | None:
 
 
 def _run_project(project: Path | None) -> str | None:
-    """The project as a run stores it: its folder, absolute (resume and report work from any folder)."""
+    """The project as a run stores it: its project file, absolute (resume and report work from any folder)."""
     from simtune.project import find_project_file
 
-    return None if project is None else str(find_project_file(project).parent.resolve())
+    return None if project is None else str(find_project_file(project).resolve())
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:

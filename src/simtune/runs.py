@@ -95,7 +95,7 @@ class RunConfig:
     #: the seed paper's exact search: SciPy's DE with immediate updating and polish, one worker, no
     #: pruning, and the paper's whole parameter list (parameters the engine lacks kept, without effect)
     paper_exact: bool = False
-    #: the project folder the tasks are read from (absolute); None: the bundled MICO project
+    #: the project file the tasks are read from (absolute); None: the bundled MICO project
     project: str | None = None
 
     def record(self) -> dict:

@@ -49,7 +49,7 @@ class RunRecord:
     initial_population: list[list[float]] = field(default_factory=list)  # generation 0's parameter vectors
     de_settings: dict | None = None  # SciPy's settings of a differential-evolution run (None: other optimiser)
     converged: bool = False  # the search met its convergence criterion (store meta search_converged)
-    project: str | None = None  # the project folder of its tasks; None: the bundled MICO project
+    project: str | None = None  # the project (file or folder) of its tasks; None: the bundled MICO project
 
     def task(self, name: str) -> TaskSpec:
         """The definition of the run's task ``name``, from the run's project."""
