@@ -287,3 +287,26 @@ def test_the_documented_examples_load(tmp_path):
     a, b = load_task_file(tmp_path / "push.toml", robot), load_task_file(tmp_path / "push.yaml", robot)
     assert (a.phases, a.object, a.kp, a.duration, a.joints) == (b.phases, b.object, b.kp, b.duration, b.joints)
     assert a.base_body == "RB2(Black)" and b.base_body is None
+
+
+@pytest.mark.parametrize(
+    ("rows", "message"),
+    [
+        ("time,joint_1,joint_2\n0,1,2\n", "targets.csv: line 1: expected the header time,joint_1,"),
+        ("time,joint_1,joint_2,joint_3,joint_4,joint_5,joint_6\n0,1,2,3,4,5\n", "line 2: expected 7 values, got 6"),
+        ("time,joint_1,joint_2,joint_3,joint_4,joint_5,joint_6\n0,1,2,3,4,5,x\n", "line 2: a value is not a number"),
+        (
+            "time,joint_1,joint_2,joint_3,joint_4,joint_5,joint_6\n1,0,0,0,0,0,0\n1,0,0,0,0,0,0\n",
+            "line 3: time 1 s is not after the previous row's",
+        ),
+    ],
+)
+def test_bad_schedule_csv_names_file_and_line(tmp_path, rows, message):
+    (tmp_path / "tasks").mkdir()
+    (tmp_path / "tasks" / "targets.csv").write_text(rows)
+    head = CUBE.partition("[[phases]]")[0].replace(
+        "duration = 10.0\n", 'duration = 10.0\nschedule_csv = "targets.csv"\n'
+    )
+    with pytest.raises(ProjectError, match="push.toml: schedule_csv: ") as info:
+        load_project(project(tmp_path, head))
+    assert message in str(info.value)
