@@ -310,3 +310,14 @@ def test_bad_schedule_csv_names_file_and_line(tmp_path, rows, message):
     with pytest.raises(ProjectError, match="push.toml: schedule_csv: ") as info:
         load_project(project(tmp_path, head))
     assert message in str(info.value)
+
+
+def test_a_yaml_project_file(tmp_path):
+    project(tmp_path)
+    (tmp_path / "simtune.toml").unlink()
+    (tmp_path / "simtune.yaml").write_text("robot: mico\ntasks: [tasks/push.toml]\ngroups: {all: [push]}\n")
+    proj = load_project(tmp_path)
+    assert proj.name == tmp_path.name and proj.parse_tasks("all") == [proj.task("push")]
+    (tmp_path / "simtune.toml").write_text('robot = "mico"\ntasks = ["tasks/push.toml"]\n')
+    with pytest.raises(ProjectError, match=r"two project files \(simtune.toml, simtune.yaml\): keep one"):
+        load_project(tmp_path)
