@@ -491,3 +491,16 @@ def test_residuals_weigh_markers_and_joints_like_the_fitness(tmp_path: Path) -> 
     assert score.fitness == pytest.approx(2.0 * score.wrist_error + 0.3 * score.joint_error, rel=1e-12)
     assert objective.score({}).fitness == score.fitness
     objective.close()
+
+
+def test_the_python_api_takes_weights(tmp_path: Path) -> None:
+    pytest.importorskip("mujoco")
+    from simtune import api
+    from simtune.synth import make_synthetic
+
+    make_synthetic("mujoco", "single", tmp_path, truth={"command_delay": 1.3}, repeats=2, fmt="joints-csv")
+    one = api.evaluate("mujoco", "single", data=tmp_path, weights={"joint": 1.0})
+    assert one.wrist_error is None and one.joint_error is not None and one.fitness == one.joint_error
+    two = api.evaluate("mujoco", "single", data=tmp_path, weights="joint=2")
+    assert two.fitness == pytest.approx(2 * one.joint_error, rel=1e-12)
+    assert two.parts["single"].joint_error == one.joint_error

@@ -102,6 +102,15 @@ DataOpt = Annotated[
         callback=_path,
     ),
 ]
+ProjectOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--project",
+        help="Project folder: simtune.toml, the robot and its task files (docs/task-files.md). "
+        "Default: the bundled Kinova MICO project.",
+        callback=_path,
+    ),
+]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
 WeightsOpt = Annotated[
     str | None,
@@ -167,6 +176,27 @@ def _data_root(data: Path | None) -> Path:
     return data if data is not None else REFERENCE_DIR
 
 
+def _project_data(data: Path | None, project: Path | None) -> Path | None:
+    """--data, else the project's data root (None: each task's own recordings folder; see Project.data_root)."""
+    from simtune.project import load_project
+
+    if data is not None or project is None:
+        return _data_root(data)
+    return load_project(project).data_root()
+
+
+def _run_data(data: Path | None, project: Path | None) -> str | None:
+    root = _project_data(data, project)
+    return None if root is None else str(root)
+
+
+def _run_project(project: Path | None) -> str | None:
+    """The project as a run stores it: its project file, absolute (resume and report work from any folder)."""
+    from simtune.project import find_project_file
+
+    return None if project is None else str(find_project_file(project).resolve())
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     err.print(f"[yellow]warning:[/] {message}", highlight=False, soft_wrap=True)
 
@@ -191,27 +221,21 @@ def evaluate(
     ] = None,
     weights: WeightsOpt = None,
     joint_topic: JointTopicOpt = None,
+    project: ProjectOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks."""
-    from simtune.engines import engine_class
-    from simtune.fitness import FitnessWeights, TaskScore
-    from simtune.objective import Objective, load_references
-    from simtune.params import read_params_file, validate_params
-    from simtune.tasks import parse_tasks
+    from simtune import api
 
-    fitness_weights = FitnessWeights() if weights is None else FitnessWeights.parse(weights)
-    tasks = parse_tasks(task)
-    cls = engine_class(engine)
-    params = {}
-    if params_file is not None:
-        params = validate_params(read_params_file(params_file, engine), cls.supported(), engine, where=str(params_file))
-    references = load_references(_data_root(data), tasks, joint_topic)
-    objective = Objective(engine, tasks, references, weights=fitness_weights)
-    t0 = time.perf_counter()
-    score = objective.score(params)
-    wall = time.perf_counter() - t0
-    generic = score if not params else objective.score({})
+    score = api.evaluate(
+        engine,
+        task,
+        project=project,
+        data=_project_data(data, project),
+        params=params_file,
+        weights=weights,
+        joint_topic=joint_topic,
+    )
     result = {
         "engine": engine,
         "task": task,
@@ -220,10 +244,10 @@ def evaluate(
         "wrist_error": score.wrist_error,
         "object_error": score.object_error,
         "joint_error": score.joint_error,
-        "generic_fitness": generic.fitness,
+        "generic_fitness": score.generic_fitness,
         "stable": score.stable,
-        "wall_s": wall,
-        "tasks": [t.__dict__ for t in score.tasks],
+        "wall_s": score.wall_s,
+        "tasks": [t.__dict__ for t in score.parts.values()],
     }
     if as_json:
         print(json.dumps(result))
@@ -241,14 +265,14 @@ def evaluate(
             "note",
         ),
     )
-    rows = [(t.task, t) for t in score.tasks] + ([("all", score)] if len(score.tasks) > 1 else [])
+    parts: list = list(score.parts.values())
+    rows = [(t.task, t) for t in parts] + ([("all", score)] if len(parts) > 1 else [])
     for name, part in rows:
         joint = [_fmt(part.joint_error)] if joint_col else []
-        note = part.message if isinstance(part, TaskScore) else ""
-        table.add_row(name, _fmt(part.fitness), _fmt(part.wrist_error), _fmt(part.object_error), *joint, note)
+        table.add_row(name, _fmt(part.fitness), _fmt(part.wrist_error), _fmt(part.object_error), *joint, part.message)
     out.print(table)
-    if params:
-        out.print(f"generic fitness: {generic.fitness:.4f}")
+    if score.x:
+        out.print(f"generic fitness: {score.generic_fitness:.4f}")
 
 
 def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bool) -> None:
@@ -346,6 +370,7 @@ def tune(
     ] = Path("runs/latest"),
     weights: WeightsOpt = None,
     joint_topic: JointTopicOpt = None,
+    project: ProjectOpt = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
 ) -> None:
@@ -365,7 +390,7 @@ def tune(
         engine=engine,
         tasks=task,
         space=space,
-        data=str(_data_root(data)),
+        data=_run_data(data, project),
         seed=seed,
         workers=workers,
         max_seconds=max_seconds,
@@ -380,6 +405,7 @@ def tune(
         paper_exact=paper_exact,
         weights=None if weights is None else FitnessWeights.parse(weights).as_dict(),
         joint_topic=joint_topic,
+        project=_run_project(project),
     )
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
     _report_tune(result, out_dir, config, RunStore(out_dir).get("generic"), as_json)
@@ -614,35 +640,41 @@ def tasks(
     as_json: Annotated[
         bool, typer.Option("--json", help="With --contact: one JSON object per line, one per engine and task.")
     ] = False,
+    project: ProjectOpt = None,
 ) -> None:
-    """List the tasks: duration, object and whether public recordings exist (--contact: simulate their contact)."""
-    from simtune.tasks import GROUPS, TASKS
+    """List a project's tasks: duration, object and whether public recordings exist (--contact: simulate contact)."""
+    from simtune.project import get_project
 
+    proj = get_project(project)
     if contact:
-        _tasks_contact(engine, task, figure, as_json)
+        _tasks_contact(engine, task, figure, as_json, proj)
         return
     if engine or task or figure or as_json:
         raise SimtuneError("--engine, --task, --figure and --json go with --contact")
-    table = text_table("tasks", ("task", "duration [s]", "object", "public recordings", "description"))
-    for t in TASKS.values():
+    table = text_table(
+        f"tasks of project {proj.name}", ("task", "duration [s]", "object", "public recordings", "description")
+    )
+    for t in proj.tasks.values():
         obj = f"{t.object.material} {t.object.shape} {t.object.mass:g} kg" if t.object else "-"
-        table.add_row(t.name, f"{t.duration:g}", obj, "qrg2019" if t.has_public_recordings else "-", t.description)
-    for name, members in GROUPS.items():
+        table.add_row(t.name, f"{t.duration:g}", obj, "yes" if t.has_public_recordings else "-", t.description)
+    for name, members in proj.groups.items():
         table.add_row(name, "-", "-", "-", f"all of {members[0]} .. {members[-1]}, fitness summed")
     out.print(table)
 
 
-def _tasks_contact(engine: str | None, task: str | None, figure: Path | None, as_json: bool) -> None:
+def _tasks_contact(engine: str | None, task: str | None, figure: Path | None, as_json: bool, project) -> None:
     import importlib
 
     from simtune.engines import ENGINES, engine_class, make_engine
     from simtune.engines.contact import probe_contact
-    from simtune.tasks import TASKS, parse_tasks
 
     if task is None:
-        chosen = [t for t in TASKS.values() if t.name.startswith("seed-") and t.object is not None]
+        # the bundled project's seed tasks, or every task with an object of another project
+        chosen = [t for t in project.tasks.values() if t.object is not None]
+        if any(t.name.startswith("seed-") for t in chosen):
+            chosen = [t for t in chosen if t.name.startswith("seed-")]
     else:
-        chosen = parse_tasks(task)
+        chosen = project.parse_tasks(task)
         for t in chosen:
             if t.object is None:
                 raise SimtuneError(f"task {t.name!r} has no object: --contact needs tasks with one")
@@ -692,7 +724,7 @@ def _tasks_contact(engine: str | None, task: str | None, figure: Path | None, as
             from simtune.report.figures import save
 
             figure.mkdir(parents=True, exist_ok=True)
-            save(contact_figure(probes), figure, f"contact-{name}")
+            save(contact_figure(probes, {t.name: t for t in chosen}), figure, f"contact-{name}")
             if not as_json:
                 out.print(f"figure: {figure / f'contact-{name}.png'}")
 
@@ -701,11 +733,14 @@ def _tasks_contact(engine: str | None, task: str | None, figure: Path | None, as
 def params(
     space: Annotated[str, typer.Option("--space", "-s", help="shared, individual or extended.")] = "extended",
     engine: Annotated[str | None, typer.Option("--engine", "-e", help="Only what this engine supports.")] = None,
+    project: ProjectOpt = None,
 ) -> None:
     """List a parameter space: names, ranges, units."""
     from simtune.engines import engine_class
     from simtune.params import get_space
+    from simtune.project import get_project
 
+    get_project(project)  # checked: the spaces are the MICO's until robots come from URDF files
     supported = engine_class(engine).supported() if engine else None
     sp = get_space(space, supported)
     table = text_table(
@@ -791,6 +826,7 @@ def synth(
             callback=_path,
         ),
     ],
+    project: ProjectOpt = None,
 ) -> None:
     """Make recordings with a known ground truth: simulate with chosen parameters, add mocap-like noise.
 
@@ -815,6 +851,7 @@ def synth(
         jitter_s=jitter_s,
         fmt=fmt,
         joint_noise_rad=math.radians(DEFAULT_JOINT_NOISE_DEG if joint_noise_deg is None else joint_noise_deg),
+        project=project,
     )
     for name, files in result.files.items():
         out.print(f"{name}: {len(files)} recordings in {out_dir / name}")

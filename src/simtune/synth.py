@@ -26,6 +26,7 @@ from simtune.engines import engine_class
 from simtune.errors import ConfigError, SimtuneError
 from simtune.fitness import rollout_joint_names
 from simtune.params import read_params_file, validate_params
+from simtune.project import Project
 from simtune.reference.make import synthesize
 from simtune.tasks import parse_tasks
 
@@ -82,13 +83,15 @@ def make_synthetic(
     jitter_s: float = 0.05,
     fmt: str = "tsv",
     joint_noise_rad: float = math.radians(DEFAULT_JOINT_NOISE_DEG),
+    project: Project | Path | str | None = None,
 ) -> SynthResult:
-    """Write ``repeats`` synthetic recordings of each task in ``tasks`` (names, groups, comma-separated).
+    """Write ``repeats`` synthetic recordings of each task in ``tasks`` (names, groups, comma-separated) of
+    ``project`` (default: the bundled MICO project).
 
     ``fmt`` is a key of :data:`FORMATS`; joint angles get Gaussian noise of
     ``joint_noise_rad`` per sample.
     """
-    specs = parse_tasks(tasks)
+    specs = parse_tasks(tasks, project)
     if fmt not in FORMATS:
         raise ConfigError(f"--format: unknown format {fmt!r} (known: {', '.join(FORMATS)})")
     if not joint_noise_rad >= 0:

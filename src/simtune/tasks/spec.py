@@ -13,6 +13,7 @@ from functools import cached_property
 import numpy as np
 
 from simtune.geometry import rpy_matrix
+from simtune.robot.mico import ARM_JOINTS, WRIST_LINK
 
 #: Body names of the qrg2019 motion-capture exports (robot base, wrist, object).
 BASE_BODY = "RB2(Black)"
@@ -89,18 +90,24 @@ class ObjectSpec:
 
 @dataclass(frozen=True)
 class Phase:
-    """From ``start`` seconds on, the six arm joints are driven towards ``targets_deg``."""
+    """From ``start`` seconds on, the driven joints are driven towards ``targets_deg`` (one per driven joint)."""
 
     start: float
-    targets_deg: tuple[float, float, float, float, float, float]
+    targets_deg: tuple[float, ...]
+
+
+#: Field metadata of what a task's fingerprint (``simtune.runs.task_fingerprint``) leaves out: ``"never"``
+#: (catalogue entries that change no simulation), ``"default"`` (fields added after runs were stored: left out
+#: at their default value, so that those runs still resume).
+FINGERPRINT = "fingerprint"
 
 
 @dataclass(frozen=True)
 class TaskSpec:
-    """A task: joint-target schedule, controller gains, duration and object."""
+    """A task: joint-target schedule, controller gains, duration and object (docs/task-files.md)."""
 
     name: str
-    description: str
+    description: str = field(metadata={FINGERPRINT: "never"})
     duration: float
     phases: tuple[Phase, ...]
     kp: float  # proportional gain of the joint controller [1/s]
@@ -109,7 +116,16 @@ class TaskSpec:
     wrist_body: str = WRIST_BODY
     start_pose_deg: tuple[float, ...] = field(default=(0.0,) * 6)
     #: whether real recordings of this task exist in the qrg2019 data set
-    has_public_recordings: bool = False
+    has_public_recordings: bool = field(default=False, metadata={FINGERPRINT: "never"})
+    #: the driven joints, in the order of every target row and of ``start_pose_deg``
+    joints: tuple[str, ...] = field(default=ARM_JOINTS, metadata={FINGERPRINT: "default"})
+    #: the robot link whose origin the motion-capture wrist body tracks
+    tracked_link: str = field(default=WRIST_LINK, metadata={FINGERPRINT: "default"})
+    #: the motion-capture body on the robot's base (recordings are checked against it)
+    base_body: str | None = field(default=BASE_BODY, metadata={FINGERPRINT: "default"})
+    #: the folder of this task's recordings (absolute): its task file's ``recordings``, else the project's
+    #: data root / the task's name; None when neither names one
+    recordings: str | None = field(default=None, metadata={FINGERPRINT: "never"})
 
     @cached_property
     def schedule(self) -> tuple[np.ndarray, np.ndarray]:
