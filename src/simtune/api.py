@@ -24,7 +24,7 @@ from pathlib import Path
 
 from simtune.engines import engine_class
 from simtune.errors import SimtuneError
-from simtune.fitness import Score, TaskScore
+from simtune.fitness import FitnessWeights, Score, TaskScore
 from simtune.objective import Objective, load_references
 from simtune.params import read_params_file, validate_params
 from simtune.project import Project, get_project
@@ -38,7 +38,8 @@ class Result:
     """Parameters and their fitness, in the spirit of SciPy's ``OptimizeResult``.
 
     ``x``: the parameter values (name -> value; those not named keep the engine's generic values);
-    ``fitness`` = ``wrist_error`` + ``object_error`` summed over the tasks, whose own scores are
+    ``fitness`` = ``wrist_error`` + ``object_error`` (+ the weighted ``joint_error`` of joint logs;
+    parts the recordings lack are None) summed over the tasks, whose own scores are
     ``parts`` (task name -> TaskScore); ``generic_fitness``: the engine's generic parameters on the
     same tasks; ``evaluations``: simulations of all tasks the result took (a run's stored ones);
     ``run_dir``: the run folder of a tuning run (None for an evaluation).
@@ -48,7 +49,7 @@ class Result:
     tasks: tuple[str, ...]
     x: dict[str, float]
     fitness: float
-    wrist_error: float
+    wrist_error: float | None
     object_error: float | None
     parts: dict[str, TaskScore]
     generic_fitness: float
@@ -58,6 +59,8 @@ class Result:
     message: str = ""
     #: seconds spent simulating (evaluate) or tuning (all sessions of a run)
     wall_s: float = 0.0
+    #: mean joint-angle error [rad] of joint-log recordings; None without them
+    joint_error: float | None = None
 
     @classmethod
     def from_score(cls, engine: str, x: Mapping[str, float], score: Score, generic: Score | dict, **more) -> Result:
@@ -69,6 +72,7 @@ class Result:
             fitness=score.fitness,
             wrist_error=score.wrist_error,
             object_error=score.object_error,
+            joint_error=score.joint_error,
             parts={t.task: t for t in score.tasks},
             generic_fitness=float(generic_fitness),
             stable=score.stable,
@@ -79,6 +83,15 @@ class Result:
 def load_project(path: Path | str | None = None) -> Project:
     """The project in folder ``path`` (docs/task-files.md); None: the bundled Kinova MICO project."""
     return get_project(None) if path is None else _load_project(path)
+
+
+def _weights(weights: FitnessWeights | Mapping[str, float] | str | None) -> FitnessWeights | None:
+    """Fitness weights given as FitnessWeights, a mapping or ``joint=0.1,wrist=1`` (None: the defaults)."""
+    if weights is None or isinstance(weights, FitnessWeights):
+        return weights
+    if isinstance(weights, str):
+        return FitnessWeights.parse(weights)
+    return FitnessWeights.from_mapping(weights, "weights")
 
 
 def _root(data: Path | str | None, project: Project) -> Path | None:
@@ -93,12 +106,17 @@ def evaluate(
     project: Project | Path | str | None = None,
     data: Path | str | None = None,
     params: Mapping[str, float] | Path | str | None = None,
+    weights: FitnessWeights | Mapping[str, float] | str | None = None,
+    joint_topic: str | None = None,
 ) -> Result:
     """Fitness of ``params`` (a mapping, or a params file such as best_params.json; default: the engine's
     generic values) for ``engine`` on ``tasks`` (names, groups, comma-separated) of ``project``.
 
-    ``data``: the data root (``DATA/<task>/``); default: the project's recordings.
+    ``data``: the data root (``DATA/<task>/``); default: the project's recordings.  ``weights``: of the
+    fitness's parts (``simtune.fitness.FitnessWeights``, a mapping or ``"joint=0.1,wrist=1"``);
+    ``joint_topic``: the JointState topic of ROS 2 joint logs (docs/recordings.md).
     """
+    fitness_weights = _weights(weights)
     proj = get_project(project)
     specs = proj.parse_tasks(tasks)
     cls = engine_class(engine)
@@ -106,7 +124,8 @@ def evaluate(
         values = validate_params(read_params_file(Path(params), engine), cls.supported(), engine, where=str(params))
     else:
         values = validate_params(dict(params or {}), cls.supported(), engine, where="params")
-    objective = Objective(engine, specs, load_references(_root(data, proj), specs))
+    references = load_references(_root(data, proj), specs, joint_topic)
+    objective = Objective(engine, specs, references, weights=fitness_weights)
     try:
         start = time.perf_counter()
         score = objective.score(values)
@@ -135,6 +154,8 @@ def tune(
     target_fitness: float | None = None,
     only: list[str] | None = None,
     eval_timeout: float = 600.0,
+    weights: FitnessWeights | Mapping[str, float] | str | None = None,
+    joint_topic: str | None = None,
     show_progress: bool = False,
 ) -> Result:
     """Tune ``engine`` on ``tasks`` of ``project`` into the new run folder ``out`` (``simtune tune``).
@@ -143,6 +164,7 @@ def tune(
     The run stores the project by its project file (the bundled MICO project: not at all).
     """
     proj = get_project(project)
+    fitness_weights = _weights(weights)
     config = RunConfig(
         engine=engine,
         tasks=tasks,
@@ -159,6 +181,8 @@ def tune(
         refine=refine,
         max_evaluations=max_evaluations,
         project=None if proj is get_project(None) else str(proj.file.resolve()),
+        weights=None if fitness_weights is None else fitness_weights.as_dict(),
+        joint_topic=joint_topic,
     )
     start_run(config, Path(out), show_progress=show_progress)
     return read_run(out)

@@ -96,7 +96,8 @@ DataOpt = Annotated[
     typer.Option(
         "--data",
         "-d",
-        help="Folder with one sub-folder of recordings per task (`ROOT/<task>/*.tsv` or `*.csv`). "
+        help="Folder with one sub-folder of recordings per task (`ROOT/<task>/*.tsv`, `*.csv`, `*.c3d`; joint logs "
+        "also `*.mcap` or rosbag2 folders). "
         "Default: the reference recordings shipped with simtune.",
         callback=_path,
     ),
@@ -111,6 +112,21 @@ ProjectOpt = Annotated[
     ),
 ]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
+WeightsOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--weights",
+        help="Weights of the fitness's parts, e.g. joint=0.1,wrist=1,object=1 (keys left out keep their "
+        "defaults: wrist 1, object 1, joint 0.5 m/rad); a part the recordings lack counts nothing.",
+    ),
+]
+JointTopicOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--joint-topic",
+        help="ROS 2 joint logs: the sensor_msgs/msg/JointState topic to read (default: each log's only one).",
+    ),
+]
 SpaceOpt = Annotated[
     str,
     typer.Option(
@@ -203,13 +219,23 @@ def evaluate(
             callback=_path,
         ),
     ] = None,
+    weights: WeightsOpt = None,
+    joint_topic: JointTopicOpt = None,
     project: ProjectOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks."""
     from simtune import api
 
-    score = api.evaluate(engine, task, project=project, data=_project_data(data, project), params=params_file)
+    score = api.evaluate(
+        engine,
+        task,
+        project=project,
+        data=_project_data(data, project),
+        params=params_file,
+        weights=weights,
+        joint_topic=joint_topic,
+    )
     result = {
         "engine": engine,
         "task": task,
@@ -217,6 +243,7 @@ def evaluate(
         "fitness": score.fitness,
         "wrist_error": score.wrist_error,
         "object_error": score.object_error,
+        "joint_error": score.joint_error,
         "generic_fitness": score.generic_fitness,
         "stable": score.stable,
         "wall_s": score.wall_s,
@@ -225,14 +252,24 @@ def evaluate(
     if as_json:
         print(json.dumps(result))
         return
+    # the joint column only where joint logs were scored: motion-capture tables stay as they were
+    joint_col = score.joint_error is not None
     table = text_table(
         f"{engine} on {task}" + (f" with {params_file}" if params_file else " (generic parameters)"),
-        ("task", "fitness", "wrist error [m]", "object error [m]", "note"),
+        (
+            "task",
+            "fitness",
+            "wrist error [m]",
+            "object error [m]",
+            *(["joint error [rad]"] if joint_col else []),
+            "note",
+        ),
     )
-    for t in score.parts.values():
-        table.add_row(t.task, _fmt(t.fitness), _fmt(t.wrist_error), _fmt(t.object_error), t.message)
-    if len(score.parts) > 1:
-        table.add_row("all", _fmt(score.fitness), _fmt(score.wrist_error), _fmt(score.object_error), "")
+    parts: list = list(score.parts.values())
+    rows = [(t.task, t) for t in parts] + ([("all", score)] if len(parts) > 1 else [])
+    for name, part in rows:
+        joint = [_fmt(part.joint_error)] if joint_col else []
+        table.add_row(name, _fmt(part.fitness), _fmt(part.wrist_error), _fmt(part.object_error), *joint, part.message)
     out.print(table)
     if score.x:
         out.print(f"generic fitness: {score.generic_fitness:.4f}")
@@ -249,6 +286,7 @@ def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bo
         "fitness": result.score.fitness,
         "wrist_error": result.score.wrist_error,
         "object_error": result.score.object_error,
+        "joint_error": result.score.joint_error,
         "generic_fitness": store_generic["fitness"],
         "evaluations": result.evaluations,
         "generations": result.generations,
@@ -264,8 +302,9 @@ def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bo
         f"{config.optimizer}{' + least squares' if config.refine else ''}: "
         f"fitness {store_generic['fitness']:.4f} (generic) -> [bold green]{result.score.fitness:.4f}[/] (tuned)"
     )
+    joint = "" if result.score.joint_error is None else f", joint error {_fmt(result.score.joint_error)} rad"
     out.print(
-        f"  wrist error {_fmt(result.score.wrist_error)} m, object error {_fmt(result.score.object_error)} m; "
+        f"  wrist error {_fmt(result.score.wrist_error)} m, object error {_fmt(result.score.object_error)} m{joint}; "
         f"{result.evaluations} evaluations, {result.generations} generations, {result.wall_s:.0f} s "
         f"({result.message})"
     )
@@ -329,6 +368,8 @@ def tune(
             callback=_path,
         ),
     ] = Path("runs/latest"),
+    weights: WeightsOpt = None,
+    joint_topic: JointTopicOpt = None,
     project: ProjectOpt = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
@@ -341,6 +382,7 @@ def tune(
 
     Example: simtune tune --engine mujoco --task cube --data DATA --optimizer cmaes --refine --max-evaluations 2000
     """
+    from simtune.fitness import FitnessWeights
     from simtune.runs import RunConfig, start_run
     from simtune.store import RunStore
 
@@ -361,6 +403,8 @@ def tune(
         refine=refine,
         max_evaluations=max_evaluations,
         paper_exact=paper_exact,
+        weights=None if weights is None else FitnessWeights.parse(weights).as_dict(),
+        joint_topic=joint_topic,
         project=_run_project(project),
     )
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
@@ -754,12 +798,30 @@ def synth(
     ] = 0.05,
     repeats: Annotated[int, typer.Option(min=1, help="Recordings per task.")] = 10,
     seed: Annotated[int, typer.Option(min=0, max=MAX_SEED, help="Seed of the noise (same seed, same files).")] = 0,
+    fmt: Annotated[
+        str,
+        typer.Option(
+            "--format",
+            help="What each recording holds: tsv (markers, Qualisys TSV), csv (markers and joint angles, simtune "
+            "CSV), joints-csv (joint angles alone), mcap or rosbag2 (joint angles alone as ROS 2 JointState "
+            "messages: an MCAP file, a rosbag2 folder).",
+        ),
+    ] = "tsv",
+    joint_noise_deg: Annotated[
+        float | None,
+        typer.Option(
+            help="Encoder noise of the joint logs: Gaussian, on every 100 Hz sample of each joint angle [deg] "
+            "(default 0.05).",
+            callback=_not_negative,
+            show_default=False,
+        ),
+    ] = None,
     out_dir: Annotated[
         Path,
         typer.Option(
             "--out",
             "-o",
-            help="Data root to write: `OUT/<task>/*.tsv` and OUT/truth.json.",
+            help="Data root to write: `OUT/<task>/<task>NNNN.tsv` (or --format's kind) and OUT/truth.json.",
             show_default=False,
             callback=_path,
         ),
@@ -768,13 +830,14 @@ def synth(
 ) -> None:
     """Make recordings with a known ground truth: simulate with chosen parameters, add mocap-like noise.
 
-    Writes Qualisys 6D TSV files (with header) to `OUT/<task>/`, read by every
-    command's --data OUT like real recordings, and OUT/truth.json (also a
-    --params-file). Tune on them to check that tuning recovers the truth.
+    Writes Qualisys 6D TSV files (with header) to `OUT/<task>/` (or joint logs:
+    --format), read by every command's --data OUT like real recordings, and
+    OUT/truth.json (also a --params-file). Tune on them to check that tuning
+    recovers the truth.
 
     Example: simtune synth --engine mujoco --task single,cube,double --delay-s 1.5 --out data/synthetic
     """
-    from simtune.synth import load_truth, make_synthetic
+    from simtune.synth import DEFAULT_JOINT_NOISE_DEG, load_truth, make_synthetic
 
     values = load_truth(truth, engine, delay_s)
     result = make_synthetic(
@@ -786,12 +849,19 @@ def synth(
         repeats=repeats,
         seed=seed,
         jitter_s=jitter_s,
+        fmt=fmt,
+        joint_noise_rad=math.radians(DEFAULT_JOINT_NOISE_DEG if joint_noise_deg is None else joint_noise_deg),
         project=project,
     )
     for name, files in result.files.items():
         out.print(f"{name}: {len(files)} recordings in {out_dir / name}")
     shown = ", ".join(f"{k}={v:g}" for k, v in values.items())
-    out.print(f"truth ({engine}): {shown}; noise {noise_mm:g} mm, jitter +-{jitter_s:g} s -> {out_dir / 'truth.json'}")
+    noises = {
+        "tsv": f"{noise_mm:g} mm",
+        "csv": f"{noise_mm:g} mm and {math.degrees(result.joint_noise_rad):g} deg",
+    }
+    noise = noises.get(fmt, f"{math.degrees(result.joint_noise_rad):g} deg")
+    out.print(f"truth ({engine}): {shown}; noise {noise}, jitter +-{jitter_s:g} s -> {out_dir / 'truth.json'}")
 
 
 @app.command()

@@ -2,9 +2,18 @@
 
 wrist error  = mean over the 20 Hz samples of the 3-D distance between the
                simulated marker and the mean recorded wrist trajectory [m]
+               (recordings that track the wrist marker)
 object error = 3-D distance between the simulated and the mean recorded final
-               object position [m] (tasks with an object only)
-fitness      = wrist error + object error, summed over the tasks tuned together
+               object position [m] (tasks with an object, recordings that track it)
+joint error  = mean over the 20 Hz samples and the logged joints of
+               |simulated - mean recorded joint angle| [rad] (joint logs)
+fitness      = wrist weight x wrist error + object weight x object error
+               + joint weight x joint error, over the parts the recordings hold,
+               summed over the tasks tuned together
+
+The weights (:class:`FitnessWeights`, ``--weights joint=0.5,wrist=1,object=1``)
+default to 1 for the wrist and object terms, so motion-capture fitness is the
+seed paper's sum, and to :data:`JOINT_WEIGHT` m/rad for the joint term.
 
 The simulated marker is the wrist (link_6 origin) moved by ``marker_offset_*``
 in the hand frame, so the offset turns with the hand as a real marker does.
@@ -14,28 +23,89 @@ optimiser carries on) and is flagged, never silently mixed with real scores.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any
 
 import numpy as np
 
 from simtune.data import TaskData
 from simtune.engines.base import Rollout
+from simtune.errors import ConfigError, SimtuneError
+from simtune.robot.mico import ARM_JOINTS
+from simtune.tasks import TaskSpec
 
 #: Fitness of a rollout that exploded [m]: worse than any arm that stays in its workspace.
 PENALTY = 10.0
+
+#: Default weight of the joint error [m per rad]: an angle error of 1 rad counts as 0.5 m, about the
+#: lever from a table-top arm's shoulder to its wrist, so a joint error and the wrist displacement it
+#: causes weigh about alike when a recording holds both.
+JOINT_WEIGHT = 0.5
+
+
+@dataclass(frozen=True)
+class FitnessWeights:
+    """How much each part of the fitness counts (the parts the recordings lack count nothing)."""
+
+    joint: float = JOINT_WEIGHT
+    wrist: float = 1.0
+    object: float = 1.0
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any], where: str = "--weights") -> FitnessWeights:
+        """Weights from ``{"joint": 0.1, ...}`` (keys left out keep their defaults); one-line error naming the key."""
+        known = [f.name for f in fields(cls)]
+        checked: dict[str, float] = {}
+        for key, value in values.items():
+            if key not in known:
+                raise ConfigError(f"{where}: unknown weight {key!r} (known: {', '.join(known)})")
+            if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) or value < 0:
+                raise ConfigError(f"{where}: weight {key!r} must be a finite number of at least 0, got {value!r}")
+            checked[key] = float(value)
+        weights = cls(**checked)
+        if not any(asdict(weights).values()):
+            raise ConfigError(f"{where}: every weight is 0: nothing would be fitted")
+        return weights
+
+    @classmethod
+    def parse(cls, text: str, where: str = "--weights") -> FitnessWeights:
+        """Weights from ``joint=0.1,wrist=1,object=1`` (keys left out keep their defaults)."""
+        values: dict[str, Any] = {}
+        for item in text.split(","):
+            key, sep, number = (part.strip() for part in item.partition("="))
+            if not sep or not key:
+                raise ConfigError(f"{where}: expected KEY=NUMBER items joined by commas, got {item.strip()!r}")
+            if key in values:
+                raise ConfigError(f"{where}: weight {key!r} given twice")
+            try:
+                values[key] = float(number)
+            except ValueError:
+                values[key] = number
+        return cls.from_mapping(values, where)
+
+    def as_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+
+def rollout_joint_names(task: TaskSpec) -> tuple[str, ...]:
+    """Names of a rollout's ``joint_angles`` columns for ``task``: the arm's joints, in the engines' order."""
+    return ARM_JOINTS
 
 
 @dataclass
 class TaskScore:
     task: str
     fitness: float
-    wrist_error: float
+    wrist_error: float | None  # None: the recordings track no wrist marker
     object_error: float | None
     stable: bool = True
     message: str = ""
     #: stopped early because it could no longer beat its parent: fitness is a lower bound
     pruned: bool = False
     steps: int = 0  # physics steps simulated
+    joint_error: float | None = None  # None: the recordings log no joint angles
 
 
 @dataclass
@@ -43,9 +113,10 @@ class Score:
     """Fitness of one parameter set over one or more tasks, with its parts."""
 
     fitness: float
-    wrist_error: float
+    wrist_error: float | None
     object_error: float | None
     tasks: list[TaskScore] = field(default_factory=list)
+    joint_error: float | None = None
 
     @property
     def stable(self) -> bool:
@@ -57,12 +128,12 @@ class Score:
 
     @classmethod
     def combine(cls, scores: list[TaskScore]) -> Score:
-        objects = [s.object_error for s in scores if s.object_error is not None]
         return cls(
             fitness=float(sum(s.fitness for s in scores)),
-            wrist_error=float(sum(s.wrist_error for s in scores)),
-            object_error=float(sum(objects)) if objects else None,
+            wrist_error=_sum_present(s.wrist_error for s in scores),
+            object_error=_sum_present(s.object_error for s in scores),
             tasks=list(scores),
+            joint_error=_sum_present(s.joint_error for s in scores),
         )
 
     def to_dict(self) -> dict:
@@ -71,8 +142,18 @@ class Score:
     @classmethod
     def from_dict(cls, data: dict) -> Score:
         return cls(
-            data["fitness"], data["wrist_error"], data["object_error"], [TaskScore(**t) for t in data.get("tasks", [])]
+            data["fitness"],
+            data["wrist_error"],
+            data["object_error"],
+            [TaskScore(**t) for t in data.get("tasks", [])],
+            data.get("joint_error"),
         )
+
+
+def _sum_present(values) -> float | None:
+    """Sum of the parts that are there; None when none is."""
+    present = [v for v in values if v is not None]
+    return float(sum(present)) if present else None
 
 
 def marker_positions(rollout: Rollout, params: dict[str, float]) -> np.ndarray:
@@ -83,25 +164,79 @@ def marker_positions(rollout: Rollout, params: dict[str, float]) -> np.ndarray:
     return rollout.wrist_pos + np.einsum("nij,j->ni", rollout.wrist_rot, offset)
 
 
-def score_rollout(rollout: Rollout, reference: TaskData, params: dict[str, float]) -> TaskScore:
-    """Score one task's rollout against its recordings."""
+def joint_columns(reference: TaskData, joint_names: Sequence[str]) -> list[int]:
+    """Columns of a rollout's ``joint_angles`` (named ``joint_names``) holding the recorded joints, in their order."""
+    missing = [j for j in reference.joint_names if j not in joint_names]
+    if missing:
+        raise SimtuneError(
+            f"task {reference.task}: the recordings log joint(s) {', '.join(missing)} that the arm lacks "
+            f"(its joints: {', '.join(joint_names)})"
+        )
+    return [list(joint_names).index(j) for j in reference.joint_names]
+
+
+def joint_differences(rollout: Rollout, reference: TaskData, joint_names: Sequence[str]) -> np.ndarray | None:
+    """Simulated minus mean recorded angle [rad], (n, logged joints); None without joint logs."""
+    if reference.joint_mean is None:
+        return None
+    return rollout.joint_angles[:, joint_columns(reference, joint_names)] - reference.joint_mean
+
+
+def score_rollout(
+    rollout: Rollout,
+    reference: TaskData,
+    params: dict[str, float],
+    *,
+    weights: FitnessWeights = FitnessWeights(),
+    joint_names: Sequence[str] = ARM_JOINTS,
+) -> TaskScore:
+    """Score one task's rollout against its recordings (``joint_names``: the rollout's joint columns)."""
     n = len(reference.times)
     if len(rollout.times) != n:
         raise ValueError(f"rollout has {len(rollout.times)} samples, the reference {n}")
-    marker = marker_positions(rollout, params)
-    distances = np.linalg.norm(marker - reference.wrist_mean, axis=1)
+    distances = None
+    if reference.wrist_mean is not None:
+        distances = np.linalg.norm(marker_positions(rollout, params) - reference.wrist_mean, axis=1)
+    joint_abs = joint_differences(rollout, reference, joint_names)
+    if joint_abs is not None:
+        joint_abs = np.abs(joint_abs)
     if rollout.pruned:
-        # only the simulated samples count: a lower bound of the full wrist error
-        bound = float(distances[: rollout.samples_run].sum() / n)
-        message = f"pruned at t={rollout.times[rollout.samples_run - 1]:.2f} s: cannot beat its parent"
-        return TaskScore(reference.task, bound, bound, None, True, message, pruned=True, steps=rollout.steps)
-    wrist_error = float(np.mean(distances))
+        # only the simulated samples count: a lower bound of the full errors
+        run = rollout.samples_run
+        wrist = None if distances is None else float(distances[:run].sum() / n)
+        joint = None if joint_abs is None else float(joint_abs[:run].sum() / joint_abs.size)
+        bound = _weighted(weights, wrist, None, joint)
+        message = f"pruned at t={rollout.times[run - 1]:.2f} s: cannot beat its parent"
+        return TaskScore(
+            reference.task, bound, wrist, None, True, message, pruned=True, steps=rollout.steps, joint_error=joint
+        )
+    wrist_error = None if distances is None else float(np.mean(distances))
+    joint_error = None if joint_abs is None else float(np.mean(joint_abs))
     object_error = None
     if reference.object_final is not None and rollout.object_pos is not None:
         object_error = float(np.linalg.norm(rollout.object_pos[-1] - reference.object_final_mean))
-    fitness = wrist_error + (object_error or 0.0)
+    fitness = _weighted(weights, wrist_error, object_error, joint_error)
     if not rollout.stable:
         fitness = PENALTY
     return TaskScore(
-        reference.task, fitness, wrist_error, object_error, rollout.stable, rollout.message, steps=rollout.steps
+        reference.task,
+        fitness,
+        wrist_error,
+        object_error,
+        rollout.stable,
+        rollout.message,
+        steps=rollout.steps,
+        joint_error=joint_error,
     )
+
+
+def _weighted(weights: FitnessWeights, wrist: float | None, obj: float | None, joint: float | None) -> float:
+    """The fitness from its parts that are there (the motion-capture sum is unchanged by weights of 1)."""
+    fitness = 0.0
+    if wrist is not None:
+        fitness = weights.wrist * wrist
+    if obj is not None:
+        fitness += weights.object * obj
+    if joint is not None:
+        fitness += weights.joint * joint
+    return fitness

@@ -15,18 +15,28 @@ import numpy as np
 from simtune.data import TaskData, load_task_data
 from simtune.engines import Engine, engine_class, make_engine
 from simtune.errors import SimtuneError
-from simtune.fitness import PENALTY, Score, TaskScore, marker_positions, score_rollout
+from simtune.fitness import (
+    PENALTY,
+    FitnessWeights,
+    Score,
+    TaskScore,
+    joint_differences,
+    marker_positions,
+    rollout_joint_names,
+    score_rollout,
+)
 from simtune.params import ParameterSpace
 from simtune.robot.mico import WRIST_REACH_M
 from simtune.tasks import TaskSpec
 
 
-def load_references(root: Path | None, tasks: list[TaskSpec]) -> dict[str, TaskData]:
+def load_references(root: Path | None, tasks: list[TaskSpec], joint_topic: str | None = None) -> dict[str, TaskData]:
     """The recordings of each task, from ``root/<task name>/``, checked against the task and the arm.
 
     Without ``root``, each task's own recordings folder (``TaskSpec.recordings``, from its project).
-    The task's duration and the MICO's reach go to the loader's sanity stage as
-    plain numbers (data/ knows neither tasks nor robots).
+    The task's duration, the MICO's reach and its joint names go to the loader's sanity stage as
+    plain values (data/ knows neither tasks nor robots); ``joint_topic`` picks the JointState
+    topic of ROS 2 joint logs.
     """
     if root is not None:
         root = Path(root)
@@ -45,6 +55,8 @@ def load_references(root: Path | None, tasks: list[TaskSpec]) -> dict[str, TaskD
             duration_s=task.duration,
             reach_m=WRIST_REACH_M,
             base_body=task.base_body,
+            joint_names=rollout_joint_names(task),
+            joint_topic=joint_topic,
         )
     return refs
 
@@ -62,16 +74,22 @@ def recordings_folder(root: Path | str | None, task: TaskSpec) -> Path:
 
 
 class Objective:
-    """Scores parameter dicts (or vectors of a space) for ``engine`` on ``tasks``."""
+    """Scores parameter dicts (or vectors of a space) for ``engine`` on ``tasks``, its parts weighted by ``weights``."""
 
     def __init__(
-        self, engine: str, tasks: list[TaskSpec], references: dict[str, TaskData], space: ParameterSpace | None = None
+        self,
+        engine: str,
+        tasks: list[TaskSpec],
+        references: dict[str, TaskData],
+        space: ParameterSpace | None = None,
+        weights: FitnessWeights | None = None,
     ):
         engine_class(engine)  # fail early on an unknown or missing engine
         self.engine = engine
         self.tasks = list(tasks)
         self.references = references
         self.space = space
+        self.weights = FitnessWeights() if weights is None else weights
         self._engines: dict[str, Engine] = {}
 
     def __getstate__(self) -> dict:
@@ -104,22 +122,38 @@ class Objective:
             reference = self.references[task.name]
             n = len(reference.times)
             # the summed marker error that proves the bound exceeded (with a margin far above
-            # rounding, so the rescored lower bound is sure to exceed it too)
-            monitor = None if bound is None else _exceeds(reference, offset, (bound - spent) * n * (1 + 1e-9) + 1e-12)
+            # rounding, so the rescored lower bound is sure to exceed it too); only the marker is
+            # watched while simulating, so without one (or with it weighing nothing) no trial stops early
+            monitor = None
+            if bound is not None and reference.wrist_mean is not None and self.weights.wrist > 0:
+                budget = ((bound - spent) * n * (1 + 1e-9) + 1e-12) / self.weights.wrist
+                monitor = _exceeds(reference.wrist_mean, offset, budget)
             rollout = self._engine(task).rollout(params, n, monitor=monitor)
-            scores.append(score_rollout(rollout, reference, params))
+            scores.append(self._score(task, rollout, params))
             spent += scores[-1].fitness
             if bound is not None and spent > bound:
                 break  # the remaining tasks cannot lower the sum
         return Score.combine(scores)
 
+    def _score(self, task: TaskSpec, rollout, params: dict[str, float]) -> TaskScore:
+        return score_rollout(
+            rollout, self.references[task.name], params, weights=self.weights, joint_names=rollout_joint_names(task)
+        )
+
     def _has_object_residual(self, task: TaskSpec) -> bool:
         return task.object is not None and self.references[task.name].object_final is not None
 
+    def _residual_count(self, task: TaskSpec) -> int:
+        reference = self.references[task.name]
+        n = len(reference.times)
+        wrist = 3 * n if reference.wrist_mean is not None else 0
+        return wrist + 3 * self._has_object_residual(task) + n * len(reference.joint_names)
+
     @property
     def residual_size(self) -> int:
-        """Length of :meth:`residuals`: 3 per 20 Hz sample of each task, plus 3 per task with an object."""
-        return sum(3 * len(self.references[t.name].times) + 3 * self._has_object_residual(t) for t in self.tasks)
+        """Length of :meth:`residuals`: per task 3 per 20 Hz sample with a wrist marker, 3 with an object, and
+        one per sample and logged joint."""
+        return sum(self._residual_count(t) for t in self.tasks)
 
     def penalty_residuals(self) -> np.ndarray:
         """The residuals of a simulation that blew up or failed: their squares sum to ``PENALTY**2``."""
@@ -131,22 +165,31 @@ class Objective:
 
         Per task: the simulated marker minus the mean recorded wrist at every
         20 Hz sample (x, y, z), divided by sqrt(samples), then the simulated
-        minus the recorded final object position.  Their sum of squares is the
-        mean squared marker error plus the squared object error, summed over
-        the tasks: the fitness with squared instead of plain distances.  A
-        simulation that blew up gets :meth:`penalty_residuals`.
+        minus the recorded final object position, then the simulated minus
+        the mean recorded joint angles, divided by sqrt(samples x joints); each
+        part times the square root of its weight.  Their sum of squares is the
+        weighted mean squared marker error plus squared object error plus mean
+        squared joint error, summed over the tasks: the fitness with squared
+        instead of plain distances.  A simulation that blew up gets
+        :meth:`penalty_residuals`.
         """
         parts: list[np.ndarray] = []
         scores: list[TaskScore] = []
+        w = self.weights
         for task in self.tasks:
             reference = self.references[task.name]
             n = len(reference.times)
             rollout = self._engine(task).rollout(params, n)
-            scores.append(score_rollout(rollout, reference, params))
-            parts.append(((marker_positions(rollout, params) - reference.wrist_mean) / np.sqrt(n)).ravel())
+            scores.append(self._score(task, rollout, params))
+            if reference.wrist_mean is not None:
+                wrist = (marker_positions(rollout, params) - reference.wrist_mean) / np.sqrt(n)
+                parts.append(np.sqrt(w.wrist) * wrist.ravel())
             if self._has_object_residual(task):
                 assert rollout.object_pos is not None, "a task with an object samples its position"
-                parts.append(rollout.object_pos[-1] - reference.object_final_mean)
+                parts.append(np.sqrt(w.object) * (rollout.object_pos[-1] - reference.object_final_mean))
+            joints = joint_differences(rollout, reference, rollout_joint_names(task))
+            if joints is not None:
+                parts.append(np.sqrt(w.joint) * joints.ravel() / np.sqrt(joints.size))
         score = Score.combine(scores)
         residuals = np.concatenate(parts)
         if not score.stable or not np.all(np.isfinite(residuals)):
@@ -172,13 +215,13 @@ class Objective:
         self._engines.clear()
 
 
-def _exceeds(reference, offset: np.ndarray, budget: float):
+def _exceeds(wrist_mean: np.ndarray, offset: np.ndarray, budget: float):
     """A rollout monitor: true once the wrist error summed over samples so far exceeds ``budget``."""
     accumulated = 0.0
 
     def monitor(k, pos, rot) -> bool:
         nonlocal accumulated
-        accumulated += float(np.linalg.norm(pos + rot @ offset - reference.wrist_mean[k]))
+        accumulated += float(np.linalg.norm(pos + rot @ offset - wrist_mean[k]))
         return accumulated > budget
 
     return monitor

@@ -47,6 +47,7 @@ import simtune
 from simtune.data.fingerprint import fingerprint_changes, folders_fingerprint
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, RunInterrupted, SimtuneError
+from simtune.fitness import FitnessWeights
 from simtune.objective import Objective, load_references, recordings_folder
 from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squares_refine
 from simtune.optimize.evaluator import timed_out
@@ -95,15 +96,21 @@ class RunConfig:
     #: the seed paper's exact search: SciPy's DE with immediate updating and polish, one worker, no
     #: pruning, and the paper's whole parameter list (parameters the engine lacks kept, without effect)
     paper_exact: bool = False
+    #: weights of the fitness's parts (simtune.fitness.FitnessWeights keys); None: the defaults
+    weights: dict[str, float] | None = None
+    #: the JointState topic of ROS 2 joint logs; None: each log's only one
+    joint_topic: str | None = None
     #: the project file the tasks are read from (absolute); None: the bundled MICO project
     project: str | None = None
 
     def record(self) -> dict:
         """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
-        so that the stores of runs made before projects and of new MICO runs compare equal."""
+        and ``weights`` and ``joint_topic`` at their defaults (None), so that the stores of runs made before
+        projects and joint logs and of new MICO runs compare equal."""
         values = asdict(self)
-        if values["project"] is None:
-            del values["project"]
+        for key in ("project", "weights", "joint_topic"):
+            if values[key] is None:
+                del values[key]
         return values
 
     @classmethod
@@ -157,6 +164,12 @@ class RunConfig:
             not isinstance(self.only, list) or not all(isinstance(n, str) for n in self.only)
         ):
             raise bad("only", "a list of parameter names")
+        if self.weights is not None:
+            if not isinstance(self.weights, dict):
+                raise bad("weights", "a mapping of weight names to numbers")
+            FitnessWeights.from_mapping(self.weights, f"{at}weights")
+        if self.joint_topic is not None and not isinstance(self.joint_topic, str):
+            raise bad("joint_topic", "a topic name")
         get_optimizer(self.optimizer)
         if self.paper_exact:
             if self.optimizer != "de":
@@ -250,7 +263,9 @@ def build_objective(config: RunConfig) -> Objective:
     supported = None if config.paper_exact else engine_class(config.engine).supported()
     space = get_space(config.space, supported, config.only)
     data = None if config.data is None else Path(config.data)
-    return Objective(config.engine, tasks, load_references(data, tasks), space)
+    references = load_references(data, tasks, config.joint_topic)
+    weights = None if config.weights is None else FitnessWeights.from_mapping(config.weights, "weights")
+    return Objective(config.engine, tasks, references, space, weights)
 
 
 def write_json_atomic(path: Path, data: dict) -> None:
@@ -520,6 +535,7 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
             "fitness": result.score.fitness,
             "wrist_error": result.score.wrist_error,
             "object_error": result.score.object_error,
+            "joint_error": result.score.joint_error,
             "generic_fitness": generic["fitness"],
             "parameters": list(result.params),
             "params": result.params,

@@ -29,7 +29,7 @@ class TaskResult:
     role: str  # "train" or "test"
     generic: float
     tuned: float
-    tuned_wrist: float
+    tuned_wrist: float | None  # None: recordings without a wrist marker
     tuned_object: float | None
     stable: bool
 

@@ -1,4 +1,4 @@
-"""Motion-capture recordings: loading, writing, and per-task reference data.
+"""Recordings (motion capture, joint logs): loading, writing, and per-task reference data.
 
 Formats are described in docs/recordings.md.
 """
@@ -8,6 +8,7 @@ from simtune.data.fingerprint import data_fingerprint, fingerprint_changes, task
 from simtune.data.loaders import RECORDING_SUFFIXES, load_recording
 from simtune.data.qualisys import write_qualisys_tsv
 from simtune.data.recording import QRG2019_BODIES, Recording
+from simtune.data.rosbag import read_joint_bag, write_joint_bag
 from simtune.data.task import TaskData, load_task_data, resample
 
 __all__ = [
@@ -19,8 +20,10 @@ __all__ = [
     "fingerprint_changes",
     "load_recording",
     "load_task_data",
+    "read_joint_bag",
     "resample",
     "task_files",
     "write_csv",
+    "write_joint_bag",
     "write_qualisys_tsv",
 ]

@@ -15,25 +15,33 @@ from simtune.data.loaders import is_recording_file
 
 
 def task_files(folder: Path | str) -> list[Path]:
-    """The recording files of one task folder, sorted by name.
+    """The recordings of one task folder (files, and rosbag2 folders), sorted by name.
 
     macOS AppleDouble companions (``._name.tsv``, written beside every file
     copied from a Mac onto a foreign file system) hold metadata, not data.
     """
     folder = Path(folder)
     return sorted(
-        (p for p in folder.iterdir() if p.is_file() and is_recording_file(p) and not p.name.startswith("._")),
+        (
+            p
+            for p in folder.iterdir()
+            if (p.is_file() or p.is_dir()) and is_recording_file(p) and not p.name.startswith("._")
+        ),
         key=lambda p: p.name,
     )
 
 
 def file_fingerprint(path: Path) -> dict:
-    """``{"file", "bytes", "sha256"}`` of one file."""
+    """``{"file", "bytes", "sha256"}`` of one file, or of a rosbag2 folder (its files' names and content)."""
     digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return {"file": path.name, "bytes": path.stat().st_size, "sha256": digest.hexdigest()}
+    members = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+    for member in members:
+        if path.is_dir():
+            digest.update(member.relative_to(path).as_posix().encode() + b"\0")
+        with open(member, "rb") as fh:
+            while block := fh.read(1 << 20):
+                digest.update(block)
+    return {"file": path.name, "bytes": sum(m.stat().st_size for m in members), "sha256": digest.hexdigest()}
 
 
 def data_fingerprint(root: Path | str, task_names: Iterable[str]) -> dict[str, list[dict]]:

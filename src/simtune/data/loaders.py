@@ -1,38 +1,62 @@
-"""Format dispatch: one entry point for every recording file simtune reads."""
+"""Format dispatch: one entry point for every recording simtune reads."""
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from pathlib import Path
 
 from simtune.data._table import display_name
+from simtune.data.c3dformat import read_c3d
 from simtune.data.csvformat import read_csv
 from simtune.data.qualisys import read_qualisys_tsv
 from simtune.data.recording import Recording
+from simtune.data.rosbag import is_bag_folder, read_joint_bag
 from simtune.errors import RecordingError
 
-#: File endings load_recording understands (lower case).
-RECORDING_SUFFIXES = (".tsv", ".tsv.gz", ".csv", ".csv.gz")
+#: File endings load_recording understands (lower case); a rosbag2 folder is a recording too.
+RECORDING_SUFFIXES = (".tsv", ".tsv.gz", ".csv", ".csv.gz", ".c3d", ".mcap")
 
 
 def is_recording_file(path: Path) -> bool:
-    """True for names ending in one of RECORDING_SUFFIXES (case-insensitive)."""
-    return Path(path).name.lower().endswith(RECORDING_SUFFIXES)
+    """True for a file named with one of RECORDING_SUFFIXES (case-insensitive), or a rosbag2 folder."""
+    path = Path(path)
+    if path.is_dir():
+        return is_bag_folder(path)
+    return path.name.lower().endswith(RECORDING_SUFFIXES)
 
 
-def load_recording(path: Path | str, body_names: list[str] | None = None) -> Recording:
-    """Load a recording: ``.tsv[.gz]`` as Qualisys 6D TSV (mm), ``.csv[.gz]`` as simtune CSV (m).
+def load_recording(
+    path: Path | str,
+    body_names: list[str] | None = None,
+    *,
+    joint_names: Collection[str] | None = None,
+    joint_topic: str | None = None,
+) -> Recording:
+    """Load a recording, its format told by its name (see docs/recordings.md).
 
-    The name picks the format only: compression and text encoding are read
+    ``.tsv[.gz]``: Qualisys 6D TSV (mm); ``.csv[.gz]``: simtune CSV (m, and
+    joint angles); ``.c3d``: C3D marker points (positions only);
+    ``.mcap`` or a rosbag2 folder: ROS 2 JointState messages
+    (of ``joint_topic``, by default the one JointState topic).  For text files
+    the name picks the format only: compression and text encoding are read
     from the content (see :func:`simtune.data._table.decode_content`).
 
     ``body_names`` names the bodies of a headerless TSV in column order
     (default QRG2019_BODIES); a TSV header's BODY_NAMES wins, and CSV files
-    carry their own names.
+    carry their own names.  ``joint_names`` are the joints a recording may
+    name (the arm's); None accepts any.
     """
     path = Path(path)
     name = path.name.lower()
+    if is_bag_folder(path) or name.endswith(".mcap"):
+        return read_joint_bag(path, joint_names, joint_topic)
     if name.endswith((".tsv", ".tsv.gz")):
         return read_qualisys_tsv(path, body_names)
     if name.endswith((".csv", ".csv.gz")):
-        return read_csv(path)
-    raise RecordingError(f"{display_name(path)}: unknown recording format (expected {', '.join(RECORDING_SUFFIXES)})")
+        return read_csv(path, joint_names)
+    if name.endswith(".c3d"):
+        return read_c3d(path)
+    raise RecordingError(
+        f"{display_name(path)}: unknown recording format "
+        f"(expected {', '.join(RECORDING_SUFFIXES)}, or a rosbag2 folder)"
+    )

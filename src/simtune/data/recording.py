@@ -1,7 +1,8 @@
-"""The in-memory form of one motion-capture recording, and the checks every loader shares."""
+"""The in-memory form of one recording (marker poses, joint angles or both), and the checks every loader shares."""
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +21,11 @@ MAX_ABS_COORD_M = 10.0
 # Largest tolerated |R R^T - I| entry; Qualisys rounds Rot[] to 5 decimals.
 _ORTHO_TOL = 1e-2
 
+#: A joint angle beyond two turns [rad] is not one an arm reaches in a take: such values are
+#: degrees in a file (or a column) that promises radians.  Degrees of a motion that stays
+#: within +-12.6 deg pass unnoticed; the check catches the common case of any real motion.
+MAX_ABS_JOINT_RAD = 4 * math.pi
+
 
 @dataclass
 class Recording:
@@ -27,9 +33,12 @@ class Recording:
 
     ``positions[name]`` is (n, 3) in metres and ``rotations[name]`` is (n, 3, 3)
     body-to-world rotation matrices (column j = body axis j in world frame);
-    both are NaN at frames where the body's markers were lost.  ``lines`` is
-    each frame's line number in its file (for messages); None when the
-    recording was made in memory.
+    both are NaN at frames where the body's markers were lost.  ``joints[name]``
+    is (n,) joint angles in radians, never NaN (an encoder is read every frame;
+    readers refuse a missing value).  A recording may hold marker bodies, joints
+    or both.  ``lines`` is each frame's line number in its file (for messages),
+    or its frame number in a binary file (``line_word`` "frame"); None when the
+    recording was made in memory or its frames number nothing in the file.
     """
 
     source: Path
@@ -37,12 +46,14 @@ class Recording:
     positions: dict[str, np.ndarray] = field(default_factory=dict)
     rotations: dict[str, np.ndarray] = field(default_factory=dict)
     lines: np.ndarray | None = None
+    joints: dict[str, np.ndarray] = field(default_factory=dict)
+    line_word: str = "line"  # what ``lines`` counts: "line" of a text file, "frame" of a binary one
 
     def where(self, frame: int) -> str:
         """``line N`` (or ``frame N`` without line numbers) of a 0-based frame index, for messages."""
         if self.lines is None:
             return f"frame {frame + 1}"
-        return f"line {int(self.lines[frame])}"
+        return f"{self.line_word} {int(self.lines[frame])}"
 
     @property
     def bodies(self) -> list[str]:
@@ -96,7 +107,9 @@ def clean_rotations(rot: np.ndarray, name: str, display: str) -> np.ndarray:
     return rot
 
 
-def check_units(positions: dict[str, np.ndarray], linenos: np.ndarray, display: str, message: str) -> None:
+def check_units(
+    positions: dict[str, np.ndarray], linenos: np.ndarray, display: str, message: str, line_word: str = "line"
+) -> None:
     """Reject coordinates beyond MAX_ABS_COORD_M; ``message`` is formatted with the value."""
     for name, xyz in positions.items():
         mag = np.abs(xyz)
@@ -105,7 +118,7 @@ def check_units(positions: dict[str, np.ndarray], linenos: np.ndarray, display: 
         row = int(np.flatnonzero((mag > MAX_ABS_COORD_M).any(axis=1))[0])
         peak = float(np.nanmax(mag))
         raise RecordingError(
-            f"{display} line {int(linenos[row])}: units check: body {name!r} " + message.format(peak=peak)
+            f"{display} {line_word} {int(linenos[row])}: units check: body {name!r} " + message.format(peak=peak)
         )
 
 
@@ -116,18 +129,21 @@ def finish_recording(
     linenos: np.ndarray,
     positions: dict[str, np.ndarray],
     rotations: dict[str, np.ndarray],
+    joints: dict[str, np.ndarray] | None = None,
+    line_word: str = "line",
 ) -> Recording:
-    """Check the time column, drop duplicate frames and build the Recording."""
+    """Check the time column, drop duplicate frames and build the Recording (``line_word``: what linenos count)."""
+    joints = {} if joints is None else joints
     bad = np.flatnonzero(~np.isfinite(time))
     if bad.size:
         i = int(bad[0])
-        raise RecordingError(f"{display} line {int(linenos[i])}: time check: the time is missing or not finite")
+        raise RecordingError(f"{display} {line_word} {int(linenos[i])}: time check: the time is missing or not finite")
     step = np.diff(time)
     back = np.flatnonzero(step < 0)
     if back.size:
         i = int(back[0]) + 1
         raise RecordingError(
-            f"{display} line {int(linenos[i])}: time check: the time goes backwards "
+            f"{display} {line_word} {int(linenos[i])}: time check: the time goes backwards "
             f"({time[i]:.6g} s after {time[i - 1]:.6g} s)"
         )
     dup = np.flatnonzero(step == 0) + 1
@@ -135,7 +151,7 @@ def finish_recording(
         # Qualisys repeats a frame when a buffer is re-sent; the first copy is kept.
         warnings.warn(
             f"{display}: time check: dropped {dup.size} duplicate frame(s) repeating the previous time "
-            f"at lines {frame_list(linenos[dup])}",
+            f"at {line_word}s {frame_list(linenos[dup])}",
             RecordingWarning,
             stacklevel=4,
         )
@@ -145,9 +161,20 @@ def finish_recording(
         linenos = linenos[keep]
         positions = {k: v[keep] for k, v in positions.items()}
         rotations = {k: v[keep] for k, v in rotations.items()}
+        joints = {k: v[keep] for k, v in joints.items()}
     if time.shape[0] < 2:
-        raise RecordingError(f"{display} line {int(linenos[0])}: only {time.shape[0]} valid frame; need at least 2")
-    return Recording(source=Path(source), time=time, positions=positions, rotations=rotations, lines=linenos)
+        raise RecordingError(
+            f"{display} {line_word} {int(linenos[0])}: only {time.shape[0]} valid frame; need at least 2"
+        )
+    return Recording(
+        source=Path(source),
+        time=time,
+        positions=positions,
+        rotations=rotations,
+        lines=linenos,
+        joints=joints,
+        line_word=line_word,
+    )
 
 
 def check_for_writing(rec: Recording, display: str, forbidden: str) -> int:
@@ -170,5 +197,12 @@ def check_for_writing(rec: Recording, display: str, forbidden: str) -> int:
             raise RecordingError(
                 f"{display}: cannot write: rotations[{name!r}] has shape "
                 f"{np.shape(rec.rotations[name])}, expected ({n}, 3, 3)"
+            )
+    for name, angles in rec.joints.items():
+        if not name or name in rec.positions or any(ch in name for ch in forbidden):
+            raise RecordingError(f"{display}: cannot write: joint name {name!r} is not allowed")
+        if np.shape(angles) != (n,):
+            raise RecordingError(
+                f"{display}: cannot write: joints[{name!r}] has shape {np.shape(angles)}, expected ({n},)"
             )
     return n

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from collections.abc import Collection
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -26,16 +27,25 @@ from simtune.errors import ConfigError, RecordingError, RecordingWarning
 
 @dataclass
 class TaskData:
-    """Repeats of one task resampled to ``times`` = arange(n) / rate (0 = recording start)."""
+    """Repeats of one task resampled to ``times`` = arange(n) / rate (0 = recording start).
+
+    What the recordings hold is what is there: ``wrist_mean`` (n, 3) [m] and
+    ``wrist_repeats`` (repeats, n, 3) when they track the wrist marker, else
+    None; ``joint_mean`` (n, J) and ``joint_repeats`` (repeats, n, J) [rad] of
+    the joints ``joint_names`` when they log joint angles, else None and [].
+    """
 
     task: str
     rate: float
     times: np.ndarray
-    wrist_mean: np.ndarray
-    wrist_repeats: np.ndarray
+    wrist_mean: np.ndarray | None
+    wrist_repeats: np.ndarray | None
     object_final: np.ndarray | None
     object_start: np.ndarray | None
     sources: list[Path]
+    joint_names: list[str] = field(default_factory=list)
+    joint_mean: np.ndarray | None = None
+    joint_repeats: np.ndarray | None = None
 
     @property
     def object_final_mean(self) -> np.ndarray | None:
@@ -43,8 +53,10 @@ class TaskData:
         return None if self.object_final is None else self.object_final.mean(axis=0)
 
     @property
-    def repeat_spread(self) -> float:
-        """Mean over repeats of the mean 3-D distance between a repeat and ``wrist_mean`` [m]."""
+    def repeat_spread(self) -> float | None:
+        """Mean over repeats of the mean 3-D distance between a repeat and ``wrist_mean`` [m]; None without a wrist."""
+        if self.wrist_repeats is None or self.wrist_mean is None:
+            return None
         dist = np.linalg.norm(self.wrist_repeats - self.wrist_mean[None], axis=2)
         return float(dist.mean(axis=1).mean())
 
@@ -107,6 +119,27 @@ def _fill_gaps(time: np.ndarray, xyz: np.ndarray, max_gap_s: float) -> tuple[np.
     return filled, None
 
 
+_KINDS = "*.tsv, *.csv, *.c3d, *.mcap, rosbag2 folders"
+
+
+def _check_joints(rec: Recording, joints: list[str], display: str) -> None:
+    """Every repeat logs the joints of the first one, no fewer and no more."""
+    if set(rec.joints) == set(joints):
+        return
+    if not joints:
+        raise RecordingError(
+            f"{display}: holds joint angles ({', '.join(rec.joints)}) but the first repeat does not: "
+            "every repeat of a task must hold the same kinds of data"
+        )
+    missing = [j for j in joints if j not in rec.joints]
+    extra = [j for j in rec.joints if j not in joints]
+    parts = ([f"lacks {', '.join(missing)}"] if missing else []) + ([f"adds {', '.join(extra)}"] if extra else [])
+    raise RecordingError(
+        f"{display}: its joints differ from the first repeat's ({'; '.join(parts)}): "
+        "every repeat of a task must log the same joints"
+    )
+
+
 def _find_body(rec: Recording, body: str, display: str) -> np.ndarray:
     if body not in rec.positions:
         raise RecordingError(f"{display}: no body {body!r} (bodies: {', '.join(rec.positions) or 'none'})")
@@ -125,6 +158,8 @@ def load_task_data(
     duration_s: float | None = None,
     reach_m: float = GENERIC_REACH_M,
     base_body: str | None = None,
+    joint_names: Collection[str] | None = None,
+    joint_topic: str | None = None,
 ) -> TaskData:
     """Load every repeat in ``folder`` (sorted by name), check it, and put the repeats on a common clock.
 
@@ -136,6 +171,12 @@ def load_task_data(
     RecordingWarning.  Short marker drop-outs are interpolated; a repeat whose
     wrist or object is lost for longer than ``max_gap_s`` is left out with a
     RecordingWarning.  The result holds no NaN.
+
+    Joint logs: the first repeat decides what the task's recordings hold (the
+    wrist marker, joint angles, or both) and every other repeat must hold the
+    same (the same joints).  ``joint_names`` are the joints a recording may name
+    (the arm's; None: any), ``joint_topic`` the JointState topic of ROS 2 logs.
+    Without marker bodies ``object_body`` is not looked for.
     """
     if not (math.isfinite(rate) and rate > 0):
         raise ConfigError(f"rate must be a positive number of samples per second, got {rate!r}")
@@ -147,22 +188,29 @@ def load_task_data(
         raise ConfigError(f"reach_m must be a positive number of metres, got {reach_m!r}")
     folder = Path(folder)
     if not folder.is_dir():
-        raise RecordingError(f"no recordings (*.tsv, *.csv) in {folder}: no such folder")
+        raise RecordingError(f"no recordings ({_KINDS}) in {folder}: no such folder")
     files = task_files(folder)
     if not files:
-        raise RecordingError(f"no recordings (*.tsv, *.csv) in {folder}")
-    bodies = [wrist_body] + ([object_body] if object_body is not None else [])
+        raise RecordingError(f"no recordings ({_KINDS}) in {folder}")
 
-    # Sanity stage, per file: bodies present, times, units; then units across the folder.
+    # Sanity stage, per file: bodies or joints present, times, units; then units across the folder.
     recordings: list[Recording] = []
     distances: list[tuple[str, float]] = []
+    bodies: list[str] = []
+    joints: list[str] = []
     for path in files:
         display = display_name(path)
-        rec = load_recording(path, body_names)
+        rec = load_recording(path, body_names, joint_names=joint_names, joint_topic=joint_topic)
+        if not recordings:
+            # the first repeat sets what the task's recordings hold
+            joints = list(rec.joints)
+            if wrist_body in rec.positions or not joints:
+                bodies = [wrist_body] + ([object_body] if object_body is not None else [])
         for body in bodies:
             _find_body(rec, body, display)
+        _check_joints(rec, joints, display)
         check_time(rec, display, duration_s)
-        distance = wrist_distance(rec, wrist_body, base_body)
+        distance = wrist_distance(rec, wrist_body, base_body) if bodies else None
         if distance is not None:  # a wrist never seen is left out by the gap rule below
             check_units(distance, display, wrist_body, reach_m)
             distances.append((display, distance))
@@ -219,9 +267,16 @@ def load_task_data(
     shortest = min(float(t[-1]) for _, t, _ in repeats)
     # floor(duration * rate) + 1 samples: every repeat covers the last one.
     n = int(math.floor(shortest * rate + 1e-9)) + 1
-    wrists = np.stack([resample(t, filled[wrist_body], rate, n) for _, t, filled in repeats])
+    wrists = None
+    if bodies:
+        wrists = np.stack([resample(t, filled[wrist_body], rate, n) for _, t, filled in repeats])
+    angles = None
+    if joints:
+        angles = np.stack(
+            [resample(t, np.stack([rec.joints[j] for j in joints], axis=1), rate, n) for rec, t, _ in repeats]
+        )
     starts = finals = None
-    if object_body is not None:
+    if object_body is not None and object_body in bodies:
         # The object's first and last tracked positions (never a NaN of a lost first or last frame).
         seen = [np.flatnonzero(np.isfinite(rec.positions[object_body]).all(axis=1)) for rec, _, _ in repeats]
         starts = np.stack([rec.positions[object_body][s[0]] for (rec, _, _), s in zip(repeats, seen)])
@@ -230,9 +285,12 @@ def load_task_data(
         task=task,
         rate=float(rate),
         times=np.arange(n) / rate,
-        wrist_mean=wrists.mean(axis=0),
+        wrist_mean=None if wrists is None else wrists.mean(axis=0),
         wrist_repeats=wrists,
         object_final=finals,
         object_start=starts,
         sources=[rec.source for rec, _, _ in repeats],
+        joint_names=joints,
+        joint_mean=None if angles is None else angles.mean(axis=0),
+        joint_repeats=angles,
     )

@@ -13,6 +13,7 @@ Regenerate with ``python -m simtune.reference.make`` (deterministic).
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -53,6 +54,8 @@ def synthesize(
     seed: int,
     rate: float = RATE,
     suffix: str = ".tsv.gz",
+    joint_names: Sequence[str] | None = None,
+    joint_noise_rad: float = 0.0,
 ) -> list[Recording]:
     """Recordings of ``task`` simulated by ``engine`` with parameters ``truth``, plus mocap-like noise.
 
@@ -61,10 +64,14 @@ def synthesize(
     marker (wrist plus ``marker_offset_*``) at ``rate`` Hz with Gaussian noise of
     ``noise_m`` per axis, the base marker and the object with a quarter of it.
     Any engine and any task (with or without object) works; ``suffix`` names
-    the files ``<task><repeat:04d><suffix>``.  A truth whose simulation blows up
-    is refused with a SimtuneError.
+    the files ``<task><repeat:04d><suffix>``.  With ``joint_names`` (the
+    rollout's joint columns) each recording also logs the joint angles at
+    ``rate`` Hz with Gaussian noise of ``joint_noise_rad``, drawn from a stream
+    of their own so the markers stay as they are without joints.  A truth
+    whose simulation blows up is refused with a SimtuneError.
     """
     rng = np.random.default_rng(seed)
+    joint_rng = np.random.default_rng([seed, 1])
     sim = make_engine(engine, task)
     duration = task.duration
     recordings = []
@@ -96,7 +103,11 @@ def synthesize(
             assert rollout.object_pos is not None, "a task with an object samples its position"
             positions[task.object.mocap_body] = up(rollout.object_pos) + rng.normal(0, noise_m / 4, (len(t), 3))
             rotations[task.object.mocap_body] = np.tile(np.eye(3), (len(t), 1, 1))
-        recordings.append(Recording(Path(f"{task.name}{r + 1:04d}{suffix}"), t, positions, rotations))
+        joints = {}
+        if joint_names is not None:
+            angles = up(rollout.joint_angles) + joint_rng.normal(0, joint_noise_rad, (len(t), len(joint_names)))
+            joints = {name: angles[:, j] for j, name in enumerate(joint_names)}
+        recordings.append(Recording(Path(f"{task.name}{r + 1:04d}{suffix}"), t, positions, rotations, joints=joints))
     sim.close()
     return recordings
 

@@ -313,6 +313,9 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
 
     traj = sim.tasks[task]
     ref = traj.reference
+    wrist_mean, wrist_repeats = ref.wrist_mean, ref.wrist_repeats
+    if wrist_mean is None or wrist_repeats is None:
+        raise ValueError(f"task {task}: the recordings track no wrist marker to draw")
     finals, untuned_object, tuned_object = ref.object_final, traj.untuned_object, traj.tuned_object
     has_object = finals is not None and untuned_object is not None and tuned_object is not None
     ncols = 3 if has_object else 2
@@ -323,14 +326,14 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
     lines = (("untuned", traj.untuned_marker, UNTUNED, "--"), ("tuned", traj.tuned_marker, TUNED, "-"))
 
     ax3 = fig.add_subplot(gs[:, 0], projection="3d")
-    for k, rep in enumerate(ref.wrist_repeats):
+    for k, rep in enumerate(wrist_repeats):
         ax3.plot(*rep.T, color="#999999", linewidth=0.5, alpha=0.5, label="recorded repeats" if k == 0 else None)
-    ax3.plot(*ref.wrist_mean.T, color=RECORDED, linewidth=2.0, label="recorded mean")
+    ax3.plot(*wrist_mean.T, color=RECORDED, linewidth=2.0, label="recorded mean")
     for label, marker, color, style in lines:
         ax3.plot(*marker[:n].T, color=color, linestyle=style, linewidth=1.5, label=label)
-    ax3.scatter(*ref.wrist_mean[0], color=RECORDED, marker="o", s=20)
+    ax3.scatter(*wrist_mean[0], color=RECORDED, marker="o", s=20)
     # equal scales on the three axes (true geometry, as the arm moved), with room for the labels
-    pts = np.vstack([ref.wrist_repeats.reshape(-1, 3), traj.untuned_marker[:n], traj.tuned_marker[:n]])
+    pts = np.vstack([wrist_repeats.reshape(-1, 3), traj.untuned_marker[:n], traj.tuned_marker[:n]])
     centre, half = (pts.min(axis=0) + pts.max(axis=0)) / 2, max(float(np.ptp(pts, axis=0).max()), 0.05) * 0.52
     ax3.set_xlim(centre[0] - half, centre[0] + half)
     ax3.set_ylim(centre[1] - half, centre[1] + half)
@@ -342,11 +345,11 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
     panel_title(ax3, "end-effector path", ncols)
     ax3.legend(fontsize="small", loc="upper left")
 
-    lo, hi = ref.wrist_repeats.min(axis=0), ref.wrist_repeats.max(axis=0)
+    lo, hi = wrist_repeats.min(axis=0), wrist_repeats.max(axis=0)
     for i, axis in enumerate("xyz"):
         ax = fig.add_subplot(gs[i, 1])
         ax.fill_between(t, lo[:, i], hi[:, i], color="#999999", alpha=0.35, linewidth=0, label="recorded min-max")
-        ax.plot(t, ref.wrist_mean[:, i], color=RECORDED, linewidth=1.6, label="recorded mean")
+        ax.plot(t, wrist_mean[:, i], color=RECORDED, linewidth=1.6, label="recorded mean")
         for label, marker, color, style in lines:
             ax.plot(t, marker[:n, i], color=color, linestyle=style, linewidth=1.3, label=label)
         ax.set_ylabel(f"{axis} [m]")

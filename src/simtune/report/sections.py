@@ -210,7 +210,7 @@ def _trajectory_caption(sim: GroupSimulation, task: str) -> str:
     with_object = traj.tuned_object is not None and traj.reference.object_final is not None
     return (
         f"{g.engine} on {task} (space {g.space}): the recorded wrist marker (mean of "
-        f"{len(traj.reference.wrist_repeats)} repeats, and each repeat / min-max band) "
+        f"{len(traj.reference.sources)} repeats, and each repeat / min-max band) "
         f"against the untuned simulation (generic parameters) and the tuned one (best repeat, "
         f"{sim.run.label}), in 3-D and as x, y, z against time"
         + ("; right: final object positions." if with_object else ".")
@@ -252,6 +252,7 @@ def trajectories_section(data: ReportData, out: ReportOutput) -> Section:
         )
         for sim in data.sims
         for task in sim.group.task_names
+        if sim.tasks[task].reference.wrist_mean is not None  # joint logs alone: no marker to draw
     ]
     return Section(
         "trajectories",
