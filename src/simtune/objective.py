@@ -17,7 +17,6 @@ from simtune.engines import Engine, engine_class, make_engine
 from simtune.errors import SimtuneError
 from simtune.fitness import PENALTY, Score, TaskScore, marker_positions, score_rollout
 from simtune.params import ParameterSpace
-from simtune.robot.mico import WRIST_REACH_M
 from simtune.tasks import TaskSpec
 from simtune.tasks.spec import BASE_BODY
 
@@ -25,7 +24,7 @@ from simtune.tasks.spec import BASE_BODY
 def load_references(root: Path, tasks: list[TaskSpec]) -> dict[str, TaskData]:
     """The recordings of each task, from ``root/<task name>/``, checked against the task and the arm.
 
-    The task's duration and the MICO's reach go to the loader's sanity stage as
+    The task's duration and its robot's reach go to the loader's sanity stage as
     plain numbers (data/ knows neither tasks nor robots).
     """
     root = Path(root)
@@ -42,7 +41,7 @@ def load_references(root: Path, tasks: list[TaskSpec]) -> dict[str, TaskData]:
             wrist_body=task.wrist_body,
             object_body=task.object.mocap_body if task.object is not None else None,
             duration_s=task.duration,
-            reach_m=WRIST_REACH_M,
+            reach_m=task.robot.reach,
             base_body=BASE_BODY,
         )
     return refs

@@ -52,6 +52,7 @@ from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squa
 from simtune.optimize.evaluator import timed_out
 from simtune.params import get_space
 from simtune.progress import TuneProgress
+from simtune.robot.mico import MICO
 from simtune.runlock import LOCK_FILE, check_free, run_lock
 from simtune.store import STORE_FILE, RunStore, check_store_file
 from simtune.tasks import TaskSpec, parse_tasks
@@ -178,6 +179,8 @@ def task_fingerprint(task: TaskSpec) -> str:
     spec = asdict(task)
     for key in ("description", "has_public_recordings"):
         spec.pop(key, None)
+    if task.robot == MICO:  # the bundled robot: fingerprints of runs from before robots were described stay
+        spec.pop("robot")
     return hashlib.sha256(json.dumps(spec, sort_keys=True, default=str).encode()).hexdigest()
 
 

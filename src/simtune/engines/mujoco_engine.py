@@ -22,7 +22,6 @@ import numpy as np
 
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
 from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf
-from simtune.robot.mico import ARM_JOINTS, LINKS, WRIST_LINK
 from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
 
 try:
@@ -35,7 +34,6 @@ else:
     mujoco.set_mju_user_warning(lambda message: None)
 
 _FRICTION_COLUMN = {"lateral_friction": 0, "spinning_friction": 1, "rolling_friction": 2}
-_ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
 
 
 class MujocoEngine(Engine):
@@ -52,26 +50,28 @@ class MujocoEngine(Engine):
 
     @classmethod
     def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
-        return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KV)
+        return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KV, task)
 
     def __init__(self, task: TaskSpec):
         super().__init__(task)
-        self.model = mujoco.MjModel.from_xml_string(scene_mjcf(task.object))
+        robot = task.robot
+        self.model = mujoco.MjModel.from_xml_string(scene_mjcf(robot, task.object))
         self.data = mujoco.MjData(self.model)
         m = self.model
-        self._arm_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in ARM_JOINTS])
-        self._arm_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in ARM_JOINTS])
-        self._wrist = m.body(WRIST_LINK).id
+        self._arm_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot.arm_joints])
+        self._arm_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in robot.arm_joints])
+        self._arm_links = robot.driven_links
+        self._wrist = m.body(robot.tracked_link).id
         self._object = m.body(OBJECT_BODY).id if task.object is not None else None
         self._object_dof = m.jnt_dofadr[m.joint(OBJECT_BODY).id] if task.object is not None else None
         # body id -> whether it is a part of the arm (links and fingers)
         self._arm_body = np.zeros(m.nbody, dtype=bool)
-        self._arm_body[[m.body(link.name).id for link in LINKS]] = True
+        self._arm_body[[m.body(link.name).id for link in robot.links]] = True
         self._groups = {
             "floor": [m.geom(FLOOR).id],
             "gripper": [
                 m.geom(g).id
-                for link in LINKS
+                for link in robot.links
                 if link.material == "gripper"
                 for g in range(m.ngeom)
                 if m.geom_bodyid[g] == m.body(link.name).id
@@ -88,7 +88,7 @@ class MujocoEngine(Engine):
     def defaults(self) -> dict[str, float]:
         p, m = self._pristine, self.model
         values = {"timestep": float(p["timestep"])}
-        for i, link in enumerate(_ARM_LINKS, start=1):
+        for i, link in enumerate(self._arm_links, start=1):
             values[f"mass_link_{i}"] = float(p["body_mass"][m.body(link).id])
             values[f"max_torque_joint_{i}"] = float(p["actuator_forcerange"][i - 1, 1])
             values[f"joint_damping_{i}"] = float(p["dof_damping"][self._arm_dof[i - 1]])
@@ -116,7 +116,7 @@ class MujocoEngine(Engine):
             m.body_inertia[body] = p["body_inertia"][body] * (mass / p["body_mass"][body])
             m.body_mass[body] = mass
 
-        for i, link in enumerate(_ARM_LINKS, start=1):
+        for i, link in enumerate(self._arm_links, start=1):
             if f"mass_link_{i}" in params:
                 set_mass(m.body(link).id, params[f"mass_link_{i}"])
             if f"max_torque_joint_{i}" in params:

@@ -103,7 +103,7 @@ def nominal_values(engine: str, task_names: list[str]) -> dict[str, float]:
                 values.setdefault(key, float(value))
         finally:
             sim.close()
-        for i in range(1, 7):
+        for i in range(1, task.robot.n_joints + 1):
             values.setdefault(f"max_velocity_joint_{i}", float(task.max_velocity_deg))
     values.setdefault("command_delay", 0.0)
     for axis in "xyz":

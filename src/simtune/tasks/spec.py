@@ -7,12 +7,15 @@ spec through the same controller (:mod:`simtune.controller`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
+from simtune.errors import ConfigError
 from simtune.geometry import rpy_matrix
+from simtune.robot.description import RobotDescription
+from simtune.robot.mico import MICO
 
 #: Body names of the qrg2019 motion-capture exports (robot base, wrist, object).
 BASE_BODY = "RB2(Black)"
@@ -89,15 +92,16 @@ class ObjectSpec:
 
 @dataclass(frozen=True)
 class Phase:
-    """From ``start`` seconds on, the six arm joints are driven towards ``targets_deg``."""
+    """From ``start`` seconds on, the robot's driven joints are driven towards ``targets_deg`` (one per
+    joint, in the robot's order)."""
 
     start: float
-    targets_deg: tuple[float, float, float, float, float, float]
+    targets_deg: tuple[float, ...]
 
 
 @dataclass(frozen=True)
 class TaskSpec:
-    """A task: joint-target schedule, controller gains, duration and object."""
+    """A task: the robot, its joint-target schedule, controller gains, duration and object."""
 
     name: str
     description: str
@@ -107,9 +111,26 @@ class TaskSpec:
     max_velocity_deg: float = 30.0  # the controller's default velocity clamp [deg/s]
     object: ObjectSpec | None = None
     wrist_body: str = WRIST_BODY
-    start_pose_deg: tuple[float, ...] = field(default=(0.0,) * 6)
+    start_pose_deg: tuple[float, ...] = ()  # default: every driven joint at 0
     #: whether real recordings of this task exist in the qrg2019 data set
     has_public_recordings: bool = False
+    robot: RobotDescription = MICO
+
+    def __post_init__(self) -> None:
+        n = self.robot.n_joints
+        if not self.start_pose_deg:
+            object.__setattr__(self, "start_pose_deg", (0.0,) * n)
+        if len(self.start_pose_deg) != n:
+            raise ConfigError(
+                f"task {self.name!r}: start pose has {len(self.start_pose_deg)} joint angles, "
+                f"robot {self.robot.name!r} drives {n} joints"
+            )
+        for k, phase in enumerate(self.phases, start=1):
+            if len(phase.targets_deg) != n:
+                raise ConfigError(
+                    f"task {self.name!r}: phase {k} has {len(phase.targets_deg)} joint targets, "
+                    f"robot {self.robot.name!r} drives {n} joints"
+                )
 
     @cached_property
     def schedule(self) -> tuple[np.ndarray, np.ndarray]:
