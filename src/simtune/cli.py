@@ -180,12 +180,15 @@ def evaluate(
     from simtune.objective import Objective, load_references
     from simtune.params import read_params_file, validate_params
     from simtune.tasks import parse_tasks
+    from simtune.tasks.spec import common_robot
 
     tasks = parse_tasks(task)
+    robot = common_robot(tasks)
     cls = engine_class(engine)
     params = {}
     if params_file is not None:
-        params = validate_params(read_params_file(params_file, engine), cls.supported(), engine, where=str(params_file))
+        values = read_params_file(params_file, engine)
+        params = validate_params(values, cls.supported(robot), engine, where=str(params_file), robot=robot)
     objective = Objective(engine, tasks, load_references(_data_root(data), tasks))
     t0 = time.perf_counter()
     score = objective.score(params)

@@ -56,6 +56,7 @@ from simtune.robot.mico import MICO
 from simtune.runlock import LOCK_FILE, check_free, run_lock
 from simtune.store import STORE_FILE, RunStore, check_store_file
 from simtune.tasks import TaskSpec, parse_tasks
+from simtune.tasks.spec import common_robot
 
 BEST_PARAMS_FILE = "best_params.json"
 #: where ``resume --rescore`` keeps the run it replaces
@@ -213,8 +214,9 @@ def _summary(changes: list[str], shown: int = 3) -> str:
 def build_objective(config: RunConfig) -> Objective:
     tasks = parse_tasks(config.tasks)
     # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
-    supported = None if config.paper_exact else engine_class(config.engine).supported()
-    space = get_space(config.space, supported, config.only)
+    robot = common_robot(tasks)
+    supported = None if config.paper_exact else engine_class(config.engine).supported(robot)
+    space = get_space(config.space, supported, config.only, robot)
     return Objective(config.engine, tasks, load_references(Path(config.data), tasks), space)
 
 

@@ -7,6 +7,8 @@ the task's object spec, computed once, in one place.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from simtune.geometry import rpy_matrix
@@ -113,10 +115,15 @@ def hull_faces(vertices: np.ndarray) -> tuple[np.ndarray, list[np.ndarray], np.n
     return points, faces, np.array(planes)
 
 
-def mesh_hull_faces(mesh: Mesh) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
-    """The convex hull of a mesh shape (scaled, in its own frame): for engines that collide with hulls."""
+@lru_cache(maxsize=256)  # the scene is rebuilt at every reset: read and hull each mesh once
+def mesh_hull_faces(mesh: Mesh) -> tuple[np.ndarray, list[np.ndarray], np.ndarray, np.ndarray]:
+    """The convex hull of a mesh shape (scaled) for engines that collide with hulls: (vertices, faces,
+    planes, centre), the vertices and planes about the hull's centre (ODE wants its origin inside), which
+    lies at ``centre`` in the mesh's own frame."""
     vertices, _ = mesh_hull(mesh)
-    return hull_faces(vertices)
+    centre = vertices.mean(axis=0)
+    points, faces, planes = hull_faces(vertices - centre)
+    return points, faces, planes, centre
 
 
 def object_mass_properties(obj: ObjectSpec, mass: float | None = None) -> tuple[np.ndarray, np.ndarray]:

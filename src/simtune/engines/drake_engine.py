@@ -37,7 +37,7 @@ import numpy as np
 from simtune.engines._shapes import object_mass_properties
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
 from simtune.geometry import rpy_matrix
-from simtune.robot.generate import robot_urdf
+from simtune.robot.generate import robot_urdf_file
 from simtune.tasks.spec import CONTACT_GROUPS, ObjectSpec, TaskSpec
 
 if TYPE_CHECKING:  # for the annotations of _System (mypy reads pydrake as untyped: see pyproject.toml)
@@ -125,7 +125,7 @@ class DrakeEngine(Engine):
     def __init__(self, task: TaskSpec):
         super().__init__(task)
         self._systems: OrderedDict[float, _System] = OrderedDict()
-        self._urdf = robot_urdf(task.robot)
+        self._urdf = robot_urdf_file(task.robot)  # a file: Drake resolves absolute mesh paths only in one
         self._sys = self._system(MultibodyPlantConfig().time_step)  # Drake's own default step
         self._failed = ""
         self._defaults = self._read_defaults()
@@ -147,7 +147,7 @@ class DrakeEngine(Engine):
         sg_config = SceneGraphConfig()
         plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=timestep), sg_config, builder)
         robot = self.task.robot
-        (arm,) = Parser(plant).AddModelsFromString(self._urdf, "urdf")
+        (arm,) = Parser(plant).AddModels(self._urdf)
         base = np.asarray(robot.base_position, dtype=float)
         plant.WeldFrames(
             plant.world_frame(),

@@ -261,7 +261,9 @@ class OdeEngine(Engine):
                 self._com[host] = com
             group = "gripper" if robot.link_by_name[host].material == "gripper" else "arm"
             for centre, shape_rot, shape, link in shapes.get(host, []):
-                geom = self._link_geom(shape)
+                geom, shift = self._link_geom(shape)
+                if shift is not None:  # a hull about its own centre
+                    centre = centre + shape_rot @ shift
                 member_group = "gripper" if robot.link_by_name[link].material == "gripper" else group
                 if body is not None:
                     ode.dGeomSetBody(geom, body)
@@ -350,15 +352,17 @@ class OdeEngine(Engine):
         names = {g for g, _ in self._geoms.values()}
         self._surfaces = {(a, b): surface(a, b) for a in names for b in names}
 
-    def _link_geom(self, shape):
-        """A body-less ODE geom of a link's collision shape, in the shape's own frame (a mesh: its convex hull)."""
+    def _link_geom(self, shape) -> tuple[Any, np.ndarray | None]:
+        """A body-less ODE geom of a link's collision shape, in the shape's own frame, and None; for a mesh,
+        its convex hull about the hull's centre, and that centre in the mesh's frame."""
         if isinstance(shape, Box):
-            return ode.dCreateBox(self._space, *(2 * np.asarray(shape.half)))
+            return ode.dCreateBox(self._space, *(2 * np.asarray(shape.half))), None
         if isinstance(shape, Sphere):
-            return ode.dCreateSphere(self._space, shape.radius)
+            return ode.dCreateSphere(self._space, shape.radius), None
         if isinstance(shape, Cylinder):
-            return ode.dCreateCylinder(self._space, shape.radius, shape.length)
-        return self._convex(*mesh_hull_faces(shape))
+            return ode.dCreateCylinder(self._space, shape.radius, shape.length), None
+        vertices, faces, planes, centre = mesh_hull_faces(shape)
+        return self._convex(vertices, faces, planes), centre
 
     def _convex(self, vertices: np.ndarray, faces, planes: np.ndarray):
         plane_arr = (ode.dReal * planes.size)(*planes.ravel())

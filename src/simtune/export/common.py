@@ -71,7 +71,6 @@ def exported_robot(robot: description.RobotDescription) -> RobotDescription:
     )
 
 
-
 def num(value: float) -> str:
     """A float written so that parsing it gives the same double back (Python's shortest round-trip form)."""
     return repr(float(value))

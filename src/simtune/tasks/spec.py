@@ -141,3 +141,15 @@ class TaskSpec:
         starts = np.array([p.start for p in self.phases])
         table = np.array([self.start_pose_deg, *(p.targets_deg for p in self.phases)], dtype=float)
         return starts, table
+
+
+def common_robot(tasks) -> RobotDescription:
+    """The one robot of tasks tuned together (their parameters are one robot's)."""
+    robots: list[RobotDescription] = []
+    for task in tasks:
+        if task.robot not in robots:
+            robots.append(task.robot)
+    if len(robots) != 1:
+        names = ", ".join(repr(r.name) for r in robots) or "none"
+        raise ConfigError(f"tasks tuned together must share one robot, not {names}")
+    return robots[0]
