@@ -112,7 +112,7 @@ class Rollout:
     """What one simulated run of a task produced, sampled at the control rate."""
 
     times: np.ndarray  # (n,) seconds
-    wrist_pos: np.ndarray  # (n, 3) world position of the wrist (link_6 origin) [m]
+    wrist_pos: np.ndarray  # (n, 3) world position of the tracked link's origin (the MICO's link_6) [m]
     wrist_rot: np.ndarray  # (n, 3, 3) world rotation of the wrist frame
     joint_angles: np.ndarray  # (n, driven joints) [rad]
     object_pos: np.ndarray | None  # (n, 3) or None for tasks without an object
