@@ -205,3 +205,97 @@ def test_held_fingers_follow_their_mimic_rule(panda):
     left, _ = robot.forward_kinematics(np.zeros(7), "panda_leftfinger")
     right, _ = robot.forward_kinematics(np.zeros(7), "panda_rightfinger")
     assert np.linalg.norm(left - right) == pytest.approx(0.06)  # each finger 3 cm out from the middle
+
+
+# --- an MJCF robot: MuJoCo only -----------------------------------------------------------------
+
+ARM_MJCF = """<mujoco model="arm3">
+  <compiler angle="radian" meshdir="{meshes}"/>
+  <asset><mesh name="shell" file="link1.obj" scale="0.5 0.5 0.5"/></asset>
+  <worldbody>
+    <body name="base" pos="0 0 0.05">
+      <inertial pos="0 0 0.05" mass="2" diaginertia="0.01 0.01 0.01"/>
+      <geom type="box" size="0.05 0.05 0.05" pos="0 0 0.05"/>
+      <body name="upper" pos="0 0 0.1">
+        <joint name="shoulder" axis="0 0 1"/>
+        <inertial pos="0 0 0.1" mass="1" diaginertia="0.005 0.005 0.001"/>
+        <geom type="mesh" mesh="shell"/>
+        <body name="fore" pos="0 0 0.2" quat="0.7071068 0.7071068 0 0">
+          <joint name="elbow" axis="0 0 1" range="-2 2" damping="0.1"/>
+          <inertial pos="0.1 0 0" mass="0.5" diaginertia="0.001 0.002 0.002"/>
+          <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.03"/>
+          <body name="hand" pos="0.2 0 0">
+            <joint name="wrist" axis="1 0 0"/>
+            <inertial pos="0.03 0 0" mass="0.3" diaginertia="0.0005 0.0005 0.0005"/>
+            <geom type="sphere" size="0.04" pos="0.03 0 0"/>
+            <body name="finger" pos="0.06 0 0">
+              <joint name="finger" type="slide" axis="0 1 0" range="0 0.02"/>
+              <inertial pos="0.01 0 0" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/>
+              <geom type="box" size="0.01 0.005 0.02" pos="0.01 0 0"/>
+            </body>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <actuator><position joint="shoulder" kp="10"/><position joint="finger" kp="10"/></actuator>
+  <keyframe><key name="home" qpos="0 0 0 0" ctrl="0 0"/></keyframe>
+</mujoco>
+"""
+
+
+@pytest.fixture
+def arm_mjcf(tmp_path):
+    path = tmp_path / "arm.xml"
+    path.write_text(ARM_MJCF.format(meshes=PANDA.parent / "meshes" / "collision"))
+    return path
+
+
+def test_mjcf_robot_in_mujoco(arm_mjcf):
+    from simtune.robot.mjcf import load_mjcf
+
+    robot = load_mjcf(arm_mjcf, tracked_link="hand")
+    assert robot.arm_joints == ("shoulder", "elbow", "wrist")
+    assert dict(robot.held) == {"finger": 0.0}  # the slide is held, its body welded
+    assert robot.joint_by_name["elbow"].damping == pytest.approx(0.1)
+    cls = engine_or_skip("mujoco")
+    for q in np.random.default_rng(2).uniform(-1.5, 1.5, size=(3, 3)):
+        sim = cls(pose_task(robot, q))
+        sim.reset({})
+        pos, rot = sim.wrist_pose()
+        want_pos, want_rot = robot.forward_kinematics(q)
+        np.testing.assert_allclose(pos, want_pos, atol=1e-9)
+        np.testing.assert_allclose(rot, want_rot, atol=1e-9)
+    reach = TaskSpec("arm3-reach", "", 5.0, (Phase(0.5, (40.0, 60.0, -30.0)),), kp=1.0, robot=robot)
+    sim = cls(reach)
+    rollout = sim.rollout({}, 100)
+    assert rollout.stable, rollout.message
+    np.testing.assert_allclose(np.degrees(rollout.joint_angles[-1]), (40.0, 60.0, -30.0), atol=1.0)
+    assert sim.defaults()["mass_link_3"] == pytest.approx(0.3)
+
+
+@pytest.mark.parametrize("engine", ["pybullet", "ode", "dart", "drake"])
+def test_mjcf_robot_needs_a_urdf_elsewhere(arm_mjcf, engine):
+    from simtune.robot.mjcf import load_mjcf
+
+    cls = engine_or_skip(engine)
+    robot = load_mjcf(arm_mjcf)
+    with pytest.raises(ConfigError) as exc:
+        cls(pose_task(robot, np.zeros(robot.n_joints)))
+    one_line(exc, f"engine {engine!r} needs a URDF", str(arm_mjcf))
+
+
+def test_mjcf_errors(tmp_path, arm_mjcf):
+    from simtune.robot.mjcf import load_mjcf
+
+    with pytest.raises(RobotError) as exc:
+        load_mjcf(tmp_path / "none.xml")
+    one_line(exc, "no such MJCF file")
+    with pytest.raises(RobotError) as exc:
+        load_mjcf(arm_mjcf, arm_joints=["shoulder", "finger"])
+    one_line(exc, str(arm_mjcf), "'finger' is a slide")
+    broken = tmp_path / "broken.xml"
+    broken.write_text("<mujoco><worldbody><body name='a'></worldbody></mujoco>")
+    with pytest.raises(RobotError) as exc:
+        load_mjcf(broken)
+    one_line(exc, str(broken), "MuJoCo cannot compile it")

@@ -18,6 +18,7 @@ from typing import ClassVar
 import numpy as np
 
 from simtune.controller import CONTROL_PERIOD, CONTROLLER_PARAMETERS, JointController
+from simtune.errors import ConfigError
 from simtune.robot.description import RobotDescription
 from simtune.robot.mico import MICO
 from simtune.tasks.spec import MATERIALS, SHAPES, TaskSpec
@@ -129,12 +130,19 @@ class Engine(ABC):
     name: ClassVar[str]
     #: engine-specific parameter names this engine maps onto its API
     engine_parameters: ClassVar[frozenset[str]]
+    #: whether the engine builds a robot from an MJCF file (:attr:`RobotDescription.mjcf`)
+    reads_mjcf: ClassVar[bool] = False
 
     def __init__(self, task: TaskSpec):
         if self.version() == "not installed":
             from simtune.engines import not_installed  # the registry holds each engine's install command
 
             raise not_installed(self.name)
+        if task.robot.mjcf is not None and not self.reads_mjcf:
+            raise ConfigError(
+                f"engine {self.name!r} needs a URDF: robot {task.robot.name!r} comes from the MJCF file "
+                f"{task.robot.mjcf} (MuJoCo only)"
+            )
         self.task = task
 
     @classmethod

@@ -18,11 +18,14 @@ per-body velocity damping for the jointed arm or the static floor.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
+from simtune.robot.description import RobotDescription
 from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf
-from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, ObjectSpec, TaskSpec
 
 try:
     import mujoco
@@ -36,8 +39,45 @@ else:
 _FRICTION_COLUMN = {"lateral_friction": 0, "spinning_friction": 1, "rolling_friction": 2}
 
 
+def compile_scene(robot: RobotDescription, obj: ObjectSpec | None):
+    """The compiled scene: from the generated MJCF, or, for a robot from an MJCF file, the generated scene
+    with the file's robot attached and simtune's velocity servos on its driven joints."""
+    text = scene_mjcf(robot, obj)
+    if robot.mjcf is None:
+        return mujoco.MjModel.from_xml_string(text)
+    scene = mujoco.MjSpec.from_string(text)
+    part = mujoco.MjSpec.from_file(robot.mjcf)
+    # simtune owns control and contacts: the file's own actuators and what may refer to them go
+    for element in (*part.actuators, *part.sensors, *part.keys, *part.equalities, *part.tendons, *part.pairs):
+        part.delete(element)
+    for element in part.excludes:
+        part.delete(element)
+    held = {name for name, _ in robot.held}
+    for joint in list(part.joints):
+        if joint.name in held:  # welded at its zero
+            part.delete(joint)
+    root = part.body(robot.root)
+    for body in [root, *root.find_all(mujoco.mjtObj.mjOBJ_BODY)]:
+        if body.name != robot.root:
+            body.gravcomp = 1.0  # as the generated scene: the arm's controller compensates gravity
+    for geom in root.find_all(mujoco.mjtObj.mjOBJ_GEOM):
+        geom.contype, geom.conaffinity, geom.condim = 2, 1, 3  # the generated scene's "arm" class
+    for i, joint in enumerate(robot.arm_joints):
+        servo = scene.add_actuator(name=joint, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        servo.set_to_velocity(kv=SERVO_KV)
+        limit = robot.generic_effort(i)
+        servo.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        servo.forcerange = [-limit, limit]
+    with warnings.catch_warnings():
+        # an empty prefix keeps the file's names, which simtune uses (MuJoCo warns that saving may suffer)
+        warnings.simplefilter("ignore")
+        scene.worldbody.add_frame().attach_body(root, "", "")
+        return scene.compile()
+
+
 class MujocoEngine(Engine):
     name = "mujoco"
+    reads_mjcf = True
     engine_parameters = (
         RIGID_BODY_PARAMETERS
         | {f"{kind}_{g}" for kind in _FRICTION_COLUMN for g in CONTACT_GROUPS}
@@ -55,7 +95,7 @@ class MujocoEngine(Engine):
     def __init__(self, task: TaskSpec):
         super().__init__(task)
         robot = task.robot
-        self.model = mujoco.MjModel.from_xml_string(scene_mjcf(robot, task.object))
+        self.model = compile_scene(robot, task.object)
         self.data = mujoco.MjData(self.model)
         m = self.model
         self._arm_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot.arm_joints])

@@ -183,6 +183,9 @@ class RobotDescription:
     source: str = "bundled"
     #: the robot's generic velocity-servo/motor force limit per driven joint when its source gives none [N m]
     default_effort: float = 100.0
+    #: an MJCF file the robot comes from: the MuJoCo-family engines build the robot from it; the others,
+    #: which need a URDF, refuse the robot
+    mjcf: str | None = None
 
     # --- lookups ----------------------------------------------------------------------------
     @cached_property

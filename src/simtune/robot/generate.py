@@ -156,14 +156,18 @@ def _mjcf_object(obj: SceneObject) -> tuple[list[str], list[str]]:
 
 
 def scene_mjcf(robot: RobotDescription, obj: SceneObject | None = None) -> str:
-    """MJCF of ``robot`` on the floor with velocity actuators on its driven joints, plus ``obj``.
+    """MJCF of ``robot`` on the floor with velocity actuators on its driven joints, plus ``obj`` (for a
+    robot from an MJCF file, the scene without the robot and its actuators).
 
     Timestep, masses, frictions, gains and limits are MuJoCo's defaults or the
     description's values; parameters are applied to the compiled model later.
     """
     assets, object_body = _mjcf_object(obj) if obj is not None else ([], [])
-    assets = _mjcf_meshes(robot) + assets
-    arm = _mjcf_link(robot, robot.links[0], None, "    ")
+    if robot.mjcf is not None:  # the MuJoCo engine adds the robot and its servos from the MJCF itself
+        arm: list[str] = []
+    else:
+        assets = _mjcf_meshes(robot) + assets
+        arm = _mjcf_link(robot, robot.links[0], None, "    ")
     actuators = [
         # A velocity servo; its force limit (max torque) is set per evaluation.  kv is chosen so
         # that the largest command step (-40 to +40 deg/s) asks for 70 N m, below the smallest
@@ -172,6 +176,7 @@ def scene_mjcf(robot: RobotDescription, obj: SceneObject | None = None) -> str:
         f'    <velocity name="{j}" joint="{j}" kv="{SERVO_KV:g}" '
         f'forcerange="{-robot.generic_effort(i):.9g} {robot.generic_effort(i):.9g}"/>'
         for i, j in enumerate(robot.arm_joints)
+        if robot.mjcf is None
     ]
     return "\n".join(
         [

@@ -1,6 +1,6 @@
 """A robot from a URDF file: parsed with ``yourdfpy``, turned into a :class:`RobotDescription`.
 
-The driven joints default to the movable joints from the root down to the tracked link,
+The driven joints default to the revolute joints from the root down to the tracked link,
 and the tracked link to where the root's chain first branches or ends (a hand with its
 fingers: the hand).  Every other movable joint is held at a fixed pose (a gripper's
 fingers): at the position the caller gives, else at 0 clamped into its limits, a mimic
@@ -207,8 +207,8 @@ def load_urdf(
     """The robot of the URDF at ``path``; ``RobotError`` (one line naming the file and element) if it
     cannot be used.
 
-    ``arm_joints``: the driven joints in order (default: the movable joints from the root to the
-    tracked link); ``tracked_link``: the link the motion capture follows (default: where the root's
+    ``arm_joints``: the driven joints in order (default: the revolute and continuous joints from the
+    root to the tracked link); ``tracked_link``: the link the motion capture follows (default: where the root's
     chain first branches or ends); ``held``: positions of joints held at a fixed pose (default 0,
     clamped into the joint's limits); ``gripper_links``: the links with the gripper's contact
     parameters (default: the tracked link and every link below it).
@@ -253,7 +253,7 @@ def load_urdf(
     elif tracked_link not in link_names:
         raise RobotError(f"{path}: tracked link {tracked_link!r} is not a link of the URDF")
     if arm_joints is None:
-        driven = [j.name for j in chain(tracked_link) if j.type in _MOVABLE]
+        driven = [j.name for j in chain(tracked_link) if j.type in ("revolute", "continuous")]
     else:
         driven = list(arm_joints)
     if not driven:
