@@ -101,6 +101,15 @@ DataOpt = Annotated[
         callback=_path,
     ),
 ]
+ProjectOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--project",
+        help="Project folder: simtune.toml, the robot and its task files (docs/task-files.md). "
+        "Default: the bundled Kinova MICO project.",
+        callback=_path,
+    ),
+]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
 SpaceOpt = Annotated[
     str,
@@ -151,6 +160,27 @@ def _data_root(data: Path | None) -> Path:
     return data if data is not None else REFERENCE_DIR
 
 
+def _project_data(data: Path | None, project: Path | None) -> Path | None:
+    """--data, else the project's data root (None: each task's own recordings folder; see Project.data_root)."""
+    from simtune.project import load_project
+
+    if data is not None or project is None:
+        return _data_root(data)
+    return load_project(project).data_root()
+
+
+def _run_data(data: Path | None, project: Path | None) -> str | None:
+    root = _project_data(data, project)
+    return None if root is None else str(root)
+
+
+def _run_project(project: Path | None) -> str | None:
+    """The project as a run stores it: its project file, absolute (resume and report work from any folder)."""
+    from simtune.project import find_project_file
+
+    return None if project is None else str(find_project_file(project).resolve())
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     err.print(f"[yellow]warning:[/] {message}", highlight=False, soft_wrap=True)
 
@@ -173,27 +203,13 @@ def evaluate(
             callback=_path,
         ),
     ] = None,
+    project: ProjectOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks."""
-    from simtune.engines import engine_class
-    from simtune.objective import Objective, load_references
-    from simtune.params import read_params_file, validate_params
-    from simtune.tasks import parse_tasks
-    from simtune.tasks.spec import common_robot
+    from simtune import api
 
-    tasks = parse_tasks(task)
-    robot = common_robot(tasks)
-    cls = engine_class(engine)
-    params = {}
-    if params_file is not None:
-        values = read_params_file(params_file, engine)
-        params = validate_params(values, cls.supported(robot), engine, where=str(params_file), robot=robot)
-    objective = Objective(engine, tasks, load_references(_data_root(data), tasks))
-    t0 = time.perf_counter()
-    score = objective.score(params)
-    wall = time.perf_counter() - t0
-    generic = score if not params else objective.score({})
+    score = api.evaluate(engine, task, project=project, data=_project_data(data, project), params=params_file)
     result = {
         "engine": engine,
         "task": task,
@@ -201,10 +217,10 @@ def evaluate(
         "fitness": score.fitness,
         "wrist_error": score.wrist_error,
         "object_error": score.object_error,
-        "generic_fitness": generic.fitness,
+        "generic_fitness": score.generic_fitness,
         "stable": score.stable,
-        "wall_s": wall,
-        "tasks": [t.__dict__ for t in score.tasks],
+        "wall_s": score.wall_s,
+        "tasks": [t.__dict__ for t in score.parts.values()],
     }
     if as_json:
         print(json.dumps(result))
@@ -213,13 +229,13 @@ def evaluate(
         f"{engine} on {task}" + (f" with {params_file}" if params_file else " (generic parameters)"),
         ("task", "fitness", "wrist error [m]", "object error [m]", "note"),
     )
-    for t in score.tasks:
+    for t in score.parts.values():
         table.add_row(t.task, _fmt(t.fitness), _fmt(t.wrist_error), _fmt(t.object_error), t.message)
-    if len(score.tasks) > 1:
+    if len(score.parts) > 1:
         table.add_row("all", _fmt(score.fitness), _fmt(score.wrist_error), _fmt(score.object_error), "")
     out.print(table)
-    if params:
-        out.print(f"generic fitness: {generic.fitness:.4f}")
+    if score.x:
+        out.print(f"generic fitness: {score.generic_fitness:.4f}")
 
 
 def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bool) -> None:
@@ -313,6 +329,7 @@ def tune(
             callback=_path,
         ),
     ] = Path("runs/latest"),
+    project: ProjectOpt = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
 ) -> None:
@@ -331,7 +348,7 @@ def tune(
         engine=engine,
         tasks=task,
         space=space,
-        data=str(_data_root(data)),
+        data=_run_data(data, project),
         seed=seed,
         workers=workers,
         max_seconds=max_seconds,
@@ -344,6 +361,7 @@ def tune(
         refine=refine,
         max_evaluations=max_evaluations,
         paper_exact=paper_exact,
+        project=_run_project(project),
     )
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
     _report_tune(result, out_dir, config, RunStore(out_dir).get("generic"), as_json)
@@ -578,35 +596,41 @@ def tasks(
     as_json: Annotated[
         bool, typer.Option("--json", help="With --contact: one JSON object per line, one per engine and task.")
     ] = False,
+    project: ProjectOpt = None,
 ) -> None:
-    """List the tasks: duration, object and whether public recordings exist (--contact: simulate their contact)."""
-    from simtune.tasks import GROUPS, TASKS
+    """List a project's tasks: duration, object and whether public recordings exist (--contact: simulate contact)."""
+    from simtune.project import get_project
 
+    proj = get_project(project)
     if contact:
-        _tasks_contact(engine, task, figure, as_json)
+        _tasks_contact(engine, task, figure, as_json, proj)
         return
     if engine or task or figure or as_json:
         raise SimtuneError("--engine, --task, --figure and --json go with --contact")
-    table = text_table("tasks", ("task", "duration [s]", "object", "public recordings", "description"))
-    for t in TASKS.values():
+    table = text_table(
+        f"tasks of project {proj.name}", ("task", "duration [s]", "object", "public recordings", "description")
+    )
+    for t in proj.tasks.values():
         obj = f"{t.object.material} {t.object.shape} {t.object.mass:g} kg" if t.object else "-"
-        table.add_row(t.name, f"{t.duration:g}", obj, "qrg2019" if t.has_public_recordings else "-", t.description)
-    for name, members in GROUPS.items():
+        table.add_row(t.name, f"{t.duration:g}", obj, "yes" if t.has_public_recordings else "-", t.description)
+    for name, members in proj.groups.items():
         table.add_row(name, "-", "-", "-", f"all of {members[0]} .. {members[-1]}, fitness summed")
     out.print(table)
 
 
-def _tasks_contact(engine: str | None, task: str | None, figure: Path | None, as_json: bool) -> None:
+def _tasks_contact(engine: str | None, task: str | None, figure: Path | None, as_json: bool, project) -> None:
     import importlib
 
     from simtune.engines import ENGINES, engine_class, make_engine
     from simtune.engines.contact import probe_contact
-    from simtune.tasks import TASKS, parse_tasks
 
     if task is None:
-        chosen = [t for t in TASKS.values() if t.name.startswith("seed-") and t.object is not None]
+        # the bundled project's seed tasks, or every task with an object of another project
+        chosen = [t for t in project.tasks.values() if t.object is not None]
+        if any(t.name.startswith("seed-") for t in chosen):
+            chosen = [t for t in chosen if t.name.startswith("seed-")]
     else:
-        chosen = parse_tasks(task)
+        chosen = project.parse_tasks(task)
         for t in chosen:
             if t.object is None:
                 raise SimtuneError(f"task {t.name!r} has no object: --contact needs tasks with one")
@@ -656,7 +680,7 @@ def _tasks_contact(engine: str | None, task: str | None, figure: Path | None, as
             from simtune.report.figures import save
 
             figure.mkdir(parents=True, exist_ok=True)
-            save(contact_figure(probes), figure, f"contact-{name}")
+            save(contact_figure(probes, {t.name: t for t in chosen}), figure, f"contact-{name}")
             if not as_json:
                 out.print(f"figure: {figure / f'contact-{name}.png'}")
 
@@ -665,13 +689,17 @@ def _tasks_contact(engine: str | None, task: str | None, figure: Path | None, as
 def params(
     space: Annotated[str, typer.Option("--space", "-s", help="shared, individual or extended.")] = "extended",
     engine: Annotated[str | None, typer.Option("--engine", "-e", help="Only what this engine supports.")] = None,
+    project: ProjectOpt = None,
 ) -> None:
     """List a parameter space: names, ranges, units."""
     from simtune.engines import engine_class
     from simtune.params import get_space
+    from simtune.project import get_project
+    from simtune.tasks.spec import common_robot
 
-    supported = engine_class(engine).supported() if engine else None
-    sp = get_space(space, supported)
+    robot = common_robot(get_project(project).tasks.values())  # the spaces follow the project's robot
+    supported = engine_class(engine).supported(robot) if engine else None
+    sp = get_space(space, supported, robot=robot)
     table = text_table(
         f"space {space}" + (f" in {engine}" if engine else "") + f": {len(sp)} parameters",
         ("parameter", "low", "high", "unit", "meaning"),
@@ -737,6 +765,7 @@ def synth(
             callback=_path,
         ),
     ],
+    project: ProjectOpt = None,
 ) -> None:
     """Make recordings with a known ground truth: simulate with chosen parameters, add mocap-like noise.
 
@@ -750,7 +779,15 @@ def synth(
 
     values = load_truth(truth, engine, delay_s)
     result = make_synthetic(
-        engine, task, out_dir, truth=values, noise_m=noise_mm / 1000.0, repeats=repeats, seed=seed, jitter_s=jitter_s
+        engine,
+        task,
+        out_dir,
+        truth=values,
+        noise_m=noise_mm / 1000.0,
+        repeats=repeats,
+        seed=seed,
+        jitter_s=jitter_s,
+        project=project,
     )
     for name, files in result.files.items():
         out.print(f"{name}: {len(files)} recordings in {out_dir / name}")

@@ -136,7 +136,7 @@ def run_compare(
             if (run_dir / STORE_FILE).exists():
                 stored = RunStore(run_dir)
                 try:
-                    same = stored.get("config") == asdict(config)
+                    same = stored.get("config") == config.record()
                     finished = stored.get("status") == "finished"
                 finally:
                     stored.close()

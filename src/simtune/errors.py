@@ -22,6 +22,10 @@ class ConfigError(SimtuneError):
     """An unknown engine, task, space or parameter, or an invalid value for one."""
 
 
+class ProjectError(ConfigError):
+    """A project or task file that cannot be used: the message names the file and the key."""
+
+
 class EngineUnavailable(SimtuneError):
     """A physics engine that is not installed on this machine."""
 

@@ -18,21 +18,22 @@ from simtune.errors import SimtuneError
 from simtune.fitness import PENALTY, Score, TaskScore, marker_positions, score_rollout
 from simtune.params import ParameterSpace
 from simtune.tasks import TaskSpec
-from simtune.tasks.spec import BASE_BODY
 
 
-def load_references(root: Path, tasks: list[TaskSpec]) -> dict[str, TaskData]:
+def load_references(root: Path | None, tasks: list[TaskSpec]) -> dict[str, TaskData]:
     """The recordings of each task, from ``root/<task name>/``, checked against the task and the arm.
 
+    Without ``root``, each task's own recordings folder (``TaskSpec.recordings``, from its project).
     The task's duration and its robot's reach go to the loader's sanity stage as
     plain numbers (data/ knows neither tasks nor robots).
     """
-    root = Path(root)
-    if not root.is_dir():
-        raise SimtuneError(f"data folder {root} does not exist (expected {root}/<task>/*.tsv)")
+    if root is not None:
+        root = Path(root)
+        if not root.is_dir():
+            raise SimtuneError(f"data folder {root} does not exist (expected {root}/<task>/*.tsv)")
     refs = {}
     for task in tasks:
-        folder = root / task.name
+        folder = recordings_folder(root, task)
         if not folder.is_dir():
             raise SimtuneError(f"no recordings for task {task.name!r}: folder {folder} does not exist")
         refs[task.name] = load_task_data(
@@ -42,9 +43,21 @@ def load_references(root: Path, tasks: list[TaskSpec]) -> dict[str, TaskData]:
             object_body=task.object.mocap_body if task.object is not None else None,
             duration_s=task.duration,
             reach_m=task.robot.reach,
-            base_body=BASE_BODY,
+            base_body=task.base_body,
         )
     return refs
+
+
+def recordings_folder(root: Path | str | None, task: TaskSpec) -> Path:
+    """Where ``task``'s recordings are: ``root/<task>``, or without a root the task's own folder."""
+    if root is not None:
+        return Path(root) / task.name
+    if task.recordings is None:
+        raise SimtuneError(
+            f"task {task.name!r} has no recordings folder: give --data ROOT (ROOT/{task.name}/*.tsv) "
+            "or name one in its task file (recordings = ...)"
+        )
+    return Path(task.recordings)
 
 
 class Objective:

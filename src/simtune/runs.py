@@ -44,19 +44,18 @@ from pathlib import Path
 import numpy as np
 
 import simtune
-from simtune.data.fingerprint import data_fingerprint, fingerprint_changes
+from simtune.data.fingerprint import fingerprint_changes, folders_fingerprint
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, RunInterrupted, SimtuneError
-from simtune.objective import Objective, load_references
+from simtune.objective import Objective, load_references, recordings_folder
 from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squares_refine
 from simtune.optimize.evaluator import timed_out
 from simtune.params import get_space
 from simtune.progress import TuneProgress
-from simtune.robot.mico import MICO
 from simtune.runlock import LOCK_FILE, check_free, run_lock
 from simtune.store import STORE_FILE, RunStore, check_store_file
 from simtune.tasks import TaskSpec, parse_tasks
-from simtune.tasks.spec import common_robot
+from simtune.tasks.spec import FINGERPRINT, common_robot
 
 BEST_PARAMS_FILE = "best_params.json"
 #: where ``resume --rescore`` keeps the run it replaces
@@ -81,7 +80,7 @@ class RunConfig:
     engine: str
     tasks: str  # as given: "cube" or "single,cube"
     space: str
-    data: str  # folder with one sub-folder of recordings per task
+    data: str | None  # folder with one sub-folder of recordings per task; None: each task's own (its project's)
     seed: int = 0
     workers: int = 1
     max_seconds: float | None = None
@@ -96,6 +95,16 @@ class RunConfig:
     #: the seed paper's exact search: SciPy's DE with immediate updating and polish, one worker, no
     #: pruning, and the paper's whole parameter list (parameters the engine lacks kept, without effect)
     paper_exact: bool = False
+    #: the project file the tasks are read from (absolute); None: the bundled MICO project
+    project: str | None = None
+
+    def record(self) -> dict:
+        """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
+        so that the stores of runs made before projects and of new MICO runs compare equal."""
+        values = asdict(self)
+        if values["project"] is None:
+            del values["project"]
+        return values
 
     @classmethod
     def from_stored(cls, values, where: str) -> RunConfig:
@@ -122,9 +131,12 @@ class RunConfig:
         def bad(key: str, what: str) -> ConfigError:
             return ConfigError(f"{at}{key} must be {what}, got {getattr(self, key)!r}")
 
-        for key in ("engine", "tasks", "space", "data", "optimizer"):
+        for key in ("engine", "tasks", "space", "optimizer"):
             if not isinstance(getattr(self, key), str):
                 raise bad(key, "a string")
+        for key in ("data", "project"):
+            if getattr(self, key) is not None and not isinstance(getattr(self, key), str):
+                raise bad(key, "a string or null")
         if not _is_int(self.seed) or not 0 <= self.seed <= MAX_SEED:
             raise bad("seed", f"an integer from 0 to {MAX_SEED}")
         for key in ("workers", "max_generations"):
@@ -176,30 +188,51 @@ def versions(engine: str) -> dict[str, str]:
 
 
 def task_fingerprint(task: TaskSpec) -> str:
-    """SHA-256 of what a task makes the engine do (its description and catalogue flags left out)."""
+    """SHA-256 of what a task makes the engine do.
+
+    Catalogue entries (description, recordings folder ...) are left out, and so are fields added after runs
+    were stored while they hold their default (``tasks.spec.FINGERPRINT``): those runs' fingerprints stay.
+    """
     spec = asdict(task)
-    for key in ("description", "has_public_recordings"):
-        spec.pop(key, None)
-    if task.robot == MICO:  # the bundled robot: fingerprints of runs from before robots were described stay
-        spec.pop("robot")
+    for f in fields(task):
+        omit = f.metadata.get(FINGERPRINT)
+        if omit == "never" or (omit == "default" and getattr(task, f.name) == f.default):
+            spec.pop(f.name)
     return hashlib.sha256(json.dumps(spec, sort_keys=True, default=str).encode()).hexdigest()
 
 
 def run_fingerprint(config: RunConfig) -> dict:
     """What the fitness of a run depends on besides its parameters: data files, task definitions, engine version."""
-    tasks = parse_tasks(config.tasks)
+    tasks = parse_tasks(config.tasks, config.project)
     return {
-        "data": data_fingerprint(config.data, [t.name for t in tasks]),
+        "data": folders_fingerprint({t.name: recordings_folder(config.data, t) for t in tasks}),
         "tasks": {t.name: task_fingerprint(t) for t in tasks},
         "engine": f"{config.engine} {engine_class(config.engine).version()}",
     }
+
+
+#: A task's fingerprint now -> the one runs stored before tasks were files, for the same definition: the
+#: Python tasks single, double and cube wrote their whole-degree targets as integers (JSON ``-100``, where a
+#: task file's numbers are floats, ``-100.0``).  Their runs still resume.
+FORMER_TASK_FINGERPRINTS = {
+    "3c93b153181985fc08c84f984aeb0d1b8a084297ac281603136d1d3607937bb8": (
+        "c1f7ab884c68a1bdbe2ed2db3d95f37e374293cfdb90ce869c160519038c0482"  # single
+    ),
+    "6cb61d93c7e4144af91deda4d43299b514f095b5dbc442ee47263dc9f08f203c": (
+        "5d5bf0964f0279e146e088df7e3b4d9241d8cc4959c4cf438d69ac230925d047"  # double
+    ),
+    "db61f136e7966e566d7f89a6ebae2647b60ff7096e6bb4a7b052b805f44b65e3": (
+        "3692f3b6c26dd9ee6186571b8617bc8980d98f05918f2fac987ba7abedb1094d"  # cube
+    ),
+}
 
 
 def fingerprint_differences(stored: dict, now: dict) -> list[str]:
     """What changed between two run fingerprints, one phrase each (``cube/cube0002.tsv changed``)."""
     changes = fingerprint_changes(stored.get("data", {}), now["data"])
     for name in sorted(set(stored.get("tasks", {})) | set(now["tasks"])):
-        if stored.get("tasks", {}).get(name) != now["tasks"].get(name):
+        before, after = stored.get("tasks", {}).get(name), now["tasks"].get(name)
+        if before != after and before != FORMER_TASK_FINGERPRINTS.get(after or ""):
             changes.append(f"the definition of task {name!r} changed")
     if stored.get("engine", now["engine"]) != now["engine"]:
         changes.append(f"engine {stored['engine']} is now {now['engine']}")
@@ -212,12 +245,13 @@ def _summary(changes: list[str], shown: int = 3) -> str:
 
 
 def build_objective(config: RunConfig) -> Objective:
-    tasks = parse_tasks(config.tasks)
+    tasks = parse_tasks(config.tasks, config.project)
     # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
     robot = common_robot(tasks)
     supported = None if config.paper_exact else engine_class(config.engine).supported(robot)
     space = get_space(config.space, supported, config.only, robot)
-    return Objective(config.engine, tasks, load_references(Path(config.data), tasks), space)
+    data = None if config.data is None else Path(config.data)
+    return Objective(config.engine, tasks, load_references(data, tasks), space)
 
 
 def write_json_atomic(path: Path, data: dict) -> None:
@@ -306,7 +340,7 @@ def _create_store(run_dir: Path, config: RunConfig, objective: Objective, generi
         elapsed_s=0.0,
         **meta,
     )
-    store.set(config=asdict(config))  # last: a store with a configuration is a run that was fully set up
+    store.set(config=config.record())  # last: a store with a configuration is a run that was fully set up
     return store
 
 

@@ -21,6 +21,7 @@ from simtune.data.loaders import is_recording_file
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, SimtuneError
 from simtune.params import read_params_file, validate_params
+from simtune.project import Project
 from simtune.reference.make import synthesize
 from simtune.robot.description import RobotDescription
 from simtune.tasks import parse_tasks
@@ -66,9 +67,11 @@ def make_synthetic(
     repeats: int = 10,
     seed: int = 0,
     jitter_s: float = 0.05,
+    project: Project | Path | str | None = None,
 ) -> SynthResult:
-    """Write ``repeats`` synthetic recordings of each task in ``tasks`` (names, groups, comma-separated)."""
-    specs = parse_tasks(tasks)
+    """Write ``repeats`` synthetic recordings of each task in ``tasks`` (names, groups, comma-separated) of
+    ``project`` (default: the bundled MICO project)."""
+    specs = parse_tasks(tasks, project)
     if repeats < 1:
         raise ConfigError(f"--repeats must be at least 1, got {repeats}")
     if not noise_m >= 0:

@@ -43,19 +43,19 @@ def run_transfer(
     config: RunConfig, test: str, out: Path, test_data: Path | None = None, show_progress: bool = True
 ) -> dict:
     """Tune on ``config.tasks``, score on them and on ``test``; the result as a dict (also OUT/transfer.json)."""
-    train_tasks = parse_tasks(config.tasks)
-    test_tasks = parse_tasks(test)
+    train_tasks = parse_tasks(config.tasks, config.project)
+    test_tasks = parse_tasks(test, config.project)
     overlap = {t.name for t in train_tasks} & {t.name for t in test_tasks}
     if overlap:
         raise ConfigError(f"--test: {', '.join(sorted(overlap))} also in --train: a transfer test needs unseen tasks")
-    test_root = Path(test_data) if test_data is not None else Path(config.data)
+    test_root = Path(test_data) if test_data is not None else _root(config.data)
     test_refs = load_references(test_root, test_tasks)  # fail on missing test data before tuning
     out = Path(out)
     run_dir = out / RUN_FOLDER
     if (run_dir / STORE_FILE).exists():
         store = RunStore(run_dir)
         try:
-            same = store.get("config") == asdict(config)
+            same = store.get("config") == config.record()
         finally:
             store.close()
         if not same:
@@ -63,7 +63,7 @@ def run_transfer(
         tuned = resume_run(run_dir, show_progress=show_progress)
     else:
         tuned = start_run(config, run_dir, show_progress=show_progress)
-    train_refs = load_references(Path(config.data), train_tasks)
+    train_refs = load_references(_root(config.data), train_tasks)
     rows: list[TaskResult] = []
     for role, tasks, refs in (("train", train_tasks, train_refs), ("test", test_tasks, test_refs)):
         for task in tasks:
@@ -104,3 +104,7 @@ def run_transfer(
     }
     (out / RESULT_FILE).write_text(json.dumps(result, indent=1) + "\n")
     return result
+
+
+def _root(data: str | None) -> Path | None:
+    return None if data is None else Path(data)

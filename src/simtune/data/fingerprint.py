@@ -8,7 +8,7 @@ say exactly which recordings it was fitted to.
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from simtune.data.loaders import is_recording_file
@@ -38,10 +38,14 @@ def file_fingerprint(path: Path) -> dict:
 
 def data_fingerprint(root: Path | str, task_names: Iterable[str]) -> dict[str, list[dict]]:
     """Task name -> fingerprints of its recording files under ``root/<task>/`` (missing folder: empty)."""
-    root = Path(root)
+    return folders_fingerprint({name: Path(root) / name for name in task_names})
+
+
+def folders_fingerprint(folders: Mapping[str, Path | str]) -> dict[str, list[dict]]:
+    """Task name -> fingerprints of the recording files in its folder (missing folder: empty)."""
     result: dict[str, list[dict]] = {}
-    for name in task_names:
-        folder = root / name
+    for name, folder in folders.items():
+        folder = Path(folder)
         result[name] = [file_fingerprint(p) for p in task_files(folder)] if folder.is_dir() else []
     return result
 

@@ -40,6 +40,7 @@ from simtune.export.common import (
     sha256,
 )
 from simtune.export.source import ExportWarning, TunedRun, read_run
+from simtune.tasks import TaskSpec
 
 DR_FILE = "dr_ranges.yaml"
 
@@ -186,7 +187,8 @@ def _samples(run: TunedRun) -> dict[str, int]:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the run warned about its recordings already
-            refs = load_references(Path(str(run.config["data"])), run.tasks)
+            data = run.config["data"]
+            refs = load_references(None if data is None else Path(data), run.tasks)
     except SimtuneError:
         return {}
     return {name: len(ref.times) for name, ref in refs.items()}
@@ -200,11 +202,12 @@ def _dr_ranges(runs: list[TunedRun]) -> dict:
 
     records = [r for r in (load_run(run.path) for run in runs) if isinstance(r, RunRecord)]
     groups, _ = group_runs(records)
-    tasks: dict[str, list[str]] = {}
+    specs: dict[str, dict[str, TaskSpec]] = {}
     for run in runs:
-        names = tasks.setdefault(run.engine, [])
-        names.extend(t for t in run.task_names if t not in names)
-    nominal = {engine: nominal_values(engine, names) for engine, names in tasks.items()}
+        for task in run.tasks:
+            specs.setdefault(run.engine, {}).setdefault(task.name, task)
+    tasks = {engine: list(by_name) for engine, by_name in specs.items()}
+    nominal = {engine: nominal_values(engine, list(by_name.values())) for engine, by_name in specs.items()}
     return {"ranges": dr_ranges(groups, nominal), "tasks": tasks, "runs": len(records)}
 
 

@@ -19,9 +19,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import simtune
-from simtune.data import data_fingerprint, fingerprint_changes
+from simtune.data.fingerprint import fingerprint_changes, folders_fingerprint
 from simtune.engines import engine_class
 from simtune.errors import SimtuneError
+from simtune.objective import recordings_folder
 from simtune.params import validate_params
 from simtune.runs import BEST_PARAMS_FILE
 from simtune.store import STORE_FILE, RunStore
@@ -106,7 +107,7 @@ def read_run(run_dir: Path | str) -> TunedRun:
         raise SimtuneError(f"{best_file}: engine {best.get('engine')!r} differs from the run's {engine!r}")
     cls = engine_class(engine)
     params = validate_params(best["params"], cls.supported(), engine, where=str(best_file))
-    tasks = parse_tasks(str(config["tasks"]))
+    tasks = parse_tasks(str(config["tasks"]), config.get("project"))
     installed = cls.version()
     if versions.get(engine) not in (None, installed):
         warnings.warn(
@@ -115,7 +116,7 @@ def read_run(run_dir: Path | str) -> TunedRun:
             ExportWarning,
             stacklevel=2,
         )
-    data_files, note = _data_files(Path(str(config["data"])), [t.name for t in tasks], stored_fingerprint, run_dir)
+    data_files, note = _data_files(config["data"], tasks, stored_fingerprint, run_dir)
     return TunedRun(
         path=run_dir.resolve(),
         config=config,
@@ -133,11 +134,14 @@ def read_run(run_dir: Path | str) -> TunedRun:
 
 
 def _data_files(
-    root: Path, task_names: list[str], stored: dict | None, run_dir: Path
+    data: str | None, tasks: list[TaskSpec], stored: dict | None, run_dir: Path
 ) -> tuple[dict[str, list[dict]], str]:
     """The recordings' fingerprint: the one the run stored if it has one, else the data folder's now."""
-    present = root.is_dir()
-    now = data_fingerprint(root, task_names) if present else None
+    task_names = [t.name for t in tasks]
+    folders = {t.name: recordings_folder(data, t) for t in tasks}
+    root = Path(data) if data is not None else ", ".join(str(f) for f in folders.values())
+    present = Path(data).is_dir() if data is not None else all(f.is_dir() for f in folders.values())
+    now = folders_fingerprint(folders) if present else None
     if isinstance(stored, dict):
         if now is not None and (changes := fingerprint_changes(stored, now)):
             warnings.warn(

@@ -15,7 +15,13 @@ from pathlib import Path
 
 
 def make_report(
-    paths, out, published_sims=None, *, show_progress: bool = True, figure4_parameter: str = "timestep"
+    paths,
+    out,
+    published_sims=None,
+    *,
+    show_progress: bool = True,
+    figure4_parameter: str = "timestep",
+    project: Path | str | None = None,
 ) -> Path:
     """Write the report for the runs under ``paths`` into folder ``out``; return its ``index.html``.
 
@@ -24,11 +30,14 @@ def make_report(
     published simulations to score next to the engines' generic fitness.
     Unfinished or unreadable runs are skipped with a
     :class:`simtune.report.builder.ReportWarning` naming them.  ``figure4_parameter``:
-    the parameter whose tuned values the paper's Figure 4 shows.
+    the parameter whose tuned values the paper's Figure 4 shows.  ``project``: the project folder to
+    read the runs' tasks from (default: the one each run names, else the bundled MICO project).
     """
     from simtune.report.builder import make_report as _make
 
-    return _make(paths, out, published_sims, show_progress=show_progress, figure4_parameter=figure4_parameter)
+    return _make(
+        paths, out, published_sims, show_progress=show_progress, figure4_parameter=figure4_parameter, project=project
+    )
 
 
 __all__ = ["make_report"]

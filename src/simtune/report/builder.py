@@ -22,6 +22,7 @@ from simtune.report.html import render
 from simtune.report.published import PublishedSim, find_published, score_published
 from simtune.report.sections import ReportData, ReportOutput, make_sections
 from simtune.report.simulate import GroupSimulation, References, nominal_values, simulate_group
+from simtune.tasks import TaskSpec
 
 INDEX = "index.html"
 
@@ -76,13 +77,15 @@ def make_report(
     *,
     show_progress: bool = True,
     figure4_parameter: str = "timestep",
+    project: Path | str | None = None,
 ) -> Path:
     """Write the report for the runs under ``paths`` into ``out``; return the path of its ``index.html``.
 
     Run folders that are unfinished or unreadable are left out with a
     :class:`ReportWarning` naming them.  Raises :class:`SimtuneError` when no
     usable run is found, or for an unknown ``figure4_parameter`` (the parameter
-    of the paper's Figure 4).
+    of the paper's Figure 4).  ``project``: read the runs' tasks from this project folder instead of
+    the one each run names (for a project moved since the runs).
     """
     from simtune.params.space import PARAMETERS
 
@@ -104,7 +107,7 @@ def make_report(
 
     with _Progress(show_progress) as progress:
         progress.stage("reading runs", len(run_dirs))
-        groups = _read_runs(run_dirs, warn, progress.step)
+        groups = _read_runs(run_dirs, warn, progress.step, None if project is None else str(project))
         if not groups:
             raise SimtuneError(
                 f"no finished runs to report in {', '.join(map(str, inputs))} "
@@ -159,11 +162,11 @@ def make_report(
     return index
 
 
-def _read_runs(run_dirs: list[Path], warn: Warn, step: Callable[[], None]) -> list[Group]:
+def _read_runs(run_dirs: list[Path], warn: Warn, step: Callable[[], None], project: str | None) -> list[Group]:
     """The finished runs, grouped into repeats; every folder left out is named in a warning."""
     runs: list[RunRecord] = []
     for d in run_dirs:
-        loaded = load_run(d)
+        loaded = load_run(d, project=project)
         if isinstance(loaded, Skipped):
             warn(f"{loaded.label}: skipped: {loaded.reason}")
         else:
@@ -185,7 +188,7 @@ def _score_published(folder: Path, groups: list[Group], references: References, 
             continue
         run = next(r for g in groups if item.task in g.task_names for r in g.runs)
         try:
-            reference = references.get(run.data, item.task)
+            reference = references.get(run.data, run.task(item.task))
         except SimtuneError as exc:
             warn(f"{item.path}: not scored: recordings of {item.task!r} unavailable ({exc})")
             continue
@@ -203,15 +206,25 @@ def _nominal_values(
     nominal: dict[str, dict[str, float]] = {}
     tasks_by_engine: dict[str, list[str]] = {}
     for engine in sorted({g.engine for g in groups}):
-        names = list(dict.fromkeys(t for g in groups if g.engine == engine for t in g.task_names))
-        tasks_by_engine[engine] = names
+        tasks = _engine_tasks(groups, engine)
+        tasks_by_engine[engine] = [t.name for t in tasks]
         try:
-            nominal[engine] = nominal_values(engine, names)
+            nominal[engine] = nominal_values(engine, tasks)
         except SimtuneError as exc:
             warn(f"engine {engine}: no nominal values ({exc})")
             nominal[engine] = {}
         step()
     return nominal, tasks_by_engine
+
+
+def _engine_tasks(groups: list[Group], engine: str) -> list[TaskSpec]:
+    """The tasks of ``engine``'s runs, each once, as their runs' projects define them."""
+    tasks: dict[str, TaskSpec] = {}
+    for g in groups:
+        if g.engine == engine:
+            for name in g.task_names:
+                tasks.setdefault(name, g.best_run.task(name))
+    return list(tasks.values())
 
 
 def _resimulate(groups: list[Group], references: References, warn: Warn, progress: _Progress) -> list[GroupSimulation]:
@@ -239,13 +252,11 @@ def _resimulate(groups: list[Group], references: References, warn: Warn, progres
 def _probe_contacts(groups: list[Group], warn: Warn, progress: _Progress) -> list[ContactProbe]:
     """Each engine's generic simulation of each of its tasks with an object, watched for arm-object contact."""
     from simtune.engines import make_engine
-    from simtune.tasks import get_task
 
     probes: list[ContactProbe] = []
     for engine in sorted({g.engine for g in groups}):
-        names = list(dict.fromkeys(t for g in groups if g.engine == engine for t in g.task_names))
-        for name in names:
-            task = get_task(name)
+        for task in _engine_tasks(groups, engine):
+            name = task.name
             if task.object is None:
                 continue
             progress.describe(f"contact: {engine} on {name}")

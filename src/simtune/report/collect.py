@@ -18,7 +18,7 @@ from pathlib import Path
 
 from simtune.errors import SimtuneError
 from simtune.store import STORE_FILE, RunStore
-from simtune.tasks import parse_tasks
+from simtune.tasks import TaskSpec, get_task, parse_tasks
 
 
 @dataclass
@@ -31,7 +31,7 @@ class RunRecord:
     tasks: str  # as configured: "cube" or "single,cube"
     task_names: list[str]
     space: str
-    data: str
+    data: str | None  # None: each task's own recordings folder (its project's)
     seed: int
     config: dict
     parameters: list[str]
@@ -49,6 +49,11 @@ class RunRecord:
     initial_population: list[list[float]] = field(default_factory=list)  # generation 0's parameter vectors
     de_settings: dict | None = None  # SciPy's settings of a differential-evolution run (None: other optimiser)
     converged: bool = False  # the search met its convergence criterion (store meta search_converged)
+    project: str | None = None  # the project (file or folder) of its tasks; None: the bundled MICO project
+
+    def task(self, name: str) -> TaskSpec:
+        """The definition of the run's task ``name``, from the run's project."""
+        return get_task(name, self.project)
 
     @property
     def paper_exact(self) -> bool:
@@ -172,8 +177,11 @@ def _require(store: RunStore, key: str):
     return value
 
 
-def load_run(run_dir: Path, label: str | None = None) -> RunRecord | Skipped:
-    """A finished run as a :class:`RunRecord`, or a :class:`Skipped` saying why it cannot be used."""
+def load_run(run_dir: Path, label: str | None = None, project: str | None = None) -> RunRecord | Skipped:
+    """A finished run as a :class:`RunRecord`, or a :class:`Skipped` saying why it cannot be used.
+
+    ``project``: read its tasks from this project folder instead of the one the run names (moved since).
+    """
     run_dir = Path(run_dir)
     label = label or str(run_dir)
     store = None
@@ -202,7 +210,8 @@ def load_run(run_dir: Path, label: str | None = None) -> RunRecord | Skipped:
             raise SimtuneError("no evaluations in the store")
         if len(best["x"]) != len(parameters):
             raise SimtuneError(f"best vector has {len(best['x'])} values for {len(parameters)} parameters")
-        task_names = [t.name for t in parse_tasks(str(config["tasks"]))]
+        project = project or config.get("project")
+        task_names = [t.name for t in parse_tasks(str(config["tasks"]), project)]
         return RunRecord(
             path=run_dir,
             label=label,
@@ -210,7 +219,8 @@ def load_run(run_dir: Path, label: str | None = None) -> RunRecord | Skipped:
             tasks=str(config["tasks"]),
             task_names=task_names,
             space=str(config["space"]),
-            data=str(config["data"]),
+            data=None if config["data"] is None else str(config["data"]),
+            project=project,
             seed=int(config["seed"]),
             config=config,
             parameters=parameters,

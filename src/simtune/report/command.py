@@ -41,6 +41,15 @@ def report(
             help="The parameter of the paper's Figure 4: its tuned values, raw, per experiment and engine.",
         ),
     ] = "timestep",
+    project: Annotated[
+        Path | None,
+        typer.Option(
+            "--project",
+            help="Read the runs' tasks from this project folder (docs/task-files.md) instead of the one each "
+            "run names (for a project moved since); default: each run's own, the bundled MICO project for runs "
+            "made without --project.",
+        ),
+    ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Write an HTML report of tuning runs: fitness tables, convergence, parameters, trajectories.
@@ -54,5 +63,7 @@ def report(
 
     from simtune.report import make_report
 
-    index = make_report(runs, out, published_sims, show_progress=not quiet, figure4_parameter=figure4_parameter)
+    index = make_report(
+        runs, out, published_sims, show_progress=not quiet, figure4_parameter=figure4_parameter, project=project
+    )
     Console().print(f"report: {index}", highlight=False, soft_wrap=True)

@@ -8,6 +8,7 @@ instant (turned as at its start: at first contact it has not moved yet).
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -18,7 +19,7 @@ from scipy.spatial import ConvexHull
 from simtune.engines.contact import ContactProbe
 from simtune.report.figures import PALETTE, new_figure, panel_title
 from simtune.robot.description import RobotDescription
-from simtune.tasks import get_task
+from simtune.tasks import TaskSpec, get_task
 
 ARM_COLOR = "#9a9a9a"
 HAND_COLOR = PALETTE[0]
@@ -47,9 +48,10 @@ def _outline(points: np.ndarray, i: int, j: int) -> np.ndarray:
     return flat[ConvexHull(flat).vertices]
 
 
-def contact_figure(probes: list[ContactProbe]) -> Figure:
+def contact_figure(probes: list[ContactProbe], tasks: Mapping[str, TaskSpec] | None = None) -> Figure:
     """The arm at each probe's first contact: from the side (the whole arm, then near the object) and
-    from above (near the object).  A probe without contact shows the arm's final pose.
+    from above (near the object).  A probe without contact shows the arm's final pose.  ``tasks``: the
+    probed tasks by name (default: the bundled MICO project's).
     """
     n = len(probes)
     cols = max(1, min(n, TASKS_PER_ROW))
@@ -58,7 +60,7 @@ def contact_figure(probes: list[ContactProbe]) -> Figure:
     grid = fig.add_gridspec(len(VIEWS) * rows, cols)
     for k, probe in enumerate(probes):
         row, col = divmod(k, cols)
-        task = get_task(probe.task)
+        task = tasks[probe.task] if tasks is not None else get_task(probe.task)
         obj = task.object
         assert obj is not None, "a probe is made for a task with an object"
         object_points = probe.pose_object + obj.surface_points() @ obj.rotation.T

@@ -30,6 +30,7 @@ from simtune.report.html import FigureRef, Section
 from simtune.report.published import PublishedSim
 from simtune.report.simulate import GroupSimulation
 from simtune.table import Table
+from simtune.tasks import TaskSpec
 
 DR_FILE = "dr_ranges.yaml"
 
@@ -52,6 +53,10 @@ class ReportData:
     @property
     def runs(self) -> list[RunRecord]:
         return [r for g in self.groups for r in g.runs]
+
+    def task(self, name: str) -> TaskSpec:
+        """The definition of task ``name``, from the project of the first run that has it."""
+        return next(g.best_run.task(name) for g in self.groups if name in g.task_names)
 
     @property
     def task_names(self) -> list[str]:
@@ -267,7 +272,9 @@ def contact_section(data: ReportData, out: ReportOutput) -> Section | None:
     figures = [
         out.figure(
             slug("contact", engine),
-            contact_figure([p for p in data.contacts if p.engine == engine]),
+            contact_figure(
+                [p for p in data.contacts if p.engine == engine], {p.task: data.task(p.task) for p in data.contacts}
+            ),
             f"{engine}, generic parameters: the arm at its first contact with each task's object, from the side "
             "(the whole arm) and from above (near the object); a task without contact shows the final pose.",
         )

@@ -11,9 +11,9 @@ from simtune.data import TaskData
 from simtune.engines import make_engine
 from simtune.errors import SimtuneError
 from simtune.fitness import TaskScore, marker_positions, score_rollout
-from simtune.objective import Objective, load_references
+from simtune.objective import Objective, load_references, recordings_folder
 from simtune.report.collect import Group, RunRecord
-from simtune.tasks import get_task
+from simtune.tasks import TaskSpec
 
 
 class References:
@@ -22,11 +22,11 @@ class References:
     def __init__(self) -> None:
         self._cache: dict[tuple[str, str], TaskData | SimtuneError] = {}
 
-    def get(self, data: str, task: str) -> TaskData:
-        key = (str(Path(data).resolve()), task)
+    def get(self, data: str | None, task: TaskSpec) -> TaskData:
+        key = (str(recordings_folder(data, task).resolve()), task.name)
         if key not in self._cache:
             try:
-                self._cache[key] = load_references(Path(data), [get_task(task)])[task]
+                self._cache[key] = load_references(None if data is None else Path(data), [task])[task.name]
             except SimtuneError as exc:
                 self._cache[key] = exc
         value = self._cache[key]
@@ -35,7 +35,7 @@ class References:
         return value
 
     def for_run(self, run: RunRecord) -> dict[str, TaskData]:
-        return {t: self.get(run.data, t) for t in run.task_names}
+        return {t: self.get(run.data, run.task(t)) for t in run.task_names}
 
 
 @dataclass
@@ -68,7 +68,7 @@ def simulate_group(group: Group, references: References) -> GroupSimulation:
     """Re-simulate the group's best run with generic and with its tuned parameters, on each of its tasks."""
     run = group.best_run
     refs = references.for_run(run)
-    tasks = [get_task(t) for t in run.task_names]
+    tasks = [run.task(t) for t in run.task_names]
     objective = Objective(run.engine, tasks, refs)
     params = run.best_params
     try:
@@ -92,11 +92,10 @@ def simulate_group(group: Group, references: References) -> GroupSimulation:
     return GroupSimulation(group, run, params, out)
 
 
-def nominal_values(engine: str, task_names: list[str]) -> dict[str, float]:
+def nominal_values(engine: str, tasks: list[TaskSpec]) -> dict[str, float]:
     """Generic value of every parameter ``engine`` has on these tasks: its own defaults and the controller's."""
     values: dict[str, float] = {}
-    for name in task_names:
-        task = get_task(name)
+    for task in tasks:
         sim = make_engine(engine, task)
         try:
             for key, value in sim.defaults().items():

@@ -1,40 +1,47 @@
-"""Task registry: look tasks up by name; ``a,b`` or ``seed-11`` name several at once."""
+"""Task registry: look tasks up by name in a project; ``a,b`` or ``seed-11`` name several at once.
+
+Tasks are files (docs/task-files.md) gathered by a project (:mod:`simtune.project`); without a project
+the bundled Kinova MICO project is meant.  ``TASKS`` and ``GROUPS`` are that project's tasks and groups.
+"""
 
 from __future__ import annotations
 
-from simtune.errors import ConfigError
-from simtune.tasks import qrg2019, seed
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
 from simtune.tasks.spec import MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
 
-TASKS: dict[str, TaskSpec] = {t.name: t for t in (*qrg2019.TASKS, *seed.TASKS)}
-
-#: Names that stand for several tasks whose fitness is summed (the seed paper's experiment 11).
-GROUPS: dict[str, tuple[str, ...]] = {"seed-11": tuple(f"seed-{n}" for n in range(1, 11))}
+if TYPE_CHECKING:
+    from simtune.project import Project
 
 
-def get_task(name: str) -> TaskSpec:
-    try:
-        return TASKS[name]
-    except KeyError:
-        raise ConfigError(f"unknown task {name!r} (known: {', '.join(all_task_names())})") from None
+def _project(project: Project | Path | str | None) -> Project:
+    from simtune.project import get_project
+
+    return get_project(project)
 
 
-def all_task_names() -> list[str]:
-    return [*TASKS, *GROUPS]
+def get_task(name: str, project: Project | Path | str | None = None) -> TaskSpec:
+    """The task ``name`` of ``project`` (a Project, its folder, or None: the bundled MICO project)."""
+    return _project(project).task(name)
 
 
-def parse_tasks(spec: str) -> list[TaskSpec]:
+def all_task_names(project: Project | Path | str | None = None) -> list[str]:
+    return _project(project).task_names()
+
+
+def parse_tasks(spec: str, project: Project | Path | str | None = None) -> list[TaskSpec]:
     """Tasks named by ``spec``: one name, a group, or a comma-separated list of them."""
-    names: list[str] = []
-    for part in (p.strip() for p in spec.split(",")):
-        if not part:
-            continue
-        for name in GROUPS.get(part, (part,)):
-            if name not in names:
-                names.append(name)
-    if not names:
-        raise ConfigError("no task given (e.g. --task cube or --task single,cube)")
-    return [get_task(n) for n in names]
+    return _project(project).parse_tasks(spec)
+
+
+def __getattr__(name: str) -> Any:
+    # read on first use: importing simtune.tasks reads no file
+    if name == "TASKS":
+        return dict(_project(None).tasks)
+    if name == "GROUPS":
+        return dict(_project(None).groups)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 __all__ = [

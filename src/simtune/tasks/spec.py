@@ -7,7 +7,7 @@ spec through the same controller (:mod:`simtune.controller`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -15,7 +15,7 @@ import numpy as np
 from simtune.errors import ConfigError
 from simtune.geometry import rpy_matrix
 from simtune.robot.description import RobotDescription
-from simtune.robot.mico import MICO
+from simtune.robot.mico import ARM_JOINTS, MICO, WRIST_LINK
 
 #: Body names of the qrg2019 motion-capture exports (robot base, wrist, object).
 BASE_BODY = "RB2(Black)"
@@ -92,19 +92,25 @@ class ObjectSpec:
 
 @dataclass(frozen=True)
 class Phase:
-    """From ``start`` seconds on, the robot's driven joints are driven towards ``targets_deg`` (one per
-    joint, in the robot's order)."""
+    """From ``start`` seconds on, the driven joints are driven towards ``targets_deg`` (one per driven joint,
+    in the robot's order)."""
 
     start: float
     targets_deg: tuple[float, ...]
 
 
+#: Field metadata of what a task's fingerprint (``simtune.runs.task_fingerprint``) leaves out: ``"never"``
+#: (catalogue entries that change no simulation), ``"default"`` (fields added after runs were stored: left out
+#: at their default value, so that those runs still resume).
+FINGERPRINT = "fingerprint"
+
+
 @dataclass(frozen=True)
 class TaskSpec:
-    """A task: the robot, its joint-target schedule, controller gains, duration and object."""
+    """A task: its robot, joint-target schedule, controller gains, duration and object (docs/task-files.md)."""
 
     name: str
-    description: str
+    description: str = field(metadata={FINGERPRINT: "never"})
     duration: float
     phases: tuple[Phase, ...]
     kp: float  # proportional gain of the joint controller [1/s]
@@ -113,23 +119,49 @@ class TaskSpec:
     wrist_body: str = WRIST_BODY
     start_pose_deg: tuple[float, ...] = ()  # default: every driven joint at 0
     #: whether real recordings of this task exist in the qrg2019 data set
-    has_public_recordings: bool = False
-    robot: RobotDescription = MICO
+    has_public_recordings: bool = field(default=False, metadata={FINGERPRINT: "never"})
+    #: the driven joints, in the order of every target row and of ``start_pose_deg``
+    joints: tuple[str, ...] = field(default=ARM_JOINTS, metadata={FINGERPRINT: "default"})
+    #: the robot link whose origin the motion-capture wrist body tracks
+    tracked_link: str = field(default=WRIST_LINK, metadata={FINGERPRINT: "default"})
+    #: the motion-capture body on the robot's base (recordings are checked against it)
+    base_body: str | None = field(default=BASE_BODY, metadata={FINGERPRINT: "default"})
+    #: the folder of this task's recordings (absolute): its task file's ``recordings``, else the project's
+    #: data root / the task's name; None when neither names one
+    recordings: str | None = field(default=None, metadata={FINGERPRINT: "never"})
+    #: the robot the task drives (its driven joints are ``joints``, its tracked link ``tracked_link``)
+    robot: RobotDescription = field(default=MICO, metadata={FINGERPRINT: "default"})
 
     def __post_init__(self) -> None:
-        n = self.robot.n_joints
+        robot = self.robot
+        n = robot.n_joints
+        # the MICO's names are the fields' defaults: for another robot, left at them, they follow the robot
+        if self.joints == ARM_JOINTS and robot.arm_joints != ARM_JOINTS:
+            object.__setattr__(self, "joints", robot.arm_joints)
+        if self.tracked_link == WRIST_LINK and robot.tracked_link != WRIST_LINK:
+            object.__setattr__(self, "tracked_link", robot.tracked_link)
         if not self.start_pose_deg:
             object.__setattr__(self, "start_pose_deg", (0.0,) * n)
+        if tuple(self.joints) != robot.arm_joints:
+            raise ConfigError(
+                f"task {self.name!r}: drives joints {', '.join(self.joints)}, robot {robot.name!r} drives "
+                f"{', '.join(robot.arm_joints)}"
+            )
+        if self.tracked_link != robot.tracked_link:
+            raise ConfigError(
+                f"task {self.name!r}: tracks link {self.tracked_link!r}, robot {robot.name!r} reports "
+                f"{robot.tracked_link!r}"
+            )
         if len(self.start_pose_deg) != n:
             raise ConfigError(
                 f"task {self.name!r}: start pose has {len(self.start_pose_deg)} joint angles, "
-                f"robot {self.robot.name!r} drives {n} joints"
+                f"robot {robot.name!r} drives {n} joints"
             )
         for k, phase in enumerate(self.phases, start=1):
             if len(phase.targets_deg) != n:
                 raise ConfigError(
                     f"task {self.name!r}: phase {k} has {len(phase.targets_deg)} joint targets, "
-                    f"robot {self.robot.name!r} drives {n} joints"
+                    f"robot {robot.name!r} drives {n} joints"
                 )
 
     @cached_property

@@ -1,0 +1,197 @@
+"""simtune from Python: load a project, evaluate parameters, tune, read a run; one result type.
+
+::
+
+    import simtune.api as st
+
+    project = st.load_project("myproject")           # or None: the bundled Kinova MICO project
+    generic = st.evaluate("mujoco", "cube", project=project)
+    tuned = st.tune("mujoco", "cube", project=project, out="runs/cube", max_evaluations=500)
+    print(tuned.fitness, tuned.x["timestep"], tuned.parts["cube"].object_error)
+    again = st.read_run("runs/cube")                  # the same Result, from the run folder
+
+Every function is the command of the same name (``simtune evaluate``, ``simtune tune``) without the
+printing: the same objective (:mod:`simtune.objective`) and runs (:mod:`simtune.runs`), the same
+one-line :class:`~simtune.errors.SimtuneError` for bad input.  docs/api.md has the details.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from simtune.engines import engine_class
+from simtune.errors import SimtuneError
+from simtune.fitness import Score, TaskScore
+from simtune.objective import Objective, load_references
+from simtune.params import read_params_file, validate_params
+from simtune.project import Project, get_project
+from simtune.project import load_project as _load_project
+from simtune.runs import RunConfig, start_run
+from simtune.store import STORE_FILE, RunStore
+from simtune.tasks.spec import common_robot
+
+
+@dataclass(frozen=True)
+class Result:
+    """Parameters and their fitness, in the spirit of SciPy's ``OptimizeResult``.
+
+    ``x``: the parameter values (name -> value; those not named keep the engine's generic values);
+    ``fitness`` = ``wrist_error`` + ``object_error`` summed over the tasks, whose own scores are
+    ``parts`` (task name -> TaskScore); ``generic_fitness``: the engine's generic parameters on the
+    same tasks; ``evaluations``: simulations of all tasks the result took (a run's stored ones);
+    ``run_dir``: the run folder of a tuning run (None for an evaluation).
+    """
+
+    engine: str
+    tasks: tuple[str, ...]
+    x: dict[str, float]
+    fitness: float
+    wrist_error: float
+    object_error: float | None
+    parts: dict[str, TaskScore]
+    generic_fitness: float
+    stable: bool
+    evaluations: int
+    run_dir: Path | None = None
+    message: str = ""
+    #: seconds spent simulating (evaluate) or tuning (all sessions of a run)
+    wall_s: float = 0.0
+
+    @classmethod
+    def from_score(cls, engine: str, x: Mapping[str, float], score: Score, generic: Score | dict, **more) -> Result:
+        generic_fitness = generic["fitness"] if isinstance(generic, dict) else generic.fitness
+        return cls(
+            engine=engine,
+            tasks=tuple(t.task for t in score.tasks),
+            x=dict(x),
+            fitness=score.fitness,
+            wrist_error=score.wrist_error,
+            object_error=score.object_error,
+            parts={t.task: t for t in score.tasks},
+            generic_fitness=float(generic_fitness),
+            stable=score.stable,
+            **more,
+        )
+
+
+def load_project(path: Path | str | None = None) -> Project:
+    """The project in folder ``path`` (docs/task-files.md); None: the bundled Kinova MICO project."""
+    return get_project(None) if path is None else _load_project(path)
+
+
+def _root(data: Path | str | None, project: Project) -> Path | None:
+    """``data``, else the project's data root (None: each task's own recordings folder)."""
+    return Path(data) if data is not None else project.data_root()
+
+
+def evaluate(
+    engine: str = "mujoco",
+    tasks: str = "cube",
+    *,
+    project: Project | Path | str | None = None,
+    data: Path | str | None = None,
+    params: Mapping[str, float] | Path | str | None = None,
+) -> Result:
+    """Fitness of ``params`` (a mapping, or a params file such as best_params.json; default: the engine's
+    generic values) for ``engine`` on ``tasks`` (names, groups, comma-separated) of ``project``.
+
+    ``data``: the data root (``DATA/<task>/``); default: the project's recordings.
+    """
+    proj = get_project(project)
+    specs = proj.parse_tasks(tasks)
+    cls = engine_class(engine)
+    robot = common_robot(specs)
+    supported = cls.supported(robot)
+    if isinstance(params, Path | str):
+        file_values = read_params_file(Path(params), engine)
+        values = validate_params(file_values, supported, engine, where=str(params), robot=robot)
+    else:
+        values = validate_params(dict(params or {}), supported, engine, where="params", robot=robot)
+    objective = Objective(engine, specs, load_references(_root(data, proj), specs))
+    try:
+        start = time.perf_counter()
+        score = objective.score(values)
+        wall = time.perf_counter() - start
+        generic = score if not values else objective.score({})
+    finally:
+        objective.close()
+    return Result.from_score(engine, values, score, generic, evaluations=1 if not values else 2, wall_s=wall)
+
+
+def tune(
+    engine: str = "mujoco",
+    tasks: str = "cube",
+    *,
+    out: Path | str,
+    project: Project | Path | str | None = None,
+    data: Path | str | None = None,
+    space: str = "extended",
+    optimizer: str = "de",
+    refine: bool = False,
+    seed: int = 0,
+    workers: int = 1,
+    max_evaluations: int | None = None,
+    max_seconds: float | None = None,
+    max_generations: int = 1000,
+    target_fitness: float | None = None,
+    only: list[str] | None = None,
+    eval_timeout: float = 600.0,
+    show_progress: bool = False,
+) -> Result:
+    """Tune ``engine`` on ``tasks`` of ``project`` into the new run folder ``out`` (``simtune tune``).
+
+    The run is an ordinary one: ``simtune resume OUT`` continues it, ``read_run(OUT)`` reads it.
+    The run stores the project by its project file (the bundled MICO project: not at all).
+    """
+    proj = get_project(project)
+    config = RunConfig(
+        engine=engine,
+        tasks=tasks,
+        space=space,
+        data=None if (root := _root(data, proj)) is None else str(root),
+        seed=seed,
+        workers=workers,
+        max_seconds=max_seconds,
+        max_generations=max_generations,
+        only=list(only) if only else None,
+        eval_timeout=eval_timeout,
+        target_fitness=target_fitness,
+        optimizer=optimizer,
+        refine=refine,
+        max_evaluations=max_evaluations,
+        project=None if proj is get_project(None) else str(proj.file.resolve()),
+    )
+    start_run(config, Path(out), show_progress=show_progress)
+    return read_run(out)
+
+
+def read_run(run_dir: Path | str) -> Result:
+    """The best parameters of the run in ``run_dir`` (finished or not) as a :class:`Result`."""
+    run_dir = Path(run_dir)
+    if not (run_dir / STORE_FILE).is_file():
+        raise SimtuneError(f"{run_dir} is not a run folder (no {STORE_FILE})")
+    store = RunStore.open_read_only(run_dir)
+    try:
+        config = store.get("config")
+        best = store.best_evaluation()
+        if config is None or best is None:
+            raise SimtuneError(f"{run_dir}: the run has no evaluation yet")
+        names = store.get("parameters")
+        return Result.from_score(
+            str(config["engine"]),
+            dict(zip(names, (float(v) for v in best["x"]), strict=True)),
+            Score.from_dict(best["score"]),
+            store.get("generic"),
+            evaluations=store.count_evaluations(),
+            run_dir=run_dir,
+            message=str(store.get("message", store.get("status", ""))),
+            wall_s=float(store.get("elapsed_s", 0.0) or 0.0),
+        )
+    finally:
+        store.close()
+
+
+__all__ = ["Project", "Result", "evaluate", "load_project", "read_run", "tune"]

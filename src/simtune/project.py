@@ -1,0 +1,188 @@
+"""Projects: a robot, its task files and where their recordings are, tied together by ``simtune.toml``.
+
+A project is a folder holding ``simtune.toml`` (or ``simtune.yaml``), written as docs/task-files.md
+describes.  The Kinova MICO of the qrg2019 recordings and the seed paper is one such project, shipped
+inside the package (:func:`bundled_project`); every command uses it when no ``--project`` is given.
+
+Loading stops at the first problem with one line naming file and key (:class:`~simtune.errors.ProjectError`);
+:meth:`Project.validate` lists what a loadable project still lacks (recordings folders, for instance).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from simtune.errors import ConfigError, ProjectError
+from simtune.robot import mico
+from simtune.tasks.files import Keys, RobotNames, load_task_file, read_document
+from simtune.tasks.spec import TaskSpec
+
+#: The names a project file may have in its folder, in the order they are looked for.
+PROJECT_FILES = ("simtune.toml", "simtune.yaml", "simtune.yml")
+PROJECT_KEYS = ("name", "description", "robot", "urdf", "tasks", "groups", "data")
+#: The folder of the bundled MICO project (package data).
+BUNDLED_DIR = Path(__file__).resolve().parent / "projects" / "mico"
+#: Robots known by name (``robot = "mico"``).
+NAMED_ROBOTS = ("mico",)
+
+
+@dataclass(frozen=True)
+class Project:
+    """A loaded project: its file, robot, tasks (by name, in the file's order), task groups and data root."""
+
+    file: Path
+    name: str
+    description: str
+    robot: RobotNames
+    tasks: Mapping[str, TaskSpec]
+    #: task name -> the task file it was read from
+    task_files: Mapping[str, Path]
+    #: names standing for several tasks whose fitness is summed (``seed-11``)
+    groups: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    #: the default data root (``DATA/<task>/`` holds a task's recordings), when the project names one
+    data: Path | None = None
+
+    @property
+    def root(self) -> Path:
+        return self.file.parent
+
+    def task_names(self) -> list[str]:
+        return [*self.tasks, *self.groups]
+
+    def task(self, name: str) -> TaskSpec:
+        try:
+            return self.tasks[name]
+        except KeyError:
+            raise ConfigError(
+                f"unknown task {name!r} in project {self.name} (known: {', '.join(self.task_names())})"
+            ) from None
+
+    def parse_tasks(self, spec: str) -> list[TaskSpec]:
+        """Tasks named by ``spec``: one name, a group, or a comma-separated list of them."""
+        names: list[str] = []
+        for part in (p.strip() for p in spec.split(",")):
+            if not part:
+                continue
+            for name in self.groups.get(part, (part,)):
+                if name not in names:
+                    names.append(name)
+        if not names:
+            raise ConfigError("no task given (e.g. --task cube or --task single,cube)")
+        return [self.task(n) for n in names]
+
+    def data_root(self) -> Path | None:
+        """The data root to use without ``--data``: the project's, unless a task file names another folder.
+
+        None: each task's recordings are in its own ``recordings`` folder (``objective.load_references``).
+        """
+        if self.data is None or any(t.recordings != str(self.data / t.name) for t in self.tasks.values()):
+            return None
+        return self.data
+
+    def validate(self) -> list[str]:
+        """Problems a loaded project still has, one line each (empty: none found)."""
+        problems = []
+        if self.data is not None and not self.data.is_dir():
+            problems.append(f"{self.file}: data: folder {self.data} does not exist")
+        for name, task in self.tasks.items():
+            folder = None if task.recordings is None else Path(task.recordings)
+            if folder is None:
+                problems.append(f"{self.task_files[name]}: no recordings folder (name one, or data in {self.file})")
+            elif not folder.is_dir():
+                problems.append(f"{self.task_files[name]}: recordings folder {folder} does not exist")
+        return problems
+
+
+def find_project_file(path: Path) -> Path:
+    """The project file of ``path``: the file itself, or the one project file in the folder."""
+    path = Path(path)
+    if path.is_file():
+        return path
+    if not path.is_dir():
+        raise ProjectError(f"project {path}: no such folder")
+    found = [path / name for name in PROJECT_FILES if (path / name).is_file()]
+    if not found:
+        raise ProjectError(f"project {path}: no project file ({' or '.join(PROJECT_FILES)})")
+    if len(found) > 1:
+        raise ProjectError(f"project {path}: two project files ({', '.join(p.name for p in found)}): keep one")
+    return found[0]
+
+
+def resolve_robot(keys: Keys, folder: Path) -> RobotNames:
+    """The robot a project file names: ``robot = "mico"`` (the bundled MICO) or ``urdf = "arm.urdf"``."""
+    if keys.has("robot") == keys.has("urdf"):
+        raise keys.error("robot", 'name the robot: robot = "mico", or urdf = "<file>.urdf" (exactly one of them)')
+    if keys.has("urdf"):
+        raise keys.error("urdf", 'robots from URDF files are not supported yet: use robot = "mico"')
+    name = keys.string("robot")
+    if name not in NAMED_ROBOTS:
+        raise keys.error("robot", f"unknown robot {name!r} (known: {', '.join(NAMED_ROBOTS)}; or urdf = ...)")
+    links = tuple(link.name for link in mico.LINKS)
+    return RobotNames("mico", mico.ARM_JOINTS, links, mico.WRIST_LINK)
+
+
+def load_project(path: Path | str) -> Project:
+    """The project in folder ``path`` (or the project file ``path``), every task file read and checked."""
+    file = find_project_file(Path(path))
+    folder = file.parent
+    keys = Keys(file, read_document(file), PROJECT_KEYS)
+    robot = resolve_robot(keys, folder)
+    data = keys.string("data")
+    data_root = None if data is None else (folder / data).resolve()
+    task_entries = keys.strings("tasks", required=True) or ()
+    if not task_entries:
+        raise keys.error("tasks", "name at least one task file")
+    tasks: dict[str, TaskSpec] = {}
+    task_files: dict[str, Path] = {}
+    for i, entry in enumerate(task_entries):
+        task_file = folder / entry
+        if not task_file.is_file():
+            raise keys.error(f"tasks[{i}]", f"no task file {task_file}")
+        task = load_task_file(task_file, robot, project_dir=folder)
+        if task.recordings is None and data_root is not None:
+            task = replace(task, recordings=str(data_root / task.name))
+        if task.name in tasks:
+            raise keys.error(f"tasks[{i}]", f"task {task.name!r} is also defined in {task_files[task.name]}")
+        tasks[task.name] = task
+        task_files[task.name] = task_file
+    groups: dict[str, tuple[str, ...]] = {}
+    if keys.has("groups") and not isinstance(keys.data["groups"], dict):
+        raise keys.error("groups", "expected a table: group name = [task names]")
+    for group, members in (keys.data.get("groups") or {}).items():
+        where = f"groups.{group}"
+        if group in tasks:
+            raise keys.error(where, f"{group!r} already names a task")
+        if not isinstance(members, list) or not members or not all(isinstance(m, str) for m in members):
+            raise keys.error(where, "expected a list of task names")
+        for m in members:
+            if m not in tasks:
+                raise keys.error(where, f"unknown task {m!r} (known: {', '.join(tasks)})")
+        groups[str(group)] = tuple(members)
+    return Project(
+        file=file,
+        name=keys.string("name", default=folder.name) or folder.name,
+        description=keys.string("description", default="") or "",
+        robot=robot,
+        tasks=tasks,
+        task_files=task_files,
+        groups=groups,
+        data=data_root,
+    )
+
+
+@functools.cache
+def bundled_project() -> Project:
+    """The Kinova MICO project shipped with simtune (qrg2019 and seed-paper tasks)."""
+    return load_project(BUNDLED_DIR)
+
+
+def get_project(project: Project | Path | str | None) -> Project:
+    """``project`` loaded: a Project as it is, a folder or file loaded, None the bundled MICO project."""
+    if project is None:
+        return bundled_project()
+    if isinstance(project, Project):
+        return project
+    return load_project(project)

@@ -1,0 +1,368 @@
+"""Task files: a task written as TOML or YAML (one schema, docs/task-files.md), read into a :class:`TaskSpec`.
+
+Every problem is one :class:`~simtune.errors.ProjectError` line naming the file and the key
+(``tasks/cube.toml: phases[2].start: ...``).  Names of joints and links are checked against the
+robot when the caller knows it (:class:`RobotNames`); the project loader always does.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from simtune.errors import ProjectError
+from simtune.tasks.spec import MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
+
+#: The joint control laws a task file may name (``controller.law``); simtune.controller runs them.
+CONTROL_LAWS = ("clamped-p-velocity",)
+#: Suffixes of the formats a task or project file may be written in.
+TOML_SUFFIXES = (".toml",)
+YAML_SUFFIXES = (".yaml", ".yml")
+#: How many numbers ``object.size`` holds per shape (see ObjectSpec).
+SIZE_LENGTHS = {"cube": 3, "cuboid": 3, "cylinder": 2, "cone": 2}
+
+
+@dataclass(frozen=True)
+class RobotNames:
+    """What a task file is checked against: the robot's name, its movable joints (in order) and its links."""
+
+    name: str
+    joints: tuple[str, ...]
+    links: tuple[str, ...]
+    #: the link whose pose the engines report (the only one motion capture can track today)
+    wrist_link: str
+
+
+def read_document(path: Path) -> dict[str, Any]:
+    """The mapping a TOML or YAML file holds (chosen by its suffix); one line for an unreadable file."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (*TOML_SUFFIXES, *YAML_SUFFIXES):
+        raise ProjectError(f"{path}: unknown file type {suffix or '(none)'!r}: write it as .toml, .yaml or .yml")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ProjectError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ProjectError(f"{path}: cannot read it ({getattr(exc, 'strerror', None) or exc})") from None
+    if suffix in TOML_SUFFIXES:
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise ProjectError(f"{path}: not valid TOML: {exc}") from None
+    else:
+        try:
+            data = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
+            problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+            raise ProjectError(f"{path}: not valid YAML: {problem}{where}") from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ProjectError(f"{path}: expected a mapping of keys at the top level, got a {_kind(data)}")
+    return data
+
+
+def _kind(value: object) -> str:
+    if isinstance(value, bool):
+        return "true/false"
+    if isinstance(value, int | float):
+        return "number"
+    if isinstance(value, str):
+        return "string"
+    if isinstance(value, list | tuple):
+        return "list"
+    if isinstance(value, dict):
+        return "table"
+    return type(value).__name__
+
+
+class Keys:
+    """One table of a file, read key by key with one-line errors naming the file and the key's full name."""
+
+    def __init__(self, path: Path, data: Mapping[str, Any], known: Sequence[str], prefix: str = ""):
+        self.path = path
+        self.data = data
+        self.prefix = prefix
+        for key in data:
+            if key not in known:
+                raise self.error(str(key), f"unknown key (known here: {', '.join(known)})")
+
+    def error(self, key: str, what: str) -> ProjectError:
+        return ProjectError(f"{self.path}: {self.prefix}{key}: {what}")
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def _get(self, key: str, required: bool) -> Any:
+        if key not in self.data and required:
+            raise self.error(key, "missing (required)")
+        return self.data.get(key)
+
+    def string(self, key: str, default: str | None = None, required: bool = False) -> str | None:
+        value = self._get(key, required)
+        if value is None:
+            return default
+        if not isinstance(value, str):
+            raise self.error(key, f"expected a string, got a {_kind(value)}")
+        return value
+
+    def flag(self, key: str, default: bool) -> bool:
+        value = self._get(key, False)
+        if value is None:
+            return default
+        if not isinstance(value, bool):
+            raise self.error(key, f"expected true or false, got a {_kind(value)}")
+        return value
+
+    def number(self, key: str, default: float | None = None, required: bool = False, above: float | None = None):
+        value = self._get(key, required)
+        if value is None:
+            return default
+        return self.check_number(key, value, above)
+
+    def check_number(self, key: str, value: Any, above: float | None = None) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise self.error(key, f"expected a number, got a {_kind(value)}")
+        if not math.isfinite(value):
+            raise self.error(key, f"expected a finite number, got {value}")
+        if above is not None and not value > above:
+            raise self.error(key, f"must be above {above:g}, got {value:g}")
+        return float(value)
+
+    def numbers(self, key: str, length: int | None = None, of: str = "", required: bool = False):
+        """A list of finite numbers; ``length`` checked, ``of`` says what each entry stands for in the message."""
+        value = self._get(key, required)
+        if value is None:
+            return None
+        if not isinstance(value, list):
+            raise self.error(key, f"expected a list of numbers, got a {_kind(value)}")
+        if length is not None and len(value) != length:
+            raise self.error(key, f"expected {length} numbers{of}, got {len(value)}")
+        return tuple(self.check_number(f"{key}[{i}]", v) for i, v in enumerate(value))
+
+    def strings(self, key: str, required: bool = False) -> tuple[str, ...] | None:
+        value = self._get(key, required)
+        if value is None:
+            return None
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise self.error(key, f"expected a list of strings, got {value!r}")
+        return tuple(value)
+
+    def table(self, key: str, known: Sequence[str], required: bool = False) -> Keys | None:
+        value = self._get(key, required)
+        if value is None:
+            return None
+        if not isinstance(value, dict):
+            raise self.error(key, f"expected a table of keys, got a {_kind(value)}")
+        return Keys(self.path, value, known, f"{self.prefix}{key}.")
+
+    def tables(self, key: str, known: Sequence[str]) -> list[Keys] | None:
+        """A list of tables (TOML's ``[[key]]``)."""
+        value = self._get(key, False)
+        if value is None:
+            return None
+        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+            raise self.error(key, "expected a list of tables (TOML: [[" + key + "]] sections)")
+        return [Keys(self.path, v, known, f"{self.prefix}{key}[{i}].") for i, v in enumerate(value)]
+
+
+TASK_KEYS = (
+    "name",
+    "description",
+    "duration",
+    "joints",
+    "start_pose_deg",
+    "controller",
+    "phases",
+    "schedule_csv",
+    "target_offset_deg",
+    "object",
+    "mocap",
+    "recordings",
+    "public_recordings",
+)
+CONTROLLER_KEYS = ("law", "gain", "max_velocity_deg")
+PHASE_KEYS = ("start", "targets_deg")
+OBJECT_KEYS = ("shape", "material", "mass", "size", "xy", "rpy", "mocap_body")
+MOCAP_KEYS = ("link", "body", "base_body")
+
+
+def load_task_file(
+    path: Path, robot: RobotNames | None = None, project_dir: Path | None = None, reaimed: bool = True
+) -> TaskSpec:
+    """The task that the TOML or YAML file ``path`` describes (docs/task-files.md).
+
+    ``robot``: check joint and link names against it (and use its joints when the file names none).
+    ``project_dir``: the folder ``recordings`` is relative to (default: the file's folder).
+    ``reaimed=False`` leaves out ``target_offset_deg`` (the schedule as first written).
+    """
+    path = Path(path)
+    keys = Keys(path, read_document(path), TASK_KEYS)
+    name = keys.string("name", required=True)
+    assert name is not None
+    if not name or name.strip() != name or any(c in name for c in "/\\,+") or name in (".", ".."):
+        raise keys.error("name", f"{name!r} cannot name a task (it names the recordings' folder: no / \\ , +)")
+    duration = keys.number("duration", required=True)
+    if duration <= 0:
+        raise keys.error("duration", f"must be above 0 seconds, got {duration:g}")
+
+    joints = keys.strings("joints")
+    if joints is None:
+        if robot is None:
+            raise keys.error("joints", "missing: name the driven joints (required when no robot is known)")
+        joints = robot.joints
+    if not joints:
+        raise keys.error("joints", "name at least one driven joint")
+    if len(set(joints)) != len(joints):
+        raise keys.error("joints", f"a joint is named twice: {list(joints)}")
+    if robot is not None:
+        for i, joint in enumerate(joints):
+            if joint not in robot.joints:
+                raise keys.error(f"joints[{i}]", f"robot {robot.name} has no movable joint {joint!r}")
+        if joints != robot.joints:
+            # the engines command every movable joint of the arm they build, in the robot's order
+            raise keys.error(
+                "joints", f"the engines drive every arm joint of {robot.name} in order: {', '.join(robot.joints)}"
+            )
+    per_joint = f" (one per driven joint: {', '.join(joints)})"
+
+    start_pose = keys.numbers("start_pose_deg", len(joints), per_joint) or (0.0,) * len(joints)
+    kp, max_velocity = _controller(keys)
+    offset = keys.numbers("target_offset_deg", len(joints), per_joint)
+    phases = _schedule(keys, joints, per_joint, path)
+    if offset is not None and reaimed:
+        phases = tuple(Phase(p.start, tuple(t + d for t, d in zip(p.targets_deg, offset))) for p in phases)
+    if phases[-1].start >= duration:
+        key = "schedule_csv" if keys.has("schedule_csv") else f"phases[{len(phases) - 1}].start"
+        raise keys.error(key, f"starts at {phases[-1].start:g} s, not before the task's end (duration {duration:g} s)")
+
+    mocap = keys.table("mocap", MOCAP_KEYS, required=True)
+    assert mocap is not None
+    link = mocap.string("link", default=robot.wrist_link if robot else None, required=robot is None)
+    assert link is not None
+    if robot is not None:
+        if link not in robot.links:
+            raise mocap.error("link", f"robot {robot.name} has no link {link!r}")
+        if link != robot.wrist_link:
+            raise mocap.error("link", f"the engines report the pose of {robot.wrist_link} only: track that link")
+    body = mocap.string("body", required=True)
+    base_body = mocap.string("base_body")
+    recordings = keys.string("recordings")
+    if recordings is not None:
+        recordings = str(((project_dir or path.parent) / recordings).resolve())
+    return TaskSpec(
+        name=name,
+        description=keys.string("description", default="") or "",
+        duration=duration,
+        phases=phases,
+        kp=kp,
+        max_velocity_deg=max_velocity,
+        object=_object(keys),
+        wrist_body=body or "",
+        start_pose_deg=start_pose,
+        has_public_recordings=keys.flag("public_recordings", False),
+        joints=joints,
+        tracked_link=link,
+        base_body=base_body,
+        recordings=recordings,
+    )
+
+
+def _controller(keys: Keys) -> tuple[float, float]:
+    controller = keys.table("controller", CONTROLLER_KEYS, required=True)
+    assert controller is not None
+    law = controller.string("law", default=CONTROL_LAWS[0])
+    if law not in CONTROL_LAWS:
+        raise controller.error("law", f"unknown control law {law!r} (known: {', '.join(CONTROL_LAWS)})")
+    gain = controller.number("gain", required=True, above=0.0)
+    max_velocity = controller.number("max_velocity_deg", default=30.0, above=0.0)
+    return gain, max_velocity
+
+
+def _schedule(keys: Keys, joints: tuple[str, ...], per_joint: str, path: Path) -> tuple[Phase, ...]:
+    """The target schedule: ``[[phases]]`` or ``schedule_csv``, exactly one of them, in time order."""
+    if keys.has("phases") == keys.has("schedule_csv"):
+        raise keys.error("phases", "give the schedule as [[phases]] or as schedule_csv (exactly one of them)")
+    if keys.has("schedule_csv"):
+        csv_name = keys.string("schedule_csv")
+        assert csv_name is not None
+        return read_schedule_csv(path.parent / csv_name, joints, f"{path}: schedule_csv: ")
+    tables = keys.tables("phases", PHASE_KEYS) or []
+    if not tables:
+        raise keys.error("phases", "the schedule has no phase")
+    phases: list[Phase] = []
+    for phase in tables:
+        start = phase.number("start", required=True)
+        if start < 0:
+            raise phase.error("start", f"must be 0 or later, got {start:g}")
+        if phases and start <= phases[-1].start:
+            raise phase.error(
+                "start", f"{start:g} s is not after the previous phase's start {phases[-1].start:g} s (phases in order)"
+            )
+        targets = phase.numbers("targets_deg", len(joints), per_joint, required=True)
+        phases.append(Phase(start, targets))
+    return tuple(phases)
+
+
+def read_schedule_csv(path: Path, joints: tuple[str, ...], where: str) -> tuple[Phase, ...]:
+    """Commanded targets over time: a header ``time,<joint>,...`` (seconds, degrees), then one row per change."""
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            rows = [row for row in csv.reader(fh) if row and not row[0].lstrip().startswith("#")]
+    except FileNotFoundError:
+        raise ProjectError(f"{where}{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ProjectError(f"{where}{path}: cannot read it ({getattr(exc, 'strerror', None) or exc})") from None
+    header = [cell.strip() for cell in rows[0]] if rows else []
+    expected = ["time", *joints]
+    if header != expected:
+        raise ProjectError(f"{where}{path}: line 1: expected the header {','.join(expected)}, got {','.join(header)}")
+    phases: list[Phase] = []
+    for number, row in enumerate(rows[1:], start=2):
+        if len(row) != len(expected):
+            raise ProjectError(f"{where}{path}: line {number}: expected {len(expected)} values, got {len(row)}")
+        try:
+            values = [float(cell) for cell in row]
+        except ValueError:
+            raise ProjectError(f"{where}{path}: line {number}: a value is not a number: {','.join(row)}") from None
+        if not all(math.isfinite(v) for v in values):
+            raise ProjectError(f"{where}{path}: line {number}: a value is not finite: {','.join(row)}")
+        start = values[0]
+        if start < 0 or (phases and start <= phases[-1].start):
+            raise ProjectError(f"{where}{path}: line {number}: time {start:g} s is not after the previous row's")
+        phases.append(Phase(start, tuple(values[1:])))
+    if not phases:
+        raise ProjectError(f"{where}{path}: no targets (a header and at least one row)")
+    return tuple(phases)
+
+
+def _object(keys: Keys) -> ObjectSpec | None:
+    table = keys.table("object", OBJECT_KEYS)
+    if table is None:
+        return None
+    shape = table.string("shape", required=True)
+    if shape not in SHAPES:
+        raise table.error("shape", f"unknown shape {shape!r} (known: {', '.join(SHAPES)})")
+    material = table.string("material", required=True)
+    if material not in MATERIALS:
+        raise table.error("material", f"unknown material group {material!r} (known: {', '.join(MATERIALS)})")
+    mass = table.number("mass", required=True, above=0.0)
+    what = {3: " (x, y, z edge lengths [m])", 2: " (radius, length [m])"}[SIZE_LENGTHS[shape]]
+    size = table.numbers("size", SIZE_LENGTHS[shape], f" for a {shape}{what}", required=True)
+    for i, s in enumerate(size):
+        if s <= 0:
+            raise table.error(f"size[{i}]", f"must be above 0, got {s:g}")
+    xy = table.numbers("xy", 2, " (x, y on the floor [m])", required=True)
+    rpy = table.numbers("rpy", 3, " (roll, pitch, yaw [rad])") or (0.0, 0.0, 0.0)
+    body = table.string("mocap_body", default="object")
+    return ObjectSpec(shape, material, mass, size, xy, rpy, mocap_body=body)  # type: ignore[arg-type]
