@@ -332,7 +332,9 @@ def _create_store(run_dir: Path, config: RunConfig, objective: Objective, generi
         bounds=objective.vector_space().bounds,
         # in the search vector without effect in this engine (only --paper-exact keeps such parameters)
         unmapped_parameters=[
-            n for n in objective.vector_space().names if n not in engine_class(config.engine).supported()
+            n
+            for n in objective.vector_space().names
+            if n not in engine_class(config.engine).supported(common_robot(objective.tasks))
         ],
         generic=generic.to_dict(),
         fingerprint=run_fingerprint(config),
