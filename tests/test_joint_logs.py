@@ -209,7 +209,9 @@ def test_joint_error_equals_the_hand_computation() -> None:
     q[:, 4] = [1.0, 1.0, 1.0]  # joint_5
     recorded = [[0.9, 0.15], [1.3, 0.2], [1.0, 0.0]]  # (joint_5, joint_2) per sample
     # |1.0-0.9| + |0.1-0.15| + |1.0-1.3| + |0.2-0.2| + |1.0-1.0| + |0.3-0.0| = 0.75 over 6 values
-    score = score_rollout(rollout_with(q), joint_reference(["joint_5", "joint_2"], recorded), {})
+    score = score_rollout(
+        rollout_with(q), joint_reference(["joint_5", "joint_2"], recorded), {}, joint_names=ARM_JOINTS
+    )
     assert score.joint_error == pytest.approx(0.125, abs=1e-15)
     assert score.wrist_error is None and score.object_error is None
     assert score.fitness == pytest.approx(JOINT_WEIGHT * 0.125, abs=1e-15)
@@ -222,7 +224,7 @@ def test_weights_combine_the_parts_that_are_there() -> None:
     wrist_sim = np.tile([0.03, 0.04, 0.0], (4, 1))  # 5 cm off at every sample
     ref = joint_reference(["joint_3"], recorded, wrist=wrist_rec)
     weights = FitnessWeights.parse("joint=0.1,wrist=2")
-    s = score_rollout(rollout_with(q, wrist_sim), ref, {}, weights=weights)
+    s = score_rollout(rollout_with(q, wrist_sim), ref, {}, weights=weights, joint_names=ARM_JOINTS)
     assert s.wrist_error == pytest.approx(0.05) and s.joint_error == pytest.approx(0.2)
     assert s.fitness == pytest.approx(2 * 0.05 + 0.1 * 0.2)
     total = Score.combine([s, s])
@@ -462,7 +464,7 @@ def test_motion_capture_fitness_is_the_plain_sum_to_the_last_digit() -> None:
 
     ref = TaskData("t", 20.0, np.arange(40) / 20.0, wrist, wrist[None], obj[-1:] + 0.1, obj[:1], [])
     rollout = Rollout(np.arange(40) / 20.0, wrist + 0.01, np.tile(np.eye(3), (40, 1, 1)), np.zeros((40, 6)), obj)
-    s = score_rollout(rollout, ref, {})
+    s = score_rollout(rollout, ref, {}, joint_names=ARM_JOINTS)
     assert s.joint_error is None
     assert s.fitness == s.wrist_error + s.object_error  # exactly: weights of 1 leave the sum alone
 

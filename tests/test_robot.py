@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from conftest import engine_or_skip, every_engine
 
-from simtune.robot import forward_kinematics
+from simtune.robot import MICO, forward_kinematics
 from simtune.robot.generate import robot_urdf, scene_mjcf
 from simtune.tasks import TASKS, get_task
 
@@ -106,11 +106,11 @@ def lift_object(sim, dz):
 def test_generated_descriptions_are_well_formed():
     import xml.etree.ElementTree as ET
 
-    urdf = ET.fromstring(robot_urdf())
+    urdf = ET.fromstring(robot_urdf(MICO))
     assert len(urdf.findall("link")) == 13
     assert sum(j.get("type") != "fixed" for j in urdf.findall("joint")) == 6
     for task in TASKS.values():
-        mjcf = ET.fromstring(scene_mjcf(task.object))
+        mjcf = ET.fromstring(scene_mjcf(task.robot, task.object))
         assert (mjcf.find(".//freejoint") is not None) == (task.object is not None)
 
 

@@ -31,6 +31,7 @@ from simtune.project import Project, get_project
 from simtune.project import load_project as _load_project
 from simtune.runs import RunConfig, start_run
 from simtune.store import STORE_FILE, RunStore
+from simtune.tasks.spec import common_robot
 
 
 @dataclass(frozen=True)
@@ -120,10 +121,13 @@ def evaluate(
     proj = get_project(project)
     specs = proj.parse_tasks(tasks)
     cls = engine_class(engine)
+    robot = common_robot(specs)
+    supported = cls.supported(robot)
     if isinstance(params, Path | str):
-        values = validate_params(read_params_file(Path(params), engine), cls.supported(), engine, where=str(params))
+        file_values = read_params_file(Path(params), engine)
+        values = validate_params(file_values, supported, engine, where=str(params), robot=robot)
     else:
-        values = validate_params(dict(params or {}), cls.supported(), engine, where="params")
+        values = validate_params(dict(params or {}), supported, engine, where="params", robot=robot)
     references = load_references(_root(data, proj), specs, joint_topic)
     objective = Objective(engine, specs, references, weights=fitness_weights)
     try:

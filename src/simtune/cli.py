@@ -739,10 +739,11 @@ def params(
     from simtune.engines import engine_class
     from simtune.params import get_space
     from simtune.project import get_project
+    from simtune.tasks.spec import common_robot
 
-    get_project(project)  # checked: the spaces are the MICO's until robots come from URDF files
-    supported = engine_class(engine).supported() if engine else None
-    sp = get_space(space, supported)
+    robot = common_robot(get_project(project).tasks.values())  # the spaces follow the project's robot
+    supported = engine_class(engine).supported(robot) if engine else None
+    sp = get_space(space, supported, robot=robot)
     table = text_table(
         f"space {space}" + (f" in {engine}" if engine else "") + f": {len(sp)} parameters",
         ("parameter", "low", "high", "unit", "meaning"),

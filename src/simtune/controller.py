@@ -1,6 +1,6 @@
 """The joint controller of every task, written once and run identically in every engine.
 
-At 20 Hz of simulated time, for each arm joint::
+At 20 Hz of simulated time, for each driven joint of the task's robot::
 
     velocity [deg/s] = clamp(kp * (target - angle), -v_max, +v_max)
 
@@ -22,7 +22,15 @@ import numpy.typing as npt
 from simtune.tasks.spec import TaskSpec
 
 CONTROL_PERIOD = 0.05  # seconds between controller updates (20 Hz)
-CONTROLLER_PARAMETERS = frozenset({f"max_velocity_joint_{i}" for i in range(1, 7)} | {"command_delay"})
+
+
+def controller_parameters(n_joints: int) -> frozenset[str]:
+    """The parameters the controller reads, for a robot with ``n_joints`` driven joints."""
+    return frozenset({f"max_velocity_joint_{i}" for i in range(1, n_joints + 1)} | {"command_delay"})
+
+
+#: those of the bundled six-joint MICO
+CONTROLLER_PARAMETERS = controller_parameters(6)
 
 
 class JointController:
@@ -36,7 +44,8 @@ class JointController:
         params = params or {}
         self.task = task
         self.kp = float(task.kp)
-        v_max = [params.get(f"max_velocity_joint_{i}", task.max_velocity_deg) for i in range(1, 7)]
+        n = task.robot.n_joints
+        v_max = [params.get(f"max_velocity_joint_{i}", task.max_velocity_deg) for i in range(1, n + 1)]
         self.v_max = np.radians(np.array(v_max, dtype=float))
         self.delay = float(params.get("command_delay", 0.0))
         #: how long after each 20 Hz sample instant the controller updates [s], in [0, CONTROL_PERIOD)

@@ -36,3 +36,7 @@ class RunInterrupted(KeyboardInterrupt):
     def __init__(self, run_dir) -> None:
         super().__init__(str(run_dir))
         self.run_dir = run_dir
+
+
+class RobotError(SimtuneError):
+    """A robot description (URDF, meshes) that cannot be loaded, or a link or joint it does not have."""

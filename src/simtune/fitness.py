@@ -33,7 +33,6 @@ import numpy as np
 from simtune.data import TaskData
 from simtune.engines.base import Rollout
 from simtune.errors import ConfigError, SimtuneError
-from simtune.robot.mico import ARM_JOINTS
 from simtune.tasks import TaskSpec
 
 #: Fitness of a rollout that exploded [m]: worse than any arm that stays in its workspace.
@@ -90,8 +89,8 @@ class FitnessWeights:
 
 
 def rollout_joint_names(task: TaskSpec) -> tuple[str, ...]:
-    """Names of a rollout's ``joint_angles`` columns for ``task``: the arm's joints, in the engines' order."""
-    return ARM_JOINTS
+    """Names of a rollout's ``joint_angles`` columns for ``task``: its robot's driven joints, in order."""
+    return task.robot.arm_joints
 
 
 @dataclass
@@ -188,9 +187,10 @@ def score_rollout(
     params: dict[str, float],
     *,
     weights: FitnessWeights = FitnessWeights(),
-    joint_names: Sequence[str] = ARM_JOINTS,
+    joint_names: Sequence[str] = (),
 ) -> TaskScore:
-    """Score one task's rollout against its recordings (``joint_names``: the rollout's joint columns)."""
+    """Score one task's rollout against its recordings (``joint_names``: the rollout's joint columns,
+    :func:`rollout_joint_names`; needed only where the recordings hold joint angles)."""
     n = len(reference.times)
     if len(rollout.times) != n:
         raise ValueError(f"rollout has {len(rollout.times)} samples, the reference {n}")

@@ -26,7 +26,6 @@ from simtune.fitness import (
     score_rollout,
 )
 from simtune.params import ParameterSpace
-from simtune.robot.mico import WRIST_REACH_M
 from simtune.tasks import TaskSpec
 
 
@@ -34,7 +33,7 @@ def load_references(root: Path | None, tasks: list[TaskSpec], joint_topic: str |
     """The recordings of each task, from ``root/<task name>/``, checked against the task and the arm.
 
     Without ``root``, each task's own recordings folder (``TaskSpec.recordings``, from its project).
-    The task's duration, the MICO's reach and its joint names go to the loader's sanity stage as
+    The task's duration, its robot's reach and its joint names go to the loader's sanity stage as
     plain values (data/ knows neither tasks nor robots); ``joint_topic`` picks the JointState
     topic of ROS 2 joint logs.
     """
@@ -53,7 +52,7 @@ def load_references(root: Path | None, tasks: list[TaskSpec], joint_topic: str |
             wrist_body=task.wrist_body,
             object_body=task.object.mocap_body if task.object is not None else None,
             duration_s=task.duration,
-            reach_m=WRIST_REACH_M,
+            reach_m=task.robot.reach,
             base_body=task.base_body,
             joint_names=rollout_joint_names(task),
             joint_topic=joint_topic,

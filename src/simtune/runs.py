@@ -56,7 +56,7 @@ from simtune.progress import TuneProgress
 from simtune.runlock import LOCK_FILE, check_free, run_lock
 from simtune.store import STORE_FILE, RunStore, check_store_file
 from simtune.tasks import TaskSpec, parse_tasks
-from simtune.tasks.spec import FINGERPRINT
+from simtune.tasks.spec import FINGERPRINT, common_robot
 
 BEST_PARAMS_FILE = "best_params.json"
 #: where ``resume --rescore`` keeps the run it replaces
@@ -260,8 +260,9 @@ def _summary(changes: list[str], shown: int = 3) -> str:
 def build_objective(config: RunConfig) -> Objective:
     tasks = parse_tasks(config.tasks, config.project)
     # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
-    supported = None if config.paper_exact else engine_class(config.engine).supported()
-    space = get_space(config.space, supported, config.only)
+    robot = common_robot(tasks)
+    supported = None if config.paper_exact else engine_class(config.engine).supported(robot)
+    space = get_space(config.space, supported, config.only, robot)
     data = None if config.data is None else Path(config.data)
     references = load_references(data, tasks, config.joint_topic)
     weights = None if config.weights is None else FitnessWeights.from_mapping(config.weights, "weights")
@@ -346,7 +347,9 @@ def _create_store(run_dir: Path, config: RunConfig, objective: Objective, generi
         bounds=objective.vector_space().bounds,
         # in the search vector without effect in this engine (only --paper-exact keeps such parameters)
         unmapped_parameters=[
-            n for n in objective.vector_space().names if n not in engine_class(config.engine).supported()
+            n
+            for n in objective.vector_space().names
+            if n not in engine_class(config.engine).supported(common_robot(objective.tasks))
         ],
         generic=generic.to_dict(),
         fingerprint=run_fingerprint(config),

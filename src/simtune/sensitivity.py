@@ -39,6 +39,7 @@ from simtune.params import get_space
 from simtune.store import RunStore
 from simtune.table import Column, Table
 from simtune.tasks import parse_tasks
+from simtune.tasks.spec import common_robot
 
 METHODS = ("morris", "sobol")
 RESULT_FILE = "sensitivity.json"
@@ -87,7 +88,8 @@ def run_sensitivity(
         raise ConfigError(f"--samples {samples}: Sobol sampling needs a power of two (e.g. 64, 128, 256)")
     morris_sample, morris_analyze, sobol_sample, sobol_analyze = _salib()
     task_specs = parse_tasks(tasks)
-    sp = get_space(space, engine_class(engine).supported(), only)
+    robot = common_robot(task_specs)
+    sp = get_space(space, engine_class(engine).supported(robot), only, robot)
     if len(sp) < 2:
         raise ConfigError(f"--only: a sensitivity analysis needs at least two parameters, got {len(sp)}")
     objective = Objective(engine, task_specs, load_references(Path(data), task_specs), sp)

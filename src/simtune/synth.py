@@ -28,6 +28,7 @@ from simtune.fitness import rollout_joint_names
 from simtune.params import read_params_file, validate_params
 from simtune.project import Project
 from simtune.reference.make import synthesize
+from simtune.robot.description import RobotDescription
 from simtune.tasks import parse_tasks
 
 TRUTH_FILE = "truth.json"
@@ -54,21 +55,24 @@ class SynthResult:
     joint_noise_rad: float = 0.0  # of the joint logs written
 
 
-def load_truth(path: Path | None, engine: str, delay_s: float | None) -> dict[str, float]:
-    """The true parameter values: the file's (validated for ``engine``), with ``delay_s`` as command delay.
+def load_truth(
+    path: Path | None, engine: str, delay_s: float | None, robot: RobotDescription | None = None
+) -> dict[str, float]:
+    """The true parameter values: the file's (validated for ``engine`` and ``robot``, default the MICO),
+    with ``delay_s`` as command delay.
 
     No file: the engine's generic values and a command delay (``delay_s`` or
     :data:`DEFAULT_DELAY_S`).
     """
-    supported = engine_class(engine).supported()
+    supported = engine_class(engine).supported(robot)
     truth: dict[str, float] = {}
     if path is not None:
-        truth = validate_params(read_params_file(path, engine), supported, engine, where=str(path))
+        truth = validate_params(read_params_file(path, engine), supported, engine, where=str(path), robot=robot)
     if delay_s is not None:
         truth["command_delay"] = delay_s
     elif path is None:
         truth["command_delay"] = DEFAULT_DELAY_S
-    return validate_params(truth, supported, engine, where="--delay-s")
+    return validate_params(truth, supported, engine, where="--delay-s", robot=robot)
 
 
 def make_synthetic(

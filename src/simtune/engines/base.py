@@ -9,6 +9,7 @@ unstable simulations live here, once, so every engine runs the same protocol.
 from __future__ import annotations
 
 import math
+import re
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -17,6 +18,9 @@ from typing import ClassVar
 import numpy as np
 
 from simtune.controller import CONTROL_PERIOD, CONTROLLER_PARAMETERS, JointController
+from simtune.errors import ConfigError
+from simtune.robot.description import RobotDescription
+from simtune.robot.mico import MICO
 from simtune.tasks.spec import MATERIALS, SHAPES, TaskSpec
 
 #: Parameters applied outside the engine (controller and marker model): every engine has them.
@@ -31,6 +35,18 @@ RIGID_BODY_PARAMETERS = frozenset(
     | {f"max_torque_joint_{i}" for i in range(1, 7)}
     | {f"joint_damping_{i}" for i in range(1, 7)}
 )
+
+#: Parameters that come once per driven joint (``<kind>_<n>``, n = 1 for the first driven joint): the
+#: engines' names above are the six-joint MICO's; :meth:`Engine.supported` renames them for another robot.
+PER_JOINT = re.compile(r"^(mass_link|max_torque_joint|joint_damping|max_velocity_joint)_(\d+)$")
+
+
+def per_joint(names: frozenset[str], n_joints: int) -> frozenset[str]:
+    """``names`` with its per-joint parameters given for joints 1..``n_joints``."""
+    kinds = {m.group(1) for name in names if (m := PER_JOINT.match(name))}
+    kept = {name for name in names if not PER_JOINT.match(name)}
+    return frozenset(kept | {f"{kind}_{i}" for kind in kinds for i in range(1, n_joints + 1)})
+
 
 #: Parameter kinds that come once per material group (``<kind>_<group>``, groups gripper,
 #: floor and the two object materials): surfaces and body damping.
@@ -50,7 +66,7 @@ CONTACT_KINDS = GROUP_KINDS[:4]
 LOWEST_TORQUE_LIMIT = 100.0
 
 
-def unreachable_servo_limits(gain: float) -> dict[str, str]:
+def unreachable_servo_limits(gain: float, task: TaskSpec) -> dict[str, str]:
     """The torque limits of velocity servos with gain ``gain`` [N m s/rad]: parameter -> why they never act.
 
     Such a servo's force is the gain times the velocity error, and the error stays under
@@ -60,15 +76,22 @@ def unreachable_servo_limits(gain: float) -> dict[str, str]:
         f"the velocity servo's force ({gain:g} N m s/rad times the velocity error, under 1 rad/s) "
         f"never reaches {LOWEST_TORQUE_LIMIT:g} N m, the lowest tunable limit"
     )
-    return {f"max_torque_joint_{i}": why for i in range(1, 7)}
+    if task.robot != MICO:  # another robot's generic limits (its URDF's efforts) may well be reached
+        return {}
+    return {f"max_torque_joint_{i}": why for i in range(1, task.robot.n_joints + 1)}
 
 
-def unloaded_hard_motors(engine: str, joints: tuple[int, ...], damping: tuple[int, ...]) -> dict[str, str]:
+def unloaded_hard_motors(
+    engine: str, task: TaskSpec, joints: tuple[int, ...], damping: tuple[int, ...]
+) -> dict[str, str]:
     """Parameters that never act where a hard velocity motor (a constraint up to its force limit)
     never reaches the lowest tunable limit: that joint's force limit, and its damping, whose torque
     the motor overrides.  ``joints`` and ``damping`` list those joints (measured on every task and
     probe of tests/test_engines.py: only a joint that drives the hand into the floor or an object,
-    or takes the 20 Hz velocity steps with the whole arm's inertia, reaches the limit)."""
+    or takes the 20 Hz velocity steps with the whole arm's inertia, reaches the limit).  Measured on the
+    MICO: for another robot nothing is ruled out."""
+    if task.robot != MICO:
+        return {}
     limit = (
         f"{engine}'s hard velocity motor of this joint never needs {LOWEST_TORQUE_LIMIT:g} N m, "
         "the lowest tunable limit, in simtune's tasks"
@@ -90,9 +113,9 @@ class Rollout:
     """What one simulated run of a task produced, sampled at the control rate."""
 
     times: np.ndarray  # (n,) seconds
-    wrist_pos: np.ndarray  # (n, 3) world position of the wrist (link_6 origin) [m]
+    wrist_pos: np.ndarray  # (n, 3) world position of the tracked link's origin (the MICO's link_6) [m]
     wrist_rot: np.ndarray  # (n, 3, 3) world rotation of the wrist frame
-    joint_angles: np.ndarray  # (n, 6) [rad]
+    joint_angles: np.ndarray  # (n, driven joints) [rad]
     object_pos: np.ndarray | None  # (n, 3) or None for tasks without an object
     stable: bool = True
     message: str = ""
@@ -102,22 +125,31 @@ class Rollout:
 
 
 class Engine(ABC):
-    """A physics engine with the arm and one task's object loaded."""
+    """A physics engine with one task's robot and object loaded."""
 
     name: ClassVar[str]
     #: engine-specific parameter names this engine maps onto its API
     engine_parameters: ClassVar[frozenset[str]]
+    #: whether the engine builds a robot from an MJCF file (:attr:`RobotDescription.mjcf`)
+    reads_mjcf: ClassVar[bool] = False
 
     def __init__(self, task: TaskSpec):
         if self.version() == "not installed":
             from simtune.engines import not_installed  # the registry holds each engine's install command
 
             raise not_installed(self.name)
+        if task.robot.mjcf is not None and not self.reads_mjcf:
+            raise ConfigError(
+                f"engine {self.name!r} needs a URDF: robot {task.robot.name!r} comes from the MJCF file "
+                f"{task.robot.mjcf} (MuJoCo only)"
+            )
         self.task = task
 
     @classmethod
-    def supported(cls) -> frozenset[str]:
-        return cls.engine_parameters | COMMON_PARAMETERS
+    def supported(cls, robot: RobotDescription | None = None) -> frozenset[str]:
+        """The parameters this engine maps, for ``robot``'s driven joints (default: the MICO's six)."""
+        names = cls.engine_parameters | COMMON_PARAMETERS
+        return names if robot is None else per_joint(names, robot.n_joints)
 
     @classmethod
     def version(cls) -> str:
@@ -151,7 +183,7 @@ class Engine(ABC):
                     inactive[f"{kind}_{group}"] = (
                         f"task {task.name!r} has no object, and the arm never reaches the floor"
                     )
-        supported = cls.supported()
+        supported = cls.supported(task.robot)
         return {name: why for name, why in inactive.items() if name in supported}
 
     # --- what each engine implements -------------------------------------------------
@@ -170,7 +202,7 @@ class Engine(ABC):
 
     @abstractmethod
     def set_joint_velocities(self, velocities: np.ndarray) -> None:
-        """Velocity targets [rad/s] for the six arm joints' motors."""
+        """Velocity targets [rad/s] for the motors of the robot's driven joints."""
 
     @abstractmethod
     def step(self, n: int) -> None:
@@ -178,11 +210,11 @@ class Engine(ABC):
 
     @abstractmethod
     def joint_angles(self) -> np.ndarray:
-        """The six arm joint angles [rad]."""
+        """The angles of the robot's driven joints [rad]."""
 
     @abstractmethod
     def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        """World position and 3x3 rotation of the wrist (link_6 frame origin)."""
+        """World position and 3x3 rotation of the tracked link's frame (the MICO's link_6)."""
 
     @abstractmethod
     def object_position(self) -> np.ndarray | None:
@@ -236,7 +268,7 @@ class Engine(ABC):
         targets = controller.targets(times + phase)  # at each update instant
         wrist_pos = np.zeros((n_samples, 3))
         wrist_rot = np.tile(np.eye(3), (n_samples, 1, 1))
-        angles = np.zeros((n_samples, 6))
+        angles = np.zeros((n_samples, self.task.robot.n_joints))
         has_object = self.task.object is not None
         object_pos = np.zeros((n_samples, 3)) if has_object else None
         object_start = self.object_position() if has_object else None

@@ -27,17 +27,14 @@ import numpy as np
 
 from simtune.engines._shapes import object_mass_properties
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
+from simtune.geometry import rpy_matrix
 from simtune.robot.generate import robot_urdf_file
-from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, LINKS, WRIST_LINK
 from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
 
 try:
     import dartpy
 except ImportError:  # pragma: no cover - depends on the machine
     dartpy = None
-
-DEFAULT_MAX_TORQUE = 100.0
-_ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
 
 
 def _isometry(pos, rot=None):
@@ -66,7 +63,7 @@ class DartEngine(Engine):
         # measured on every task and probe: joints 1 and 2 reach the limit (the 20 Hz velocity steps move the
         # whole arm's inertia, and pressing the floor), joints 3-6 never
         return super().inactive_parameters(task) | unloaded_hard_motors(
-            "DART", joints=(3, 4, 5, 6), damping=(3, 4, 5, 6)
+            "DART", task, joints=(3, 4, 5, 6), damping=(3, 4, 5, 6)
         )
 
     def __init__(self, task: TaskSpec):
@@ -82,14 +79,18 @@ class DartEngine(Engine):
         options = d.utils.DartLoader.Options()
         options.mDefaultRootJointType = d.utils.DartLoaderRootJointType.FIXED
         loader.setOptions(options)
-        self.robot = loader.parseSkeleton(robot_urdf_file())
-        self.robot.getRootJoint().setTransformFromParentBodyNode(_isometry(BASE_POSITION))
-        self._arm = [self.robot.getJoint(j) for j in ARM_JOINTS]
+        robot = task.robot
+        self.robot = loader.parseSkeleton(robot_urdf_file(robot))
+        base_rot = rpy_matrix(robot.base_rpy) if robot.base_rpy != (0.0, 0.0, 0.0) else None
+        self.robot.getRootJoint().setTransformFromParentBodyNode(_isometry(robot.base_position, base_rot))
+        self._arm = [self.robot.getJoint(j) for j in robot.arm_joints]
         for joint in self._arm:
             joint.setActuatorType(d.dynamics.ActuatorType.SERVO)
-            joint.setLimitEnforcement(True)  # joint_2/3 stops (the others are unlimited)
-        self._links = [self.robot.getBodyNode(link) for link in _ARM_LINKS]
-        self._wrist = self.robot.getBodyNode(WRIST_LINK)
+            joint.setLimitEnforcement(True)  # the limited joints' stops (the MICO's joint_2/3)
+        self._links = [self.robot.getBodyNode(link) for link in robot.driven_links]
+        self._wrist = self.robot.getBodyNode(robot.tracked_link)
+        # the skeleton's coordinates in the driven joints' order (every other joint is welded)
+        self._dofs = np.array([joint.getIndexInSkeleton(0) for joint in self._arm])
         self.world.addSkeleton(self.robot)  # self-collision stays off: arm shapes never touch each other
 
         floor = d.dynamics.Skeleton("floor")
@@ -104,7 +105,7 @@ class DartEngine(Engine):
             "floor": [floor_shape],
             "gripper": [
                 s
-                for link in LINKS
+                for link in robot.links
                 if link.material == "gripper"
                 for s in self.robot.getBodyNode(link.name).getShapeNodes()
             ],
@@ -139,7 +140,8 @@ class DartEngine(Engine):
         values = {"timestep": float(self.world.getTimeStep())}
         for i, (joint, link) in enumerate(zip(self._arm, self._links), start=1):
             values[f"mass_link_{i}"] = float(link.getMass())
-            values[f"max_torque_joint_{i}"] = DEFAULT_MAX_TORQUE  # DART's own limit is infinite
+            # DART's own limit is infinite: the robot's generic one
+            values[f"max_torque_joint_{i}"] = self.task.robot.generic_effort(i - 1)
             values[f"joint_damping_{i}"] = float(joint.getDampingCoefficient(0))
         self._link_mass = [float(link.getMass()) for link in self._links]
         self._link_moment = [np.array(link.getInertia().getMoment()) for link in self._links]
@@ -186,8 +188,8 @@ class DartEngine(Engine):
                 aspect = node.getDynamicsAspect()
                 aspect.setFrictionCoeff(p[f"lateral_friction_{group}"])
                 aspect.setRestitutionCoeff(p[f"restitution_{group}"])
-        self.robot.setPositions(np.radians(self.task.start_pose_deg))
-        self.robot.setVelocities(np.zeros(6))
+        self.robot.setPositions(self._in_skeleton_order(np.radians(self.task.start_pose_deg)))
+        self.robot.setVelocities(np.zeros(self.robot.getNumDofs()))
         self.robot.resetCommands()
         self.robot.resetGeneralizedForces()
         self.robot.clearExternalForces()
@@ -207,8 +209,13 @@ class DartEngine(Engine):
             skel.clearConstraintImpulses()
         self.world.reset()  # time 0, recording cleared
 
+    def _in_skeleton_order(self, values: np.ndarray) -> np.ndarray:
+        ordered = np.zeros(self.robot.getNumDofs())
+        ordered[self._dofs] = values
+        return ordered
+
     def set_joint_velocities(self, velocities: np.ndarray) -> None:
-        self.robot.setCommands(np.asarray(velocities, dtype=float))
+        self.robot.setCommands(self._in_skeleton_order(np.asarray(velocities, dtype=float)))
 
     def step(self, n: int) -> None:
         world = self.world
@@ -230,7 +237,7 @@ class DartEngine(Engine):
         return False
 
     def joint_angles(self) -> np.ndarray:
-        return np.array(self.robot.getPositions())
+        return np.array(self.robot.getPositions())[self._dofs]
 
     def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:
         t = self._wrist.getWorldTransform()

@@ -36,8 +36,8 @@ import numpy as np
 
 from simtune.engines._shapes import object_mass_properties
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
-from simtune.robot.generate import robot_urdf
-from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, LINKS, WRIST_LINK
+from simtune.geometry import rpy_matrix
+from simtune.robot.generate import robot_urdf_file
 from simtune.tasks.spec import CONTACT_GROUPS, ObjectSpec, TaskSpec
 
 if TYPE_CHECKING:  # for the annotations of _System (mypy reads pydrake as untyped: see pyproject.toml)
@@ -76,13 +76,11 @@ else:
     # contact (there is none here); keep the log to errors
     logging.getLogger("drake").setLevel(logging.ERROR)
 
-DEFAULT_MAX_TORQUE = 100.0
 SERVO_KD = 100.0  # [N m s/rad] the velocity servo's gain, as MuJoCo's kv
 #: hydroelastic mesh resolution for the objects [m]: at 1 cm the faceted 37.5 mm cylinder rolls off a
 #: facet edge on its own and keeps rolling; at 5 mm it settles within 3 mm
 RESOLUTION_HINT = 0.005
 CACHED_PLANTS = 3
-_ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
 
 
 @dataclass
@@ -122,12 +120,12 @@ class DrakeEngine(Engine):
 
     @classmethod
     def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
-        return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KD)
+        return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KD, task)
 
     def __init__(self, task: TaskSpec):
         super().__init__(task)
         self._systems: OrderedDict[float, _System] = OrderedDict()
-        self._urdf = robot_urdf()
+        self._urdf = robot_urdf_file(task.robot)  # a file: Drake resolves absolute mesh paths only in one
         self._sys = self._system(MultibodyPlantConfig().time_step)  # Drake's own default step
         self._failed = ""
         self._defaults = self._read_defaults()
@@ -148,21 +146,25 @@ class DrakeEngine(Engine):
         builder = DiagramBuilder()
         sg_config = SceneGraphConfig()
         plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=timestep), sg_config, builder)
-        (arm,) = Parser(plant).AddModelsFromString(self._urdf, "urdf")
+        robot = self.task.robot
+        (arm,) = Parser(plant).AddModels(self._urdf)
+        base = np.asarray(robot.base_position, dtype=float)
         plant.WeldFrames(
             plant.world_frame(),
-            plant.GetFrameByName("link_base", arm),
-            RigidTransform(np.asarray(BASE_POSITION, dtype=float)),
+            plant.GetFrameByName(robot.root, arm),
+            RigidTransform(base)
+            if robot.base_rpy == (0.0, 0.0, 0.0)
+            else RigidTransform(RotationMatrix(rpy_matrix(robot.base_rpy)), base),
         )
-        joints = [plant.GetJointByName(j, arm) for j in ARM_JOINTS]
+        joints = [plant.GetJointByName(j, arm) for j in robot.arm_joints]
         actuators = []
-        for joint in joints:
-            actuator = plant.AddJointActuator(f"{joint.name()}_servo", joint, DEFAULT_MAX_TORQUE)
+        for i, joint in enumerate(joints):
+            actuator = plant.AddJointActuator(f"{joint.name()}_servo", joint, robot.generic_effort(i))
             actuator.set_controller_gains(PdControllerGains(p=0.0, d=SERVO_KD))
             actuators.append(actuator)
         inspector = scene_graph.model_inspector()
         arm_geometries = [
-            g for link in LINKS for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link.name, arm))
+            g for link in robot.links for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link.name, arm))
         ]
         # the parser's friction for geometries that name none: Drake's default material
         default_friction = inspector.GetProximityProperties(arm_geometries[0]).GetProperty(
@@ -178,7 +180,7 @@ class DrakeEngine(Engine):
             "floor": [floor],
             "gripper": [
                 g
-                for link in LINKS
+                for link in robot.links
                 if link.material == "gripper"
                 for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link.name, arm))
             ],
@@ -222,16 +224,16 @@ class DrakeEngine(Engine):
             arm=arm,
             joints=joints,
             actuators=actuators,
-            links=[plant.GetBodyByName(link, arm) for link in _ARM_LINKS],
-            wrist=plant.GetBodyByName(WRIST_LINK, arm),
+            links=[plant.GetBodyByName(link, arm) for link in robot.driven_links],
+            wrist=plant.GetBodyByName(robot.tracked_link, arm),
             object_body=body,
             geometries=geometries,
-            arm_bodies=frozenset(int(plant.GetBodyByName(link.name, arm).index()) for link in LINKS),
+            arm_bodies=frozenset(int(plant.GetBodyByName(link.name, arm).index()) for link in robot.links),
             arm_geometries=frozenset(arm_geometries),
             object_geometry=object_geometry,
         )
-        plant.get_desired_state_input_port(arm).FixValue(plant_context, np.zeros(12))
-        plant.get_actuation_input_port(arm).FixValue(plant_context, np.zeros(6))
+        plant.get_desired_state_input_port(arm).FixValue(plant_context, np.zeros(2 * len(joints)))
+        plant.get_actuation_input_port(arm).FixValue(plant_context, np.zeros(len(joints)))
         self._pose(system, np.radians(self.task.start_pose_deg))
         return system
 
@@ -247,7 +249,7 @@ class DrakeEngine(Engine):
         values = {"timestep": float(s.plant.time_step())}
         for i, (joint, link) in enumerate(zip(s.joints, s.links), start=1):
             values[f"mass_link_{i}"] = float(link.default_mass())
-            values[f"max_torque_joint_{i}"] = DEFAULT_MAX_TORQUE  # Drake's own actuator has no limit
+            values[f"max_torque_joint_{i}"] = self.task.robot.generic_effort(i - 1)  # the limit it was built with
             values[f"joint_damping_{i}"] = float(joint.default_damping())
         obj = self.task.object
         if obj is not None:
@@ -300,13 +302,14 @@ class DrakeEngine(Engine):
         s.context.SetTime(0.0)
         self._steps = 0
         self._failed = ""
-        self.set_joint_velocities(np.zeros(6))
+        self.set_joint_velocities(np.zeros(len(s.joints)))
         s.simulator.Initialize()
 
     def set_joint_velocities(self, velocities: np.ndarray) -> None:
         s = self._sys
         ctx = s.plant_context
-        s.plant.get_desired_state_input_port(s.arm).FixValue(ctx, np.concatenate([np.zeros(6), velocities]))
+        desired = np.concatenate([np.zeros(len(velocities)), velocities])
+        s.plant.get_desired_state_input_port(s.arm).FixValue(ctx, desired)
         gravity = s.plant.CalcGravityGeneralizedForces(ctx)  # generalized forces of gravity
         s.plant.get_actuation_input_port(s.arm).FixValue(
             ctx, np.array([-gravity[joint.velocity_start()] for joint in s.joints])

@@ -18,12 +18,14 @@ per-body velocity damping for the jointed arm or the static floor.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
+from simtune.robot.description import RobotDescription
 from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf
-from simtune.robot.mico import ARM_JOINTS, LINKS, WRIST_LINK
-from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
+from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, ObjectSpec, TaskSpec
 
 try:
     import mujoco
@@ -35,11 +37,47 @@ else:
     mujoco.set_mju_user_warning(lambda message: None)
 
 _FRICTION_COLUMN = {"lateral_friction": 0, "spinning_friction": 1, "rolling_friction": 2}
-_ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
+
+
+def compile_scene(robot: RobotDescription, obj: ObjectSpec | None):
+    """The compiled scene: from the generated MJCF, or, for a robot from an MJCF file, the generated scene
+    with the file's robot attached and simtune's velocity servos on its driven joints."""
+    text = scene_mjcf(robot, obj)
+    if robot.mjcf is None:
+        return mujoco.MjModel.from_xml_string(text)
+    scene = mujoco.MjSpec.from_string(text)
+    part = mujoco.MjSpec.from_file(robot.mjcf)
+    # simtune owns control and contacts: the file's own actuators and what may refer to them go
+    for element in (*part.actuators, *part.sensors, *part.keys, *part.equalities, *part.tendons, *part.pairs):
+        part.delete(element)
+    for element in part.excludes:
+        part.delete(element)
+    held = {name for name, _ in robot.held}
+    for joint in list(part.joints):
+        if joint.name in held:  # welded at its zero
+            part.delete(joint)
+    root = part.body(robot.root)
+    for body in [root, *root.find_all(mujoco.mjtObj.mjOBJ_BODY)]:
+        if body.name != robot.root:
+            body.gravcomp = 1.0  # as the generated scene: the arm's controller compensates gravity
+    for geom in root.find_all(mujoco.mjtObj.mjOBJ_GEOM):
+        geom.contype, geom.conaffinity, geom.condim = 2, 1, 3  # the generated scene's "arm" class
+    for i, joint in enumerate(robot.arm_joints):
+        servo = scene.add_actuator(name=joint, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        servo.set_to_velocity(kv=SERVO_KV)
+        limit = robot.generic_effort(i)
+        servo.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        servo.forcerange = [-limit, limit]
+    with warnings.catch_warnings():
+        # an empty prefix keeps the file's names, which simtune uses (MuJoCo warns that saving may suffer)
+        warnings.simplefilter("ignore")
+        scene.worldbody.add_frame().attach_body(root, "", "")
+        return scene.compile()
 
 
 class MujocoEngine(Engine):
     name = "mujoco"
+    reads_mjcf = True
     engine_parameters = (
         RIGID_BODY_PARAMETERS
         | {f"{kind}_{g}" for kind in _FRICTION_COLUMN for g in CONTACT_GROUPS}
@@ -52,26 +90,28 @@ class MujocoEngine(Engine):
 
     @classmethod
     def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
-        return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KV)
+        return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KV, task)
 
     def __init__(self, task: TaskSpec):
         super().__init__(task)
-        self.model = mujoco.MjModel.from_xml_string(scene_mjcf(task.object))
+        robot = task.robot
+        self.model = compile_scene(robot, task.object)
         self.data = mujoco.MjData(self.model)
         m = self.model
-        self._arm_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in ARM_JOINTS])
-        self._arm_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in ARM_JOINTS])
-        self._wrist = m.body(WRIST_LINK).id
+        self._arm_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot.arm_joints])
+        self._arm_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in robot.arm_joints])
+        self._arm_links = robot.driven_links
+        self._wrist = m.body(robot.tracked_link).id
         self._object = m.body(OBJECT_BODY).id if task.object is not None else None
         self._object_dof = m.jnt_dofadr[m.joint(OBJECT_BODY).id] if task.object is not None else None
         # body id -> whether it is a part of the arm (links and fingers)
         self._arm_body = np.zeros(m.nbody, dtype=bool)
-        self._arm_body[[m.body(link.name).id for link in LINKS]] = True
+        self._arm_body[[m.body(link.name).id for link in robot.links]] = True
         self._groups = {
             "floor": [m.geom(FLOOR).id],
             "gripper": [
                 m.geom(g).id
-                for link in LINKS
+                for link in robot.links
                 if link.material == "gripper"
                 for g in range(m.ngeom)
                 if m.geom_bodyid[g] == m.body(link.name).id
@@ -88,7 +128,7 @@ class MujocoEngine(Engine):
     def defaults(self) -> dict[str, float]:
         p, m = self._pristine, self.model
         values = {"timestep": float(p["timestep"])}
-        for i, link in enumerate(_ARM_LINKS, start=1):
+        for i, link in enumerate(self._arm_links, start=1):
             values[f"mass_link_{i}"] = float(p["body_mass"][m.body(link).id])
             values[f"max_torque_joint_{i}"] = float(p["actuator_forcerange"][i - 1, 1])
             values[f"joint_damping_{i}"] = float(p["dof_damping"][self._arm_dof[i - 1]])
@@ -116,7 +156,7 @@ class MujocoEngine(Engine):
             m.body_inertia[body] = p["body_inertia"][body] * (mass / p["body_mass"][body])
             m.body_mass[body] = mass
 
-        for i, link in enumerate(_ARM_LINKS, start=1):
+        for i, link in enumerate(self._arm_links, start=1):
             if f"mass_link_{i}" in params:
                 set_mass(m.body(link).id, params[f"mass_link_{i}"])
             if f"max_torque_joint_{i}" in params:

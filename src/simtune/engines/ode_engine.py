@@ -1,21 +1,22 @@
 """The Open Dynamics Engine (ODE) itself, through the ``ode-python`` ctypes binding.
 
 ODE works in maximal coordinates: every moving link is a free rigid body and
-joints are constraints between bodies.  The arm is built from the tables of
-:mod:`simtune.robot.mico`:
+joints are constraints between bodies.  The robot is built from the task's
+robot description (the MICO's in the notes below):
 
-- one body per arm link 1-6, its origin at the link's centre of mass (ODE's
-  rule), turned like the link frame; the fingers are welded open, so they ride
-  on the hand's body (one composite body: ODE's own fixed joints are soft
-  constraints, a single body is the exact weld);
-- ``link_base`` is static: its box is a body-less geom at the base pose, and
-  joint_1 attaches link_1 to the static environment;
-- each arm joint is a hinge with a velocity motor (``dParamVel`` = the
+- one body per driven link (link 1-6), its origin at the link's centre of mass
+  (ODE's rule), turned like the link frame; links welded to it (the fingers,
+  welded open) ride on its body (one composite body: ODE's own fixed joints
+  are soft constraints, a single body is the exact weld);
+- the root (``link_base``) is static: its shapes are body-less geoms at the base
+  pose, and the first joint attaches its link to the static environment;
+- each driven joint is a hinge with a velocity motor (``dParamVel`` = the
   commanded joint velocity, ``dParamFMax`` = the maximum torque), a hard
-  constraint like PyBullet's motor; joint_2/3 have their position stops.
+  constraint like PyBullet's motor; limited joints (joint_2/3) have their stops.
 
-Collision: boxes for the links, a plane for the floor, a box / cylinder for
-the objects and a convex hull for the cone; contact joints are made in the
+Collision: the links' boxes, spheres and cylinders, and the convex hull of a
+mesh, a plane for the floor, a box / cylinder for the objects and a convex
+hull for the cone; contact joints are made in the
 near callback with Coulomb friction (pyramid approximation, so ``mu`` is a
 coefficient), restitution (``dContactBounce``) and ODE's rolling friction
 (``dContactRolling`` with ``dContactAxisDep``: ``rho`` about the tangent axes =
@@ -37,9 +38,17 @@ from typing import Any
 
 import numpy as np
 
-from simtune.engines._shapes import cone_hull, host_mass_properties, link_boxes_in_host, object_mass_properties
+from simtune.engines._shapes import (
+    cone_hull,
+    host_links,
+    host_mass_properties,
+    link_shapes_in_host,
+    mesh_hull_faces,
+    object_mass_properties,
+)
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
-from simtune.robot.mico import ARM_JOINTS, JOINTS, LINK_BY_NAME, WRIST_LINK, forward_kinematics
+from simtune.errors import ConfigError
+from simtune.robot.description import Box, Cylinder, RobotDescription, Sphere
 from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, ObjectSpec, TaskSpec
 
 try:
@@ -48,14 +57,12 @@ except Exception:  # pragma: no cover - ImportError, or odepy's OdePyError when 
     ode = None
 
 _CONTACT_KINDS = ("lateral_friction", "rolling_friction", "spinning_friction", "restitution")
-_ARM_LINKS = [f"link_{i}" for i in range(1, 7)]
 
 #: ODE has no default time step (dWorldStep takes one per call); simtune's generic choice.
 DEFAULT_TIMESTEP = 0.005
 #: ODE has no default surface either (every contact's parameters come from the near
 #: callback); generic: Coulomb friction 1, no bounce, no rolling friction.
 DEFAULT_CONTACT = {"lateral_friction": 1.0, "rolling_friction": 0.0, "spinning_friction": 0.0, "restitution": 0.0}
-DEFAULT_MAX_TORQUE = 100.0
 BOUNCE_VELOCITY = 0.01  # [m/s] slower impacts do not bounce (keeps resting contacts quiet)
 MAX_CONTACTS = 16  # per geom pair
 # collision categories: arm shapes touch the floor and the object, never each other
@@ -102,9 +109,9 @@ def _ode_matrix(rot: np.ndarray):
     return m
 
 
-def _link_poses(q) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """World pose of every arm link frame for joint angles ``q``."""
-    return {name: forward_kinematics(q, name) for name in ["link_base", *_ARM_LINKS]}
+def _link_poses(robot: RobotDescription, q) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """World pose of the root's and every driven link's frame for joint angles ``q``."""
+    return {name: robot.forward_kinematics(q, name) for name in [robot.root, *robot.driven_links]}
 
 
 def _set_mass(body, mass: float, inertia) -> None:
@@ -152,12 +159,18 @@ class OdeEngine(Engine):
     def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
         # measured on every task and probe: only joints 1 and 2, pushing or pressing an object, reach the limit
         return super().inactive_parameters(task) | unloaded_hard_motors(
-            "ODE", joints=(3, 4, 5, 6), damping=(3, 4, 5, 6)
+            "ODE", task, joints=(3, 4, 5, 6), damping=(3, 4, 5, 6)
         )
 
     def __init__(self, task: TaskSpec):
         super().__init__(task)
         self._world = None
+        self.robot = robot = task.robot
+        if any(robot.joint_by_name[j].kind == "prismatic" for j in robot.arm_joints):
+            raise ConfigError(f"robot {robot.name!r}: simtune's ODE engine drives revolute joints only")
+        # the host body of every link, and the tracked link's frame in its host's
+        self._hosts = host_links(robot)
+        self._tracked_host, self._tracked_pos, self._tracked_rot = self._hosts[robot.tracked_link]
         self._callback = _NearCallback(self._near)  # kept alive as long as the engine
         self._contact_geoms = (ode.dContactGeom * MAX_CONTACTS)()
         self._contact = ode.dContact()
@@ -177,11 +190,13 @@ class OdeEngine(Engine):
 
     # --- generic values ------------------------------------------------------------
     def _generic(self) -> dict[str, float]:
+        robot = self.robot
         values = {"timestep": DEFAULT_TIMESTEP}
-        for i, link in enumerate(_ARM_LINKS, start=1):
-            values[f"mass_link_{i}"] = LINK_BY_NAME[link].mass
-            values[f"max_torque_joint_{i}"] = DEFAULT_MAX_TORQUE
-            values[f"joint_damping_{i}"] = 0.0  # ODE's hinge has no damping of its own
+        for i, link in enumerate(robot.driven_links, start=1):
+            values[f"mass_link_{i}"] = robot.link_by_name[link].mass
+            values[f"max_torque_joint_{i}"] = robot.generic_effort(i - 1)
+            # ODE's hinge has no damping of its own: the description's, added as a torque
+            values[f"joint_damping_{i}"] = robot.joint_by_name[robot.arm_joints[i - 1]].damping
         groups = ["gripper", "floor"]
         if self.task.object is not None:
             values[self.task.object.mass_parameter] = self.task.object.mass
@@ -223,16 +238,20 @@ class OdeEngine(Engine):
         self._touching = False  # the last step's collision pass found an arm-object contact
         self._keep: list = []  # arrays ODE keeps pointers to (convex hull data)
 
-        poses = _link_poses(np.zeros(6))
-        masses = {link: p[f"mass_link_{i}"] for i, link in enumerate(_ARM_LINKS, start=1)}
-        mass_props = host_mass_properties(masses)
-        boxes = link_boxes_in_host()
+        robot = self.robot
+        poses = _link_poses(robot, np.zeros(robot.n_joints))
+        masses = {link: p[f"mass_link_{i}"] for i, link in enumerate(robot.driven_links, start=1)}
+        mass_props = host_mass_properties(robot, masses)
+        shapes = link_shapes_in_host(robot)
         self._bodies: dict[str, ctypes._Pointer[Any]] = {}  # odepy's dBodyID of each moving link
         self._com: dict[str, np.ndarray] = {}
-        for host, (mass, com, inertia) in mass_props.items():
+        for host in (robot.root, *robot.driven_links):
+            if host not in mass_props and host != robot.root:
+                raise ConfigError(f"robot {robot.name!r}: link {host!r} and the links welded to it have no mass")
+            mass, com, inertia = mass_props.get(host, (0.0, np.zeros(3), np.zeros((3, 3))))
             pos, rot = poses[host]
             body = None
-            if host != "link_base":  # the base is static: geoms without a body
+            if host != robot.root:  # the base is static: geoms without a body
                 body = ode.dBodyCreate(world)
                 _set_mass(body, mass, inertia)
                 c = pos + rot @ com
@@ -240,17 +259,19 @@ class OdeEngine(Engine):
                 ode.dBodySetRotation(body, _ode_matrix(rot))
                 self._bodies[host] = body
                 self._com[host] = com
-            group = "gripper" if LINK_BY_NAME[host].material == "gripper" else "arm"
-            for centre, box_rot, half, link in boxes[host]:
-                geom = ode.dCreateBox(self._space, *(2 * half))
-                member_group = "gripper" if LINK_BY_NAME[link].material == "gripper" else group
+            group = "gripper" if robot.link_by_name[host].material == "gripper" else "arm"
+            for centre, shape_rot, shape, link in shapes.get(host, []):
+                geom, shift = self._link_geom(shape)
+                if shift is not None:  # a hull about its own centre
+                    centre = centre + shape_rot @ shift
+                member_group = "gripper" if robot.link_by_name[link].material == "gripper" else group
                 if body is not None:
                     ode.dGeomSetBody(geom, body)
                     ode.dGeomSetOffsetPosition(geom, *(centre - com))
-                    ode.dGeomSetOffsetRotation(geom, _ode_matrix(box_rot))
+                    ode.dGeomSetOffsetRotation(geom, _ode_matrix(shape_rot))
                 else:
                     ode.dGeomSetPosition(geom, *(pos + rot @ centre))
-                    ode.dGeomSetRotation(geom, _ode_matrix(rot @ box_rot))
+                    ode.dGeomSetRotation(geom, _ode_matrix(rot @ shape_rot))
                 self._register(geom, member_group, body, _ARM, _FLOOR | _OBJECT)
                 self._arm_geoms.add(ctypes.cast(geom, c_void_p).value or 0)
 
@@ -258,9 +279,9 @@ class OdeEngine(Engine):
         self._register(floor, "floor", None, _FLOOR, _ARM | _OBJECT)
 
         self._joints = []
-        for i, name in enumerate(ARM_JOINTS, start=1):
-            joint = next(j for j in JOINTS if j.name == name)
-            parent = self._bodies.get(joint.parent)
+        for i, name in enumerate(robot.arm_joints, start=1):
+            joint = robot.joint_by_name[name]
+            parent = self._bodies.get(self._hosts[joint.parent][0])
             child = self._bodies[joint.child]
             hinge = _create_hinge(self._world_ptr, None)
             _attach(
@@ -270,14 +291,15 @@ class OdeEngine(Engine):
             )
             pos, rot = poses[joint.child]
             _hinge_anchor(hinge, *pos)
-            _hinge_axis(hinge, *rot[:, 2])  # the hinge's angle 0 is this pose
-            if joint.limit is not None:
-                _hinge_param(hinge, ode.dParamLoStop, -joint.limit)
-                _hinge_param(hinge, ode.dParamHiStop, joint.limit)
+            axis = rot[:, 2] if joint.axis == (0.0, 0.0, 1.0) else rot @ np.asarray(joint.axis, dtype=float)
+            _hinge_axis(hinge, *axis)  # the hinge's angle 0 is this pose
+            if joint.limited:
+                _hinge_param(hinge, ode.dParamLoStop, joint.lower)
+                _hinge_param(hinge, ode.dParamHiStop, joint.upper)
             _hinge_param(hinge, ode.dParamVel, 0.0)
             _hinge_param(hinge, ode.dParamFMax, float(p[f"max_torque_joint_{i}"]))
             self._joints.append(hinge)
-        self._damping = np.array([p[f"joint_damping_{i}"] for i in range(1, 7)])
+        self._damping = np.array([p[f"joint_damping_{i}"] for i in range(1, robot.n_joints + 1)])
 
         self._object = None
         obj = self.task.object
@@ -292,13 +314,7 @@ class OdeEngine(Engine):
             elif obj.shape == "cylinder":
                 geom = ode.dCreateCylinder(self._space, obj.size[0], obj.size[1])
             else:
-                vertices, faces, planes = cone_hull(obj)
-                plane_arr = (ode.dReal * planes.size)(*planes.ravel())
-                point_arr = (ode.dReal * vertices.size)(*vertices.ravel())
-                polygons = [x for face in faces for x in (len(face), *face)]
-                poly_arr = (ctypes.c_uint32 * len(polygons))(*polygons)
-                self._keep += [plane_arr, point_arr, poly_arr]
-                geom = ode.dCreateConvex(self._space, plane_arr, len(planes), point_arr, len(vertices), poly_arr)
+                geom = self._convex(*cone_hull(obj))
             ode.dGeomSetBody(geom, body)
             ode.dGeomSetOffsetPosition(geom, *(-com))
             self._register(geom, obj.material, body, _OBJECT, _FLOOR | _ARM)
@@ -336,6 +352,26 @@ class OdeEngine(Engine):
         names = {g for g, _ in self._geoms.values()}
         self._surfaces = {(a, b): surface(a, b) for a in names for b in names}
 
+    def _link_geom(self, shape) -> tuple[Any, np.ndarray | None]:
+        """A body-less ODE geom of a link's collision shape, in the shape's own frame, and None; for a mesh,
+        its convex hull about the hull's centre, and that centre in the mesh's frame."""
+        if isinstance(shape, Box):
+            return ode.dCreateBox(self._space, *(2 * np.asarray(shape.half))), None
+        if isinstance(shape, Sphere):
+            return ode.dCreateSphere(self._space, shape.radius), None
+        if isinstance(shape, Cylinder):
+            return ode.dCreateCylinder(self._space, shape.radius, shape.length), None
+        vertices, faces, planes, centre = mesh_hull_faces(shape)
+        return self._convex(vertices, faces, planes), centre
+
+    def _convex(self, vertices: np.ndarray, faces, planes: np.ndarray):
+        plane_arr = (ode.dReal * planes.size)(*planes.ravel())
+        point_arr = (ode.dReal * vertices.size)(*vertices.ravel())
+        polygons = [int(x) for face in faces for x in (len(face), *face)]
+        poly_arr = (ctypes.c_uint32 * len(polygons))(*polygons)
+        self._keep += [plane_arr, point_arr, poly_arr]  # ODE keeps pointers to them
+        return ode.dCreateConvex(self._space, plane_arr, len(planes), point_arr, len(vertices), poly_arr)
+
     def _register(self, geom, group: str, body, category: int, collide: int) -> None:
         ode.dGeomSetCategoryBits(geom, category)
         ode.dGeomSetCollideBits(geom, collide)
@@ -344,7 +380,7 @@ class OdeEngine(Engine):
         self._geoms[address] = (group, ctypes.cast(body, c_void_p).value if body else None)
 
     def _damped_bodies(self) -> dict[str, ctypes._Pointer[Any]]:
-        bodies = {"gripper": self._bodies["link_6"]}
+        bodies = {"gripper": self._bodies[self._tracked_host]}  # the hand
         if self._object is not None and self.task.object is not None:
             bodies[self.task.object.material] = self._object
         return bodies
@@ -359,7 +395,7 @@ class OdeEngine(Engine):
 
     def _pose_arm(self, q) -> None:
         """Place the arm's bodies at joint angles ``q`` with zero velocity (kinematic)."""
-        poses = _link_poses(q)
+        poses = _link_poses(self.robot, q)
         for host, body in self._bodies.items():
             pos, rot = poses[host]
             ode.dBodySetPosition(body, *(pos + rot @ self._com[host]))
@@ -441,8 +477,12 @@ class OdeEngine(Engine):
         return views[0].copy(), views[1].copy()
 
     def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        pos, rot = self._body_pose(self._bodies[WRIST_LINK])
-        return pos - rot @ self._com[WRIST_LINK], rot
+        host = self._tracked_host
+        pos, rot = self._body_pose(self._bodies[host])
+        frame = pos - rot @ self._com[host]
+        if host == self.robot.tracked_link:
+            return frame, rot
+        return frame + rot @ self._tracked_pos, rot @ self._tracked_rot
 
     def object_position(self) -> np.ndarray | None:
         if self._object is None:

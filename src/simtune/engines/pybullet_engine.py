@@ -24,7 +24,6 @@ import numpy as np
 
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
 from simtune.robot.generate import robot_urdf_file
-from simtune.robot.mico import BASE_POSITION, LINKS, WRIST_LINK
 from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
 
 try:
@@ -81,14 +80,16 @@ class PybulletEngine(Engine):
         # measured on every task and probe: only joint 2's motor, driving the hand into the floor, reaches the
         # limit; joints 2-6's damping shows through Bullet's iterative motor solution, joint 1's (no gravity load) not
         return super().inactive_parameters(task) | unloaded_hard_motors(
-            "PyBullet", joints=(1, 3, 4, 5, 6), damping=(1,)
+            "PyBullet", task, joints=(1, 3, 4, 5, 6), damping=(1,)
         )
 
     def __init__(self, task: TaskSpec):
         super().__init__(task)
         with _stdout_silenced():
             self.client = pybullet.connect(pybullet.DIRECT)
-        self._urdf = robot_urdf_file()
+        robot = task.robot
+        self._urdf = robot_urdf_file(robot)
+        self._generic_forces = [robot.generic_effort(i) for i in range(robot.n_joints)]
         self._timestep = DEFAULT_TIMESTEP
         self._load()
         self._defaults = self._read_defaults()
@@ -101,19 +102,33 @@ class PybulletEngine(Engine):
         p.setTimeStep(self._timestep, physicsClientId=c)
         plane = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=c)
         self.floor = p.createMultiBody(0, plane, physicsClientId=c)
-        self.robot = p.loadURDF(self._urdf, BASE_POSITION, useFixedBase=True, physicsClientId=c)
+        robot = self.task.robot
+        self.robot = p.loadURDF(
+            self._urdf,
+            robot.base_position,
+            p.getQuaternionFromEuler(robot.base_rpy),
+            useFixedBase=True,
+            physicsClientId=c,
+        )
         index = {
             p.getJointInfo(self.robot, j, physicsClientId=c)[12].decode(): j
             for j in range(p.getNumJoints(self.robot, physicsClientId=c))
         }  # child link name -> index
-        self._arm = [index[f"link_{i}"] for i in range(1, 7)]
-        self._wrist = index[WRIST_LINK]
-        self._gripper_links = [index[link.name] for link in LINKS if link.material == "gripper"]
+        self._arm = [index[link] for link in robot.driven_links]
+        self._wrist = index[robot.tracked_link]
+        self._gripper_links = [
+            index[link.name] for link in robot.links if link.material == "gripper" and link.name in index
+        ]
         # URDF joints start with a default velocity motor; switch them all to ours (zero target)
         p.setJointMotorControlArray(
-            self.robot, self._arm, p.VELOCITY_CONTROL, targetVelocities=[0.0] * 6, forces=[100.0] * 6, physicsClientId=c
+            self.robot,
+            self._arm,
+            p.VELOCITY_CONTROL,
+            targetVelocities=[0.0] * len(self._arm),
+            forces=self._generic_forces,
+            physicsClientId=c,
         )
-        self._forces = [100.0] * 6
+        self._forces = list(self._generic_forces)
         self.object = None
         obj = self.task.object
         if obj is not None:
@@ -142,7 +157,7 @@ class PybulletEngine(Engine):
         values = {"timestep": DEFAULT_TIMESTEP}
         for i, link in enumerate(self._arm, start=1):
             values[f"mass_link_{i}"] = p.getDynamicsInfo(self.robot, link, physicsClientId=c)[0]
-            values[f"max_torque_joint_{i}"] = 100.0
+            values[f"max_torque_joint_{i}"] = self._generic_forces[i - 1]
             values[f"joint_damping_{i}"] = p.getJointInfo(self.robot, link, physicsClientId=c)[6]
         if self.object is not None and self.task.object is not None:
             values[self.task.object.mass_parameter] = p.getDynamicsInfo(self.object, -1, physicsClientId=c)[0]
@@ -176,7 +191,7 @@ class PybulletEngine(Engine):
                 p.changeDynamics(self.robot, link, mass=params[f"mass_link_{i}"], physicsClientId=c)
             if f"joint_damping_{i}" in params:
                 p.changeDynamics(self.robot, link, jointDamping=params[f"joint_damping_{i}"], physicsClientId=c)
-        self._forces = [params.get(f"max_torque_joint_{i}", 100.0) for i in range(1, 7)]
+        self._forces = [params.get(f"max_torque_joint_{i}", f) for i, f in enumerate(self._generic_forces, start=1)]
         obj = self.task.object
         if obj is not None and obj.mass_parameter in params:
             p.changeDynamics(self.object, -1, mass=params[obj.mass_parameter], physicsClientId=c)

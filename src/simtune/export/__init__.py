@@ -33,8 +33,8 @@ from simtune.export.common import (
     PROVENANCE_FILE,
     ExportContext,
     RobotDescription,
-    bundled_robot,
     controller_yaml,
+    exported_robot,
     now_utc,
     provenance,
     sha256,
@@ -86,7 +86,7 @@ def export_run(
     out = Path(out_dir)
     _prepare(out, force)
     ranges = _dr_ranges([run]) if dr else None
-    return _export(run, out, robot or bundled_robot(), ranges)
+    return _export(run, out, robot or exported_robot(run.tasks[0].robot), ranges)
 
 
 def export_runs(
@@ -119,8 +119,7 @@ def export_runs(
     out = Path(out_dir)
     _prepare(out, force, children=names)
     ranges = _dr_ranges(runs) if dr else None
-    robot = bundled_robot()
-    return [_export(run, out / run.path.name, robot, ranges) for run in runs], skipped
+    return [_export(run, out / run.path.name, exported_robot(run.tasks[0].robot), ranges) for run in runs], skipped
 
 
 # --------------------------------------------------------------------------------------------------

@@ -20,7 +20,7 @@ import simtune
 from simtune.controller import CONTROL_PERIOD, JointController
 from simtune.engines import Engine, engine_class
 from simtune.export.source import TunedRun
-from simtune.robot import generate, mico
+from simtune.robot import description, generate
 from simtune.tasks.spec import ObjectSpec
 
 PROVENANCE_FILE = "provenance.json"
@@ -47,26 +47,27 @@ class RobotDescription:
     link_materials: dict[str, str]  # link -> material group of the friction/restitution parameters
     floor: str  # names of the floor and object elements in the scenes the engines build
     object: str
+    description: description.RobotDescription  # the robot the engines built
 
     def scene_mjcf(self, obj: ObjectSpec | None) -> str:
         """The MuJoCo scene (robot, floor, the task's object) with generic values."""
-        return generate.scene_mjcf(obj)
+        return generate.scene_mjcf(self.description, obj)
 
 
-def bundled_robot() -> RobotDescription:
-    """The Kinova MICO that simtune's engines build (:mod:`simtune.robot.mico`)."""
-    joints = {j.name: j for j in mico.JOINTS}
+def exported_robot(robot: description.RobotDescription) -> RobotDescription:
+    """The robot as exporters see it, from the description the engines built the run's tasks with."""
     return RobotDescription(
-        name="kinova_mico",
-        driven_joints=tuple(mico.ARM_JOINTS),
-        driven_links=tuple(joints[j].child for j in mico.ARM_JOINTS),
-        wrist_link=mico.WRIST_LINK,
-        base_link=mico.LINKS[0].name,
-        base_position=tuple(float(v) for v in mico.BASE_POSITION),  # type: ignore[arg-type]
-        urdf=generate.robot_urdf(),
-        link_materials={link.name: link.material for link in mico.LINKS},
+        name=robot.name,
+        driven_joints=tuple(robot.arm_joints),
+        driven_links=robot.driven_links,
+        wrist_link=robot.tracked_link,
+        base_link=robot.root,
+        base_position=tuple(float(v) for v in robot.base_position),  # type: ignore[arg-type]
+        urdf=generate.robot_urdf(robot),
+        link_materials={link.name: link.material for link in robot.links},
         floor=generate.FLOOR,
         object=generate.OBJECT_BODY,
+        description=robot,
     )
 
 

@@ -17,7 +17,6 @@ import numpy as np
 
 from simtune.engines._shapes import cone_hull, host_mass_properties, link_boxes_in_host, object_mass_properties
 from simtune.export.common import ExportContext
-from simtune.robot.mico import JOINTS, forward_kinematics
 
 SIDECAR = "ode.json"
 
@@ -30,12 +29,13 @@ def write(ctx: ExportContext) -> list[str]:
     from simtune.engines import ode_engine
 
     robot = ctx.robot
+    described = robot.description
     values = ctx.values
     masses = {link: values[f"mass_link_{i}"] for i, link in enumerate(robot.driven_links, start=1)}
     zero = np.zeros(len(robot.driven_joints))
     bodies = {}
-    for host, (mass, com, inertia) in host_mass_properties(masses).items():
-        pos, rot = forward_kinematics(zero, host)
+    for host, (mass, com, inertia) in host_mass_properties(described, masses).items():
+        pos, rot = described.forward_kinematics(zero, host)
         bodies[host] = {
             "static": host == robot.base_link,
             "mass_kg": float(mass),
@@ -44,14 +44,14 @@ def write(ctx: ExportContext) -> list[str]:
             "link_frame_at_zero": {"position_m": _list(pos), "rotation": _list(rot)},
             "boxes": [
                 {"link": link, "centre_in_link_m": _list(c), "rotation_in_link": _list(r), "size_m": _list(2 * h)}
-                for c, r, h, link in link_boxes_in_host().get(host, [])
+                for c, r, h, link in link_boxes_in_host(described).get(host, [])
             ],
         }
     joints = []
-    by_name = {j.name: j for j in JOINTS}
+    by_name = described.joint_by_name
     for i, name in enumerate(robot.driven_joints, start=1):
         joint = by_name[name]
-        pos, rot = forward_kinematics(zero, joint.child)
+        pos, rot = described.forward_kinematics(zero, joint.child)
         joints.append(
             {
                 "name": name,
@@ -59,7 +59,7 @@ def write(ctx: ExportContext) -> list[str]:
                 "child": joint.child,
                 "anchor_at_zero_m": _list(pos),
                 "axis_at_zero": _list(rot[:, 2]),
-                "stops_rad": None if joint.limit is None else [-joint.limit, joint.limit],
+                "stops_rad": [joint.lower, joint.upper] if joint.limited else None,
                 "motor_fmax_n_m": float(values[f"max_torque_joint_{i}"]),
                 "viscous_damping_n_m_s": float(values[f"joint_damping_{i}"]),
             }

@@ -20,7 +20,7 @@ import yaml
 from simtune.data import TaskData
 from simtune.engines.base import Engine, Rollout
 from simtune.errors import SimtuneError
-from simtune.fitness import TaskScore, score_rollout
+from simtune.fitness import TaskScore, rollout_joint_names, score_rollout
 from simtune.tasks.spec import Phase, TaskSpec
 
 
@@ -299,4 +299,4 @@ def replay_task(engine: str, folder: Path, task: TaskSpec, reference: TaskData) 
         rollout = sim.rollout(params, len(reference.times))
     finally:
         sim.close()
-    return rollout, score_rollout(rollout, reference, params)
+    return rollout, score_rollout(rollout, reference, params, joint_names=rollout_joint_names(task))

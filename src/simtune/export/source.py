@@ -27,6 +27,7 @@ from simtune.params import validate_params
 from simtune.runs import BEST_PARAMS_FILE
 from simtune.store import STORE_FILE, RunStore
 from simtune.tasks import TaskSpec, parse_tasks
+from simtune.tasks.spec import common_robot
 
 
 class ExportWarning(UserWarning):
@@ -106,8 +107,9 @@ def read_run(run_dir: Path | str) -> TunedRun:
     if best.get("engine", engine) != engine:
         raise SimtuneError(f"{best_file}: engine {best.get('engine')!r} differs from the run's {engine!r}")
     cls = engine_class(engine)
-    params = validate_params(best["params"], cls.supported(), engine, where=str(best_file))
     tasks = parse_tasks(str(config["tasks"]), config.get("project"))
+    robot = common_robot(tasks)
+    params = validate_params(best["params"], cls.supported(robot), engine, where=str(best_file), robot=robot)
     installed = cls.version()
     if versions.get(engine) not in (None, installed):
         warnings.warn(

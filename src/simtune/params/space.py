@@ -5,9 +5,11 @@
 delay between the start of the recording and the start of the commanded
 motion, and where the motion-capture marker sits on the hand.
 
-A space is engine independent.  Each engine declares which parameters its API
-really has (:attr:`simtune.engines.base.Engine.supported`); a parameter an engine
-lacks is left out of that engine's search space, never faked.
+A space is engine independent but robot dependent: the per-joint parameters
+come from the task's robot (:func:`robot_spaces`, rules in docs/parameters.md);
+the module-level tables are the bundled MICO's.  Each engine declares which
+parameters its API really has (:attr:`simtune.engines.base.Engine.supported`); a
+parameter an engine lacks is left out of that engine's search space, never faked.
 """
 
 from __future__ import annotations
@@ -15,15 +17,22 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
 from simtune.errors import ConfigError
+from simtune.robot.description import RobotDescription
+from simtune.robot.mico import MICO
 from simtune.tasks.spec import CONTACT_GROUPS
 
-#: Nominal masses [kg] the seed paper's mass ranges are relative to (links 1..6, then objects).
-ARM_MASS_NOMINAL = (0.7477, 0.7477, 0.606, 0.1785, 0.1785, 0.727)
+#: Nominal masses [kg] the seed paper's mass ranges are relative to (links 1..6 of the MICO, then objects).
+ARM_MASS_NOMINAL = MICO.nominal
+#: The seed paper's motor force limit range [N m], for joints whose description gives no effort.
+TORQUE_RANGE = (100.0, 9000.0)
+#: A described effort limit e is tuned in [low, high] x e, like the masses.
+MASS_FACTORS = EFFORT_FACTORS = (0.7, 1.3)
 OBJECT_MASS_NOMINAL = {
     "cube": (0.07, 0.46),
     "cylinder": (0.12, 0.78),
@@ -56,17 +65,27 @@ class Parameter:
         return v
 
 
-def _shared() -> list[Parameter]:
+def _torque_range(robot: RobotDescription, index: int) -> tuple[float, float]:
+    effort = robot.joint_by_name[robot.arm_joints[index]].effort
+    if effort is None:
+        return TORQUE_RANGE
+    return EFFORT_FACTORS[0] * effort, EFFORT_FACTORS[1] * effort
+
+
+def _shared(robot: RobotDescription) -> list[Parameter]:
     ps = [Parameter("timestep", 0.001, 0.05, "s", "physics time step")]
-    for i, m in enumerate(ARM_MASS_NOMINAL, start=1):
-        what = "hand with gripper" if i == 6 else f"arm link {i}"
-        ps.append(Parameter(f"mass_link_{i}", 0.7 * m, 1.3 * m, "kg", f"mass of {what}"))
+    low, high = MASS_FACTORS
+    for i, (m, link) in enumerate(zip(robot.nominal, robot.driven_links), start=1):
+        what = robot.link_by_name[link].label or f"link {link}"
+        ps.append(Parameter(f"mass_link_{i}", low * m, high * m, "kg", f"mass of {what}"))
     for shape, (plastic, wood) in OBJECT_MASS_NOMINAL.items():
         for material, m in (("plastic", plastic), ("wood", wood)):
             ps.append(Parameter(f"mass_{shape}_{material}", 0.7 * m, 1.3 * m, "kg", f"mass of the {material} {shape}"))
-    for i in range(1, 7):
-        ps.append(Parameter(f"max_torque_joint_{i}", 100.0, 9000.0, "N m", f"motor force limit of joint {i}"))
-    for i in range(1, 7):
+    n = robot.n_joints
+    for i in range(1, n + 1):
+        low, high = _torque_range(robot, i - 1)
+        ps.append(Parameter(f"max_torque_joint_{i}", low, high, "N m", f"motor force limit of joint {i}"))
+    for i in range(1, n + 1):
         ps.append(
             Parameter(f"max_velocity_joint_{i}", 10.0, 40.0, "deg/s", f"velocity clamp of joint {i}'s controller")
         )
@@ -75,9 +94,10 @@ def _shared() -> list[Parameter]:
     return ps
 
 
-def _individual_extra() -> list[Parameter]:
+def _individual_extra(robot: RobotDescription) -> list[Parameter]:
     ps = [
-        Parameter(f"joint_damping_{i}", 0.0001, 0.9, "N m s/rad", f"viscous damping of joint {i}") for i in range(1, 7)
+        Parameter(f"joint_damping_{i}", 0.0001, 0.9, "N m s/rad", f"viscous damping of joint {i}")
+        for i in range(1, robot.n_joints + 1)
     ]
     for kind, high, unit, what in (
         ("rolling_friction", 1.25, "", "rolling friction"),
@@ -103,16 +123,23 @@ def _extended_extra() -> list[Parameter]:
     ]
 
 
-_SHARED = _shared()
-_INDIVIDUAL = _SHARED + _individual_extra()
-_EXTENDED = _INDIVIDUAL + _extended_extra()
+@lru_cache(maxsize=8)
+def robot_spaces(robot: RobotDescription) -> dict[str, tuple[Parameter, ...]]:
+    """The spaces ``shared``, ``individual`` and ``extended`` for ``robot``'s driven joints and links."""
+    shared = _shared(robot)
+    individual = shared + _individual_extra(robot)
+    extended = individual + _extended_extra()
+    return {"shared": tuple(shared), "individual": tuple(individual), "extended": tuple(extended)}
 
-SPACES: dict[str, tuple[Parameter, ...]] = {
-    "shared": tuple(_SHARED),
-    "individual": tuple(_INDIVIDUAL),
-    "extended": tuple(_EXTENDED),
-}
-PARAMETERS: dict[str, Parameter] = {p.name: p for p in _EXTENDED}
+
+def robot_parameters(robot: RobotDescription) -> dict[str, Parameter]:
+    """Every parameter known for ``robot``, by name."""
+    return {p.name: p for p in robot_spaces(robot)["extended"]}
+
+
+#: The bundled MICO's spaces (the seed paper's) and parameters.
+SPACES: dict[str, tuple[Parameter, ...]] = robot_spaces(MICO)
+PARAMETERS: dict[str, Parameter] = robot_parameters(MICO)
 
 
 @dataclass(frozen=True)
@@ -140,10 +167,17 @@ class ParameterSpace:
         return np.array([values[p.name] for p in self.parameters], dtype=float)
 
 
-def get_space(name: str, supported: frozenset[str] | None = None, only: list[str] | None = None) -> ParameterSpace:
-    """The space ``name``, restricted to the parameters in ``supported`` (an engine's) and to ``only``."""
+def get_space(
+    name: str,
+    supported: frozenset[str] | None = None,
+    only: list[str] | None = None,
+    robot: RobotDescription | None = None,
+) -> ParameterSpace:
+    """The space ``name`` for ``robot`` (default the MICO), restricted to the parameters in ``supported``
+    (an engine's, :meth:`Engine.supported` for the same robot) and to ``only``."""
+    known = robot_parameters(robot) if robot is not None else PARAMETERS
     try:
-        params = SPACES[name]
+        params = robot_spaces(robot)[name] if robot is not None else SPACES[name]
     except KeyError:
         raise ConfigError(f"unknown parameter space {name!r} (known: {', '.join(SPACES)})") from None
     if supported is not None:
@@ -152,22 +186,26 @@ def get_space(name: str, supported: frozenset[str] | None = None, only: list[str
         names = {p.name for p in params}
         for wanted in only:
             if wanted not in names:
-                why = "unknown parameter" if wanted not in PARAMETERS else f"not in space {name!r} for this engine"
+                why = "unknown parameter" if wanted not in known else f"not in space {name!r} for this engine"
                 raise ConfigError(f"--only: {wanted!r}: {why} (see `simtune params`)")
         params = tuple(p for p in params if p.name in only)
     return ParameterSpace(name, params)
 
 
-def validate_params(values: dict, supported: frozenset[str], engine: str, where: str = "") -> dict[str, float]:
-    """Check a name -> value mapping against the known parameters and what ``engine`` supports."""
+def validate_params(
+    values: dict, supported: frozenset[str], engine: str, where: str = "", robot: RobotDescription | None = None
+) -> dict[str, float]:
+    """Check a name -> value mapping against the parameters known for ``robot`` (default the MICO) and
+    what ``engine`` supports."""
     at = f"{where}: " if where else ""
+    known = robot_parameters(robot) if robot is not None else PARAMETERS
     out = {}
     for name, value in values.items():
-        if name not in PARAMETERS:
+        if name not in known:
             raise ConfigError(f"{at}unknown parameter {name!r} (see `simtune params`)")
         if name not in supported:
             raise ConfigError(f"{at}engine {engine!r} has no parameter {name!r} (see docs/parameters.md)")
-        out[name] = PARAMETERS[name].check(value, where)
+        out[name] = known[name].check(value, where)
     return out
 
 

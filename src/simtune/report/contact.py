@@ -1,7 +1,7 @@
 """The arm at its first contact with each task's object: a side and a top view per task.
 
 Drawn from the probe's joint angles with the arm's own collision boxes
-(:mod:`simtune.robot.mico`) and the object's outline at its position at that
+(the task's robot description) and the object's outline at its position at that
 instant (turned as at its start: at first contact it has not moved yet).
 """
 
@@ -18,7 +18,7 @@ from scipy.spatial import ConvexHull
 
 from simtune.engines.contact import ContactProbe
 from simtune.report.figures import PALETTE, new_figure, panel_title
-from simtune.robot.mico import LINKS, forward_kinematics
+from simtune.robot.description import RobotDescription
 from simtune.tasks import TaskSpec, get_task
 
 ARM_COLOR = "#9a9a9a"
@@ -32,11 +32,11 @@ TASKS_PER_ROW = 4
 ZOOM = 0.2  # half width of the top view around the object's start [m]
 
 
-def arm_boxes(angles: np.ndarray) -> list[tuple[str, np.ndarray]]:
-    """(material, 8 world corners) of every collision box of the arm at joint angles ``angles`` [rad]."""
+def arm_boxes(robot: RobotDescription, angles: np.ndarray) -> list[tuple[str, np.ndarray]]:
+    """(material, 8 world corners) of every collision box of ``robot`` at joint angles ``angles`` [rad]."""
     boxes = []
-    for link in LINKS:
-        pos, rot = forward_kinematics(angles, link.name)
+    for link in robot.links:
+        pos, rot = robot.forward_kinematics(angles, link.name)
         for box in link.boxes:
             corners = pos + (np.asarray(box.center) + _CORNERS * np.asarray(box.half)) @ rot.T
             boxes.append((link.material, corners))
@@ -60,10 +60,11 @@ def contact_figure(probes: list[ContactProbe], tasks: Mapping[str, TaskSpec] | N
     grid = fig.add_gridspec(len(VIEWS) * rows, cols)
     for k, probe in enumerate(probes):
         row, col = divmod(k, cols)
-        obj = (tasks[probe.task] if tasks is not None else get_task(probe.task)).object
+        task = tasks[probe.task] if tasks is not None else get_task(probe.task)
+        obj = task.object
         assert obj is not None, "a probe is made for a task with an object"
         object_points = probe.pose_object + obj.surface_points() @ obj.rotation.T
-        boxes = arm_boxes(probe.pose_angles)
+        boxes = arm_boxes(task.robot, probe.pose_angles)
         for v, (view, i, j, close) in enumerate(VIEWS):
             ax = fig.add_subplot(grid[len(VIEWS) * row + v, col])
             for material, corners in boxes:

@@ -10,7 +10,7 @@ import numpy as np
 from simtune.data import TaskData
 from simtune.engines import make_engine
 from simtune.errors import SimtuneError
-from simtune.fitness import TaskScore, marker_positions, score_rollout
+from simtune.fitness import TaskScore, marker_positions, rollout_joint_names, score_rollout
 from simtune.objective import Objective, load_references, recordings_folder
 from simtune.report.collect import Group, RunRecord
 from simtune.tasks import TaskSpec
@@ -79,6 +79,7 @@ def simulate_group(group: Group, references: References) -> GroupSimulation:
     out = {}
     for task in run.task_names:
         ref = refs[task]
+        joints = rollout_joint_names(run.task(task))
         out[task] = TaskTrajectory(
             task=task,
             reference=ref,
@@ -86,8 +87,8 @@ def simulate_group(group: Group, references: References) -> GroupSimulation:
             tuned_marker=marker_positions(tuned[task], params),
             untuned_object=untuned[task].object_pos,
             tuned_object=tuned[task].object_pos,
-            untuned_score=score_rollout(untuned[task], ref, {}),
-            tuned_score=score_rollout(tuned[task], ref, params),
+            untuned_score=score_rollout(untuned[task], ref, {}, joint_names=joints),
+            tuned_score=score_rollout(tuned[task], ref, params, joint_names=joints),
         )
     return GroupSimulation(group, run, params, out)
 
@@ -102,7 +103,7 @@ def nominal_values(engine: str, tasks: list[TaskSpec]) -> dict[str, float]:
                 values.setdefault(key, float(value))
         finally:
             sim.close()
-        for i in range(1, 7):
+        for i in range(1, task.robot.n_joints + 1):
             values.setdefault(f"max_velocity_joint_{i}", float(task.max_velocity_deg))
     values.setdefault("command_delay", 0.0)
     for axis in "xyz":

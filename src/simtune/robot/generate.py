@@ -1,9 +1,9 @@
-"""Generate engine model files (MJCF for MuJoCo, URDF for Bullet and others) from :mod:`mico`.
+"""Generate engine model files (MJCF for MuJoCo, URDF for Bullet and others) from a robot description.
 
 Collision filtering is the same everywhere: arm shapes touch the floor and the
 object but not each other (the real arm's covers never collide with
 themselves in these tasks, and overlapping primitive boxes at the joints would
-otherwise push the links apart).
+otherwise push the links apart).  Meshes are referenced by their absolute paths.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from simtune.geometry import matrix_quat_wxyz, rpy_matrix
-from simtune.robot.mico import ARM_JOINTS, BASE_POSITION, JOINTS, LINKS, Joint, Link, children
+from simtune.robot.description import Box, Cylinder, Joint, Link, Mesh, RobotDescription, Sphere
 
 #: Gain of MuJoCo's joint velocity servos [N m s/rad].
 SERVO_KV = 50.0
@@ -58,31 +58,79 @@ def geom_name(link: str, index: int) -> str:
 # --------------------------------------------------------------------------- MJCF
 
 
-def _mjcf_link(link: Link, joint: Joint | None, indent: str) -> list[str]:
+def mesh_asset_name(link: str, index: int) -> str:
+    return f"{link}_mesh{index}"
+
+
+def _mjcf_placement(shape) -> str:
+    pos = f'pos="{_f(shape.center)}"'
+    if shape.rpy == (0.0, 0.0, 0.0):
+        return pos
+    return f'{pos} quat="{_f(matrix_quat_wxyz(rpy_matrix(shape.rpy)))}"'
+
+
+def _mjcf_geom(link: Link, index: int, shape) -> str:
+    name = f'name="{geom_name(link.name, index)}" class="arm"'
+    where = _mjcf_placement(shape)
+    if isinstance(shape, Box):
+        return f'<geom {name} type="box" {where} size="{_f(shape.half)}"/>'
+    if isinstance(shape, Sphere):
+        return f'<geom {name} type="sphere" {where} size="{shape.radius:.9g}"/>'
+    if isinstance(shape, Cylinder):
+        return f'<geom {name} type="cylinder" {where} size="{shape.radius:.9g} {shape.length / 2:.9g}"/>'
+    # MuJoCo collides with a mesh's convex hull
+    return f'<geom {name} type="mesh" mesh="{mesh_asset_name(link.name, index)}" {where}/>'
+
+
+def _mjcf_inertial(link: Link) -> str:
+    if link.mass <= 0:  # a massless frame (a tool point): MuJoCo takes no inertial element without mass
+        return ""
+    if link.diagonal_inertia:
+        inertia = f'diaginertia="{_f(link.inertia)}"'
+    else:
+        i = link.inertia_matrix()
+        inertia = f'fullinertia="{_f((i[0, 0], i[1, 1], i[2, 2], i[0, 1], i[0, 2], i[1, 2]))}"'
+    return f'<inertial pos="{_f(link.com)}" mass="{link.mass:.9g}" {inertia}/>'
+
+
+def _mjcf_link(robot: RobotDescription, link: Link, joint: Joint | None, indent: str) -> list[str]:
     lines = []
     attrs = f"name={quoteattr(link.name)}"
     if joint is None:
-        attrs += f' pos="{_f(BASE_POSITION)}"'
+        attrs += f' pos="{_f(robot.base_position)}"'
+        if robot.base_rpy != (0.0, 0.0, 0.0):
+            attrs += f' quat="{_f(matrix_quat_wxyz(rpy_matrix(robot.base_rpy)))}"'
     else:
         # The arm's own controller compensates gravity; the velocity servo then only
         # has to overcome inertia, as the real arm's does.
         attrs += f' gravcomp="1" pos="{_f(joint.xyz)}" quat="{_f(matrix_quat_wxyz(rpy_matrix(joint.rpy)))}"'
     lines.append(f"{indent}<body {attrs}>")
     inner = indent + "  "
-    lines.append(f'{inner}<inertial pos="{_f(link.com)}" mass="{link.mass:.9g}" diaginertia="{_f(link.inertia)}"/>')
-    if joint is not None and joint.kind != "fixed":
-        limit = f' range="{-joint.limit:.9g} {joint.limit:.9g}"' if joint.limit is not None else ""
-        lines.append(f'{inner}<joint name="{joint.name}" type="hinge" axis="0 0 1"{limit}/>')
-    for i, box in enumerate(link.boxes):
-        lines.append(
-            f'{inner}<geom name="{geom_name(link.name, i)}" class="arm" type="box" '
-            f'pos="{_f(box.center)}" size="{_f(box.half)}"/>'
-        )
-    for child_joint in children(link.name):
-        child = next(x for x in LINKS if x.name == child_joint.child)
-        lines += _mjcf_link(child, child_joint, inner)
+    inertial = _mjcf_inertial(link)
+    if inertial:
+        lines.append(f"{inner}{inertial}")
+    if joint is not None and joint.moves:
+        kind = "slide" if joint.kind == "prismatic" else "hinge"
+        limit = f' range="{joint.lower:.9g} {joint.upper:.9g}"' if joint.limited else ""
+        damping = f' damping="{joint.damping:.9g}"' if joint.damping else ""
+        lines.append(f'{inner}<joint name="{joint.name}" type="{kind}" axis="{_f(joint.axis)}"{limit}{damping}/>')
+    for i, shape in enumerate(link.shapes):
+        lines.append(f"{inner}{_mjcf_geom(link, i, shape)}")
+    for child_joint in robot.children(link.name):
+        child = robot.link_by_name[child_joint.child]
+        lines += _mjcf_link(robot, child, child_joint, inner)
     lines.append(f"{indent}</body>")
     return lines
+
+
+def _mjcf_meshes(robot: RobotDescription) -> list[str]:
+    return [
+        f"    <mesh name={quoteattr(mesh_asset_name(link.name, i))} file={quoteattr(shape.path)} "
+        f'scale="{_f(shape.scale)}"/>'
+        for link in robot.links
+        for i, shape in enumerate(link.shapes)
+        if isinstance(shape, Mesh)
+    ]
 
 
 def _mjcf_object(obj: SceneObject) -> tuple[list[str], list[str]]:
@@ -107,26 +155,32 @@ def _mjcf_object(obj: SceneObject) -> tuple[list[str], list[str]]:
     return assets, body
 
 
-def scene_mjcf(obj: SceneObject | None = None) -> str:
-    """MJCF of the arm on the floor with velocity actuators on its six joints, plus ``obj``.
+def scene_mjcf(robot: RobotDescription, obj: SceneObject | None = None) -> str:
+    """MJCF of ``robot`` on the floor with velocity actuators on its driven joints, plus ``obj`` (for a
+    robot from an MJCF file, the scene without the robot and its actuators).
 
     Timestep, masses, frictions, gains and limits are MuJoCo's defaults or the
     description's values; parameters are applied to the compiled model later.
     """
     assets, object_body = _mjcf_object(obj) if obj is not None else ([], [])
-    base = next(x for x in LINKS if x.name == "link_base")
-    arm = _mjcf_link(base, None, "    ")
+    if robot.mjcf is not None:  # the MuJoCo engine adds the robot and its servos from the MJCF itself
+        arm: list[str] = []
+    else:
+        assets = _mjcf_meshes(robot) + assets
+        arm = _mjcf_link(robot, robot.links[0], None, "    ")
     actuators = [
         # A velocity servo; its force limit (max torque) is set per evaluation.  kv is chosen so
         # that the largest command step (-40 to +40 deg/s) asks for 70 N m, below the smallest
-        # limit of the search range (100): a clipped servo force on the light wrist links is
+        # limit of the MICO's search range (100): a clipped servo force on the light wrist links is
         # not damped by the implicit integrator and sets them spinning (seen in seed-2).
-        f'    <velocity name="{j}" joint="{j}" kv="{SERVO_KV:g}" forcerange="-100 100"/>'
-        for j in ARM_JOINTS
+        f'    <velocity name="{j}" joint="{j}" kv="{SERVO_KV:g}" '
+        f'forcerange="{-robot.generic_effort(i):.9g} {robot.generic_effort(i):.9g}"/>'
+        for i, j in enumerate(robot.arm_joints)
+        if robot.mjcf is None
     ]
     return "\n".join(
         [
-            '<mujoco model="kinova_mico_scene">',
+            f"<mujoco model={quoteattr(robot.name + '_scene')}>",
             '  <compiler angle="radian" autolimits="true"/>',
             # implicitfast integrates the velocity servos' damping-like forces stably at large steps
             '  <option integrator="implicitfast" gravity="0 0 -9.81"/>',
@@ -154,21 +208,37 @@ def scene_mjcf(obj: SceneObject | None = None) -> str:
 # --------------------------------------------------------------------------- URDF
 
 
+def _urdf_origin(shape) -> str:
+    return f'<origin xyz="{_f(shape.center)}" rpy="{_f(shape.rpy)}"/>'
+
+
+def _urdf_geometry(shape) -> str:
+    if isinstance(shape, Box):
+        return f'<box size="{_f(2 * np.asarray(shape.half))}"/>'
+    if isinstance(shape, Sphere):
+        return f'<sphere radius="{shape.radius:.9g}"/>'
+    if isinstance(shape, Cylinder):
+        return f'<cylinder radius="{shape.radius:.9g}" length="{shape.length:.9g}"/>'
+    return f'<mesh filename={quoteattr(shape.path)} scale="{_f(shape.scale)}"/>'
+
+
 def _urdf_link(link: Link) -> list[str]:
     lines = [f"  <link name={quoteattr(link.name)}>"]
     ixx, iyy, izz = link.inertia
+    ixy, ixz, iyz = link.products
     lines += [
         "    <inertial>",
-        f'      <origin xyz="{_f(link.com)}" rpy="0 0 0"/>',
+        f'      <origin xyz="{_f(link.com)}" rpy="{_f(link.inertia_rpy)}"/>',
         f'      <mass value="{link.mass:.9g}"/>',
-        f'      <inertia ixx="{ixx:.9g}" ixy="0" ixz="0" iyy="{iyy:.9g}" iyz="0" izz="{izz:.9g}"/>',
+        f'      <inertia ixx="{ixx:.9g}" ixy="{ixy:.9g}" ixz="{ixz:.9g}" iyy="{iyy:.9g}" iyz="{iyz:.9g}" '
+        f'izz="{izz:.9g}"/>',
         "    </inertial>",
     ]
-    for box in link.boxes:
+    for shape in link.shapes:
         lines += [
             "    <collision>",
-            f'      <origin xyz="{_f(box.center)}" rpy="0 0 0"/>',
-            f'      <geometry><box size="{_f(2 * np.asarray(box.half))}"/></geometry>',
+            f"      {_urdf_origin(shape)}",
+            f"      <geometry>{_urdf_geometry(shape)}</geometry>",
             "    </collision>",
         ]
     lines.append("  </link>")
@@ -176,7 +246,12 @@ def _urdf_link(link: Link) -> list[str]:
 
 
 def _urdf_joint(joint: Joint) -> list[str]:
-    kind = "fixed" if joint.kind == "fixed" else ("revolute" if joint.limit is not None else "continuous")
+    if joint.kind == "fixed":
+        kind = "fixed"
+    elif joint.kind == "prismatic":
+        kind = "prismatic"
+    else:
+        kind = "revolute" if joint.limited else "continuous"
     lines = [
         f'  <joint name="{joint.name}" type="{kind}">',
         f'    <parent link="{joint.parent}"/>',
@@ -184,30 +259,37 @@ def _urdf_joint(joint: Joint) -> list[str]:
         f'    <origin xyz="{_f(joint.xyz)}" rpy="{_f(joint.rpy)}"/>',
     ]
     if kind != "fixed":
-        lines.append('    <axis xyz="0 0 1"/>')
-    if kind == "revolute" and joint.limit is not None:
-        # effort/velocity here are placeholders: the controller sets both every update
-        lines.append(f'    <limit lower="{-joint.limit:.9g}" upper="{joint.limit:.9g}" effort="9000" velocity="10"/>')
+        lines.append(f'    <axis xyz="{_f(joint.axis)}"/>')
+    if kind in ("revolute", "prismatic") and joint.limited:
+        # without the source's effort and velocity, placeholders: the controller sets both every update
+        effort = 9000 if joint.effort is None else joint.effort
+        velocity = 10 if joint.velocity is None else joint.velocity
+        lines.append(
+            f'    <limit lower="{joint.lower:.9g}" upper="{joint.upper:.9g}" '
+            f'effort="{effort:.9g}" velocity="{velocity:.9g}"/>'
+        )
+    if kind != "fixed" and joint.damping:
+        lines.append(f'    <dynamics damping="{joint.damping:.9g}"/>')
     lines.append("  </joint>")
     return lines
 
 
-def robot_urdf() -> str:
-    """URDF of the arm alone (its base frame at the origin; place it at BASE_POSITION)."""
-    lines = ['<?xml version="1.0"?>', '<robot name="kinova_mico">']
-    for link in LINKS:
+def robot_urdf(robot: RobotDescription) -> str:
+    """URDF of the robot alone (its base frame at the origin; place it at its base pose)."""
+    lines = ['<?xml version="1.0"?>', f"<robot name={quoteattr(robot.name)}>"]
+    for link in robot.links:
         lines += _urdf_link(link)
-    for joint in JOINTS:
+    for joint in robot.joints:
         lines += _urdf_joint(joint)
     lines.append("</robot>")
     return "\n".join(lines)
 
 
-def robot_urdf_file() -> str:
+def robot_urdf_file(robot: RobotDescription) -> str:
     """Path of the generated URDF on disk, for engines whose loaders read files; written once per content."""
-    text = robot_urdf()
+    text = robot_urdf(robot)
     digest = hashlib.sha1(text.encode()).hexdigest()[:12]
-    path = Path(tempfile.gettempdir()) / f"simtune-mico-{digest}.urdf"
+    path = Path(tempfile.gettempdir()) / f"simtune-{robot.name}-{digest}.urdf"
     if not path.exists():
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_text(text)

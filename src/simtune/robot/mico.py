@@ -1,7 +1,8 @@
-"""The Kinova MICO arm (model m1n6s300), described once.
+"""The Kinova MICO arm (model m1n6s300): the bundled robot, one :class:`RobotDescription`.
 
-Every engine builds its model from the tables below, so kinematics, inertias
-and collision shapes cannot drift apart between engines.  Numbers are those of
+Every engine builds the task's robot (:data:`MICO` unless the task names another)
+from its description, so kinematics, inertias and collision shapes cannot drift
+apart between engines.  Numbers are those of
 the robot's public description as gathered in the reference facts (URDF
 convention: a joint frame is its parent's frame moved by ``xyz`` then turned by
 ``rpy`` = roll about x, pitch about y, yaw about z, applied as Rz @ Ry @ Rx).
@@ -12,12 +13,11 @@ them at 0 with a stiff position loop, and a weld is that loop's exact limit.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from math import pi
 
 import numpy as np
 
-from simtune.geometry import rpy_matrix
+from simtune.robot.description import Box, Joint, Link, RobotDescription
 
 #: Where the arm's base frame sits in the world (the floor is z = 0).
 BASE_POSITION = (0.0, 0.0, 0.055)
@@ -28,44 +28,10 @@ ARM_JOINTS = ("joint_1", "joint_2", "joint_3", "joint_4", "joint_5", "joint_6")
 WRIST_LINK = "link_6"
 
 
-@dataclass(frozen=True)
-class Box:
-    """An axis-aligned collision box in its link's frame: centre and half sizes."""
-
-    center: tuple[float, float, float]
-    half: tuple[float, float, float]
-
-    @classmethod
-    def spanning(cls, lo: tuple[float, float, float], hi: tuple[float, float, float]) -> Box:
-        c = tuple((a + b) / 2 for a, b in zip(lo, hi))
-        h = tuple((b - a) / 2 for a, b in zip(lo, hi))
-        return cls(c, h)  # type: ignore[arg-type]
-
-
-@dataclass(frozen=True)
-class Link:
-    name: str
-    mass: float
-    com: tuple[float, float, float]
-    inertia: tuple[float, float, float]  # ixx, iyy, izz about the centre of mass
-    boxes: tuple[Box, ...] = ()
-    #: material group used by the friction/restitution parameters
-    material: str = "arm"
-
-
-@dataclass(frozen=True)
-class Joint:
-    name: str
-    kind: str  # "revolute", "continuous" or "fixed"
-    parent: str
-    child: str
-    xyz: tuple[float, float, float]
-    rpy: tuple[float, float, float]
-    limit: float | None = None  # symmetric position limit [rad]; None = unlimited
-
-
 def _finger_link(name: str, lo, hi) -> Link:
-    return Link(name, 0.01, (0.022, 0.0, 0.0), (7.9e-7, 7.9e-7, 8e-8), (Box.spanning(lo, hi),), material="gripper")
+    return Link(
+        name, 0.01, (0.022, 0.0, 0.0), (7.9e-7, 7.9e-7, 8e-8), (Box.spanning(lo, hi),), material="gripper", label=name
+    )
 
 
 LINKS: tuple[Link, ...] = (
@@ -82,6 +48,7 @@ LINKS: tuple[Link, ...] = (
         (0, -0.002, -0.0605),
         (0.00152, 0.00152, 0.000598),
         (Box.spanning((-0.041, -0.041, -0.160), (0.041, 0.041, 0.0)),),
+        label="arm link 1",
     ),
     Link(
         "link_2",
@@ -89,6 +56,7 @@ LINKS: tuple[Link, ...] = (
         (0, -0.145, -0.0076),
         (0.00467, 0.000387, 0.00467),
         (Box.spanning((-0.041, -0.331, -0.044), (0.041, 0.041, 0.0)),),
+        label="arm link 2",
     ),
     Link(
         "link_3",
@@ -96,6 +64,7 @@ LINKS: tuple[Link, ...] = (
         (0, 0.0463, -0.0065),
         (0.000384, 0.000121, 0.000384),
         (Box.spanning((-0.041, -0.041, -0.043), (0.041, 0.123, 0.023)),),
+        label="arm link 3",
     ),
     Link(
         "link_4",
@@ -103,6 +72,7 @@ LINKS: tuple[Link, ...] = (
         (0, -0.037, -0.0642),
         (7.73e-5, 7.73e-5, 0.000143),
         (Box.spanning((-0.032, -0.053, -0.091), (0.032, 0.032, 0.0)),),
+        label="arm link 4",
     ),
     Link(
         "link_5",
@@ -110,6 +80,7 @@ LINKS: tuple[Link, ...] = (
         (0, -0.037, -0.0642),
         (7.73e-5, 7.73e-5, 0.000143),
         (Box.spanning((-0.032, -0.053, -0.091), (0.032, 0.032, 0.0)),),
+        label="arm link 5",
     ),
     Link(
         "link_6",
@@ -117,6 +88,7 @@ LINKS: tuple[Link, ...] = (
         (0, 0, -0.06),
         (0.000345, 0.000345, 0.000582),
         (Box.spanning((-0.046, -0.051, -0.121), (0.046, 0.054, 0.0)),),
+        label="hand with gripper",
         material="gripper",
     ),
     *(
@@ -137,8 +109,8 @@ _FINGER_ORIGINS = {
 
 JOINTS: tuple[Joint, ...] = (
     Joint("joint_1", "continuous", "link_base", "link_1", (0, 0, 0.15675), (0, pi, 0)),
-    Joint("joint_2", "revolute", "link_1", "link_2", (0, 0.0016, -0.11875), (-pi / 2, pi, pi), 2.35),
-    Joint("joint_3", "revolute", "link_2", "link_3", (0, -0.290, 0), (0, pi, pi), 2.86),
+    Joint("joint_2", "revolute", "link_1", "link_2", (0, 0.0016, -0.11875), (-pi / 2, pi, pi), lower=-2.35, upper=2.35),
+    Joint("joint_3", "revolute", "link_2", "link_3", (0, -0.290, 0), (0, pi, pi), lower=-2.86, upper=2.86),
     Joint("joint_4", "continuous", "link_3", "link_4", (0, 0.1231, -0.0086), (-pi / 2, 0, pi)),
     Joint("joint_5", "continuous", "link_4", "link_5", (0, -0.03703, -0.06414), (pi / 3, 0, pi)),
     Joint("joint_6", "continuous", "link_5", "link_6", (0, -0.03703, -0.06414), (pi / 3, 0, pi)),
@@ -155,48 +127,30 @@ JOINTS: tuple[Joint, ...] = (
 #: The tool frame 0.16 m beyond the wrist (informational; the wrist is what is tracked).
 END_EFFECTOR_OFFSET = ((0, 0, -0.16), (pi, 0, 0))
 
-LINK_BY_NAME = {link.name: link for link in LINKS}
+#: The MICO as every engine builds it.  Its mass ranges are relative to the seed paper's nominal
+#: masses (the paper takes link 1's for link 2).
+MICO = RobotDescription(
+    name="kinova_mico",
+    links=LINKS,
+    joints=JOINTS,
+    arm_joints=ARM_JOINTS,
+    tracked_link=WRIST_LINK,
+    base_position=BASE_POSITION,
+    nominal_masses=(0.7477, 0.7477, 0.606, 0.1785, 0.1785, 0.727),
+)
 
-
-def _chain_length(link: str) -> float:
-    """Base height plus the lengths of the joint offsets from the base up to ``link``."""
-    length = float(np.linalg.norm(BASE_POSITION))
-    while link != "link_base":
-        joint = next(j for j in JOINTS if j.child == link)
-        length += float(np.linalg.norm(joint.xyz))
-        link = joint.parent
-    return length
-
+LINK_BY_NAME = MICO.link_by_name
 
 #: No pose puts the wrist farther than this from the world origin [m] (about 0.89 m): the
 #: chain's offsets laid end to end.  The recordings' units are judged by it.
-WRIST_REACH_M = _chain_length(WRIST_LINK)
+WRIST_REACH_M = MICO.reach
 
 
 def children(link_name: str) -> list[Joint]:
     """The joints whose parent is ``link_name``, in table order."""
-    return [j for j in JOINTS if j.parent == link_name]
+    return MICO.children(link_name)
 
 
 def forward_kinematics(q, link: str = WRIST_LINK) -> tuple[np.ndarray, np.ndarray]:
-    """World position and rotation of ``link``'s frame for arm joint angles ``q`` [rad].
-
-    A plain NumPy chain over the joint table: the engines are checked against it.
-    """
-    angles = dict(zip(ARM_JOINTS, np.asarray(q, dtype=float)))
-    chain = []
-    name = link
-    while name != "link_base":
-        joint = next(j for j in JOINTS if j.child == name)
-        chain.append(joint)
-        name = joint.parent
-    pos = np.array(BASE_POSITION, dtype=float)
-    rot = np.eye(3)
-    for joint in reversed(chain):
-        pos = pos + rot @ np.asarray(joint.xyz, dtype=float)
-        rot = rot @ rpy_matrix(joint.rpy)
-        if joint.kind != "fixed":
-            a = angles.get(joint.name, 0.0)
-            c, s = np.cos(a), np.sin(a)
-            rot = rot @ np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-    return pos, rot
+    """World position and rotation of the MICO's ``link`` frame for arm joint angles ``q`` [rad]."""
+    return MICO.forward_kinematics(q, link)

@@ -12,8 +12,10 @@ from functools import cached_property
 
 import numpy as np
 
+from simtune.errors import ConfigError
 from simtune.geometry import rpy_matrix
-from simtune.robot.mico import ARM_JOINTS, WRIST_LINK
+from simtune.robot.description import RobotDescription
+from simtune.robot.mico import ARM_JOINTS, MICO, WRIST_LINK
 
 #: Body names of the qrg2019 motion-capture exports (robot base, wrist, object).
 BASE_BODY = "RB2(Black)"
@@ -90,7 +92,8 @@ class ObjectSpec:
 
 @dataclass(frozen=True)
 class Phase:
-    """From ``start`` seconds on, the driven joints are driven towards ``targets_deg`` (one per driven joint)."""
+    """From ``start`` seconds on, the driven joints are driven towards ``targets_deg`` (one per driven joint,
+    in the robot's order)."""
 
     start: float
     targets_deg: tuple[float, ...]
@@ -104,7 +107,7 @@ FINGERPRINT = "fingerprint"
 
 @dataclass(frozen=True)
 class TaskSpec:
-    """A task: joint-target schedule, controller gains, duration and object (docs/task-files.md)."""
+    """A task: its robot, joint-target schedule, controller gains, duration and object (docs/task-files.md)."""
 
     name: str
     description: str = field(metadata={FINGERPRINT: "never"})
@@ -114,7 +117,7 @@ class TaskSpec:
     max_velocity_deg: float = 30.0  # the controller's default velocity clamp [deg/s]
     object: ObjectSpec | None = None
     wrist_body: str = WRIST_BODY
-    start_pose_deg: tuple[float, ...] = field(default=(0.0,) * 6)
+    start_pose_deg: tuple[float, ...] = ()  # default: every driven joint at 0
     #: whether real recordings of this task exist in the qrg2019 data set
     has_public_recordings: bool = field(default=False, metadata={FINGERPRINT: "never"})
     #: the driven joints, in the order of every target row and of ``start_pose_deg``
@@ -126,6 +129,40 @@ class TaskSpec:
     #: the folder of this task's recordings (absolute): its task file's ``recordings``, else the project's
     #: data root / the task's name; None when neither names one
     recordings: str | None = field(default=None, metadata={FINGERPRINT: "never"})
+    #: the robot the task drives (its driven joints are ``joints``, its tracked link ``tracked_link``)
+    robot: RobotDescription = field(default=MICO, metadata={FINGERPRINT: "default"})
+
+    def __post_init__(self) -> None:
+        robot = self.robot
+        n = robot.n_joints
+        # the MICO's names are the fields' defaults: for another robot, left at them, they follow the robot
+        if self.joints == ARM_JOINTS and robot.arm_joints != ARM_JOINTS:
+            object.__setattr__(self, "joints", robot.arm_joints)
+        if self.tracked_link == WRIST_LINK and robot.tracked_link != WRIST_LINK:
+            object.__setattr__(self, "tracked_link", robot.tracked_link)
+        if not self.start_pose_deg:
+            object.__setattr__(self, "start_pose_deg", (0.0,) * n)
+        if tuple(self.joints) != robot.arm_joints:
+            raise ConfigError(
+                f"task {self.name!r}: drives joints {', '.join(self.joints)}, robot {robot.name!r} drives "
+                f"{', '.join(robot.arm_joints)}"
+            )
+        if self.tracked_link != robot.tracked_link:
+            raise ConfigError(
+                f"task {self.name!r}: tracks link {self.tracked_link!r}, robot {robot.name!r} reports "
+                f"{robot.tracked_link!r}"
+            )
+        if len(self.start_pose_deg) != n:
+            raise ConfigError(
+                f"task {self.name!r}: start pose has {len(self.start_pose_deg)} joint angles, "
+                f"robot {robot.name!r} drives {n} joints"
+            )
+        for k, phase in enumerate(self.phases, start=1):
+            if len(phase.targets_deg) != n:
+                raise ConfigError(
+                    f"task {self.name!r}: phase {k} has {len(phase.targets_deg)} joint targets, "
+                    f"robot {robot.name!r} drives {n} joints"
+                )
 
     @cached_property
     def schedule(self) -> tuple[np.ndarray, np.ndarray]:
@@ -136,3 +173,15 @@ class TaskSpec:
         starts = np.array([p.start for p in self.phases])
         table = np.array([self.start_pose_deg, *(p.targets_deg for p in self.phases)], dtype=float)
         return starts, table
+
+
+def common_robot(tasks) -> RobotDescription:
+    """The one robot of tasks tuned together (their parameters are one robot's)."""
+    robots: list[RobotDescription] = []
+    for task in tasks:
+        if task.robot not in robots:
+            robots.append(task.robot)
+    if len(robots) != 1:
+        names = ", ".join(repr(r.name) for r in robots) or "none"
+        raise ConfigError(f"tasks tuned together must share one robot, not {names}")
+    return robots[0]

@@ -1,0 +1,312 @@
+"""A robot described once: links, joints, collision shapes, what is driven and what is tracked.
+
+Every engine, the controller, the model-file writers and the parameter spaces read
+a :class:`RobotDescription`, never a particular arm's tables, so one description
+(the bundled MICO of :mod:`simtune.robot.mico`, or a URDF read by
+:func:`simtune.robot.urdf.load_urdf`) builds the same robot in all engines.
+
+Conventions are URDF's: a joint frame is its parent link's frame moved by ``xyz``
+then turned by ``rpy`` (roll about x, pitch about y, yaw about z, applied as
+Rz @ Ry @ Rx); a revolute joint turns its child about ``axis`` (in the joint
+frame), a prismatic one slides it along ``axis``.  A link's inertia is about its
+centre of mass, in the inertial frame turned by ``inertia_rpy`` from the link frame.
+
+Only the driven joints move.  Every other joint is fixed: joints the source
+declares fixed, and movable joints held at a pose (a gripper's fingers), which
+the loader turns into fixed joints at that pose (:attr:`RobotDescription.held`
+remembers them).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from simtune.geometry import rpy_matrix
+
+Vec3 = tuple[float, float, float]
+ZERO3: Vec3 = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class Box:
+    """A collision box in its link's frame: centre, half sizes, and its turn from the link frame."""
+
+    center: Vec3
+    half: Vec3
+    rpy: Vec3 = ZERO3
+
+    @classmethod
+    def spanning(cls, lo: Vec3, hi: Vec3) -> Box:
+        c = tuple((a + b) / 2 for a, b in zip(lo, hi))
+        h = tuple((b - a) / 2 for a, b in zip(lo, hi))
+        return cls(c, h)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class Sphere:
+    center: Vec3
+    radius: float
+    rpy: Vec3 = ZERO3
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """A cylinder along its own z axis, centred on ``center``."""
+
+    center: Vec3
+    radius: float
+    length: float
+    rpy: Vec3 = ZERO3
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A mesh file (absolute path), scaled per axis, placed at ``center``/``rpy`` in its link's frame.
+
+    Engines that cannot collide with a mesh use its convex hull (:func:`mesh_hull`).
+    """
+
+    path: str
+    scale: Vec3 = (1.0, 1.0, 1.0)
+    center: Vec3 = ZERO3
+    rpy: Vec3 = ZERO3
+
+
+Shape = Box | Sphere | Cylinder | Mesh
+
+
+@dataclass(frozen=True)
+class Link:
+    name: str
+    mass: float
+    com: Vec3
+    inertia: Vec3  # ixx, iyy, izz about the centre of mass, in the inertial frame
+    shapes: tuple[Shape, ...] = ()
+    #: material group used by the friction/restitution parameters ("arm" or "gripper")
+    material: str = "arm"
+    products: Vec3 = ZERO3  # ixy, ixz, iyz
+    inertia_rpy: Vec3 = ZERO3  # the inertial frame's turn from the link frame
+    #: what the link is, for parameter descriptions ("hand with gripper"); default its name
+    label: str = ""
+
+    @property
+    def boxes(self) -> tuple[Box, ...]:
+        return tuple(s for s in self.shapes if isinstance(s, Box))
+
+    def inertia_matrix(self) -> np.ndarray:
+        """The 3x3 inertia about the centre of mass, in the link frame."""
+        ixy, ixz, iyz = self.products
+        if self.products == ZERO3:
+            inertia = np.diag(self.inertia)
+        else:
+            ixx, iyy, izz = self.inertia
+            inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]], dtype=float)
+        if self.inertia_rpy != ZERO3:
+            r = rpy_matrix(self.inertia_rpy)
+            inertia = r @ inertia @ r.T
+        return inertia
+
+    @property
+    def diagonal_inertia(self) -> bool:
+        """Whether the inertia is diagonal in the link frame as written (no products, no turned frame)."""
+        return self.products == ZERO3 and self.inertia_rpy == ZERO3
+
+
+JOINT_KINDS = ("revolute", "continuous", "prismatic", "fixed")
+
+
+@dataclass(frozen=True)
+class Joint:
+    name: str
+    kind: str  # one of JOINT_KINDS
+    parent: str
+    child: str
+    xyz: Vec3
+    rpy: Vec3
+    axis: Vec3 = (0.0, 0.0, 1.0)
+    lower: float | None = None  # position limits [rad or m]; None = unlimited
+    upper: float | None = None
+    effort: float | None = None  # the source's force/torque limit [N m or N]; None = not given
+    velocity: float | None = None  # the source's velocity limit [rad/s or m/s]; None = not given
+    damping: float = 0.0  # viscous damping [N m s/rad]
+
+    @property
+    def moves(self) -> bool:
+        return self.kind != "fixed"
+
+    @property
+    def limited(self) -> bool:
+        return self.lower is not None and self.upper is not None
+
+    def motion(self, q: float) -> tuple[np.ndarray, np.ndarray]:
+        """(translation, rotation) of the child frame in the joint frame at position ``q``."""
+        axis = np.asarray(self.axis, dtype=float)
+        if self.kind == "prismatic":
+            return axis * q, np.eye(3)
+        return np.zeros(3), axis_angle_matrix(axis, q)
+
+
+def axis_angle_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation by ``angle`` about the unit ``axis`` (exactly the z-rotation matrix for axis z)."""
+    c, s = np.cos(angle), np.sin(angle)
+    if axis[0] == 0.0 and axis[1] == 0.0 and axis[2] == 1.0:
+        return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    x, y, z = axis / np.linalg.norm(axis)
+    k = np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
+    return np.eye(3) + s * k + (1 - c) * (k @ k)
+
+
+@dataclass(frozen=True)
+class RobotDescription:
+    """One robot: links and joints as a tree from ``root``, the driven joints in order, the tracked link.
+
+    ``arm_joints`` are the joints the controller drives, in the order of the task's targets and
+    of the per-joint parameters (``mass_link_<n>`` is the child link of ``arm_joints[n-1]``).
+    ``tracked_link`` is the link whose frame origin the motion capture follows.
+    """
+
+    name: str
+    links: tuple[Link, ...]
+    joints: tuple[Joint, ...]  # parents before children
+    arm_joints: tuple[str, ...]
+    tracked_link: str
+    base_position: Vec3 = ZERO3
+    base_rpy: Vec3 = ZERO3
+    #: joints the source declares movable that are held at a fixed pose (name, position)
+    held: tuple[tuple[str, float], ...] = ()
+    #: masses [kg] the ``mass_link_<n>`` ranges are relative to; default the driven links' own masses
+    nominal_masses: tuple[float, ...] | None = None
+    #: where the description comes from (a URDF path, or "bundled")
+    source: str = "bundled"
+    #: the robot's generic velocity-servo/motor force limit per driven joint when its source gives none [N m]
+    default_effort: float = 100.0
+    #: an MJCF file the robot comes from: the MuJoCo-family engines build the robot from it; the others,
+    #: which need a URDF, refuse the robot
+    mjcf: str | None = None
+
+    # --- lookups ----------------------------------------------------------------------------
+    @cached_property
+    def link_by_name(self) -> dict[str, Link]:
+        return {link.name: link for link in self.links}
+
+    @cached_property
+    def joint_by_name(self) -> dict[str, Joint]:
+        return {joint.name: joint for joint in self.joints}
+
+    @cached_property
+    def parent_joint(self) -> dict[str, Joint]:
+        """link -> the joint whose child it is (the root has none)."""
+        return {joint.child: joint for joint in self.joints}
+
+    @property
+    def root(self) -> str:
+        return self.links[0].name
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.arm_joints)
+
+    @property
+    def driven_links(self) -> tuple[str, ...]:
+        """The child link of each driven joint, in order."""
+        return tuple(self.joint_by_name[j].child for j in self.arm_joints)
+
+    def children(self, link_name: str) -> list[Joint]:
+        """The joints whose parent is ``link_name``, in table order."""
+        return [j for j in self.joints if j.parent == link_name]
+
+    def chain(self, link: str) -> list[Joint]:
+        """The joints from the root down to ``link``, root first."""
+        chain = []
+        name = link
+        while name != self.root:
+            joint = self.parent_joint[name]
+            chain.append(joint)
+            name = joint.parent
+        return chain[::-1]
+
+    @property
+    def nominal(self) -> tuple[float, ...]:
+        """The masses the ``mass_link_<n>`` ranges are relative to, one per driven joint."""
+        if self.nominal_masses is not None:
+            return self.nominal_masses
+        return tuple(self.link_by_name[link].mass for link in self.driven_links)
+
+    def generic_effort(self, index: int) -> float:
+        """The generic force limit of driven joint ``index`` (0-based): the source's, else the default."""
+        effort = self.joint_by_name[self.arm_joints[index]].effort
+        return self.default_effort if effort is None else float(effort)
+
+    @property
+    def reach(self) -> float:
+        """Base offset plus the lengths of the joint offsets up to the tracked link [m]: no pose puts its
+        origin farther from the world origin (prismatic travel added at its upper limit)."""
+        length = float(np.linalg.norm(self.base_position))
+        for joint in self.chain(self.tracked_link):
+            length += float(np.linalg.norm(joint.xyz))
+            if joint.kind == "prismatic":
+                length += max(abs(joint.lower or 0.0), abs(joint.upper or 0.0))
+        return length
+
+    # --- kinematics -------------------------------------------------------------------------
+    def forward_kinematics(self, q, link: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """World position and rotation of ``link``'s frame (default the tracked link) for driven joint
+        positions ``q`` [rad or m].  A plain NumPy chain over the joint table: the engines are checked
+        against it."""
+        positions = dict(zip(self.arm_joints, np.asarray(q, dtype=float)))
+        pos = np.array(self.base_position, dtype=float)
+        rot = rpy_matrix(self.base_rpy) if self.base_rpy != ZERO3 else np.eye(3)
+        for joint in self.chain(link or self.tracked_link):
+            pos = pos + rot @ np.asarray(joint.xyz, dtype=float)
+            rot = rot @ rpy_matrix(joint.rpy)
+            if joint.moves:
+                t, r = joint.motion(positions.get(joint.name, 0.0))
+                if joint.kind == "prismatic":
+                    pos = pos + rot @ t
+                else:
+                    rot = rot @ r
+        return pos, rot
+
+    def check(self) -> None:
+        """Raise ValueError if the tree or the named joints and link do not fit together."""
+        names = [link.name for link in self.links]
+        if len(set(names)) != len(names):
+            raise ValueError(f"robot {self.name!r}: a link name is used twice")
+        seen = {self.root}
+        for joint in self.joints:
+            if joint.kind not in JOINT_KINDS:
+                raise ValueError(f"joint {joint.name!r}: unknown type {joint.kind!r}")
+            if joint.parent not in seen or joint.child not in self.link_by_name or joint.child in seen:
+                raise ValueError(f"joint {joint.name!r}: links out of tree order ({joint.parent} -> {joint.child})")
+            seen.add(joint.child)
+        for name in self.arm_joints:
+            driven = self.joint_by_name.get(name)
+            if driven is None or not driven.moves:
+                raise ValueError(f"driven joint {name!r} is not a movable joint of robot {self.name!r}")
+        for joint in self.joints:
+            if joint.moves and joint.name not in self.arm_joints:
+                raise ValueError(f"joint {joint.name!r} moves but is neither driven nor held")
+        if self.tracked_link not in self.link_by_name:
+            raise ValueError(f"tracked link {self.tracked_link!r} is not a link of robot {self.name!r}")
+        if self.nominal_masses is not None and len(self.nominal_masses) != len(self.arm_joints):
+            raise ValueError("one nominal mass per driven joint")
+
+
+def mesh_vertices(mesh: Mesh) -> np.ndarray:
+    """The mesh's vertices, scaled, in its own frame (before ``center``/``rpy``), read with trimesh."""
+    import trimesh
+
+    loaded = trimesh.load(mesh.path, force="mesh", process=False)
+    vertices: np.ndarray = np.asarray(loaded.vertices, dtype=np.float64)  # type: ignore[attr-defined]
+    return vertices * np.asarray(mesh.scale, dtype=np.float64)
+
+
+def mesh_hull(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, triangles) of the convex hull of the scaled mesh, in its own frame."""
+    import trimesh
+
+    hull = trimesh.Trimesh(vertices=mesh_vertices(mesh), process=True).convex_hull
+    return np.asarray(hull.vertices, dtype=float), np.asarray(hull.faces, dtype=int)
