@@ -242,6 +242,7 @@ def cli(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "simtune.cli", *args], capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.slow  # about 20-25 s: synth, evaluate, tune, resume and report in subprocesses
 def test_a_project_from_synth_to_tune_and_report(tmp_path):
     """A project of its own: listed, recorded by synth (generic truth), evaluated, tuned and reported."""
     root = project(tmp_path / "arm", REACH, name="reach.toml")
