@@ -1,5 +1,6 @@
 """Your own robot: a project naming a URDF, `simtune init`, `simtune check`, and their one-line errors."""
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -235,3 +236,64 @@ def test_init_synth_check_and_recordings_without_the_body(panda_project, tmp_pat
     bad = cli("check", project)
     assert bad.returncode == 2
     assert "problem: " in bad.stderr and "reach0001.tsv: no body 'wrist'" in bad.stderr
+
+
+@pytest.mark.slow
+def test_panda_reach_init_synth_tune_recovers_within_twice_the_noise(tmp_path):
+    """The new user's path on the Panda: init, synth with a known command delay and velocity clamp (2 mm
+    noise), tune those two in MuJoCo: the tuned fitness is within 2x the truth's own against the noisy data."""
+    project = tmp_path / "panda"
+    assert cli("init", "--robot", PANDA, "--out", project).returncode == 0
+    truth = tmp_path / "truth.json"
+    truth.write_text(json.dumps({"command_delay": 1.0, "max_velocity_joint_2": 22.0}))
+    data = tmp_path / "rec"
+    synth = cli("synth", "--project", project, "--engine", "mujoco", "--task", "reach", "--truth", truth,
+                "--repeats", "3", "--out", data)  # fmt: skip
+    assert synth.returncode == 0, synth.stderr
+    run = tmp_path / "run"
+    tune = cli("tune", "--project", project, "--engine", "mujoco", "--task", "reach", "--data", data, "--only",
+               "command_delay,max_velocity_joint_2", "--max-evaluations", "150", "--out", run, "--quiet")  # fmt: skip
+    assert tune.returncode == 0, tune.stderr
+
+    def fitness(params: Path) -> float:
+        result = cli("evaluate", "--project", project, "--engine", "mujoco", "--task", "reach", "--data", data,
+                     "--params-file", params, "--json")  # fmt: skip
+        assert result.returncode == 0, result.stderr
+        return float(json.loads(result.stdout.strip().splitlines()[-1])["fitness"])
+
+    floor, tuned = fitness(data / "truth.json"), fitness(run / "best_params.json")
+    assert 0 < floor < 0.005  # 2 mm noise on 3 repeats: about a millimetre
+    assert tuned <= 2 * floor, (tuned, floor)
+    best = json.loads((run / "best_params.json").read_text())
+    assert abs(best.get("params", best)["command_delay"] - 1.0) < 0.1
+
+
+def test_cli_missing_mesh_in_a_project_is_one_line_exit_2(tmp_path):
+    (tmp_path / "arm.urdf").write_text(ARM_URDF)
+    (tmp_path / "simtune.toml").write_text('tasks = ["reach.toml"]\n[robot]\nurdf = "arm.urdf"\n')
+    result = cli("params", "--project", tmp_path)
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1
+    assert "simtune.toml: robot.urdf: " in result.stderr and "mesh file 'meshes/upper.stl' not found" in result.stderr
+
+
+def test_cli_joint_count_mismatch_is_one_line_exit_2(panda_project, tmp_path):
+    project = copy_project(panda_project, tmp_path / "bad")
+    edit(project / "tasks/reach.toml", "targets_deg = [20, ", "targets_deg = [")
+    result = cli("evaluate", "--project", project, "--engine", "mujoco", "--task", "reach")
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1
+    assert "reach.toml: phases[0].targets_deg: expected 7 numbers (one per driven joint" in result.stderr
+
+
+def test_cli_recordings_without_the_named_body_is_one_line_exit_2(panda_project, tmp_path):
+    project = copy_project(panda_project, tmp_path / "panda")
+    data = tmp_path / "rec"
+    synth = cli("synth", "--project", project, "--engine", "mujoco", "--task", "reach", "--repeats", "1", "--out", data)
+    assert synth.returncode == 0, synth.stderr
+    edit(project / "tasks/reach.toml", 'body = "hand"', 'body = "wrist"')
+    run = tmp_path / "run"
+    result = cli("tune", "--project", project, "--engine", "mujoco", "--task", "reach", "--data", data, "--out", run)
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and "reach0001.tsv: no body 'wrist' (bodies: " in result.stderr
+    assert not run.exists()
