@@ -56,9 +56,8 @@ def check_project(path: Path | str, engines: tuple[str, ...] | None = None) -> l
             f"{', '.join(robot.arm_joints)}, tracked link {robot.tracked_link}",
         )
     ]
-    for problem in project.validate():
-        level = "warning" if "does not exist" in problem or "no recordings folder" in problem else "problem"
-        findings.append(Finding(level, problem + (" (no recordings yet)" if level == "warning" else "")))
+    # what validate() lists (recordings folders missing) does not stop a project: recordings come later
+    findings += [Finding("warning", f"{lack} (no recordings yet)") for lack in project.validate()]
     for name in project.tasks:
         findings += _check_recordings(project, name)
     findings += _check_engines(project, engines or tuple(ENGINES))
