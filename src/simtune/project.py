@@ -23,7 +23,7 @@ from simtune.tasks.spec import TaskSpec
 
 #: The names a project file may have in its folder, in the order they are looked for.
 PROJECT_FILES = ("simtune.toml", "simtune.yaml", "simtune.yml")
-PROJECT_KEYS = ("name", "description", "robot", "tasks", "groups", "data")
+PROJECT_KEYS = ("name", "description", "robot", "urdf", "tasks", "groups", "data")
 #: The folder of the bundled MICO project (package data).
 BUNDLED_DIR = Path(__file__).resolve().parent / "projects" / "mico"
 #: Robots known by name (``robot = "mico"``).
@@ -119,6 +119,8 @@ ROBOT_KEYS = ("urdf", "name", "joints", "tracked_link", "base_position", "base_r
 def resolve_robot(keys: Keys, folder: Path) -> RobotNames:
     """The robot a project file names: ``robot = "mico"`` (the bundled MICO), or a ``[robot]`` table naming a
     URDF file (relative to ``folder``, or absolute) and how to read it (docs/task-files.md)."""
+    if keys.has("urdf"):  # the spelling docs/task-files.md announced before the [robot] table
+        raise keys.error("urdf", 'name the URDF in the robot table: [robot] then urdf = "<file>.urdf"')
     if not keys.has("robot"):
         raise keys.error("robot", 'missing: robot = "mico", or a [robot] table with urdf = "<file>.urdf"')
     if isinstance(keys.data["robot"], dict):
