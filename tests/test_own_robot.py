@@ -297,3 +297,22 @@ def test_cli_recordings_without_the_named_body_is_one_line_exit_2(panda_project,
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and "reach0001.tsv: no body 'wrist' (bodies: " in result.stderr
     assert not run.exists()
+
+
+def test_check_joint_logs_against_the_start_pose(panda_project, tmp_path):
+    project = copy_project(panda_project, tmp_path / "panda")
+    synth = cli("synth", "--project", project, "--engine", "mujoco", "--task", "reach", "--repeats", "1",
+                "--format", "joints-csv", "--out", project / "recordings")  # fmt: skip
+    assert synth.returncode == 0, synth.stderr
+    findings = check_project(project, engines=("mujoco",))
+    assert not [f for f in findings if f.level == "problem"], findings
+    notes = [f.message for f in findings if f.level == "note"]
+    assert any("reach: 1 recordings" in n and "7 joint angles" in n for n in notes), notes
+    assert any("first logged joint angles are within" in n for n in notes), notes  # synthetic: at the start pose
+    # a start pose 30 deg off the logs: a warning, not a problem
+    edit(project / "tasks/reach.toml", "start_pose_deg = [0, ", "start_pose_deg = [30, ")
+    edit(project / "tasks/reach.toml", "targets_deg = [0, 0, 0, -18", "targets_deg = [30, 0, 0, -18")
+    findings = check_project(project, engines=("mujoco",))
+    warned = [f.message for f in findings if f.level == "warning" and "first logged joint angles" in f.message]
+    assert warned and "panda_joint1: more than 5" in warned[0]
+    assert not [f for f in findings if f.level == "problem"]

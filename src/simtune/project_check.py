@@ -27,6 +27,8 @@ from simtune.project import Project, load_project
 #: A start position of the tracked link farther than this from the first recorded marker position
 #: is worth a warning [m]: a wrong base pose, tracked link, start pose or unit.
 START_DISTANCE_WARNING_M = 0.05
+#: The same for the first logged joint angle against the task's start pose [deg].
+START_ANGLE_WARNING_DEG = 5.0
 LEVELS = ("problem", "warning", "note")
 
 
@@ -114,6 +116,19 @@ def _check_recordings(project: Project, name: str) -> list[Finding]:
             findings.append(Finding("warning", f"{where}: {line}"))
         else:
             findings.append(Finding("note", line))
+    if data.joint_repeats is not None and data.joint_names:
+        # joint logs: the first logged angles against the start pose (the joints the logs and the task share)
+        start_by_joint = dict(zip(task.joints, np.radians(task.start_pose_deg)))
+        first = dict(zip(data.joint_names, data.joint_repeats[0, 0]))
+        shared = [j for j in data.joint_names if j in start_by_joint]
+        if shared:
+            worst = max(shared, key=lambda j: abs(first[j] - start_by_joint[j]))
+            degrees = float(np.degrees(abs(first[worst] - start_by_joint[worst])))
+            line = f"task {name}: the first logged joint angles are within {degrees:.2f} deg of the start pose"
+            if degrees > START_ANGLE_WARNING_DEG:
+                findings.append(Finding("warning", f"{where}: {line} ({worst}: more than {START_ANGLE_WARNING_DEG:g})"))
+            else:
+                findings.append(Finding("note", line))
     return findings
 
 
