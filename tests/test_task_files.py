@@ -132,7 +132,7 @@ def test_bad_yaml_is_one_line(tmp_path):
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
-        ('urdf = "arm.urdf"\n', "urdf: robots from URDF files are not supported yet"),
+        ('urdf = "arm.urdf"\n', r"simtune.toml: urdf: name the URDF in the robot table: \[robot\]"),
         ("colour = 1\n", "simtune.toml: colour: unknown key"),
         ('[groups]\nboth = ["push", "pull"]\n', "simtune.toml: groups.both: unknown task 'pull'"),
         ('[groups]\npush = ["push"]\n', "simtune.toml: groups.push: 'push' already names a task"),

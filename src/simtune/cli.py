@@ -866,6 +866,51 @@ def synth(
 
 
 @app.command()
+def init(
+    robot: Annotated[
+        Path,
+        typer.Option("--robot", help="The robot's URDF file (meshes beside it), used in place.", callback=_path),
+    ],
+    out_dir: Annotated[
+        Path,
+        typer.Option("--out", "-o", help="The new project folder (must not exist, or be empty).", callback=_path),
+    ],
+) -> None:
+    """Start a project for your robot: a commented simtune.toml and an example task `reach`.
+
+    Example: simtune init --robot arm.urdf --out myproject; then simtune check myproject
+    """
+    from simtune.project_init import init_project
+
+    file = init_project(robot, out_dir)
+    out.print(f"wrote {file} and {out_dir / 'tasks' / 'reach.toml'}", highlight=False, soft_wrap=True)
+    out.print(f"next: simtune check {out_dir}", highlight=False, soft_wrap=True)
+
+
+@app.command()
+def check(
+    project_dir: Annotated[
+        Path | None,
+        typer.Argument(help="Project folder to check (its simtune.toml).", show_default=False, callback=_path),
+    ] = None,
+) -> None:
+    """Check a project before tuning: robot, joints and links, recordings, start pose, engines.
+
+    Prints one line per finding; exits 2 if any is a problem.
+    """
+    from simtune.project_check import check_project
+
+    if project_dir is None:
+        raise typer.BadParameter("name the project folder: simtune check DIR")
+    findings = check_project(project_dir)
+    for finding in findings:
+        stream = err if finding.level == "problem" else out
+        stream.print(escape(str(finding)), highlight=False, soft_wrap=True)
+    if any(f.level == "problem" for f in findings):
+        raise typer.Exit(2)
+
+
+@app.command()
 def compare(
     optimizers: Annotated[
         str, typer.Option(help="Optimisers to compare, comma-separated: de, cmaes, bo, random.")

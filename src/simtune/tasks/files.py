@@ -18,6 +18,7 @@ from typing import Any
 import yaml
 
 from simtune.errors import ProjectError
+from simtune.robot.description import RobotDescription
 from simtune.tasks.spec import MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
 
 #: The joint control laws a task file may name (``controller.law``); simtune.controller runs them.
@@ -38,6 +39,13 @@ class RobotNames:
     links: tuple[str, ...]
     #: the link whose pose the engines report (the only one motion capture can track today)
     wrist_link: str
+    #: the robot itself, which the tasks read carry (None: the bundled MICO, TaskSpec's default)
+    description: RobotDescription | None = None
+
+    @classmethod
+    def of(cls, robot: RobotDescription) -> RobotNames:
+        """The names of ``robot``: its driven joints, every link, its tracked link; the tasks carry it."""
+        return cls(robot.name, robot.arm_joints, tuple(link.name for link in robot.links), robot.tracked_link, robot)
 
 
 def read_document(path: Path) -> dict[str, Any]:
@@ -242,6 +250,8 @@ def load_task_file(
     phases = _schedule(keys, joints, per_joint, path)
     if offset is not None and reaimed:
         phases = tuple(Phase(p.start, tuple(t + d for t, d in zip(p.targets_deg, offset))) for p in phases)
+    if robot is not None and robot.description is not None:
+        _check_limits(keys, robot.description, joints, start_pose, phases)
     if phases[-1].start >= duration:
         key = "schedule_csv" if keys.has("schedule_csv") else f"phases[{len(phases) - 1}].start"
         raise keys.error(key, f"starts at {phases[-1].start:g} s, not before the task's end (duration {duration:g} s)")
@@ -260,6 +270,7 @@ def load_task_file(
     recordings = keys.string("recordings")
     if recordings is not None:
         recordings = str(((project_dir or path.parent) / recordings).resolve())
+    carried = {} if robot is None or robot.description is None else {"robot": robot.description}
     return TaskSpec(
         name=name,
         description=keys.string("description", default="") or "",
@@ -275,7 +286,27 @@ def load_task_file(
         tracked_link=link,
         base_body=base_body,
         recordings=recordings,
+        **carried,
     )
+
+
+def _check_limits(
+    keys: Keys, robot: RobotDescription, joints: tuple[str, ...], start: tuple[float, ...], phases: tuple[Phase, ...]
+) -> None:
+    """Every start angle and target within its joint's limits (a joint without limits takes any angle)."""
+    rows = [("start_pose_deg", start), *((f"phases[{k}].targets_deg", p.targets_deg) for k, p in enumerate(phases))]
+    for key, row in rows:
+        for i, (name, angle) in enumerate(zip(joints, row)):
+            joint = robot.joint_by_name[name]
+            if joint.lower is None or joint.upper is None:
+                continue
+            lower, upper = math.degrees(joint.lower), math.degrees(joint.upper)
+            if not lower - 1e-6 <= angle <= upper + 1e-6:
+                where = "schedule_csv" if key.startswith("phases") and keys.has("schedule_csv") else key
+                raise keys.error(
+                    f"{where}[{i}]" if where == key else where,
+                    f"{angle:g} deg is outside the limits of {name} [{lower:.4g}, {upper:.4g}] deg",
+                )
 
 
 def _controller(keys: Keys) -> tuple[float, float]:

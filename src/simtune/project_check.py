@@ -1,0 +1,193 @@
+"""``simtune check DIR``: what a project still lacks before any tuning, one line per finding.
+
+Problems stop a project from being tuned (it does not load, a recording lacks a named body or
+joint); warnings are worth a look but do not (no recordings yet, the tracked link's start
+position far from the first recorded marker position, an engine that cannot load the robot);
+notes say what was found.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from simtune.engines import ENGINES, engine_class
+from simtune.errors import EngineUnavailable, SimtuneError
+from simtune.fitness import rollout_joint_names
+from simtune.objective import recordings_folder
+from simtune.project import Project, load_project
+
+#: A start position of the tracked link farther than this from the first recorded marker position
+#: is worth a warning [m]: a wrong base pose, tracked link, start pose or unit.
+START_DISTANCE_WARNING_M = 0.05
+#: The same for the first logged joint angle against the task's start pose [deg].
+START_ANGLE_WARNING_DEG = 5.0
+LEVELS = ("problem", "warning", "note")
+
+
+@dataclass(frozen=True)
+class Finding:
+    level: str  # one of LEVELS
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.level}: {self.message}"
+
+
+def check_project(path: Path | str, engines: tuple[str, ...] | None = None) -> list[Finding]:
+    """Everything ``simtune check`` reports on the project in ``path``: problems, warnings and notes.
+
+    ``engines``: the engines to load the robot in (default: every engine simtune knows).
+    """
+    try:
+        project = load_project(path)
+    except SimtuneError as exc:
+        return [Finding("problem", str(exc))]
+    robot = next(iter(project.tasks.values())).robot
+    findings = [
+        Finding(
+            "note",
+            f"{project.file}: robot {robot.name} ({robot.source}): {len(robot.links)} links, driven joints "
+            f"{', '.join(robot.arm_joints)}, tracked link {robot.tracked_link}",
+        )
+    ]
+    # what validate() lists (recordings folders missing) does not stop a project: recordings come later
+    findings += [Finding("warning", f"{lack} (no recordings yet)") for lack in project.validate()]
+    for name in project.tasks:
+        findings += _check_recordings(project, name)
+    findings += _check_engines(project, engines or tuple(ENGINES))
+    return findings
+
+
+def _check_recordings(project: Project, name: str) -> list[Finding]:
+    """The task's recordings hold its bodies or joints; the tracked link at the start pose against the first
+    recorded marker position."""
+    from simtune.data.task import load_task_data
+
+    task = project.tasks[name]
+    try:
+        folder = recordings_folder(None, task)
+    except SimtuneError:
+        return []  # validate() said so
+    if not folder.is_dir():
+        return []
+    where = project.task_files[name]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            data = load_task_data(
+                folder,
+                task.name,
+                wrist_body=task.wrist_body,
+                object_body=task.object.mocap_body if task.object is not None else None,
+                duration_s=task.duration,
+                reach_m=task.robot.reach,
+                base_body=task.base_body,
+                joint_names=rollout_joint_names(task),
+            )
+        except SimtuneError as exc:
+            return [Finding("problem", f"{where}: recordings: {exc}")]
+    findings = [Finding("warning", f"{where}: recordings: {w.message}") for w in caught]
+    holds = []
+    if data.wrist_repeats is not None:
+        holds.append(f"marker body {task.wrist_body!r}")
+    if data.object_final is not None and task.object is not None:
+        holds.append(f"object {task.object.mocap_body!r}")
+    if data.joint_names:
+        holds.append(f"{len(data.joint_names)} joint angles")
+    findings.append(Finding("note", f"task {name}: {len(data.sources)} recordings in {folder} ({', '.join(holds)})"))
+    if data.wrist_repeats is not None:
+        start, _ = task.robot.forward_kinematics(np.radians(task.start_pose_deg))
+        first = data.wrist_repeats[0, 0]
+        distance = float(np.linalg.norm(first - start))
+        line = (
+            f"task {name}: at the start pose the tracked link {task.tracked_link} is {distance * 100:.1f} cm from "
+            f"the first recorded position of {task.wrist_body!r} ({_xyz(start)} vs {_xyz(first)} m)"
+        )
+        if distance > START_DISTANCE_WARNING_M:
+            line += f": more than {START_DISTANCE_WARNING_M * 100:g} cm (base pose, tracked link, start pose, units?)"
+            findings.append(Finding("warning", f"{where}: {line}"))
+        else:
+            findings.append(Finding("note", line))
+    if data.joint_repeats is not None and data.joint_names:
+        # joint logs: the first logged angles against the start pose (the joints the logs and the task share)
+        start_by_joint = dict(zip(task.joints, np.radians(task.start_pose_deg)))
+        first = dict(zip(data.joint_names, data.joint_repeats[0, 0]))
+        shared = [j for j in data.joint_names if j in start_by_joint]
+        if shared:
+            worst = max(shared, key=lambda j: abs(first[j] - start_by_joint[j]))
+            degrees = float(np.degrees(abs(first[worst] - start_by_joint[worst])))
+            line = f"task {name}: the first logged joint angles are within {degrees:.2f} deg of the start pose"
+            if degrees > START_ANGLE_WARNING_DEG:
+                findings.append(Finding("warning", f"{where}: {line} ({worst}: more than {START_ANGLE_WARNING_DEG:g})"))
+            else:
+                findings.append(Finding("note", line))
+    return findings
+
+
+def _xyz(v) -> str:
+    return "(" + ", ".join(f"{float(x):.3f}" for x in v) + ")"
+
+
+@contextlib.contextmanager
+def _engine_chatter_silenced() -> Iterator[None]:
+    """The engines' own C++ loaders print to the process's stdout and stderr (DART one line per mesh
+    material file it looks for): while they load, both go to /dev/null, so the check's lines stay readable."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    try:
+        with open(os.devnull, "w") as devnull:
+            os.dup2(devnull.fileno(), 1)
+            os.dup2(devnull.fileno(), 2)
+            yield
+    finally:
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in saved:
+            os.close(fd)
+
+
+def _check_engines(project: Project, engines: tuple[str, ...]) -> list[Finding]:
+    """Which engines build the robot: each one's tracked link at the first task's start pose, against the
+    robot's own forward kinematics."""
+    task = next(iter(project.tasks.values()))
+    want, _ = task.robot.forward_kinematics(np.radians(task.start_pose_deg))
+    loaded, findings = [], []
+    for name in engines:
+        try:
+            with _engine_chatter_silenced():  # importing pybullet prints its build time
+                cls = engine_class(name)
+        except EngineUnavailable as exc:
+            findings.append(Finding("note", str(exc)))
+            continue
+        try:
+            with _engine_chatter_silenced():
+                sim = cls(task)
+                try:
+                    sim.reset({})
+                    got, _ = sim.wrist_pose()
+                finally:
+                    sim.close()
+        except Exception as exc:  # an engine failing on a robot is a finding, not the end of the check
+            first_line = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            findings.append(Finding("warning", f"engine {name} cannot load robot {task.robot.name}: {first_line}"))
+            continue
+        error = float(np.linalg.norm(np.asarray(got) - want))
+        if error > 1e-4:
+            findings.append(
+                Finding(
+                    "warning",
+                    f"engine {name}: the tracked link is {error * 1000:.2f} mm from the robot's own kinematics",
+                )
+            )
+        loaded.append(name)
+    findings.append(Finding("note", f"engines that load the robot: {', '.join(loaded) or 'none'}"))
+    return findings

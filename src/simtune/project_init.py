@@ -1,0 +1,177 @@
+"""``simtune init``: a new project for a robot given as a URDF file, ready to run as written.
+
+The project file names the URDF in place (never copied) with everything :func:`~simtune.robot.urdf.load_urdf`
+chose for it written out (driven joints, tracked link, held joints, gripper links), so a user sees and edits
+those choices.  The example task ``reach`` moves every driven joint a little within its limits and back,
+with no object.  The folder is written beside its destination and renamed into place once the project
+loads, so an error leaves nothing half-written.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from simtune.errors import ProjectError
+from simtune.project import load_project
+from simtune.robot.description import RobotDescription
+from simtune.robot.urdf import load_urdf
+
+#: How far the example reach turns each joint [deg] (less where its limits leave less room).
+REACH_DEG = 20.0
+#: Lowest height [m] the tracked link may have at the reach's poses (above the floor, z = 0).
+CLEARANCE_M = 0.05
+
+
+def _toml(value) -> str:
+    """A TOML value: strings and lists of numbers or strings (JSON writes both the way TOML reads them)."""
+    if isinstance(value, float):
+        return f"{value:.6g}" if math.isfinite(value) else json.dumps(value)
+    if isinstance(value, tuple | list):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return json.dumps(value)
+
+
+def _deg(values) -> list[float]:
+    return [round(float(v), 3) for v in values]
+
+
+def reach_poses(robot: RobotDescription) -> tuple[list[float], list[float]]:
+    """(start, target) of the example reach [deg]: each joint at 0 moved inside its limits by a tenth of its
+    range, then turned by up to ``REACH_DEG`` towards its wider side; the turn halved while the tracked link
+    would come nearer the floor than ``CLEARANCE_M``."""
+    start, turn = [], []
+    for name in robot.arm_joints:
+        joint = robot.joint_by_name[name]
+        if joint.lower is None or joint.upper is None:
+            start.append(0.0)
+            turn.append(REACH_DEG)
+            continue
+        lower, upper = math.degrees(joint.lower), math.degrees(joint.upper)
+        margin = 0.1 * (upper - lower)
+        angle = min(max(0.0, lower + margin), upper - margin)
+        room_up, room_down = upper - margin - angle, angle - (lower + margin)
+        start.append(angle)
+        turn.append(min(REACH_DEG, room_up) if room_up >= room_down else -min(REACH_DEG, room_down))
+    scale = 1.0
+    for _ in range(4):
+        target = [a + scale * t for a, t in zip(start, turn)]
+        if float(robot.forward_kinematics(np.radians(target))[0][2]) >= CLEARANCE_M:
+            break
+        scale /= 2
+    return _deg(start), _deg(target)
+
+
+def project_text(robot: RobotDescription, urdf: Path) -> str:
+    gripper = [link.name for link in robot.links if link.material == "gripper"]
+    lines = [
+        f"# A simtune project for the robot of {urdf.name} (schema: docs/task-files.md).",
+        "# Check it with `simtune check <this folder>`; list its parameters with `simtune params --project <folder>`.",
+        f"name = {_toml(robot.name)}",
+        f'description = "{robot.name}, from {urdf.name}"',
+        "# task files, relative to this folder; add one per motion you recorded",
+        'tasks = ["tasks/reach.toml"]',
+        "# the data root: recordings/<task name>/ holds each task's recordings (motion capture: *.tsv, *.csv, *.c3d;",
+        "# joint logs: *.csv, *.mcap, rosbag2 folders). Without recordings yet: `simtune synth --project <folder> ...`",
+        'data = "recordings"',
+        "",
+        "[robot]",
+        "# the robot's URDF, used in place: relative to this folder, or absolute (meshes are found beside it)",
+        f"urdf = {_toml(str(urdf))}",
+        "# the joints the controller drives, in the order of every target list of the task files",
+        f"joints = {_toml(list(robot.arm_joints))}",
+        "# the link whose origin the motion capture's wrist body follows (the engines report its pose)",
+        f"tracked_link = {_toml(robot.tracked_link)}",
+        "# where the robot's root link stands [m] and how it is turned [rad]; the floor is the plane z = 0",
+        f"base_position = {_toml(list(robot.base_position))}",
+        f"base_rpy = {_toml(list(robot.base_rpy))}",
+        "# links with the gripper's contact parameters (friction, restitution ...); the other links are 'arm'",
+        f"gripper_links = {_toml(gripper)}",
+    ]
+    if robot.held:
+        lines += [
+            "",
+            "# movable joints that are not driven (a gripper's fingers), held at these positions [rad or m]",
+            "[robot.held]",
+            *(f"{_toml(name)} = {_toml(position)}" for name, position in robot.held),
+        ]
+    return "\n".join(lines) + "\n"
+
+
+def reach_text(robot: RobotDescription) -> str:
+    start, target = reach_poses(robot)
+    return "\n".join(
+        [
+            "# The example task: every driven joint turns a little and back, no object (schema: docs/task-files.md).",
+            "# Replace the schedule with what your robot was commanded while you recorded it.",
+            'name = "reach"',
+            'description = "every driven joint turns and back (no contact)"',
+            "duration = 8.0  # [s] simulated and compared with the recordings",
+            f"joints = {_toml(list(robot.arm_joints))}",
+            f"start_pose_deg = {_toml(start)}",
+            "",
+            "[controller]",
+            'law = "clamped-p-velocity"  # at 20 Hz: joint velocity = clamp(gain * (target - angle), +-max)',
+            "gain = 10.0  # [1/s]",
+            "max_velocity_deg = 30.0  # [deg/s]",
+            "",
+            "[mocap]",
+            f"link = {_toml(robot.tracked_link)}  # the link the wrist marker sits on",
+            'body = "hand"  # the marker\'s rigid-body name in the recordings',
+            "# base_body = \"base\"  # optional: the body on the robot's base, for the recordings' checks",
+            "",
+            "# an object for the hand to push (then name it in the recordings as mocap_body):",
+            "# [object]",
+            '# shape = "cube"  # cube, cuboid, cylinder or cone',
+            '# material = "plastic"  # contact group: plastic or wood',
+            "# mass = 0.1  # [kg]",
+            "# size = [0.06, 0.06, 0.06]  # [m]",
+            "# xy = [0.5, 0.0]  # [m] where it rests on the floor",
+            '# mocap_body = "box"',
+            "",
+            "[[phases]]",
+            "start = 0.0  # [s]",
+            f"targets_deg = {_toml(target)}",
+            "",
+            "[[phases]]",
+            "start = 4.0",
+            f"targets_deg = {_toml(start)}",
+            "",
+        ]
+    )
+
+
+def init_project(urdf: Path | str, out: Path | str) -> Path:
+    """Write a project for the robot of ``urdf`` into the new (or empty) folder ``out``; the project file.
+
+    ``ProjectError``/``RobotError`` (one line) if ``out`` holds anything or the URDF cannot be used; then
+    nothing is written.
+    """
+    urdf = Path(urdf).expanduser().resolve()
+    out = Path(out).expanduser()
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise ProjectError(f"{out}: exists and is not an empty folder: choose a new --out (nothing was written)")
+    robot = load_urdf(urdf)
+    parent = out.resolve().parent
+    if not parent.is_dir():
+        raise ProjectError(f"{out}: its folder {parent} does not exist")
+    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
+    try:
+        umask = os.umask(0)
+        os.umask(umask)
+        staging.chmod(0o777 & ~umask)  # mkdtemp's folder is private; a project folder is an ordinary one
+        (staging / "tasks").mkdir()
+        (staging / "simtune.toml").write_text(project_text(robot, urdf), encoding="utf-8")
+        (staging / "tasks" / "reach.toml").write_text(reach_text(robot), encoding="utf-8")
+        load_project(staging)  # what init writes must load as written
+        os.replace(staging, out)  # an empty ``out`` is replaced; a new one appears whole
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return out / "simtune.toml"
