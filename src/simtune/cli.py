@@ -112,6 +112,14 @@ SpaceOpt = Annotated[
         "and marker offset); an engine's lacks what it cannot map.",
     ),
 ]
+KeepInactiveOpt = Annotated[
+    bool,
+    typer.Option(
+        "--keep-inactive",
+        help="Keep parameters that change no rollout of the tasks (measured before the search, see "
+        "`simtune params --task T`) in the search: the paper's full D. --paper-exact implies it.",
+    ),
+]
 OnlyOpt = Annotated[
     str | None,
     typer.Option(help="Only these parameters of the space (comma-separated); the rest keep their generic values."),
@@ -219,8 +227,11 @@ def evaluate(
         out.print(f"generic fitness: {generic.fitness:.4f}")
 
 
-def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bool) -> None:
+def _report_tune(result, run_dir: Path, config, store, as_json: bool) -> None:
     from simtune.runs import BEST_PARAMS_FILE
+
+    store_generic = store.get("generic")
+    searched, inactive = store.get("parameters"), store.get("inactive_parameters") or {}
 
     payload = {
         "engine": config.engine,
@@ -236,6 +247,8 @@ def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bo
         "wall_s": result.wall_s,
         "best_params_file": str(run_dir / BEST_PARAMS_FILE),
         "message": result.message,
+        "search_dimension": len(searched),
+        "inactive_parameters": inactive,
     }
     if as_json:
         print(json.dumps(payload))
@@ -251,6 +264,12 @@ def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bo
         f"({result.message})"
     )
     out.print(f"  best parameters: {payload['best_params_file']}")
+    if inactive:
+        kept = "kept in the search (--keep-inactive)" if set(inactive) & set(searched) else "left out of the search"
+        out.print(
+            f"  search dimension D = {len(searched)}; {len(inactive)} parameters change no rollout of "
+            f"{config.tasks} and were {kept} (`simtune params --task {config.tasks}` says why)"
+        )
 
 
 @app.command()
@@ -291,6 +310,7 @@ def tune(
         ),
     ] = False,
     only: OnlyOpt = None,
+    keep_inactive: KeepInactiveOpt = False,
     eval_timeout: EvalTimeoutOpt = 600.0,
     paper_exact: Annotated[
         bool,
@@ -341,9 +361,10 @@ def tune(
         refine=refine,
         max_evaluations=max_evaluations,
         paper_exact=paper_exact,
+        keep_inactive=keep_inactive,
     )
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
-    _report_tune(result, out_dir, config, RunStore(out_dir).get("generic"), as_json)
+    _report_tune(result, out_dir, config, RunStore(out_dir), as_json)
 
 
 @app.command()
@@ -384,7 +405,7 @@ def resume(
             highlight=False,
             soft_wrap=True,
         )
-    _report_tune(result, run_dir, config, store.get("generic"), as_json)
+    _report_tune(result, run_dir, config, store, as_json)
 
 
 @app.command()
@@ -448,6 +469,7 @@ def grid(
     ] = None,
     max_generations: Annotated[int, typer.Option(min=1, help="Generation limit of each optimisation.")] = 1000,
     only: Annotated[str | None, typer.Option(help="Tune only these parameters (comma-separated).")] = None,
+    keep_inactive: KeepInactiveOpt = False,
     plan: Annotated[bool, typer.Option("--plan", help="Print the grid's size and cost estimate; run nothing.")] = False,
     cluster_cores: Annotated[int, typer.Option(min=1, help="With --plan: cores of the cluster to estimate for.")] = 100,
 ) -> None:
@@ -472,6 +494,7 @@ def grid(
         max_seconds_per_run=max_seconds_per_run,
         max_generations=max_generations,
         only=_split(only) if only else None,
+        keep_inactive=keep_inactive,
     )
     if plan:
         rows = plan_grid(spec)
@@ -662,19 +685,43 @@ def _tasks_contact(engine: str | None, task: str | None, figure: Path | None, as
 def params(
     space: Annotated[str, typer.Option("--space", "-s", help="shared, individual or extended.")] = "extended",
     engine: Annotated[str | None, typer.Option("--engine", "-e", help="Only what this engine supports.")] = None,
+    task: Annotated[
+        str | None,
+        typer.Option(
+            "--task",
+            "-t",
+            help="Also say which parameters change a rollout of these tasks (comma-separated; measured by a probe "
+            "of the engine, default mujoco, and cached): an active column and the reason for each inactive one.",
+        ),
+    ] = None,
 ) -> None:
-    """List a parameter space: names, ranges, units."""
+    """List a parameter space: names, ranges, units (with --task: whether each can change the task's rollout)."""
     from simtune.engines import engine_class
     from simtune.params import get_space
 
+    if task is not None and engine is None:
+        engine = "mujoco"
     supported = engine_class(engine).supported() if engine else None
     sp = get_space(space, supported)
-    table = text_table(
-        f"space {space}" + (f" in {engine}" if engine else "") + f": {len(sp)} parameters",
-        ("parameter", "low", "high", "unit", "meaning"),
-    )
+    inactive: dict[str, str] = {}
+    headers: tuple[str, ...] = ("parameter", "low", "high", "unit", "meaning")
+    if task is not None:
+        from simtune.activity import inactive_parameters
+        from simtune.tasks import parse_tasks
+
+        assert engine is not None, "set above"
+        inactive = inactive_parameters(engine, parse_tasks(task), sp)
+        headers = ("parameter", "low", "high", "unit", "active", "meaning / why inactive")
+    title = f"space {space}" + (f" in {engine}" if engine else "") + f": {len(sp)} parameters"
+    if task is not None:
+        title += f", {len(sp) - len(inactive)} active on {task}"
+    table = text_table(title, headers)
     for p in sp.parameters:
-        table.add_row(p.name, f"{p.low:g}", f"{p.high:g}", p.unit, p.description)
+        if task is None:
+            table.add_row(p.name, f"{p.low:g}", f"{p.high:g}", p.unit, p.description)
+        else:
+            why = inactive.get(p.name)
+            table.add_row(p.name, f"{p.low:g}", f"{p.high:g}", p.unit, "no" if why else "yes", why or p.description)
     out.print(table)
 
 

@@ -44,13 +44,14 @@ from pathlib import Path
 import numpy as np
 
 import simtune
+from simtune.activity import active_space, inactive_parameters
 from simtune.data.fingerprint import data_fingerprint, fingerprint_changes
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, RunInterrupted, SimtuneError
 from simtune.objective import Objective, load_references
 from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squares_refine
 from simtune.optimize.evaluator import timed_out
-from simtune.params import get_space
+from simtune.params import ParameterSpace, get_space
 from simtune.progress import TuneProgress
 from simtune.runlock import LOCK_FILE, check_free, run_lock
 from simtune.store import STORE_FILE, RunStore, check_store_file
@@ -94,6 +95,9 @@ class RunConfig:
     #: the seed paper's exact search: SciPy's DE with immediate updating and polish, one worker, no
     #: pruning, and the paper's whole parameter list (parameters the engine lacks kept, without effect)
     paper_exact: bool = False
+    #: keep parameters that change no rollout of the tasks in the search (the paper's full D); implied by
+    #: paper_exact.  Runs stored before this setting existed kept them all.
+    keep_inactive: bool = False
 
     @classmethod
     def from_stored(cls, values, where: str) -> RunConfig:
@@ -106,6 +110,7 @@ class RunConfig:
                 raise ConfigError(
                     f"{where}: unknown key {key!r} in the stored configuration (written by another simtune version?)"
                 )
+        values = {"keep_inactive": True, **values}  # a run from before the setting searched every parameter
         for f in fields(cls):
             if f.default is MISSING and f.name not in values:
                 raise ConfigError(f"{where}: the stored configuration has no {f.name!r}")
@@ -136,7 +141,7 @@ class RunConfig:
                 raise bad(key, "a finite number of seconds above 0")
         if self.target_fitness is not None and (not _is_number(self.target_fitness) or self.target_fitness < 0):
             raise bad("target_fitness", "a finite number of at least 0")
-        for key in ("prune", "refine", "paper_exact"):
+        for key in ("prune", "refine", "paper_exact", "keep_inactive"):
             if not isinstance(getattr(self, key), bool):
                 raise bad(key, "true or false")
         if self.only is not None and (
@@ -207,11 +212,27 @@ def _summary(changes: list[str], shown: int = 3) -> str:
     return "; ".join(changes[:shown]) + more
 
 
-def build_objective(config: RunConfig) -> Objective:
-    tasks = parse_tasks(config.tasks)
+def full_space(config: RunConfig) -> ParameterSpace:
+    """The run's space before inactive parameters are left out: the engine's (or the paper's whole list)."""
     # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
     supported = None if config.paper_exact else engine_class(config.engine).supported()
-    space = get_space(config.space, supported, config.only)
+    return get_space(config.space, supported, config.only)
+
+
+def run_inactive(config: RunConfig) -> dict[str, str]:
+    """Parameters of the run's full space that change no rollout of its tasks: name -> why (measured, cached)."""
+    return inactive_parameters(config.engine, parse_tasks(config.tasks), full_space(config))
+
+
+def build_objective(config: RunConfig, inactive: dict[str, str] | None = None) -> Objective:
+    """The run's objective; its space leaves out ``inactive`` (measured when not given) unless the run keeps them.
+
+    Parameters named by ``--only`` stay whether active or not: the user asked for them.
+    """
+    tasks = parse_tasks(config.tasks)
+    space = full_space(config)
+    if not (config.keep_inactive or config.paper_exact):
+        space = active_space(space, run_inactive(config) if inactive is None else inactive, config.only)
     return Objective(config.engine, tasks, load_references(Path(config.data), tasks), space)
 
 
@@ -296,6 +317,9 @@ def _create_store(run_dir: Path, config: RunConfig, objective: Objective, generi
             n for n in objective.vector_space().names if n not in engine_class(config.engine).supported()
         ],
         generic=generic.to_dict(),
+        # every parameter of the full space that changes no rollout of the tasks, and why (left out of the
+        # search unless keep_inactive; the report and export never pool them)
+        inactive_parameters=run_inactive(config),
         fingerprint=run_fingerprint(config),
         status="running",
         elapsed_s=0.0,
@@ -357,7 +381,7 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
                     f"`simtune resume {run_dir} --rescore` starts a new run from its last population on the data "
                     "as it is now"
                 )
-            objective = build_objective(config)
+            objective = build_objective(config, store.get("inactive_parameters"))
             _check_parameters(run_dir, objective, store, config)
             store.release_failures(timed_out)  # each evaluation that timed out gets one more try
             return _run_interruptible(objective, config, store, show_progress)
@@ -375,7 +399,8 @@ def _check_parameters(run_dir: Path, objective: Objective, store: RunStore, conf
 def _rescore(run_dir: Path, store: RunStore, config: RunConfig, changes: list[str], show_progress: bool) -> TuneResult:
     """A new run in ``run_dir`` from the old run's last search population, on the data as it is now."""
     checkpoint = store.last_checkpoint(up_to=store.get("search_generations"))
-    objective = build_objective(config)  # the new data must load before the old run is moved aside
+    # the new data must load before the old run is moved aside
+    objective = build_objective(config, store.get("inactive_parameters"))
     _check_parameters(run_dir, objective, store, config)
     generic = objective.score({})
     store.close()
