@@ -264,6 +264,9 @@ def _report_tune(result, run_dir: Path, config, store, as_json: bool) -> None:
         f"({result.message})"
     )
     out.print(f"  best parameters: {payload['best_params_file']}")
+    summary = store.get("uncertainty")
+    if summary:
+        _print_uncertainty(summary, short=True, run_dir=run_dir)
     if inactive:
         kept = "kept in the search (--keep-inactive)" if set(inactive) & set(searched) else "left out of the search"
         out.print(
@@ -365,6 +368,66 @@ def tune(
     )
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
     _report_tune(result, out_dir, config, RunStore(out_dir), as_json)
+
+
+def _print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
+    """The uncertainty table: every parameter (or, ``short``, the searched ones) with its 95 % interval."""
+    if summary.get("error"):
+        out.print(f"  uncertainty not computed: {escape(summary['error'])}")
+        return
+    rows = summary["parameters"]
+    if short:  # the pinned ones; the others named in one line
+        loose = [e["name"] for e in rows if e["active"] and not e["identifiable"]]
+        rows = [e for e in rows if e["identifiable"]]
+    table = text_table(
+        f"uncertainty at the best point: rank {summary['rank']} of {summary['searched']} searched, "
+        f"condition number {_fmt_g(summary['condition_number'])}",
+        ("parameter", "value", "95 % low", "95 % high", "active", "identifiable"),
+    )
+    for e in rows:
+        table.add_row(
+            e["name"],
+            _fmt_g(e["value"]),
+            _fmt_g(e["low"]) if e["low"] is not None else "unbounded",
+            _fmt_g(e["high"]) if e["high"] is not None else "unbounded",
+            "yes" if e["active"] else "no",
+            "yes" if e["identifiable"] else "no",
+        )
+    out.print(table)
+    pairs = summary.get("correlated_pairs") or []
+    if pairs:
+        listed = ", ".join(f"{p['a']} ~ {p['b']} ({p['correlation']:+.2f})" for p in pairs[:3])
+        out.print(f"  most correlated: {listed}")
+    if short:
+        if loose:
+            out.print(f"  unbounded (the recordings cannot pin them here): {', '.join(loose)}")
+        out.print(f"  `simtune uncertainty {run_dir}` lists every parameter (--json for scripts)")
+
+
+def _fmt_g(value: float | None) -> str:
+    return "-" if value is None else f"{value:.4g}"
+
+
+@app.command()
+def uncertainty(
+    run_dir: Annotated[Path, typer.Argument(help="A finished run folder made by `simtune tune`.", callback=_path)],
+    workers: WorkersOpt = 1,
+    as_json: JsonOpt = False,
+) -> None:
+    """How well the recordings pin each parameter at a run's best point: 95 % intervals (Gauss-Newton).
+
+    The Jacobian of the per-sample residuals (finite differences, 2D + 1 rollouts as one batch over
+    --workers), its rank and condition number, a 95 % interval per parameter (unbounded where the
+    recordings cannot pin it) and the most correlated pairs; stored in the run for `simtune report`.
+    With --json: one object with a list `parameters` (name, value, low, high, active, identifiable).
+    """
+    from simtune.runs import run_uncertainty
+
+    summary = run_uncertainty(run_dir, workers)
+    if as_json:
+        print(json.dumps(summary))
+        return
+    _print_uncertainty(summary, short=False, run_dir=run_dir)
 
 
 @app.command()

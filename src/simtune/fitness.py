@@ -105,3 +105,21 @@ def score_rollout(rollout: Rollout, reference: TaskData, params: dict[str, float
     return TaskScore(
         reference.task, fitness, wrist_error, object_error, rollout.stable, rollout.message, steps=rollout.steps
     )
+
+
+def residuals(rollout: Rollout, reference: TaskData, params: dict[str, float]) -> np.ndarray:
+    """One task's residual vector for least squares and Gauss-Newton uncertainty, beside its scalar fitness.
+
+    The simulated marker minus the mean recorded wrist at every 20 Hz sample (x, y, z: the
+    vector whose length is the fitness's per-sample wrist distance), divided by sqrt(samples),
+    then, for a task with an object, the simulated minus the recorded final object position
+    (whose length is the object distance).  Their sum of squares is the mean squared wrist
+    distance plus the squared object distance: the fitness with squared distances.  The
+    components rather than the distances, so that the Jacobian keeps each direction and stays
+    smooth where a distance is near zero.
+    """
+    n = len(reference.times)
+    parts = [((marker_positions(rollout, params) - reference.wrist_mean) / np.sqrt(n)).ravel()]
+    if reference.object_final is not None and rollout.object_pos is not None:
+        parts.append(rollout.object_pos[-1] - reference.object_final_mean)
+    return np.concatenate(parts)

@@ -15,7 +15,8 @@ import numpy as np
 from simtune.data import TaskData, load_task_data
 from simtune.engines import Engine, engine_class, make_engine
 from simtune.errors import SimtuneError
-from simtune.fitness import PENALTY, Score, TaskScore, marker_positions, score_rollout
+from simtune.fitness import PENALTY, Score, TaskScore, score_rollout
+from simtune.fitness import residuals as task_residuals
 from simtune.params import ParameterSpace
 from simtune.robot.mico import WRIST_REACH_M
 from simtune.tasks import TaskSpec
@@ -130,10 +131,7 @@ class Objective:
             n = len(reference.times)
             rollout = self._engine(task).rollout(params, n)
             scores.append(score_rollout(rollout, reference, params))
-            parts.append(((marker_positions(rollout, params) - reference.wrist_mean) / np.sqrt(n)).ravel())
-            if self._has_object_residual(task):
-                assert rollout.object_pos is not None, "a task with an object samples its position"
-                parts.append(rollout.object_pos[-1] - reference.object_final_mean)
+            parts.append(task_residuals(rollout, reference, params))
         score = Score.combine(scores)
         residuals = np.concatenate(parts)
         if not score.stable or not np.all(np.isfinite(residuals)):

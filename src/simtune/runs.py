@@ -56,6 +56,7 @@ from simtune.progress import TuneProgress
 from simtune.runlock import LOCK_FILE, check_free, run_lock
 from simtune.store import STORE_FILE, RunStore, check_store_file
 from simtune.tasks import TaskSpec, parse_tasks
+from simtune.uncertainty import uncertainty
 
 BEST_PARAMS_FILE = "best_params.json"
 #: where ``resume --rescore`` keeps the run it replaces
@@ -512,9 +513,46 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
             "params": result.params,
         },
     )
+    store.set(uncertainty=_uncertainty_or_reason(objective, config, store, result.x))
     store.set(status="finished", message=result.message, best_fitness=result.score.fitness)
     store.close()
     return result
+
+
+def _uncertainty_or_reason(objective: Objective, config: RunConfig, store: RunStore, x) -> dict:
+    """The Gauss-Newton uncertainty at the best point, or why it could not be computed (the run stands either way)."""
+    try:
+        return uncertainty(objective, x, full_space(config), store.get("inactive_parameters") or {}, config.workers)
+    except SimtuneError as exc:
+        return {"error": str(exc), "parameters": []}
+
+
+def run_uncertainty(run_dir: Path, workers: int = 1) -> dict:
+    """Compute (again) the uncertainty at a finished run's best point and store it in the run (store meta)."""
+    run_dir = Path(run_dir)
+    path = run_dir / STORE_FILE
+    if not path.exists():
+        raise SimtuneError(f"{run_dir} is not a run folder (no {STORE_FILE})")
+    with run_lock(run_dir):
+        store = RunStore(run_dir)
+        try:
+            config = RunConfig.from_stored(store.get("config"), str(path))
+            if store.get("status") != "finished":
+                raise SimtuneError(f"{run_dir}: the run is not finished: `simtune resume {run_dir}` finishes it")
+            objective = build_objective(config, store.get("inactive_parameters"))
+            _check_parameters(run_dir, objective, store, config)
+            best = store.best_evaluation()
+            if best is None:
+                raise SimtuneError(f"{run_dir}: no evaluations in the run")
+            summary = uncertainty(
+                objective, np.asarray(best["x"]), full_space(config), store.get("inactive_parameters") or {}, workers
+            )
+            store.set(uncertainty=summary)
+            return summary
+        except sqlite3.DatabaseError as exc:
+            raise SimtuneError(f"{path} is damaged ({exc})") from None
+        finally:
+            store.close()
 
 
 def _combine(search: TuneResult, refined: TuneResult) -> TuneResult:
