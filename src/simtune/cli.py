@@ -431,6 +431,73 @@ def uncertainty(
 
 
 @app.command()
+def check(
+    engine: Annotated[str | None, typer.Option("--engine", "-e", help="Physics engine (default mujoco).")] = None,
+    task: Annotated[
+        str | None,
+        typer.Option("--task", "-t", help="Task name, or several joined by commas (checked together)."),
+    ] = None,
+    data: DataOpt = None,
+    space: SpaceOpt = "extended",
+    workers: WorkersOpt = 1,
+    as_json: JsonOpt = False,
+) -> None:
+    """Before tuning: data quality, motion onsets, and which parameters the recordings can inform.
+
+    Prints, per task: lost marker frames and the longest gap of each recording, how well the repeats
+    agree, how far each starts from the simulated arm, each repeat's motion onset (and the command delay
+    it implies); then the rank and singular values of the residuals' Jacobian at the generic point and,
+    per active parameter, whether the recordings can inform it.
+    """
+    from simtune.check import check as run_check
+    from simtune.tasks import parse_tasks
+
+    if task is None:
+        raise SimtuneError("check: name the tasks to check with --task T (and their recordings with --data ROOT)")
+    result = run_check(engine or "mujoco", parse_tasks(task), _data_root(data), space, workers)
+    if as_json:
+        print(json.dumps(result))
+        return
+    for part in result["data_quality"]:
+        table = text_table(
+            f"{part['task']}: {len(part['repeats'])} repeats, spread {1000 * part['repeat_spread_m']:.1f} mm",
+            ("file", "lost frames", "longest gap [s]", "to mean [mm]", "start distance [mm]", "onset [s]"),
+        )
+        for r in part["repeats"]:
+            table.add_row(
+                r["file"],
+                str(r["lost_frames"]),
+                f"{r['longest_gap_s']:.2f}",
+                f"{1000 * r['distance_to_mean_m']:.1f}" + (" (outlier)" if r["outlier"] else ""),
+                f"{1000 * r['start_distance_m']:.1f}",
+                _fmt_g(r["onset_s"]),
+            )
+        out.print(table)
+        for line in part["left_out"]:
+            out.print(f"  left out: {escape(line)}")
+        out.print(
+            f"  motion onset {_fmt_g(part['onset_mean_s'])} s (std {_fmt_g(part['onset_std_s'])} s); the generic "
+            f"simulation moves at {_fmt_g(part['simulated_onset_s'])} s: command delay about "
+            f"{_fmt_g(part['implied_command_delay_s'])} s"
+        )
+    jac = result["jacobian"]
+    shown = ", ".join(f"{v:.3g}" for v in jac["singular_values"])
+    out.print(
+        f"Jacobian at the generic point: rank {jac['rank']} of {jac['searched']} active parameters "
+        f"({jac['cutoff']}); singular values: {shown}"
+    )
+    table = text_table("what the recordings can inform", ("parameter", "informed", "sensitivity", "note"))
+    for p in sorted(result["parameters"], key=lambda p: -p["sensitivity"]):
+        table.add_row(
+            p["name"],
+            "yes" if p["informed"] else "no",
+            f"{p['sensitivity']:.3g}",
+            f"inactive: {p['inactive']}" if "inactive" in p else "",
+        )
+    out.print(table)
+
+
+@app.command()
 def resume(
     run_dir: Annotated[Path, typer.Argument(help="A run folder made by `simtune tune`.", callback=_path)],
     rescore: Annotated[

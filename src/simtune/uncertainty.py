@@ -109,6 +109,20 @@ def wrist_autocorrelation(residuals: np.ndarray, objective: Objective) -> float:
     return float(min(max(rho, 0.0), MAX_RHO))
 
 
+def directions(J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Singular values of ``J`` (m, D), right singular vectors (rows), which are kept (above :data:`RCOND` x the
+    largest), and each parameter's share in the discarded directions (0: fully pinned by the kept ones, 1: free)."""
+    d = J.shape[1]
+    if d == 0:
+        return np.zeros(0), np.zeros((0, 0)), np.zeros(0, dtype=bool), np.zeros(0)
+    _, s, vt = np.linalg.svd(J, full_matrices=True)
+    s_max = float(s.max()) if s.size else 0.0
+    keep = s > RCOND * s_max if s_max > 0 else np.zeros_like(s, dtype=bool)
+    free = np.concatenate([vt[: len(s)][~keep], vt[len(s) :]])  # discarded, and beyond the residuals' count
+    null_share = np.linalg.norm(free.T, axis=1) if free.size else np.zeros(d)
+    return s, vt, keep, null_share
+
+
 def analyse(
     space: ParameterSpace,
     x: np.ndarray,
@@ -121,12 +135,7 @@ def analyse(
     width = np.array([p.high - p.low for p in space.parameters])
     J, r = jac.unit, jac.residuals
     m, d = J.shape
-    if d:
-        _, s, vt = np.linalg.svd(J, full_matrices=True)
-    else:
-        s, vt = np.zeros(0), np.zeros((0, 0))
-    s_max = float(s.max()) if s.size else 0.0
-    keep = s > RCOND * s_max if s_max > 0 else np.zeros_like(s, dtype=bool)
+    s, vt, keep, null_share = directions(J)
     rank = int(keep.sum())
     dof = max(m - rank, 1)
     variance = float(r @ r) / dof
@@ -135,10 +144,6 @@ def analyse(
     v_kept = vt[: len(s)][keep].T  # (d, rank)
     cov_unit = (v_kept / s[keep] ** 2) @ v_kept.T * variance * inflation
     cov = cov_unit * np.outer(width, width)
-    discarded = vt[: len(s)][~keep].T if d else np.zeros((0, 0))
-    null_share = np.linalg.norm(discarded, axis=1) if discarded.size else np.zeros(d)
-    if d > len(s):  # more parameters than residuals: the rest of the space is unconstrained
-        null_share = np.sqrt(null_share**2 + np.linalg.norm(vt[len(s) :].T, axis=1) ** 2)
     entries = []
     for i, p in enumerate(space.parameters):
         sd = math.sqrt(max(float(cov[i, i]), 0.0))
