@@ -40,12 +40,15 @@ from simtune.engines import engine_class, make_engine
 from simtune.engines.base import Rollout
 from simtune.fitness import marker_positions
 from simtune.params import ParameterSpace
+from simtune.params.space import is_supported
 from simtune.tasks import TaskSpec
 
 #: A parameter that moves no sample of the visible track by more than this [m] is inactive.
 TOLERANCE = 1e-6
 #: Random base points besides the generic one.
 PROBE_POINTS = 3
+#: Changes whenever the probe's method changes, so that no cached result of an older method is read.
+PROBE_VERSION = 2
 #: Seed of the random base points.
 PROBE_SEED = 0
 #: How far out along each hand axis the probe watches a point [m] (turns of the hand about the wrist).
@@ -119,9 +122,9 @@ def measure_activity(
     found: dict[str, Activity] = {}
     largest = dict.fromkeys(space.names, 0.0)
     try:
-        pending = [p for p in space.parameters if p.name in supported]
+        pending = [p for p in space.parameters if is_supported(p.name, supported)]
         for p in space.parameters:
-            if p.name not in supported:
+            if not is_supported(p.name, supported):
                 found[p.name] = Activity(p.name, False, 0.0, f"engine {engine!r} has no such parameter")
         for base in base_points(space, points):
             if not pending:
@@ -168,7 +171,7 @@ def cache_key(engine: str, task: TaskSpec, space: ParameterSpace, points: int) -
         "engine": f"{engine} {engine_class(engine).version()}",
         "task": asdict(task),
         "space": [space.name, space.names, space.bounds],
-        "probe": [TOLERANCE, points, PROBE_SEED],
+        "probe": [PROBE_VERSION, TOLERANCE, points, PROBE_SEED],
     }
     return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:20]
 

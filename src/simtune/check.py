@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from simtune.activity import active_space, inactive_parameters
+from simtune.alignment import PROBE_DELAY_S
 from simtune.data import TaskData, load_recording
 from simtune.data.onset import motion_onset
 from simtune.engines import engine_class, make_engine
@@ -61,10 +62,13 @@ def task_quality(engine: str, task: TaskSpec, root: Path) -> tuple[dict, TaskDat
     sim = make_engine(engine, task)
     try:
         rollout = sim.rollout({}, len(reference.times))
+        delayed = sim.rollout({"command_delay": PROBE_DELAY_S}, len(reference.times))
     finally:
         sim.close()
     sim_marker = marker_positions(rollout, {})
-    sim_onset = motion_onset(rollout.times, sim_marker)
+    # measured with the arm resting first, as a recording's onset is; the probe's delay taken off
+    onset = motion_onset(delayed.times, marker_positions(delayed, {}))
+    sim_onset = None if onset is None else onset - PROBE_DELAY_S
     agreement = np.linalg.norm(reference.wrist_repeats - reference.wrist_mean[None], axis=2).mean(axis=1)
     typical = float(np.median(agreement))
     repeats: list[dict] = []

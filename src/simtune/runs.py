@@ -52,6 +52,7 @@ from simtune.objective import Objective, load_references
 from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squares_refine
 from simtune.optimize.evaluator import timed_out
 from simtune.params import ParameterSpace, get_space
+from simtune.params.space import is_supported
 from simtune.progress import TuneProgress
 from simtune.runlock import LOCK_FILE, check_free, run_lock
 from simtune.store import STORE_FILE, RunStore, check_store_file
@@ -99,6 +100,9 @@ class RunConfig:
     #: keep parameters that change no rollout of the tasks in the search (the paper's full D); implied by
     #: paper_exact.  Runs stored before this setting existed kept them all.
     keep_inactive: bool = False
+    #: with several tasks, one command delay per task (``command_delay_<task>``) instead of one shared
+    #: delay; runs stored before this setting existed shared one
+    task_delays: bool = True
 
     @classmethod
     def from_stored(cls, values, where: str) -> RunConfig:
@@ -111,7 +115,8 @@ class RunConfig:
                 raise ConfigError(
                     f"{where}: unknown key {key!r} in the stored configuration (written by another simtune version?)"
                 )
-        values = {"keep_inactive": True, **values}  # a run from before the setting searched every parameter
+        # a run from before these settings searched every parameter, with one shared command delay
+        values = {"keep_inactive": True, "task_delays": False, **values}
         for f in fields(cls):
             if f.default is MISSING and f.name not in values:
                 raise ConfigError(f"{where}: the stored configuration has no {f.name!r}")
@@ -142,7 +147,7 @@ class RunConfig:
                 raise bad(key, "a finite number of seconds above 0")
         if self.target_fitness is not None and (not _is_number(self.target_fitness) or self.target_fitness < 0):
             raise bad("target_fitness", "a finite number of at least 0")
-        for key in ("prune", "refine", "paper_exact", "keep_inactive"):
+        for key in ("prune", "refine", "paper_exact", "keep_inactive", "task_delays"):
             if not isinstance(getattr(self, key), bool):
                 raise bad(key, "true or false")
         if self.only is not None and (
@@ -217,7 +222,8 @@ def full_space(config: RunConfig) -> ParameterSpace:
     """The run's space before inactive parameters are left out: the engine's (or the paper's whole list)."""
     # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
     supported = None if config.paper_exact else engine_class(config.engine).supported()
-    return get_space(config.space, supported, config.only)
+    tasks = [t.name for t in parse_tasks(config.tasks)] if config.task_delays else None
+    return get_space(config.space, supported, config.only, tasks)
 
 
 def run_inactive(config: RunConfig) -> dict[str, str]:
@@ -315,7 +321,7 @@ def _create_store(run_dir: Path, config: RunConfig, objective: Objective, generi
         bounds=objective.vector_space().bounds,
         # in the search vector without effect in this engine (only --paper-exact keeps such parameters)
         unmapped_parameters=[
-            n for n in objective.vector_space().names if n not in engine_class(config.engine).supported()
+            n for n in objective.vector_space().names if not is_supported(n, engine_class(config.engine).supported())
         ],
         generic=generic.to_dict(),
         # every parameter of the full space that changes no rollout of the tasks, and why (left out of the
