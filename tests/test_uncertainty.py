@@ -6,12 +6,13 @@ import sys
 
 import numpy as np
 import pytest
+from scipy.signal import lfilter
 
 from simtune.params import get_space
 from simtune.reference import REFERENCE_DIR
 from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
-from simtune.uncertainty import RCOND, Z95, Jacobian, analyse
+from simtune.uncertainty import RCOND, Z95, Jacobian, analyse, correlation_time
 
 CONTRACT = {"name", "value", "low", "high", "active", "identifiable"}
 
@@ -114,3 +115,23 @@ def test_uncertainty_of_a_folder_without_a_run_is_one_clear_line(tmp_path):
         [sys.executable, "-m", "simtune.cli", "uncertainty", str(tmp_path)], capture_output=True, text=True, timeout=60
     )
     assert proc.returncode == 2 and proc.stderr.startswith("error:") and "not a run folder" in proc.stderr
+
+
+def test_correlation_time_of_white_and_of_smooth_series():
+    rng = np.random.default_rng(3)
+    white = rng.normal(size=(4000, 3))
+    assert correlation_time([white]) == pytest.approx(1.0, abs=0.3)
+    # AR(1) with phi = 0.9, four series pooled: (1 + phi) / (1 - phi) = 19
+    series = [lfilter([1.0], [1.0, -0.9], rng.normal(size=20000))[:, None] for _ in range(4)]
+    assert correlation_time(series) == pytest.approx(19.0, rel=0.15)
+
+
+def test_a_kinked_parameter_is_not_identifiable():
+    """Forward and backward differences that disagree (a jump, as the time step makes) leave a parameter unpinned."""
+    space = get_space("extended", only=["command_delay", "marker_offset_x"])
+    rng = np.random.default_rng(4)
+    J = rng.normal(size=(100, 2))
+    jac = Jacobian(rng.normal(scale=1e-3, size=100), J, True, np.array([True, False]))
+    result = analyse(space, np.array([1.0, 0.0]), jac)
+    assert [e["identifiable"] for e in result["parameters"]] == [False, True]
+    assert result["non_smooth"] == ["command_delay"]

@@ -11,8 +11,9 @@ Three parts, per task and then for the tasks together:
   simulation: their difference is the delay between pressing record and the first command;
 - which parameters the tasks can inform: the Jacobian of the per-sample residuals at the
   generic point (:func:`simtune.uncertainty.jacobian`, one batch of rollouts), its rank and
-  singular values, and for each active parameter whether its direction lies in the span the
-  data pins (:func:`simtune.uncertainty.directions`).
+  singular values, and for each active parameter whether the recordings could pin it: the
+  Gauss-Newton analysis of :func:`simtune.uncertainty.analyse` with the noise the repeats'
+  own scatter puts on their mean track (:func:`repeat_noise`), not the generic point's misfit.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from simtune.fitness import marker_positions
 from simtune.objective import Objective, load_references
 from simtune.params import get_space
 from simtune.tasks import TaskSpec
-from simtune.uncertainty import NULL_SHARE, RCOND, directions, generic_values, jacobian
+from simtune.uncertainty import RCOND, analyse, correlation_time, generic_values, jacobian
 
 #: A repeat whose mean distance from the mean track exceeds this multiple of the median repeat's is flagged.
 OUTLIER_FACTOR = 3.0
@@ -102,6 +103,26 @@ def task_quality(engine: str, task: TaskSpec, root: Path) -> tuple[dict, TaskDat
     return summary, reference
 
 
+def repeat_noise(references: list[TaskData]) -> tuple[float, float]:
+    """The variance of one wrist residual that the recordings' own scatter explains, and its correlation time.
+
+    The mean track of R repeats is uncertain by the repeats' variance / R at each sample (per axis),
+    in residual units (divided by the samples, as :func:`simtune.fitness.residuals` scales them);
+    the repeats' deviations from their mean give the correlation time.
+    """
+    variances, deviations = [], []
+    for reference in references:
+        repeats = reference.wrist_repeats
+        if len(repeats) < 2:
+            continue
+        n = len(reference.times)
+        variances.append(float(repeats.var(axis=0, ddof=1).mean()) / len(repeats) / n)
+        deviations.extend(list(repeats - reference.wrist_mean[None]))
+    if not variances:
+        return 0.0, 1.0
+    return float(np.mean(variances)), correlation_time(deviations)
+
+
 def check(engine: str, tasks: list[TaskSpec], root: Path, space_name: str = "extended", workers: int = 1) -> dict:
     """Every part of the check for ``tasks`` on ``engine`` with the recordings under ``root``."""
     cls = engine_class(engine)
@@ -117,14 +138,16 @@ def check(engine: str, tasks: list[TaskSpec], root: Path, space_name: str = "ext
     generic = generic_values(objective, space.names)
     x = np.array([min(max(generic.get(p.name, (p.low + p.high) / 2), p.low), p.high) for p in space.parameters])
     jac = jacobian(objective, x, workers)
-    s, _, keep, null_share = directions(jac.unit)
+    variance, inflation = repeat_noise(list(references.values()))
+    verdict = analyse(space, x, jac, inflation, inactive, variance)
+    s = np.asarray(verdict["singular_values"])
     parameters = []
-    for i, p in enumerate(space.parameters):
+    for i, (p, entry) in enumerate(zip(space.parameters, verdict["parameters"])):
         parameters.append(
             {
                 "name": p.name,
                 "value": float(x[i]),
-                "informed": bool(null_share[i] < NULL_SHARE),
+                "informed": entry["identifiable"],
                 "sensitivity": float(np.linalg.norm(jac.unit[:, i])),
             }
         )
@@ -141,8 +164,10 @@ def check(engine: str, tasks: list[TaskSpec], root: Path, space_name: str = "ext
         "jacobian": {
             "point": "generic",
             "searched": len(space),
-            "rank": int(keep.sum()),
+            "rank": verdict["rank"],
             "singular_values": [float(v) for v in s],
+            "non_smooth": verdict["non_smooth"],
+            "noise_m": float(np.sqrt(variance * np.mean([len(r.times) for r in references.values()]))),
             "cutoff": f"singular values below {RCOND:g} x the largest count as zero",
             "stable": jac.stable,
         },

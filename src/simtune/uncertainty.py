@@ -10,15 +10,18 @@ run's own evaluations and best point are untouched).
 Covariance (Gauss-Newton): ``s^2 (J^T J)^+`` with ``s^2 = |r|^2 / (m - rank)`` the residual
 variance at the point, and the pseudo-inverse over the singular values of ``J`` above
 :data:`RCOND` times the largest (below it a direction counts as unidentifiable).  The samples
-of a recording are not independent (20 Hz samples of a smooth track): the covariance is
-multiplied by ``(1 + rho) / (1 - rho)``, the variance inflation of an AR(1) series, with
-``rho`` the lag-1 autocorrelation of the wrist residuals (pooled over tasks and axes; clamped
-to [0, :data:`MAX_RHO`]).
+of a recording are not independent (20 Hz samples of a smooth track, and a misfit that is
+smooth too): the covariance is multiplied by the wrist residuals' integrated autocorrelation
+time (:func:`correlation_time`, pooled over tasks and axes), the factor by which correlated
+samples inform less than as many independent ones.
 
-A parameter is *identifiable* when it is active, its direction lies in the span the retained
-singular vectors cover (its component in the discarded ones below :data:`NULL_SHARE`), and its
-95 % interval (value +- 1.96 standard deviations, not clipped to the bounds) is no wider than
-the parameter's range; otherwise its interval is unbounded (``low``/``high`` null).
+A parameter is *identifiable* when it is active, the simulation is smooth in it at the point
+(forward and backward differences agree within :data:`KINK`: the time step, for one, changes
+the whole number of physics steps per control period, and its local slope says nothing of
+its other minima), its direction lies in the span the retained singular vectors cover (its
+component in the discarded ones below :data:`NULL_SHARE`), and its 95 % interval (value +-
+1.96 standard deviations, not clipped to the bounds) is no wider than the parameter's range;
+otherwise its interval is unbounded (``low``/``high`` null).
 """
 
 from __future__ import annotations
@@ -45,8 +48,10 @@ RCOND = 1e-6
 NULL_SHARE = 0.1
 #: Two-sided 95 % normal quantile.
 Z95 = 1.959963984540054
-#: The largest lag-1 autocorrelation used for the variance inflation (caps the factor at 199).
-MAX_RHO = 0.99
+#: Sokal's window constant for the integrated autocorrelation time (the sum stops at lag >= WINDOW x tau).
+WINDOW = 5.0
+#: Forward and backward differences that differ by more than this share of the larger mark a kink.
+KINK = 0.5
 #: Most correlated pairs listed.
 TOP_PAIRS = 5
 
@@ -58,6 +63,9 @@ class Jacobian:
     residuals: np.ndarray  # (m,)
     unit: np.ndarray  # (m, D): d residual / d (value / range)
     stable: bool
+    #: (D,) whether the forward and backward differences of a column disagree by more than :data:`KINK`
+    #: (a kink or jump in the simulation, such as the time step's whole number of steps per control period)
+    kinked: np.ndarray | None = None
 
 
 def jacobian(objective: Objective, x: np.ndarray, workers: int = 1, step: float = STEP) -> Jacobian:
@@ -84,29 +92,56 @@ def jacobian(objective: Objective, x: np.ndarray, workers: int = 1, step: float 
             store.close()
     r0, score0 = results[0]
     columns = []
+    kinked = np.zeros(len(x), dtype=bool)
     stable = score0.stable
     for i in range(len(x)):
         (r_up, s_up), (r_down, s_down) = results[1 + 2 * i], results[2 + 2 * i]
         stable = stable and s_up.stable and s_down.stable
         span = up[i] - down[i]
         columns.append((r_up - r_down) / span if span > 0 else np.zeros_like(r0))
+        if up[i] > u[i] and down[i] < u[i]:
+            forward = (r_up - r0) / (up[i] - u[i])
+            backward = (r0 - r_down) / (u[i] - down[i])
+            scale = max(float(np.linalg.norm(forward)), float(np.linalg.norm(backward)))
+            kinked[i] = scale > 0 and float(np.linalg.norm(forward - backward)) > KINK * scale
     unit = np.stack(columns, axis=1) if columns else np.zeros((len(r0), 0))
-    return Jacobian(np.asarray(r0, dtype=float), unit, bool(stable))
+    return Jacobian(np.asarray(r0, dtype=float), unit, bool(stable), kinked)
 
 
-def wrist_autocorrelation(residuals: np.ndarray, objective: Objective) -> float:
-    """Lag-1 autocorrelation of the wrist residuals, pooled over tasks and axes, in [0, MAX_RHO]."""
-    num = den = 0.0
-    start = 0
+def wrist_tracks(residuals: np.ndarray, objective: Objective) -> list[np.ndarray]:
+    """The wrist part of a residual vector, one (samples, 3) array per task."""
+    tracks, start = [], 0
     for task in objective.tasks:
         n = len(objective.references[task.name].times)
-        track = residuals[start : start + 3 * n].reshape(n, 3)
+        tracks.append(residuals[start : start + 3 * n].reshape(n, 3))
         start += 3 * n + 3 * (task.object is not None and objective.references[task.name].object_final is not None)
-        centred = track - track.mean(axis=0)
-        num += float((centred[1:] * centred[:-1]).sum())
-        den += float((centred * centred).sum())
-    rho = num / den if den > 0 else 0.0
-    return float(min(max(rho, 0.0), MAX_RHO))
+    return tracks
+
+
+def correlation_time(series: list[np.ndarray]) -> float:
+    """Integrated autocorrelation time (in samples) of time series (each (n, k), columns pooled), at least 1.
+
+    1 + 2 x the sum of the pooled autocorrelations from lag 1 on, up to Sokal's automatic window
+    (:data:`WINDOW`): the factor by which correlated samples inflate the variance of what
+    they determine, compared with as many independent ones.
+    """
+    longest = max((len(s) for s in series), default=0)
+    if longest < 2:
+        return 1.0
+    acov = np.zeros(longest)
+    for s in series:
+        centred = np.asarray(s, dtype=float) - np.mean(s, axis=0)
+        n = len(centred)
+        spectrum = np.fft.rfft(centred, n=2 * n, axis=0)
+        acov[:n] += np.fft.irfft(spectrum * np.conj(spectrum), n=2 * n, axis=0)[:n].sum(axis=1)
+    if acov[0] <= 0:
+        return 1.0
+    # Sokal's automatic window: the sum up to the first lag M with M >= WINDOW x tau(M), so that the
+    # noisy tail of the estimated autocorrelation is left out
+    taus = 2.0 * np.cumsum(acov / acov[0]) - 1.0
+    within = np.flatnonzero(np.arange(longest) >= WINDOW * taus)
+    tau = float(taus[within[0]]) if within.size else float(taus[-1])
+    return float(min(max(tau, 1.0), longest))
 
 
 def directions(J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -127,19 +162,25 @@ def analyse(
     space: ParameterSpace,
     x: np.ndarray,
     jac: Jacobian,
-    rho: float = 0.0,
+    inflation: float = 1.0,
     inactive: dict[str, str] | None = None,
+    variance: float | None = None,
 ) -> dict:
-    """The uncertainty summary of the searched parameters (``space``, values ``x``) from ``jac``."""
+    """The uncertainty summary of the searched parameters (``space``, values ``x``) from ``jac``.
+
+    ``variance``: of one residual, if known (the check takes it from the repeats' scatter); by
+    default the residuals' own at the point.  ``inflation``: the residuals' correlation time.
+    """
     inactive = inactive or {}
     width = np.array([p.high - p.low for p in space.parameters])
     J, r = jac.unit, jac.residuals
     m, d = J.shape
+    kinked = jac.kinked if jac.kinked is not None else np.zeros(d, dtype=bool)
     s, vt, keep, null_share = directions(J)
     rank = int(keep.sum())
     dof = max(m - rank, 1)
-    variance = float(r @ r) / dof
-    inflation = (1.0 + rho) / (1.0 - rho)
+    if variance is None:
+        variance = float(r @ r) / dof
     # covariance in unit coordinates over the retained directions, then scaled to each range
     v_kept = vt[: len(s)][keep].T  # (d, rank)
     cov_unit = (v_kept / s[keep] ** 2) @ v_kept.T * variance * inflation
@@ -148,7 +189,7 @@ def analyse(
     for i, p in enumerate(space.parameters):
         sd = math.sqrt(max(float(cov[i, i]), 0.0))
         active = p.name not in inactive
-        identifiable = bool(active and null_share[i] < NULL_SHARE and 2 * Z95 * sd <= width[i])
+        identifiable = bool(active and not kinked[i] and null_share[i] < NULL_SHARE and 2 * Z95 * sd <= width[i])
         entries.append(
             {
                 "name": p.name,
@@ -176,14 +217,16 @@ def analyse(
         "singular_values": [float(v) for v in s],
         "condition_number": float(kept_s.max() / kept_s.min()) if kept_s.size else None,
         "residual_rms": math.sqrt(float(r @ r) / m) if m else None,
-        "autocorrelation": rho,
+        "residual_variance": variance,
         "variance_inflation": inflation,
+        "non_smooth": [n for n, k in zip(space.names, kinked) if k],
         "stable": jac.stable,
         "correlated_pairs": [{"a": a, "b": b, "correlation": c} for a, b, c in pairs[:TOP_PAIRS]],
         "method": (
             f"Gauss-Newton at the best point: central differences (step {STEP:g} of each range) of the "
             f"per-sample residuals; pseudo-inverse over singular values above {RCOND:g} x the largest; "
-            f"covariance x (1 + rho) / (1 - rho) for correlated samples; 95 % = value +- {Z95:.2f} sd"
+            "covariance x the residuals' integrated autocorrelation time; 95 % = value +- "
+            f"{Z95:.2f} sd; a parameter whose forward and backward differences disagree is not identifiable"
         ),
     }
 
@@ -218,8 +261,8 @@ def uncertainty(
     """The full summary: one entry per parameter of ``full`` (the run's whole space, searched or not)."""
     space = objective.vector_space()
     jac = jacobian(objective, x, workers)
-    rho = wrist_autocorrelation(jac.residuals, objective)
-    result = analyse(space, np.asarray(x, dtype=float), jac, rho, inactive)
+    inflation = correlation_time(wrist_tracks(jac.residuals, objective))
+    result = analyse(space, np.asarray(x, dtype=float), jac, inflation, inactive)
     searched = {e["name"]: e for e in result["parameters"]}
     left_out = [n for n in full.names if n not in searched]
     generic = generic_values(objective, left_out) if left_out else {}
