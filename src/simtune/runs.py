@@ -519,8 +519,9 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
             "params": result.params,
         },
     )
-    store.set(uncertainty=_uncertainty_or_reason(objective, config, store, result.x))
     store.set(status="finished", message=result.message, best_fitness=result.score.fitness)
+    # after the run is finished: a kill meanwhile loses only this summary (`simtune uncertainty RUN` redoes it)
+    store.set(uncertainty=_uncertainty_or_reason(objective, config, store, result.x))
     store.close()
     return result
 
@@ -529,8 +530,8 @@ def _uncertainty_or_reason(objective: Objective, config: RunConfig, store: RunSt
     """The Gauss-Newton uncertainty at the best point, or why it could not be computed (the run stands either way)."""
     try:
         return uncertainty(objective, x, full_space(config), store.get("inactive_parameters") or {}, config.workers)
-    except SimtuneError as exc:
-        return {"error": str(exc), "parameters": []}
+    except (SimtuneError, ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
+        return {"error": f"{type(exc).__name__}: {exc}", "parameters": []}
 
 
 def run_uncertainty(run_dir: Path, workers: int = 1) -> dict:
