@@ -161,3 +161,23 @@ def test_report_and_ranges_never_pool_an_inactive_parameter():
 def test_activity_records_are_plain():
     a = Activity("x", False, 0.0, "why")
     assert Activity(**json.loads(json.dumps(a.__dict__))) == a
+
+
+@pytest.mark.slow
+def test_tune_searches_the_active_parameters_unless_told_to_keep_them(tmp_path):
+    def tune(*extra):
+        out = tmp_path / ("keep" if extra else "active")
+        args = ["tune", "--task", "cube", "--space", "shared", "--optimizer", "random", "--max-evaluations", "2"]
+        proc = subprocess.run(
+            [sys.executable, "-m", "simtune.cli", *args, "--out", str(out), "--json", *extra],
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+        assert proc.returncode == 0, proc.stderr
+        return json.loads(proc.stdout)
+
+    active, kept = tune(), tune("--keep-inactive")
+    assert kept["search_dimension"] == 31 and active["search_dimension"] == 31 - len(active["inactive_parameters"])
+    assert active["inactive_parameters"] == kept["inactive_parameters"]
+    assert "mass_cube_wood" in active["inactive_parameters"]
