@@ -46,7 +46,13 @@ def tuned_run(tmp_path_factory, engine: str, tasks: str = "cube", space: str = "
         evaluations = ROUND_TRIPS.get(engine, (3,))[0]
         run_dir = tmp_path_factory.mktemp(f"run-{engine}") / "run"
         config = RunConfig(
-            engine=engine, tasks=tasks, space=space, data=str(data), optimizer="random", max_evaluations=evaluations
+            engine=engine,
+            tasks=tasks,
+            space=space,
+            data=str(data),
+            optimizer="random",
+            max_evaluations=evaluations,
+            keep_inactive=True,  # every mapping, even of parameters the task cannot feel
         )
         start_run(config, run_dir, show_progress=False)
         _RUNS[key] = run_dir

@@ -18,10 +18,11 @@ one-line :class:`~simtune.errors.SimtuneError` for bad input.  docs/api.md has t
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Collection, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
+from simtune.alignment import DelayEstimate, aligned, estimate_delay
 from simtune.engines import engine_class
 from simtune.errors import SimtuneError
 from simtune.fitness import FitnessWeights, Score, TaskScore
@@ -62,6 +63,11 @@ class Result:
     wall_s: float = 0.0
     #: mean joint-angle error [rad] of joint-log recordings; None without them
     joint_error: float | None = None
+    #: tasks whose recording clock was aligned (evaluate's ``align_clock``): how, and the fitness without it
+    alignments: tuple[DelayEstimate, ...] = ()
+    fitness_unaligned: float | None = None
+    #: task -> the command delay [s] its clock was aligned with
+    clock_aligned: dict[str, float] = field(default_factory=dict)
 
     @classmethod
     def from_score(cls, engine: str, x: Mapping[str, float], score: Score, generic: Score | dict, **more) -> Result:
@@ -109,13 +115,17 @@ def evaluate(
     params: Mapping[str, float] | Path | str | None = None,
     weights: FitnessWeights | Mapping[str, float] | str | None = None,
     joint_topic: str | None = None,
+    align_clock: bool | Collection[str] = False,
 ) -> Result:
     """Fitness of ``params`` (a mapping, or a params file such as best_params.json; default: the engine's
     generic values) for ``engine`` on ``tasks`` (names, groups, comma-separated) of ``project``.
 
     ``data``: the data root (``DATA/<task>/``); default: the project's recordings.  ``weights``: of the
     fitness's parts (``simtune.fitness.FitnessWeights``, a mapping or ``"joint=0.1,wrist=1"``);
-    ``joint_topic``: the JointState topic of ROS 2 joint logs (docs/recordings.md).
+    ``joint_topic``: the JointState topic of ROS 2 joint logs (docs/recordings.md).  ``align_clock``:
+    True, or the names of the tasks whose recording clock is aligned first (their command delay estimated
+    from the recordings with the physics of ``params`` held fixed, :mod:`simtune.alignment`); the result's
+    ``fitness_unaligned`` is the fitness without it.
     """
     fitness_weights = _weights(weights)
     proj = get_project(project)
@@ -135,9 +145,26 @@ def evaluate(
         score = objective.score(values)
         wall = time.perf_counter() - start
         generic = score if not values else objective.score({})
+        evaluations = 1 if not values else 2
+        names = {t.name for t in specs} if align_clock is True else set(align_clock or ())
+        estimates = tuple(estimate_delay(objective, t, values) for t in specs if t.name in names)
+        unaligned = score
+        if estimates:
+            values = aligned(values, list(estimates))
+            score = objective.score(values)
+            evaluations += 1 + sum(e.rollouts for e in estimates)
     finally:
         objective.close()
-    return Result.from_score(engine, values, score, generic, evaluations=1 if not values else 2, wall_s=wall)
+    more = (
+        {
+            "alignments": estimates,
+            "fitness_unaligned": unaligned.fitness,
+            "clock_aligned": {e.task: e.delay_s for e in estimates},
+        }
+        if estimates
+        else {}
+    )
+    return Result.from_score(engine, values, score, generic, evaluations=evaluations, wall_s=wall, **more)
 
 
 def tune(

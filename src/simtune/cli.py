@@ -137,6 +137,14 @@ SpaceOpt = Annotated[
         "and marker offset); an engine's lacks what it cannot map.",
     ),
 ]
+KeepInactiveOpt = Annotated[
+    bool,
+    typer.Option(
+        "--keep-inactive",
+        help="Keep parameters that change no rollout of the tasks (measured before the search, see "
+        "`simtune params --task T`) in the search: the paper's full D. --paper-exact implies it.",
+    ),
+]
 OnlyOpt = Annotated[
     str | None,
     typer.Option(help="Only these parameters of the space (comma-separated); the rest keep their generic values."),
@@ -222,6 +230,16 @@ def evaluate(
     weights: WeightsOpt = None,
     joint_topic: JointTopicOpt = None,
     project: ProjectOpt = None,
+    align_clock: Annotated[
+        bool | None,
+        typer.Option(
+            "--align-clock/--no-align-clock",
+            help="Align each task's recording clock first: its command delay estimated from its recordings "
+            "(motion onset, then a 1-D search over the delay with the physics held fixed). Default: the tasks "
+            "a run's --params-file was not tuned on (its 'tasks' field), which carry another recording's delay.",
+            show_default=False,
+        ),
+    ] = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks."""
@@ -235,7 +253,9 @@ def evaluate(
         params=params_file,
         weights=weights,
         joint_topic=joint_topic,
+        align_clock=_tasks_to_align(align_clock, params_file, task, project),
     )
+    estimates = score.alignments
     result = {
         "engine": engine,
         "task": task,
@@ -248,6 +268,8 @@ def evaluate(
         "stable": score.stable,
         "wall_s": score.wall_s,
         "tasks": [t.__dict__ for t in score.parts.values()],
+        "fitness_unaligned": score.fitness if score.fitness_unaligned is None else score.fitness_unaligned,
+        "clock_aligned": score.clock_aligned,
     }
     if as_json:
         print(json.dumps(result))
@@ -273,10 +295,44 @@ def evaluate(
     out.print(table)
     if score.x:
         out.print(f"generic fitness: {score.generic_fitness:.4f}")
+    for e in estimates:
+        out.print(
+            f"clock aligned: {e.task}'s command delay {e.delay_s:.2f} s, estimated from its recordings (motion onset "
+            f"{_fmt_g(e.recorded_onset_s)} s) with the physics held fixed; without alignment the fitness is "
+            f"{score.fitness_unaligned:.4f} (--no-align-clock)"
+        )
 
 
-def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bool) -> None:
+def _tasks_to_align(align_clock: bool | None, params_file: Path | None, task: str, project: Path | None) -> list[str]:
+    """The tasks whose clocks evaluate aligns: all (--align-clock), none (--no-align-clock), or by default those a
+    run's parameter file was not tuned on (its 'tasks' field) and does not time with its own delay."""
+    from simtune.params import read_params_file
+    from simtune.project import get_project
+
+    names = [t.name for t in get_project(project).parse_tasks(task)]
+    if align_clock is not None:
+        return names if align_clock else []
+    if params_file is None:
+        return []
+    try:
+        tuned_on = json.loads(params_file.read_text(encoding="utf-8-sig")).get("tasks")
+    except (OSError, ValueError, AttributeError):
+        tuned_on = None
+    if not isinstance(tuned_on, str):
+        return []
+    try:
+        seen = {t.name for t in get_project(project).parse_tasks(tuned_on)}
+        params = read_params_file(params_file)
+    except SimtuneError:
+        return []
+    return [name for name in names if name not in seen and f"command_delay_{name}" not in params]
+
+
+def _report_tune(result, run_dir: Path, config, store, as_json: bool) -> None:
     from simtune.runs import BEST_PARAMS_FILE
+
+    store_generic = store.get("generic")
+    searched, inactive = store.get("parameters"), store.get("inactive_parameters") or {}
 
     payload = {
         "engine": config.engine,
@@ -293,6 +349,8 @@ def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bo
         "wall_s": result.wall_s,
         "best_params_file": str(run_dir / BEST_PARAMS_FILE),
         "message": result.message,
+        "search_dimension": len(searched),
+        "inactive_parameters": inactive,
     }
     if as_json:
         print(json.dumps(payload))
@@ -309,6 +367,15 @@ def _report_tune(result, run_dir: Path, config, store_generic: dict, as_json: bo
         f"({result.message})"
     )
     out.print(f"  best parameters: {payload['best_params_file']}")
+    summary = store.get("uncertainty")
+    if summary:
+        _print_uncertainty(summary, short=True, run_dir=run_dir)
+    if inactive:
+        kept = "kept in the search (--keep-inactive)" if set(inactive) & set(searched) else "left out of the search"
+        out.print(
+            f"  search dimension D = {len(searched)}; {len(inactive)} parameters change no rollout of "
+            f"{config.tasks} and were {kept} (`simtune params --task {config.tasks}` says why)"
+        )
 
 
 @app.command()
@@ -349,6 +416,7 @@ def tune(
         ),
     ] = False,
     only: OnlyOpt = None,
+    keep_inactive: KeepInactiveOpt = False,
     eval_timeout: EvalTimeoutOpt = 600.0,
     paper_exact: Annotated[
         bool,
@@ -406,9 +474,167 @@ def tune(
         weights=None if weights is None else FitnessWeights.parse(weights).as_dict(),
         joint_topic=joint_topic,
         project=_run_project(project),
+        keep_inactive=keep_inactive,
     )
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
-    _report_tune(result, out_dir, config, RunStore(out_dir).get("generic"), as_json)
+    _report_tune(result, out_dir, config, RunStore(out_dir), as_json)
+
+
+def _print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
+    """The uncertainty table: every parameter (or, ``short``, the searched ones) with its 95 % interval."""
+    if summary.get("error"):
+        out.print(f"  uncertainty not computed: {escape(summary['error'])}")
+        return
+    rows = summary["parameters"]
+    if short:  # the pinned ones; the others named in one line
+        loose = [e["name"] for e in rows if e["active"] and not e["identifiable"]]
+        rows = [e for e in rows if e["identifiable"]]
+    table = text_table(
+        f"uncertainty at the best point: rank {summary['rank']} of {summary['searched']} searched, "
+        f"condition number {_fmt_g(summary['condition_number'])}",
+        ("parameter", "value", "95 % low", "95 % high", "active", "identifiable"),
+    )
+    for e in rows:
+        table.add_row(
+            e["name"],
+            _fmt_g(e["value"]),
+            _fmt_g(e["low"]) if e["low"] is not None else "unbounded",
+            _fmt_g(e["high"]) if e["high"] is not None else "unbounded",
+            "yes" if e["active"] else "no",
+            "yes" if e["identifiable"] else "no",
+        )
+    out.print(table)
+    pairs = summary.get("correlated_pairs") or []
+    if pairs:
+        listed = ", ".join(f"{p['a']} ~ {p['b']} ({p['correlation']:+.2f})" for p in pairs[:3])
+        out.print(f"  most correlated: {listed}")
+    if short:
+        if loose:
+            out.print(f"  unbounded (the recordings cannot pin them here): {', '.join(loose)}")
+        out.print(f"  `simtune uncertainty {run_dir}` lists every parameter (--json for scripts)")
+
+
+def _fmt_g(value: float | None) -> str:
+    return "-" if value is None else f"{value:.4g}"
+
+
+@app.command()
+def uncertainty(
+    run_dir: Annotated[Path, typer.Argument(help="A finished run folder made by `simtune tune`.", callback=_path)],
+    workers: WorkersOpt = 1,
+    as_json: JsonOpt = False,
+) -> None:
+    """How well the recordings pin each parameter at a run's best point: 95 % intervals (Gauss-Newton).
+
+    The Jacobian of the per-sample residuals (finite differences, 2D + 1 rollouts as one batch over
+    --workers), its rank and condition number, a 95 % interval per parameter (unbounded where the
+    recordings cannot pin it) and the most correlated pairs; stored in the run for `simtune report`.
+    With --json: one object with a list `parameters` (name, value, low, high, active, identifiable).
+    """
+    from simtune.runs import run_uncertainty
+
+    summary = run_uncertainty(run_dir, workers)
+    if as_json:
+        print(json.dumps(summary))
+        return
+    _print_uncertainty(summary, short=False, run_dir=run_dir)
+
+
+def _check_project(project_dir: Path) -> None:
+    """``simtune check DIR``: one line per finding (problems on stderr); exit 2 if any is a problem."""
+    from simtune.project_check import check_project
+
+    findings = check_project(project_dir)
+    for finding in findings:
+        stream = err if finding.level == "problem" else out
+        stream.print(escape(str(finding)), highlight=False, soft_wrap=True)
+    if any(f.level == "problem" for f in findings):
+        raise typer.Exit(2)
+
+
+@app.command()
+def check(
+    project_dir: Annotated[
+        Path | None,
+        typer.Argument(
+            help="Project folder to check (its simtune.toml); with --task, the project whose tasks are checked.",
+            show_default=False,
+            callback=_path,
+        ),
+    ] = None,
+    engine: Annotated[str | None, typer.Option("--engine", "-e", help="Physics engine (default mujoco).")] = None,
+    task: Annotated[
+        str | None,
+        typer.Option("--task", "-t", help="Task name, or several joined by commas (checked together)."),
+    ] = None,
+    data: DataOpt = None,
+    space: SpaceOpt = "extended",
+    workers: WorkersOpt = 1,
+    as_json: JsonOpt = False,
+) -> None:
+    """Before tuning: a project's files (simtune check DIR), or a task's data and what it can inform (--task).
+
+    simtune check DIR: robot, joints and links, recordings, start pose, engines; one line per finding,
+    exit 2 if any is a problem.  With --task T (and --data ROOT, or DIR's recordings): per task, lost
+    marker frames and the longest gap of each recording, how well the repeats agree, how far each starts
+    from the simulated arm, each repeat's motion onset (and the command delay it implies); then the rank
+    and singular values of the residuals' Jacobian at the generic point and, per active parameter,
+    whether the recordings can inform it.
+    """
+    from simtune.check import check as run_check
+    from simtune.project import get_project
+
+    if task is None:
+        if project_dir is None:
+            raise SimtuneError(
+                "check: name a project folder (simtune check DIR) or the tasks to check (--task T --data ROOT)"
+            )
+        _check_project(project_dir)
+        return
+    root = _project_data(data, project_dir)
+    if root is None:
+        raise SimtuneError(f"check: the project {project_dir} names no data root: give the recordings with --data")
+    result = run_check(engine or "mujoco", get_project(project_dir).parse_tasks(task), root, space, workers)
+    if as_json:
+        print(json.dumps(result))
+        return
+    for part in result["data_quality"]:
+        table = text_table(
+            f"{part['task']}: {len(part['repeats'])} repeats, spread {1000 * part['repeat_spread_m']:.1f} mm",
+            ("file", "lost frames", "longest gap [s]", "to mean [mm]", "start distance [mm]", "onset [s]"),
+        )
+        for r in part["repeats"]:
+            table.add_row(
+                r["file"],
+                str(r["lost_frames"]),
+                f"{r['longest_gap_s']:.2f}",
+                f"{1000 * r['distance_to_mean_m']:.1f}" + (" (outlier)" if r["outlier"] else ""),
+                f"{1000 * r['start_distance_m']:.1f}",
+                _fmt_g(r["onset_s"]),
+            )
+        out.print(table)
+        for line in part["left_out"]:
+            out.print(f"  left out: {escape(line)}")
+        out.print(
+            f"  motion onset {_fmt_g(part['onset_mean_s'])} s (std {_fmt_g(part['onset_std_s'])} s); the generic "
+            f"simulation moves at {_fmt_g(part['simulated_onset_s'])} s: command delay about "
+            f"{_fmt_g(part['implied_command_delay_s'])} s"
+        )
+    jac = result["jacobian"]
+    shown = ", ".join(f"{v:.3g}" for v in jac["singular_values"])
+    out.print(
+        f"Jacobian at the generic point: rank {jac['rank']} of {jac['searched']} active parameters "
+        f"({jac['cutoff']}); singular values: {shown}"
+    )
+    table = text_table("what the recordings can inform", ("parameter", "informed", "sensitivity", "note"))
+    for p in sorted(result["parameters"], key=lambda p: -p["sensitivity"]):
+        table.add_row(
+            p["name"],
+            "yes" if p["informed"] else "no",
+            f"{p['sensitivity']:.3g}",
+            f"inactive: {p['inactive']}" if "inactive" in p else "",
+        )
+    out.print(table)
 
 
 @app.command()
@@ -449,7 +675,7 @@ def resume(
             highlight=False,
             soft_wrap=True,
         )
-    _report_tune(result, run_dir, config, store.get("generic"), as_json)
+    _report_tune(result, run_dir, config, store, as_json)
 
 
 @app.command()
@@ -513,6 +739,7 @@ def grid(
     ] = None,
     max_generations: Annotated[int, typer.Option(min=1, help="Generation limit of each optimisation.")] = 1000,
     only: Annotated[str | None, typer.Option(help="Tune only these parameters (comma-separated).")] = None,
+    keep_inactive: KeepInactiveOpt = False,
     plan: Annotated[bool, typer.Option("--plan", help="Print the grid's size and cost estimate; run nothing.")] = False,
     cluster_cores: Annotated[int, typer.Option(min=1, help="With --plan: cores of the cluster to estimate for.")] = 100,
 ) -> None:
@@ -537,6 +764,7 @@ def grid(
         max_seconds_per_run=max_seconds_per_run,
         max_generations=max_generations,
         only=_split(only) if only else None,
+        keep_inactive=keep_inactive,
     )
     if plan:
         rows = plan_grid(spec)
@@ -734,22 +962,46 @@ def params(
     space: Annotated[str, typer.Option("--space", "-s", help="shared, individual or extended.")] = "extended",
     engine: Annotated[str | None, typer.Option("--engine", "-e", help="Only what this engine supports.")] = None,
     project: ProjectOpt = None,
+    task: Annotated[
+        str | None,
+        typer.Option(
+            "--task",
+            "-t",
+            help="Also say which parameters change a rollout of these tasks (comma-separated; measured by a probe "
+            "of the engine, default mujoco, and cached): an active column and the reason for each inactive one.",
+        ),
+    ] = None,
 ) -> None:
-    """List a parameter space: names, ranges, units."""
+    """List a parameter space: names, ranges, units (with --task: whether each can change the task's rollout)."""
     from simtune.engines import engine_class
     from simtune.params import get_space
     from simtune.project import get_project
     from simtune.tasks.spec import common_robot
 
-    robot = common_robot(get_project(project).tasks.values())  # the spaces follow the project's robot
+    proj = get_project(project)
+    robot = common_robot(proj.tasks.values())  # the spaces follow the project's robot
+    if task is not None and engine is None:
+        engine = "mujoco"
     supported = engine_class(engine).supported(robot) if engine else None
     sp = get_space(space, supported, robot=robot)
-    table = text_table(
-        f"space {space}" + (f" in {engine}" if engine else "") + f": {len(sp)} parameters",
-        ("parameter", "low", "high", "unit", "meaning"),
-    )
+    inactive: dict[str, str] = {}
+    headers: tuple[str, ...] = ("parameter", "low", "high", "unit", "meaning")
+    if task is not None:
+        from simtune.activity import inactive_parameters
+
+        assert engine is not None, "set above"
+        inactive = inactive_parameters(engine, proj.parse_tasks(task), sp)
+        headers = ("parameter", "low", "high", "unit", "active", "meaning / why inactive")
+    title = f"space {space}" + (f" in {engine}" if engine else "") + f": {len(sp)} parameters"
+    if task is not None:
+        title += f", {len(sp) - len(inactive)} active on {task}"
+    table = text_table(title, headers)
     for p in sp.parameters:
-        table.add_row(p.name, f"{p.low:g}", f"{p.high:g}", p.unit, p.description)
+        if task is None:
+            table.add_row(p.name, f"{p.low:g}", f"{p.high:g}", p.unit, p.description)
+        else:
+            why = inactive.get(p.name)
+            table.add_row(p.name, f"{p.low:g}", f"{p.high:g}", p.unit, "no" if why else "yes", why or p.description)
     out.print(table)
 
 
@@ -888,29 +1140,6 @@ def init(
 
 
 @app.command()
-def check(
-    project_dir: Annotated[
-        Path | None,
-        typer.Argument(help="Project folder to check (its simtune.toml).", show_default=False, callback=_path),
-    ] = None,
-) -> None:
-    """Check a project before tuning: robot, joints and links, recordings, start pose, engines.
-
-    Prints one line per finding; exits 2 if any is a problem.
-    """
-    from simtune.project_check import check_project
-
-    if project_dir is None:
-        raise typer.BadParameter("name the project folder: simtune check DIR")
-    findings = check_project(project_dir)
-    for finding in findings:
-        stream = err if finding.level == "problem" else out
-        stream.print(escape(str(finding)), highlight=False, soft_wrap=True)
-    if any(f.level == "problem" for f in findings):
-        raise typer.Exit(2)
-
-
-@app.command()
 def compare(
     optimizers: Annotated[
         str, typer.Option(help="Optimisers to compare, comma-separated: de, cmaes, bo, random.")
@@ -1002,6 +1231,15 @@ def transfer(
         Path,
         typer.Option("--out", "-o", help="Folder for the tuning run (OUT/run) and transfer.json.", callback=_path),
     ] = Path("runs/transfer"),
+    align_clock: Annotated[
+        bool,
+        typer.Option(
+            "--align-clock/--no-align-clock",
+            help="Also score each test task with its own recording clock aligned: its command delay estimated "
+            "from its recordings with the tuned physics held fixed (so the transfer measures the physics, not "
+            "the clocks).",
+        ),
+    ] = True,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
 ) -> None:
@@ -1031,7 +1269,9 @@ def transfer(
         optimizer=optimizer,
         refine=refine,
     )
-    result = run_transfer(config, test, out_dir, test_data, show_progress=not quiet and not as_json)
+    result = run_transfer(
+        config, test, out_dir, test_data, show_progress=not quiet and not as_json, align_clock=align_clock
+    )
     if as_json:
         print(json.dumps({k: v for k, v in result.items() if k != "params"}))
         return
@@ -1054,7 +1294,24 @@ def transfer(
         table.add_row(
             f"[bold]all {role}[/]", role, _fmt(t["generic"]), _fmt(t["tuned"]), f"{t['change'] * 100:+.0f} %", "", ""
         )
+        if "tuned_aligned" in t:
+            table.add_row(
+                f"[bold]all {role}, clock aligned[/]",
+                role,
+                _fmt(t["generic"]),
+                _fmt(t["tuned_aligned"]),
+                f"{t['change_aligned'] * 100:+.0f} %",
+                "",
+                "",
+            )
     out.print(table)
+    for r in result["tasks"]:
+        if r["delay_s"] is not None:
+            out.print(
+                f"clock aligned: {r['task']}'s command delay {r['delay_s']:.2f} s, estimated from its recordings "
+                f"with the tuned physics held fixed: tuned fitness {r['tuned']:.4f} -> {r['tuned_aligned']:.4f} "
+                "(--no-align-clock leaves clocks alone)"
+            )
     out.print(f"tuned parameters: {result['best_params_file']}; result: {out_dir / 'transfer.json'}")
 
 

@@ -47,7 +47,8 @@ class JointController:
         n = task.robot.n_joints
         v_max = [params.get(f"max_velocity_joint_{i}", task.max_velocity_deg) for i in range(1, n + 1)]
         self.v_max = np.radians(np.array(v_max, dtype=float))
-        self.delay = float(params.get("command_delay", 0.0))
+        # a task's own delay (``command_delay_<task>``, tasks tuned together) before the shared one
+        self.delay = float(params.get(f"command_delay_{task.name}", params.get("command_delay", 0.0)))
         #: how long after each 20 Hz sample instant the controller updates [s], in [0, CONTROL_PERIOD)
         self.phase = self.delay % CONTROL_PERIOD
 

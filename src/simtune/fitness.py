@@ -240,3 +240,35 @@ def _weighted(weights: FitnessWeights, wrist: float | None, obj: float | None, j
     if joint is not None:
         fitness += weights.joint * joint
     return fitness
+
+
+def residuals(
+    rollout: Rollout,
+    reference: TaskData,
+    params: dict[str, float],
+    *,
+    weights: FitnessWeights = FitnessWeights(),
+    joint_names: Sequence[str] = (),
+) -> np.ndarray:
+    """One task's residual vector for least squares and Gauss-Newton uncertainty, beside its scalar fitness.
+
+    The simulated marker minus the mean recorded wrist at every 20 Hz sample (x, y, z: the
+    vector whose length is the fitness's per-sample wrist distance), divided by sqrt(samples);
+    for a task with an object, the simulated minus the recorded final object position; with joint
+    logs, the simulated minus the mean recorded angles, divided by sqrt(samples x joints); each
+    part times the square root of its weight.  Their sum of squares is the weighted mean squared
+    marker error plus squared object error plus mean squared joint error: the fitness with squared
+    distances.  Components rather than distances, so that the Jacobian keeps each direction and
+    stays smooth where a distance is near zero.
+    """
+    n = len(reference.times)
+    parts = []
+    if reference.wrist_mean is not None:
+        wrist = (marker_positions(rollout, params) - reference.wrist_mean) / np.sqrt(n)
+        parts.append(np.sqrt(weights.wrist) * wrist.ravel())
+    if reference.object_final is not None and rollout.object_pos is not None:
+        parts.append(np.sqrt(weights.object) * (rollout.object_pos[-1] - reference.object_final_mean))
+    joints = joint_differences(rollout, reference, joint_names)
+    if joints is not None:
+        parts.append(np.sqrt(weights.joint) * joints.ravel() / np.sqrt(joints.size))
+    return np.concatenate(parts) if parts else np.zeros(0)

@@ -20,11 +20,10 @@ from simtune.fitness import (
     FitnessWeights,
     Score,
     TaskScore,
-    joint_differences,
-    marker_positions,
     rollout_joint_names,
     score_rollout,
 )
+from simtune.fitness import residuals as task_residuals
 from simtune.params import ParameterSpace
 from simtune.tasks import TaskSpec
 
@@ -180,15 +179,7 @@ class Objective:
             n = len(reference.times)
             rollout = self._engine(task).rollout(params, n)
             scores.append(self._score(task, rollout, params))
-            if reference.wrist_mean is not None:
-                wrist = (marker_positions(rollout, params) - reference.wrist_mean) / np.sqrt(n)
-                parts.append(np.sqrt(w.wrist) * wrist.ravel())
-            if self._has_object_residual(task):
-                assert rollout.object_pos is not None, "a task with an object samples its position"
-                parts.append(np.sqrt(w.object) * (rollout.object_pos[-1] - reference.object_final_mean))
-            joints = joint_differences(rollout, reference, rollout_joint_names(task))
-            if joints is not None:
-                parts.append(np.sqrt(w.joint) * joints.ravel() / np.sqrt(joints.size))
+            parts.append(task_residuals(rollout, reference, params, weights=w, joint_names=rollout_joint_names(task)))
         score = Score.combine(scores)
         residuals = np.concatenate(parts)
         if not score.stable or not np.all(np.isfinite(residuals)):

@@ -44,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 import simtune
+from simtune.activity import active_space, inactive_parameters
 from simtune.data.fingerprint import fingerprint_changes, folders_fingerprint
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, RunInterrupted, SimtuneError
@@ -51,12 +52,14 @@ from simtune.fitness import FitnessWeights
 from simtune.objective import Objective, load_references, recordings_folder
 from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squares_refine
 from simtune.optimize.evaluator import timed_out
-from simtune.params import get_space
+from simtune.params import ParameterSpace, get_space
+from simtune.params.space import is_supported
 from simtune.progress import TuneProgress
 from simtune.runlock import LOCK_FILE, check_free, run_lock
 from simtune.store import STORE_FILE, RunStore, check_store_file
 from simtune.tasks import TaskSpec, parse_tasks
 from simtune.tasks.spec import FINGERPRINT, common_robot
+from simtune.uncertainty import uncertainty
 
 BEST_PARAMS_FILE = "best_params.json"
 #: where ``resume --rescore`` keeps the run it replaces
@@ -102,6 +105,12 @@ class RunConfig:
     joint_topic: str | None = None
     #: the project file the tasks are read from (absolute); None: the bundled MICO project
     project: str | None = None
+    #: keep parameters that change no rollout of the tasks in the search (the paper's full D); implied by
+    #: paper_exact.  Runs stored before this setting existed kept them all.
+    keep_inactive: bool = False
+    #: with several tasks, one command delay per task (``command_delay_<task>``) instead of one shared
+    #: delay; runs stored before this setting existed shared one
+    task_delays: bool = True
 
     def record(self) -> dict:
         """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
@@ -124,6 +133,8 @@ class RunConfig:
                 raise ConfigError(
                     f"{where}: unknown key {key!r} in the stored configuration (written by another simtune version?)"
                 )
+        # a run from before these settings searched every parameter, with one shared command delay
+        values = {"keep_inactive": True, "task_delays": False, **values}
         for f in fields(cls):
             if f.default is MISSING and f.name not in values:
                 raise ConfigError(f"{where}: the stored configuration has no {f.name!r}")
@@ -157,7 +168,7 @@ class RunConfig:
                 raise bad(key, "a finite number of seconds above 0")
         if self.target_fitness is not None and (not _is_number(self.target_fitness) or self.target_fitness < 0):
             raise bad("target_fitness", "a finite number of at least 0")
-        for key in ("prune", "refine", "paper_exact"):
+        for key in ("prune", "refine", "paper_exact", "keep_inactive", "task_delays"):
             if not isinstance(getattr(self, key), bool):
                 raise bad(key, "true or false")
         if self.only is not None and (
@@ -257,12 +268,30 @@ def _summary(changes: list[str], shown: int = 3) -> str:
     return "; ".join(changes[:shown]) + more
 
 
-def build_objective(config: RunConfig) -> Objective:
+def full_space(config: RunConfig) -> ParameterSpace:
+    """The run's space before inactive parameters are left out: the engine's (or the paper's whole list)."""
     tasks = parse_tasks(config.tasks, config.project)
-    # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
     robot = common_robot(tasks)
+    # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
     supported = None if config.paper_exact else engine_class(config.engine).supported(robot)
-    space = get_space(config.space, supported, config.only, robot)
+    names = [t.name for t in tasks] if config.task_delays else None
+    return get_space(config.space, supported, config.only, robot=robot, tasks=names)
+
+
+def run_inactive(config: RunConfig) -> dict[str, str]:
+    """Parameters of the run's full space that change no rollout of its tasks: name -> why (measured, cached)."""
+    return inactive_parameters(config.engine, parse_tasks(config.tasks, config.project), full_space(config))
+
+
+def build_objective(config: RunConfig, inactive: dict[str, str] | None = None) -> Objective:
+    """The run's objective; its space leaves out ``inactive`` (measured when not given) unless the run keeps them.
+
+    Parameters named by ``--only`` stay whether active or not: the user asked for them.
+    """
+    tasks = parse_tasks(config.tasks, config.project)
+    space = full_space(config)
+    if not (config.keep_inactive or config.paper_exact):
+        space = active_space(space, run_inactive(config) if inactive is None else inactive, config.only)
     data = None if config.data is None else Path(config.data)
     references = load_references(data, tasks, config.joint_topic)
     weights = None if config.weights is None else FitnessWeights.from_mapping(config.weights, "weights")
@@ -349,9 +378,12 @@ def _create_store(run_dir: Path, config: RunConfig, objective: Objective, generi
         unmapped_parameters=[
             n
             for n in objective.vector_space().names
-            if n not in engine_class(config.engine).supported(common_robot(objective.tasks))
+            if not is_supported(n, engine_class(config.engine).supported(common_robot(objective.tasks)))
         ],
         generic=generic.to_dict(),
+        # every parameter of the full space that changes no rollout of the tasks, and why (left out of the
+        # search unless keep_inactive; the report and export never pool them)
+        inactive_parameters=run_inactive(config),
         fingerprint=run_fingerprint(config),
         status="running",
         elapsed_s=0.0,
@@ -413,7 +445,7 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
                     f"`simtune resume {run_dir} --rescore` starts a new run from its last population on the data "
                     "as it is now"
                 )
-            objective = build_objective(config)
+            objective = build_objective(config, store.get("inactive_parameters"))
             _check_parameters(run_dir, objective, store, config)
             store.release_failures(timed_out)  # each evaluation that timed out gets one more try
             return _run_interruptible(objective, config, store, show_progress)
@@ -431,7 +463,8 @@ def _check_parameters(run_dir: Path, objective: Objective, store: RunStore, conf
 def _rescore(run_dir: Path, store: RunStore, config: RunConfig, changes: list[str], show_progress: bool) -> TuneResult:
     """A new run in ``run_dir`` from the old run's last search population, on the data as it is now."""
     checkpoint = store.last_checkpoint(up_to=store.get("search_generations"))
-    objective = build_objective(config)  # the new data must load before the old run is moved aside
+    # the new data must load before the old run is moved aside
+    objective = build_objective(config, store.get("inactive_parameters"))
     _check_parameters(run_dir, objective, store, config)
     generic = objective.score({})
     store.close()
@@ -545,8 +578,46 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
         },
     )
     store.set(status="finished", message=result.message, best_fitness=result.score.fitness)
+    # after the run is finished: a kill meanwhile loses only this summary (`simtune uncertainty RUN` redoes it)
+    store.set(uncertainty=_uncertainty_or_reason(objective, config, store, result.x))
     store.close()
     return result
+
+
+def _uncertainty_or_reason(objective: Objective, config: RunConfig, store: RunStore, x) -> dict:
+    """The Gauss-Newton uncertainty at the best point, or why it could not be computed (the run stands either way)."""
+    try:
+        return uncertainty(objective, x, full_space(config), store.get("inactive_parameters") or {}, config.workers)
+    except (SimtuneError, ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
+        return {"error": f"{type(exc).__name__}: {exc}", "parameters": []}
+
+
+def run_uncertainty(run_dir: Path, workers: int = 1) -> dict:
+    """Compute (again) the uncertainty at a finished run's best point and store it in the run (store meta)."""
+    run_dir = Path(run_dir)
+    path = run_dir / STORE_FILE
+    if not path.exists():
+        raise SimtuneError(f"{run_dir} is not a run folder (no {STORE_FILE})")
+    with run_lock(run_dir):
+        store = RunStore(run_dir)
+        try:
+            config = RunConfig.from_stored(store.get("config"), str(path))
+            if store.get("status") != "finished":
+                raise SimtuneError(f"{run_dir}: the run is not finished: `simtune resume {run_dir}` finishes it")
+            objective = build_objective(config, store.get("inactive_parameters"))
+            _check_parameters(run_dir, objective, store, config)
+            best = store.best_evaluation()
+            if best is None:
+                raise SimtuneError(f"{run_dir}: no evaluations in the run")
+            summary = uncertainty(
+                objective, np.asarray(best["x"]), full_space(config), store.get("inactive_parameters") or {}, workers
+            )
+            store.set(uncertainty=summary)
+            return summary
+        except sqlite3.DatabaseError as exc:
+            raise SimtuneError(f"{path} is damaged ({exc})") from None
+        finally:
+            store.close()
 
 
 def _combine(search: TuneResult, refined: TuneResult) -> TuneResult:

@@ -89,7 +89,7 @@ def run_sensitivity(
     morris_sample, morris_analyze, sobol_sample, sobol_analyze = _salib()
     task_specs = parse_tasks(tasks)
     robot = common_robot(task_specs)
-    sp = get_space(space, engine_class(engine).supported(robot), only, robot)
+    sp = get_space(space, engine_class(engine).supported(robot), only, robot=robot)
     if len(sp) < 2:
         raise ConfigError(f"--only: a sensitivity analysis needs at least two parameters, got {len(sp)}")
     objective = Objective(engine, task_specs, load_references(Path(data), task_specs), sp)

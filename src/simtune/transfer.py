@@ -5,6 +5,11 @@ Tunes the engine on the train tasks together (an ordinary, resumable run in
 and every test task.  A transfer is good when the test tasks improve about as
 much as the train tasks did.  Parameters the test tasks do not use (e.g. the
 mass of an object they lack) have no effect there.
+
+The command delay is a property of each recording's clock, not of the physics: by default
+each test task's clock is aligned (:func:`simtune.alignment.estimate_delay`, the tuned physics
+held fixed) and its tuned fitness reported both with and without that alignment
+(``align_clock=False``: without only).
 """
 
 from __future__ import annotations
@@ -13,6 +18,7 @@ import json
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from simtune.alignment import estimate_delay
 from simtune.errors import ConfigError, SimtuneError
 from simtune.objective import Objective, load_references
 from simtune.runs import RunConfig, resume_run, start_run
@@ -32,6 +38,9 @@ class TaskResult:
     tuned_wrist: float | None  # None: recordings without a wrist marker
     tuned_object: float | None
     stable: bool
+    #: test tasks: the tuned fitness with the task's own clock aligned, and the delay found (None: not aligned)
+    tuned_aligned: float | None = None
+    delay_s: float | None = None
 
     @property
     def change(self) -> float:
@@ -40,7 +49,12 @@ class TaskResult:
 
 
 def run_transfer(
-    config: RunConfig, test: str, out: Path, test_data: Path | None = None, show_progress: bool = True
+    config: RunConfig,
+    test: str,
+    out: Path,
+    test_data: Path | None = None,
+    show_progress: bool = True,
+    align_clock: bool = True,
 ) -> dict:
     """Tune on ``config.tasks``, score on them and on ``test``; the result as a dict (also OUT/transfer.json)."""
     train_tasks = parse_tasks(config.tasks, config.project)
@@ -71,11 +85,20 @@ def run_transfer(
             try:
                 generic = objective.score({})
                 score = objective.score(tuned.params)
+                estimate = estimate_delay(objective, task, tuned.params) if role == "test" and align_clock else None
             finally:
                 objective.close()
             rows.append(
                 TaskResult(
-                    task.name, role, generic.fitness, score.fitness, score.wrist_error, score.object_error, score.stable
+                    task.name,
+                    role,
+                    generic.fitness,
+                    score.fitness,
+                    score.wrist_error,
+                    score.object_error,
+                    score.stable,
+                    None if estimate is None else estimate.fitness,
+                    None if estimate is None else estimate.delay_s,
                 )
             )
     totals = {}
@@ -87,6 +110,10 @@ def run_transfer(
             "tuned": tuned_sum,
             "change": (tuned_sum - generic_sum) / generic_sum if generic_sum else 0.0,
         }
+        if mine and all(r.tuned_aligned is not None for r in mine):
+            aligned_sum = sum(r.tuned_aligned or 0.0 for r in mine)
+            totals[role]["tuned_aligned"] = aligned_sum
+            totals[role]["change_aligned"] = (aligned_sum - generic_sum) / generic_sum if generic_sum else 0.0
     result = {
         "engine": config.engine,
         "train": config.tasks,
@@ -100,6 +127,7 @@ def run_transfer(
         "evaluations": tuned.evaluations,
         "tasks": [{**asdict(r), "change": r.change} for r in rows],
         "totals": totals,
+        "clock_aligned": align_clock,
         "params": tuned.params,
     }
     (out / RESULT_FILE).write_text(json.dumps(result, indent=1) + "\n")

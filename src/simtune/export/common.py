@@ -204,6 +204,9 @@ def controller_yaml(ctx: ExportContext, samples: dict[str, int]) -> str:
             "duration_s": float(task.duration),
             "samples": samples.get(task.name),
             "kp_per_s": ctl.kp,
+            # the task's own recording clock (its command_delay_<task> when tasks were tuned together)
+            "command_delay_s": ctl.delay,
+            "update_phase_s": ctl.phase,
             "max_velocity_deg_s": [  # as the controller takes them (in degrees, converted once)
                 float(params.get(f"max_velocity_joint_{i}", task.max_velocity_deg))
                 for i in range(1, len(ctx.robot.driven_joints) + 1)
@@ -250,7 +253,7 @@ def controller_yaml(ctx: ExportContext, samples: dict[str, int]) -> str:
         "    velocity [deg/s] = clamp(kp_per_s * (target - angle), -max_velocity_deg_s, +max_velocity_deg_s)",
         "  sent as the motor's velocity target and held until the next update.",
         "- The arm starts at rest at the task's start_pose_deg.  Phase i of the schedule is in force from",
-        "  command_delay_s + start_s on; before the first phase the target is the start pose.",
+        "  the task's command_delay_s + start_s on; before the first phase the target is the start pose.",
         "- Samples are taken at k * period_s (k = 0 .. samples - 1); update k happens update_phase_s later,",
         "  at k * period_s + update_phase_s, from the joint angles at that instant, with the targets in force",
         "  then.  Physics steps are counted so that simulated time stays within half a step of both clocks.",

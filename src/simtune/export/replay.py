@@ -47,7 +47,8 @@ def controller_params(folder: Path, name: str) -> dict[str, float]:
     """The controller's and the marker's values from controller.yaml, as simtune's controller and fitness read them."""
     ctl = controller(folder)
     params = {f"max_velocity_joint_{i}": v for i, v in enumerate(ctl["tasks"][name]["max_velocity_deg_s"], start=1)}
-    params["command_delay"] = ctl["control"]["command_delay_s"]
+    # the task's own delay (tasks tuned together each had one); files from before it hold the shared one only
+    params["command_delay"] = ctl["tasks"][name].get("command_delay_s", ctl["control"]["command_delay_s"])
     params.update({f"marker_offset_{a}": v for a, v in zip("xyz", ctl["tracking"]["marker_offset_m"])})
     return params
 

@@ -32,6 +32,7 @@ class GridSpec:
     max_seconds_per_run: float | None = None
     max_generations: int = 1000
     only: list[str] | None = None  # tune just these parameters of each space
+    keep_inactive: bool = False  # keep parameters that change no rollout in the search (the paper's full D)
 
     def units(self) -> list[Unit]:
         return [
@@ -75,6 +76,7 @@ def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
         max_seconds=spec.max_seconds_per_run,
         max_generations=spec.max_generations,
         only=spec.only,
+        keep_inactive=spec.keep_inactive,
     )
     try:
         path.mkdir(parents=True, exist_ok=True)

@@ -5,9 +5,19 @@ from simtune.params.space import (
     SPACES,
     Parameter,
     ParameterSpace,
+    find_parameter,
     get_space,
     read_params_file,
     validate_params,
 )
 
-__all__ = ["PARAMETERS", "SPACES", "Parameter", "ParameterSpace", "get_space", "read_params_file", "validate_params"]
+__all__ = [
+    "PARAMETERS",
+    "SPACES",
+    "Parameter",
+    "ParameterSpace",
+    "find_parameter",
+    "get_space",
+    "read_params_file",
+    "validate_params",
+]

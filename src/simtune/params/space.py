@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -167,14 +168,48 @@ class ParameterSpace:
         return np.array([values[p.name] for p in self.parameters], dtype=float)
 
 
+#: A task's own command delay, when several tasks are tuned together: ``command_delay_<task>``.
+TASK_DELAY_PREFIX = "command_delay_"
+
+
+def task_delay(task: str) -> Parameter:
+    """The command delay of one task's recordings (each recording's clock starts when its operator pressed record)."""
+    shared = PARAMETERS["command_delay"]
+    return Parameter(
+        f"{TASK_DELAY_PREFIX}{task}", shared.low, shared.high, shared.unit, f"{shared.description}, task {task}"
+    )
+
+
+def find_parameter(name: str, known: Mapping[str, Parameter] | None = None) -> Parameter | None:
+    """The parameter called ``name``: one of ``known`` (default: the MICO's :data:`PARAMETERS`) or a task's
+    own command delay; None if unknown."""
+    known = PARAMETERS if known is None else known
+    if name in known:
+        return known[name]
+    if name.startswith(TASK_DELAY_PREFIX) and len(name) > len(TASK_DELAY_PREFIX):
+        return task_delay(name[len(TASK_DELAY_PREFIX) :])
+    return None
+
+
+def is_supported(name: str, supported: frozenset[str]) -> bool:
+    return name in supported or (name.startswith(TASK_DELAY_PREFIX) and "command_delay" in supported)
+
+
 def get_space(
     name: str,
     supported: frozenset[str] | None = None,
     only: list[str] | None = None,
+    *,
     robot: RobotDescription | None = None,
+    tasks: list[str] | None = None,
 ) -> ParameterSpace:
     """The space ``name`` for ``robot`` (default the MICO), restricted to the parameters in ``supported``
-    (an engine's, :meth:`Engine.supported` for the same robot) and to ``only``."""
+    (an engine's, :meth:`Engine.supported` for the same robot) and to ``only``.
+
+    With several ``tasks`` (tuned together), ``command_delay`` becomes one delay per task
+    (``command_delay_<task>``, in its place): the delay is a property of each recording's clock,
+    not of the physics.  ``--only command_delay`` then names all of them.
+    """
     known = robot_parameters(robot) if robot is not None else PARAMETERS
     try:
         params = robot_spaces(robot)[name] if robot is not None else SPACES[name]
@@ -189,6 +224,10 @@ def get_space(
                 why = "unknown parameter" if wanted not in known else f"not in space {name!r} for this engine"
                 raise ConfigError(f"--only: {wanted!r}: {why} (see `simtune params`)")
         params = tuple(p for p in params if p.name in only)
+    if tasks is not None and len(tasks) > 1:
+        params = tuple(
+            q for p in params for q in ([task_delay(t) for t in tasks] if p.name == "command_delay" else [p])
+        )
     return ParameterSpace(name, params)
 
 
@@ -201,11 +240,12 @@ def validate_params(
     known = robot_parameters(robot) if robot is not None else PARAMETERS
     out = {}
     for name, value in values.items():
-        if name not in known:
+        param = find_parameter(name, known)
+        if param is None:
             raise ConfigError(f"{at}unknown parameter {name!r} (see `simtune params`)")
-        if name not in supported:
+        if not is_supported(name, supported):
             raise ConfigError(f"{at}engine {engine!r} has no parameter {name!r} (see docs/parameters.md)")
-        out[name] = known[name].check(value, where)
+        out[name] = param.check(value, where)
     return out
 
 
@@ -263,5 +303,5 @@ def _check_file_fields(path: Path, data: dict, values: dict, engine: str | None)
             raise ConfigError(f"{path}: field 'space': unknown parameter space {space!r} (known: {', '.join(SPACES)})")
         names = {p.name for p in SPACES[space]}
         for name in values:
-            if name not in names:
+            if name not in names and not (name.startswith(TASK_DELAY_PREFIX) and "command_delay" in names):
                 raise ConfigError(f"{path}: parameter {name!r} is not in space {space!r}, which field 'space' names")

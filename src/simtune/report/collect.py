@@ -50,6 +50,10 @@ class RunRecord:
     de_settings: dict | None = None  # SciPy's settings of a differential-evolution run (None: other optimiser)
     converged: bool = False  # the search met its convergence criterion (store meta search_converged)
     project: str | None = None  # the project (file or folder) of its tasks; None: the bundled MICO project
+    #: parameters of the run's space that change no rollout of its tasks, and why (store meta inactive_parameters)
+    inactive: dict = field(default_factory=dict)
+    #: the Gauss-Newton uncertainty at the best point (store meta uncertainty; `simtune uncertainty`), if computed
+    uncertainty: dict | None = None
 
     def task(self, name: str) -> TaskSpec:
         """The definition of the run's task ``name``, from the run's project."""
@@ -126,12 +130,26 @@ class Group:
         return min(self.runs, key=lambda r: (r.best_fitness, r.seed))
 
     @property
-    def parameters(self) -> list[str]:
-        """Union of the tuned parameter names of the repeats, in first-seen order."""
+    def searched(self) -> list[str]:
+        """Union of the parameter names in the repeats' search vectors, in first-seen order (D)."""
         names: list[str] = []
         for run in self.runs:
             names.extend(n for n in run.parameters if n not in names)
         return names
+
+    @property
+    def inactive(self) -> dict[str, str]:
+        """Parameters that change no rollout of the group's tasks in some repeat, and why."""
+        found: dict[str, str] = {}
+        for run in self.runs:
+            found.update({n: why for n, why in run.inactive.items() if n not in found})
+        return found
+
+    @property
+    def parameters(self) -> list[str]:
+        """The searched parameters that can act: those whose values importance and ranges may pool."""
+        inactive = self.inactive
+        return [n for n in self.searched if n not in inactive]
 
     def bounds(self, name: str) -> tuple[float, float]:
         for run in self.runs:
@@ -238,6 +256,8 @@ def load_run(run_dir: Path, label: str | None = None, project: str | None = None
             initial_population=store.initial_population(),
             de_settings=store.get("de_settings"),
             converged=bool(store.get("search_converged", False)),
+            inactive=dict(store.get("inactive_parameters") or {}),
+            uncertainty=store.get("uncertainty"),
         )
     except sqlite3.Error as exc:
         return Skipped(run_dir, label, f"corrupt run store ({exc})")

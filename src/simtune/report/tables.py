@@ -195,7 +195,7 @@ def tuned_by_group_table(groups: list[Group]) -> Table:
                 g.space,
                 len(g.runs),
                 " ".join(str(r.seed) for r in g.runs),
-                len(g.parameters),
+                len(g.searched),
                 generic,
                 lo,
                 mean,
@@ -300,7 +300,7 @@ def paper_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table
                 experiment_label(g.tasks),
                 g.space,
                 g.engine,
-                len(g.parameters),
+                len(g.searched),
                 sizes[0] if len(sizes) == 1 else None,
                 lo,
                 100.0 * (best_generic - lo) / best_generic if best_generic else None,
@@ -413,9 +413,14 @@ def importance_table(groups: list[Group]) -> Table:
         Column("mean (normalised)", ".3f"),
         Column("mean", ".4g"),
         Column("unit"),
+        Column("best repeat", ".4g"),
+        Column("95 % interval (best repeat)"),
+        Column("active"),
     ]
     rows = []
     for g in groups:
+        best = g.best_run.best_params
+        intervals = interval_texts(g.best_run.uncertainty)
         entries = []
         for name in g.parameters:
             values = np.asarray(g.values(name))
@@ -459,8 +464,14 @@ def importance_table(groups: list[Group]) -> Table:
                     mean_norm,
                     float(mean),
                     unit,
+                    best.get(name),
+                    intervals.get(name, "-"),
+                    "yes",
                 ]
             )
+        for name, why in g.inactive.items():  # marked, never ranked: their spread is the search's wandering
+            unit = PARAMETERS[name].unit if name in PARAMETERS else ""
+            rows.append([g.engine, g.tasks, g.space, None, name, 0, *[None] * 8, unit, None, "-", f"no: {why}"])
     return Table(
         "parameter_importance",
         "Table 4. Parameter importance: spread of tuned values across repeats, and its significance",
@@ -475,8 +486,25 @@ def importance_table(groups: list[Group]) -> Table:
         "Brown-Forsythe F) of the tuned values across repeats against the values of the initial "
         "Latin-hypercube populations, pooled over repeats: p = chance of a spread this small if tuning "
         "had not narrowed it. q: Benjamini-Hochberg adjusted over the parameters of the row's engine, "
-        f"tasks and space; significant: q < {SIGNIFICANCE:g}.",
+        f"tasks and space; significant: q < {SIGNIFICANCE:g}. Best repeat: the tuned value of the best "
+        "repeat; its 95 % interval is the Gauss-Newton interval at that point (`simtune uncertainty`; "
+        "'unbounded' where the recordings cannot pin the parameter, '-' where not computed). Active: "
+        "whether the parameter changes any rollout of the tasks (measured before the search); an inactive "
+        "one is listed with the reason and never ranked.",
     )
+
+
+def interval_texts(uncertainty: dict | None) -> dict[str, str]:
+    """Parameter -> its 95 % interval as text, from a run's stored uncertainty (empty when not computed)."""
+    if not uncertainty:
+        return {}
+    texts = {}
+    for entry in uncertainty.get("parameters", []):
+        if entry.get("low") is None or entry.get("high") is None:
+            texts[entry["name"]] = "unbounded" if entry.get("active") else "-"
+        else:
+            texts[entry["name"]] = f"[{entry['low']:.4g}, {entry['high']:.4g}]"
+    return texts
 
 
 def importance_top_table(full: Table, top: int = 5) -> Table:

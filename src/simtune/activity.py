@@ -1,0 +1,235 @@
+"""Which parameters can change a task's rollout: measured, with the reason for each that cannot.
+
+A parameter that moves no sample of any rollout cannot be tuned, only wandered over: it
+enlarges the search (differential evolution's population grows with D), gets ranked by the
+spread of its tuned values, and widens domain-randomisation ranges to its bounds.
+
+The probe (:func:`measure_activity`): from the generic point and :data:`PROBE_POINTS`
+random points of the space (uniform within the middle half of each range, seeded, so the
+probe is repeatable), each parameter goes to its lower and then its upper bound, all other
+values held; the rollout's *visible track* (the marker, a point 10 cm out along each hand
+axis so that turning the hand shows, and the object) is compared with the base rollout's.
+A parameter is active as soon as one comparison moves a sample by more than
+:data:`TOLERANCE` [m]: far above what rounding in any engine produces (their rollouts of
+one parameter set are bit-identical), far below what the fitness can resolve.  Base points
+that blow up are skipped; a perturbation that makes a stable base blow up counts as a change.
+
+An inactive parameter's reason is the engine's own (``Engine.inactive_parameters``: "task
+'cube' has no wood object", "the velocity servo's force ... never reaches 100 N m") where
+it declared one; otherwise the measurement itself.  A parameter the engine declares
+inactive but that the probe sees moving stays active (the measurement decides).
+
+Results are cached per engine x task x space in a small JSON file (:func:`cache_dir`),
+keyed by the engine's version, the task's definition and the space's names and bounds.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+import simtune
+from simtune.controller import CONTROL_PERIOD
+from simtune.engines import engine_class, make_engine
+from simtune.engines.base import Rollout
+from simtune.fitness import marker_positions
+from simtune.params import ParameterSpace
+from simtune.params.space import is_supported
+from simtune.tasks import TaskSpec
+
+#: A parameter that moves no sample of the visible track by more than this [m] is inactive.
+TOLERANCE = 1e-6
+#: Random base points besides the generic one.
+PROBE_POINTS = 3
+#: Changes whenever the probe's method changes, so that no cached result of an older method is read.
+PROBE_VERSION = 2
+#: Seed of the random base points.
+PROBE_SEED = 0
+#: How far out along each hand axis the probe watches a point [m] (turns of the hand about the wrist).
+HAND_ARM_M = 0.1
+#: The environment variable that moves the cache (default ``$XDG_CACHE_HOME/simtune`` or ``~/.cache/simtune``).
+CACHE_ENV = "SIMTUNE_CACHE_DIR"
+
+
+def measured_reason(change: float, points: int = PROBE_POINTS) -> str:
+    """Why a parameter neither the engine nor the schedule explains is inactive: the measurement itself."""
+    return (
+        f"moves no sample by more than {TOLERANCE:g} m (at most {change:.1e} m) from the generic point "
+        f"or {points} random points (measured)"
+    )
+
+
+def schedule_reasons(task: TaskSpec) -> dict[str, str]:
+    """Controller parameters the task's schedule leaves idle: the velocity clamp of a joint it never moves."""
+    _, table = task.schedule
+    return {
+        f"max_velocity_joint_{i}": f"task {task.name!r} never commands joint {i} away from its start angle"
+        for i in range(1, table.shape[1] + 1)
+        if np.all(table[:, i - 1] == table[0, i - 1])
+    }
+
+
+@dataclass(frozen=True)
+class Activity:
+    """Whether one parameter changes a task's rollout, the largest change seen [m], and why not."""
+
+    name: str
+    active: bool
+    change: float
+    reason: str = ""
+
+
+def visible_track(rollout: Rollout, params: dict[str, float]) -> np.ndarray:
+    """What a rollout shows, sample by sample: marker, three points on the hand's axes, object [m]."""
+    n = len(rollout.times)
+    parts = [marker_positions(rollout, params), rollout.wrist_rot.reshape(n, 9) * HAND_ARM_M]
+    if rollout.object_pos is not None:
+        parts.append(rollout.object_pos)
+    return np.hstack(parts)
+
+
+def task_samples(task: TaskSpec) -> int:
+    """Samples of a rollout that spans the task (its duration at the control rate, both ends included)."""
+    return int(round(task.duration / CONTROL_PERIOD)) + 1
+
+
+def base_points(space: ParameterSpace, points: int = PROBE_POINTS, seed: int = PROBE_SEED) -> list[dict[str, float]]:
+    """The generic point (empty: every parameter generic) and ``points`` seeded random points of ``space``."""
+    rng = np.random.default_rng(seed)
+    low = np.array([p.low for p in space.parameters])
+    high = np.array([p.high for p in space.parameters])
+    bases: list[dict[str, float]] = [{}]
+    for _ in range(points):
+        bases.append(space.to_dict(low + (high - low) * rng.uniform(0.25, 0.75, len(low))))
+    return bases
+
+
+def measure_activity(
+    engine: str, task: TaskSpec, space: ParameterSpace, points: int = PROBE_POINTS, samples: int | None = None
+) -> dict[str, Activity]:
+    """Probe every parameter of ``space`` on ``task`` (see the module's notes): name -> Activity."""
+    cls = engine_class(engine)
+    declared = schedule_reasons(task) | cls.inactive_parameters(task)
+    supported = cls.supported()
+    n = samples or task_samples(task)
+    sim = make_engine(engine, task)
+    found: dict[str, Activity] = {}
+    largest = dict.fromkeys(space.names, 0.0)
+    try:
+        pending = [p for p in space.parameters if is_supported(p.name, supported)]
+        for p in space.parameters:
+            if not is_supported(p.name, supported):
+                found[p.name] = Activity(p.name, False, 0.0, f"engine {engine!r} has no such parameter")
+        for base in base_points(space, points):
+            if not pending:
+                break
+            reference = sim.rollout(base, n)
+            if not reference.stable:
+                continue
+            seen = visible_track(reference, base)
+            still = []
+            for p in pending:
+                for value in (p.low, p.high):
+                    moved = {**base, p.name: value}
+                    rollout = sim.rollout(moved, n)
+                    change = float(np.abs(visible_track(rollout, moved) - seen).max()) if rollout.stable else np.inf
+                    largest[p.name] = max(largest[p.name], change)
+                    if change > TOLERANCE:
+                        break
+                if largest[p.name] > TOLERANCE:
+                    found[p.name] = Activity(p.name, True, largest[p.name])
+                else:
+                    still.append(p)
+            pending = still
+        for p in pending:
+            found[p.name] = Activity(
+                p.name, False, largest[p.name], declared.get(p.name) or measured_reason(largest[p.name], points)
+            )
+    finally:
+        sim.close()
+    return {name: found[name] for name in space.names}
+
+
+def cache_dir() -> Path:
+    """Where probe results are cached: ``$SIMTUNE_CACHE_DIR``, else the user's cache folder."""
+    if os.environ.get(CACHE_ENV):
+        return Path(os.environ[CACHE_ENV])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "simtune"
+
+
+def cache_key(engine: str, task: TaskSpec, space: ParameterSpace, points: int) -> str:
+    """What a probe's outcome depends on: simtune's and the engine's versions, the task, the space, the probe."""
+    what = {
+        "simtune": simtune.__version__,
+        "engine": f"{engine} {engine_class(engine).version()}",
+        "task": asdict(task),
+        "space": [space.name, space.names, space.bounds],
+        "probe": [PROBE_VERSION, TOLERANCE, points, PROBE_SEED],
+    }
+    return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:20]
+
+
+#: probes already read or measured by this process (a run reads them several times while it starts)
+_MEMORY: dict[Path, dict[str, Activity]] = {}
+
+
+def task_activity(
+    engine: str, task: TaskSpec, space: ParameterSpace, points: int = PROBE_POINTS, use_cache: bool = True
+) -> dict[str, Activity]:
+    """:func:`measure_activity`, from the cache when it holds this engine x task x space (and into it after)."""
+    path = cache_dir() / "activity" / f"{engine}-{task.name}-{space.name}-{cache_key(engine, task, space, points)}.json"
+    if use_cache and path in _MEMORY:
+        return _MEMORY[path]
+    if use_cache:
+        try:
+            stored = json.loads(path.read_text())
+            _MEMORY[path] = {name: Activity(**stored[name]) for name in space.names}
+            return _MEMORY[path]
+        except (OSError, ValueError, KeyError, TypeError):
+            pass  # not cached yet, or a damaged entry: measure again
+    found = measure_activity(engine, task, space, points)
+    if use_cache:
+        _write_cache(path, {name: asdict(a) for name, a in found.items()})
+        _MEMORY[path] = found
+    return found
+
+
+def _write_cache(path: Path, data: dict) -> None:
+    """Best effort: a cache that cannot be written costs only a repeated probe."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        with os.fdopen(fd, "w") as fh:
+            json.dump(data, fh, indent=1)
+        os.replace(tmp, path)
+    except OSError:
+        pass
+
+
+def inactive_parameters(
+    engine: str, tasks: list[TaskSpec], space: ParameterSpace, use_cache: bool = True
+) -> dict[str, str]:
+    """Parameters of ``space`` that change no rollout of any of ``tasks``: name -> why (per task where they differ)."""
+    per_task = {task.name: task_activity(engine, task, space, use_cache=use_cache) for task in tasks}
+    inactive = {}
+    for name in space.names:
+        if all(not found[name].active for found in per_task.values()):
+            reasons = {found[name].reason for found in per_task.values()}
+            if len(reasons) == 1:
+                inactive[name] = reasons.pop()
+            else:
+                inactive[name] = "; ".join(f"{task}: {found[name].reason}" for task, found in per_task.items())
+    return inactive
+
+
+def active_space(space: ParameterSpace, inactive: dict[str, str], keep: list[str] | None = None) -> ParameterSpace:
+    """``space`` without its ``inactive`` parameters (those named in ``keep`` stay)."""
+    kept = set(keep or ())
+    return ParameterSpace(space.name, tuple(p for p in space.parameters if p.name not in inactive or p.name in kept))

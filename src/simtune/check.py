@@ -1,0 +1,182 @@
+"""`simtune check`: before hours of tuning, what the recordings are like and what they can inform.
+
+Three parts, per task and then for the tasks together:
+
+- data quality: for each recording, the frames where the wrist marker was lost and the longest
+  gap (the loader bridges gaps up to 0.25 s and leaves out a repeat with a longer one, with a
+  warning the check lists); how well the repeats agree (each one's mean distance from the mean
+  track, and the largest); how far each repeat's first wrist sample lies from where the
+  simulated arm's marker starts (a large distance: another start pose, or a misplaced base);
+- the motion onset of each repeat (:func:`simtune.data.onset.motion_onset`) and of the generic
+  simulation: their difference is the delay between pressing record and the first command;
+- which parameters the tasks can inform: the Jacobian of the per-sample residuals at the
+  generic point (:func:`simtune.uncertainty.jacobian`, one batch of rollouts), its rank and
+  singular values, and for each active parameter whether the recordings could pin it: the
+  Gauss-Newton analysis of :func:`simtune.uncertainty.analyse` with the noise the repeats'
+  own scatter puts on their mean track (:func:`repeat_noise`), not the generic point's misfit.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from simtune.activity import active_space, inactive_parameters
+from simtune.alignment import PROBE_DELAY_S
+from simtune.data import TaskData, load_recording
+from simtune.data.onset import motion_onset
+from simtune.engines import engine_class, make_engine
+from simtune.errors import SimtuneError
+from simtune.fitness import marker_positions
+from simtune.objective import Objective, load_references
+from simtune.params import get_space
+from simtune.tasks import TaskSpec
+from simtune.uncertainty import RCOND, analyse, correlation_time, generic_values, jacobian
+
+#: A repeat whose mean distance from the mean track exceeds this multiple of the median repeat's is flagged.
+OUTLIER_FACTOR = 3.0
+
+
+def _gaps(path: Path, body: str) -> tuple[int, float]:
+    """Frames in which ``body`` was lost, and its longest gap [s], in one recording."""
+    rec = load_recording(path)
+    xyz = rec.positions.get(body)
+    if xyz is None:
+        return 0, 0.0
+    lost = np.isnan(xyz).any(axis=1)
+    if not lost.any():
+        return 0, 0.0
+    period = float(np.median(np.diff(rec.time)))
+    longest, run = 0, 0
+    for flag in lost:
+        run = run + 1 if flag else 0
+        longest = max(longest, run)
+    return int(lost.sum()), longest * period
+
+
+def task_quality(engine: str, task: TaskSpec, root: Path) -> tuple[dict, TaskData]:
+    """The data-quality and onset part of the check for one task, and its loaded reference."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        reference = load_references(root, [task])[task.name]
+    wrist_repeats, wrist_mean = reference.wrist_repeats, reference.wrist_mean
+    if wrist_repeats is None or wrist_mean is None:
+        raise SimtuneError(
+            f"check --task {task.name}: its recordings hold no wrist marker (joint logs only); this check reads "
+            "the marker track - simtune check DIR checks joint logs against the start pose"
+        )
+    sim = make_engine(engine, task)
+    try:
+        rollout = sim.rollout({}, len(reference.times))
+        delayed = sim.rollout({"command_delay": PROBE_DELAY_S}, len(reference.times))
+    finally:
+        sim.close()
+    sim_marker = marker_positions(rollout, {})
+    # measured with the arm resting first, as a recording's onset is; the probe's delay taken off
+    onset = motion_onset(delayed.times, marker_positions(delayed, {}))
+    sim_onset = None if onset is None else onset - PROBE_DELAY_S
+    agreement = np.linalg.norm(wrist_repeats - wrist_mean[None], axis=2).mean(axis=1)
+    typical = float(np.median(agreement))
+    repeats: list[dict] = []
+    for i, source in enumerate(reference.sources):
+        lost, longest = _gaps(source, task.wrist_body)
+        onset = motion_onset(reference.times, wrist_repeats[i])
+        repeats.append(
+            {
+                "file": Path(source).name,
+                "lost_frames": lost,
+                "longest_gap_s": longest,
+                "distance_to_mean_m": float(agreement[i]),
+                "outlier": bool(typical > 0 and agreement[i] > OUTLIER_FACTOR * typical),
+                "start_distance_m": float(np.linalg.norm(wrist_repeats[i, 0] - sim_marker[0])),
+                "onset_s": onset,
+            }
+        )
+    onsets = [float(r["onset_s"]) for r in repeats if r["onset_s"] is not None]
+    summary = {
+        "task": task.name,
+        "repeats": repeats,
+        "left_out": [str(w.message) for w in caught],
+        "repeat_spread_m": reference.repeat_spread,
+        "largest_distance_to_mean_m": float(agreement.max()),
+        "start_distance_m": float(np.linalg.norm(wrist_mean[0] - sim_marker[0])),
+        "onset_mean_s": float(np.mean(onsets)) if onsets else None,
+        "onset_std_s": float(np.std(onsets, ddof=1)) if len(onsets) > 1 else None,
+        "simulated_onset_s": sim_onset,
+        "implied_command_delay_s": (float(np.mean(onsets) - sim_onset) if onsets and sim_onset is not None else None),
+    }
+    return summary, reference
+
+
+def repeat_noise(references: list[TaskData]) -> tuple[float, float]:
+    """The variance of one wrist residual that the recordings' own scatter explains, and its correlation time.
+
+    The mean track of R repeats is uncertain by the repeats' variance / R at each sample (per axis),
+    in residual units (divided by the samples, as :func:`simtune.fitness.residuals` scales them);
+    the repeats' deviations from their mean give the correlation time.
+    """
+    variances, deviations = [], []
+    for reference in references:
+        repeats, mean = reference.wrist_repeats, reference.wrist_mean
+        if repeats is None or mean is None or len(repeats) < 2:
+            continue
+        n = len(reference.times)
+        variances.append(float(repeats.var(axis=0, ddof=1).mean()) / len(repeats) / n)
+        deviations.extend(list(repeats - mean[None]))
+    if not variances:
+        return 0.0, 1.0
+    return float(np.mean(variances)), correlation_time(deviations)
+
+
+def check(engine: str, tasks: list[TaskSpec], root: Path, space_name: str = "extended", workers: int = 1) -> dict:
+    """Every part of the check for ``tasks`` on ``engine`` with the recordings under ``root``."""
+    cls = engine_class(engine)
+    per_task, references = [], {}
+    for task in tasks:
+        summary, reference = task_quality(engine, task, Path(root))
+        per_task.append(summary)
+        references[task.name] = reference
+    full = get_space(space_name, cls.supported())
+    inactive = inactive_parameters(engine, tasks, full)
+    space = active_space(full, inactive)
+    objective = Objective(engine, tasks, references, space)
+    generic = generic_values(objective, space.names)
+    x = np.array([min(max(generic.get(p.name, (p.low + p.high) / 2), p.low), p.high) for p in space.parameters])
+    jac = jacobian(objective, x, workers)
+    variance, inflation = repeat_noise(list(references.values()))
+    verdict = analyse(space, x, jac, inflation, inactive, variance)
+    s = np.asarray(verdict["singular_values"])
+    parameters = []
+    for i, (p, entry) in enumerate(zip(space.parameters, verdict["parameters"])):
+        parameters.append(
+            {
+                "name": p.name,
+                "value": float(x[i]),
+                "informed": entry["identifiable"],
+                "sensitivity": float(np.linalg.norm(jac.unit[:, i])),
+            }
+        )
+    parameters += [
+        {"name": n, "value": None, "informed": False, "sensitivity": 0.0, "inactive": why}
+        for n, why in inactive.items()
+    ]
+    return {
+        "engine": engine,
+        "tasks": [t.name for t in tasks],
+        "data": str(root),
+        "space": space_name,
+        "data_quality": per_task,
+        "jacobian": {
+            "point": "generic",
+            "searched": len(space),
+            "rank": verdict["rank"],
+            "singular_values": [float(v) for v in s],
+            "non_smooth": verdict["non_smooth"],
+            "noise_m": float(np.sqrt(variance * np.mean([len(r.times) for r in references.values()]))),
+            "cutoff": f"singular values below {RCOND:g} x the largest count as zero",
+            "stable": jac.stable,
+        },
+        "parameters": parameters,
+    }

@@ -1,0 +1,283 @@
+"""How well the recordings pin each tuned parameter: Gauss-Newton uncertainty at a run's best point.
+
+The Jacobian ``J`` of the per-sample residuals (:func:`simtune.fitness.residuals`: marker minus
+mean recorded wrist at every sample, stacked over tasks, and the final object offset) is taken by
+central finite differences in the unit cube (each parameter scaled to its range, step
+:data:`STEP` of the range; one-sided at a bound), all 2D + 1 rollouts as one batch through the
+run's :class:`~simtune.optimize.evaluator.Evaluator` (its worker pool; a scratch store, so the
+run's own evaluations and best point are untouched).
+
+Covariance (Gauss-Newton): ``s^2 (J^T J)^+`` with ``s^2 = |r|^2 / (m - rank)`` the residual
+variance at the point, and the pseudo-inverse over the singular values of ``J`` above
+:data:`RCOND` times the largest (below it a direction counts as unidentifiable).  The samples
+of a recording are not independent (20 Hz samples of a smooth track, and a misfit that is
+smooth too): the covariance is multiplied by the wrist residuals' integrated autocorrelation
+time (:func:`correlation_time`, pooled over tasks and axes), the factor by which correlated
+samples inform less than as many independent ones.
+
+A parameter is *identifiable* when it is active, the simulation is smooth in it at the point
+(forward and backward differences agree within :data:`KINK`: the time step, for one, changes
+the whole number of physics steps per control period, and its local slope says nothing of
+its other minima), its direction lies in the span the retained singular vectors cover (its
+component in the discarded ones below :data:`NULL_SHARE`), and its 95 % interval (value +-
+1.96 standard deviations, not clipped to the bounds) is no wider than the parameter's range;
+otherwise its interval is unbounded (``low``/``high`` null).
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from simtune.controller import CONTROLLER_PARAMETERS
+from simtune.engines import make_engine
+from simtune.objective import Objective
+from simtune.optimize.evaluator import Evaluator
+from simtune.params import ParameterSpace
+from simtune.store import RunStore
+
+#: Finite-difference step, as a fraction of each parameter's range.
+STEP = 0.01
+#: Singular values of the unit-scaled Jacobian below this fraction of the largest count as zero.
+RCOND = 1e-6
+#: Largest share (norm of its unit vector's projection) of a parameter in the discarded directions.
+NULL_SHARE = 0.1
+#: Two-sided 95 % normal quantile.
+Z95 = 1.959963984540054
+#: Sokal's window constant for the integrated autocorrelation time (the sum stops at lag >= WINDOW x tau).
+WINDOW = 5.0
+#: Forward and backward differences that differ by more than this share of the larger mark a kink.
+KINK = 0.5
+#: Most correlated pairs listed.
+TOP_PAIRS = 5
+
+
+@dataclass
+class Jacobian:
+    """Residuals at a point and their Jacobian in unit coordinates, with the rollouts' stability."""
+
+    residuals: np.ndarray  # (m,)
+    unit: np.ndarray  # (m, D): d residual / d (value / range)
+    stable: bool
+    #: (D,) whether the forward and backward differences of a column disagree by more than :data:`KINK`
+    #: (a kink or jump in the simulation, such as the time step's whole number of steps per control period)
+    kinked: np.ndarray | None = None
+
+
+def jacobian(objective: Objective, x: np.ndarray, workers: int = 1, step: float = STEP) -> Jacobian:
+    """Central-difference Jacobian of ``objective``'s residuals at ``x`` (its space's vector), one batch of rollouts."""
+    space = objective.vector_space()
+    low = np.array([p.low for p in space.parameters])
+    width = np.array([p.high - p.low for p in space.parameters])
+    x = np.asarray(x, dtype=float)
+    u = (x - low) / width
+    up = np.minimum(u + step, 1.0)
+    down = np.maximum(u - step, 0.0)
+    points = [x]
+    for i in range(len(x)):
+        for v in (up[i], down[i]):
+            p = x.copy()
+            p[i] = low[i] + v * width[i]
+            points.append(p)
+    with tempfile.TemporaryDirectory(prefix="simtune-jacobian-") as scratch:
+        store = RunStore(Path(scratch), create=True)
+        try:
+            with Evaluator(objective, store, workers=workers, prune=False) as evaluator:
+                results = evaluator.residuals(points)
+        finally:
+            store.close()
+    r0, score0 = results[0]
+    columns = []
+    kinked = np.zeros(len(x), dtype=bool)
+    stable = score0.stable
+    for i in range(len(x)):
+        (r_up, s_up), (r_down, s_down) = results[1 + 2 * i], results[2 + 2 * i]
+        stable = stable and s_up.stable and s_down.stable
+        span = up[i] - down[i]
+        columns.append((r_up - r_down) / span if span > 0 else np.zeros_like(r0))
+        if up[i] > u[i] and down[i] < u[i]:
+            forward = (r_up - r0) / (up[i] - u[i])
+            backward = (r0 - r_down) / (u[i] - down[i])
+            scale = max(float(np.linalg.norm(forward)), float(np.linalg.norm(backward)))
+            kinked[i] = scale > 0 and float(np.linalg.norm(forward - backward)) > KINK * scale
+    unit = np.stack(columns, axis=1) if columns else np.zeros((len(r0), 0))
+    return Jacobian(np.asarray(r0, dtype=float), unit, bool(stable), kinked)
+
+
+def wrist_tracks(residuals: np.ndarray, objective: Objective) -> list[np.ndarray]:
+    """The wrist part of a residual vector, one (samples, 3) array per task."""
+    tracks, start = [], 0
+    for task in objective.tasks:
+        n = len(objective.references[task.name].times)
+        tracks.append(residuals[start : start + 3 * n].reshape(n, 3))
+        start += 3 * n + 3 * (task.object is not None and objective.references[task.name].object_final is not None)
+    return tracks
+
+
+def correlation_time(series: list[np.ndarray]) -> float:
+    """Integrated autocorrelation time (in samples) of time series (each (n, k), columns pooled), at least 1.
+
+    1 + 2 x the sum of the pooled autocorrelations from lag 1 on, up to Sokal's automatic window
+    (:data:`WINDOW`): the factor by which correlated samples inflate the variance of what
+    they determine, compared with as many independent ones.
+    """
+    longest = max((len(s) for s in series), default=0)
+    if longest < 2:
+        return 1.0
+    acov = np.zeros(longest)
+    for s in series:
+        centred = np.asarray(s, dtype=float) - np.mean(s, axis=0)
+        n = len(centred)
+        spectrum = np.fft.rfft(centred, n=2 * n, axis=0)
+        acov[:n] += np.fft.irfft(spectrum * np.conj(spectrum), n=2 * n, axis=0)[:n].sum(axis=1)
+    if acov[0] <= 0:
+        return 1.0
+    # Sokal's automatic window: the sum up to the first lag M with M >= WINDOW x tau(M), so that the
+    # noisy tail of the estimated autocorrelation is left out
+    taus = 2.0 * np.cumsum(acov / acov[0]) - 1.0
+    within = np.flatnonzero(np.arange(longest) >= WINDOW * taus)
+    tau = float(taus[within[0]]) if within.size else float(taus[-1])
+    return float(min(max(tau, 1.0), longest))
+
+
+def directions(J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Singular values of ``J`` (m, D), right singular vectors (rows), which are kept (above :data:`RCOND` x the
+    largest), and each parameter's share in the discarded directions (0: fully pinned by the kept ones, 1: free)."""
+    d = J.shape[1]
+    if d == 0:
+        return np.zeros(0), np.zeros((0, 0)), np.zeros(0, dtype=bool), np.zeros(0)
+    _, s, vt = np.linalg.svd(J, full_matrices=True)
+    s_max = float(s.max()) if s.size else 0.0
+    keep = s > RCOND * s_max if s_max > 0 else np.zeros_like(s, dtype=bool)
+    free = np.concatenate([vt[: len(s)][~keep], vt[len(s) :]])  # discarded, and beyond the residuals' count
+    null_share = np.linalg.norm(free.T, axis=1) if free.size else np.zeros(d)
+    return s, vt, keep, null_share
+
+
+def analyse(
+    space: ParameterSpace,
+    x: np.ndarray,
+    jac: Jacobian,
+    inflation: float = 1.0,
+    inactive: dict[str, str] | None = None,
+    variance: float | None = None,
+) -> dict:
+    """The uncertainty summary of the searched parameters (``space``, values ``x``) from ``jac``.
+
+    ``variance``: of one residual, if known (the check takes it from the repeats' scatter); by
+    default the residuals' own at the point.  ``inflation``: the residuals' correlation time.
+    """
+    inactive = inactive or {}
+    width = np.array([p.high - p.low for p in space.parameters])
+    J, r = jac.unit, jac.residuals
+    m, d = J.shape
+    kinked = jac.kinked if jac.kinked is not None else np.zeros(d, dtype=bool)
+    s, vt, keep, null_share = directions(J)
+    rank = int(keep.sum())
+    dof = max(m - rank, 1)
+    if variance is None:
+        variance = float(r @ r) / dof
+    # covariance in unit coordinates over the retained directions, then scaled to each range
+    v_kept = vt[: len(s)][keep].T  # (d, rank)
+    cov_unit = (v_kept / s[keep] ** 2) @ v_kept.T * variance * inflation
+    cov = cov_unit * np.outer(width, width)
+    entries = []
+    for i, p in enumerate(space.parameters):
+        sd = math.sqrt(max(float(cov[i, i]), 0.0))
+        active = p.name not in inactive
+        identifiable = bool(active and not kinked[i] and null_share[i] < NULL_SHARE and 2 * Z95 * sd <= width[i])
+        entries.append(
+            {
+                "name": p.name,
+                "value": float(x[i]),
+                "low": float(x[i] - Z95 * sd) if identifiable else None,
+                "high": float(x[i] + Z95 * sd) if identifiable else None,
+                "active": active,
+                "identifiable": identifiable,
+            }
+        )
+    pairs = []
+    ident = [i for i, e in enumerate(entries) if e["identifiable"]]
+    for a_pos, a in enumerate(ident):
+        for b in ident[a_pos + 1 :]:
+            denom = math.sqrt(cov[a, a] * cov[b, b])
+            if denom > 0:
+                pairs.append((space.names[a], space.names[b], float(cov[a, b] / denom)))
+    pairs.sort(key=lambda t: -abs(t[2]))
+    kept_s = s[keep]
+    return {
+        "parameters": entries,
+        "residuals": m,
+        "rank": rank,
+        "searched": d,
+        "singular_values": [float(v) for v in s],
+        "condition_number": float(kept_s.max() / kept_s.min()) if kept_s.size else None,
+        "residual_rms": math.sqrt(float(r @ r) / m) if m else None,
+        "residual_variance": variance,
+        "variance_inflation": inflation,
+        "non_smooth": [n for n, k in zip(space.names, kinked) if k],
+        "stable": jac.stable,
+        "correlated_pairs": [{"a": a, "b": b, "correlation": c} for a, b, c in pairs[:TOP_PAIRS]],
+        "method": (
+            f"Gauss-Newton at the best point: central differences (step {STEP:g} of each range) of the "
+            f"per-sample residuals; pseudo-inverse over singular values above {RCOND:g} x the largest; "
+            "covariance x the residuals' integrated autocorrelation time; 95 % = value +- "
+            f"{Z95:.2f} sd; a parameter whose forward and backward differences disagree is not identifiable"
+        ),
+    }
+
+
+def generic_values(objective: Objective, names: list[str]) -> dict[str, float]:
+    """The values parameters outside the search keep: the engine's generic ones, the controller's defaults."""
+    values: dict[str, float] = {}
+    for task in objective.tasks:
+        sim = make_engine(objective.engine, task)
+        try:
+            values = {**sim.defaults(), **values}
+        finally:
+            sim.close()
+    task = objective.tasks[0]
+    for name in names:
+        if name in values:
+            continue
+        if name.startswith("max_velocity_joint_"):
+            values[name] = task.max_velocity_deg
+        elif name in CONTROLLER_PARAMETERS or name.startswith("marker_offset_"):
+            values[name] = 0.0
+    return {n: float(values[n]) for n in names if n in values}
+
+
+def uncertainty(
+    objective: Objective,
+    x: np.ndarray,
+    full: ParameterSpace,
+    inactive: dict[str, str],
+    workers: int = 1,
+) -> dict:
+    """The full summary: one entry per parameter of ``full`` (the run's whole space, searched or not)."""
+    space = objective.vector_space()
+    jac = jacobian(objective, x, workers)
+    inflation = correlation_time(wrist_tracks(jac.residuals, objective))
+    result = analyse(space, np.asarray(x, dtype=float), jac, inflation, inactive)
+    searched = {e["name"]: e for e in result["parameters"]}
+    left_out = [n for n in full.names if n not in searched]
+    generic = generic_values(objective, left_out) if left_out else {}
+    entries = []
+    for name in full.names:
+        entry = searched.get(name)
+        if entry is None:  # not searched (inactive): it keeps its generic value, and the data cannot inform it
+            entry = {
+                "name": name,
+                "value": generic.get(name),
+                "low": None,
+                "high": None,
+                "active": name not in inactive,
+                "identifiable": False,
+            }
+        entries.append(entry)
+    result["parameters"] = entries
+    return result

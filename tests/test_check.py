@@ -1,0 +1,59 @@
+"""`simtune check` and the motion onset it reports."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from simtune.data.onset import ONSET_M, motion_onset
+from simtune.reference import REFERENCE_DIR
+
+
+def _track(onset: float, glitch: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    times = np.arange(200) / 20.0
+    track = np.zeros((200, 3)) + [0.3, 0.1, 0.4]
+    track[:, 0] += np.where(times > onset, 0.05 * (times - onset), 0.0)  # 5 cm/s from the onset on
+    track += np.random.default_rng(0).normal(scale=0.0005, size=track.shape)  # marker jitter
+    if glitch:
+        track[0, 2] += 2 * ONSET_M  # one stray first sample
+    return times, track
+
+
+@pytest.mark.parametrize("glitch", [False, True])
+def test_onset_is_where_the_track_leaves_its_rest_position(glitch):
+    times, track = _track(1.7, glitch)
+    onset = motion_onset(times, track)
+    # 5 mm at 5 cm/s: the threshold is crossed 0.1 s after the true onset
+    assert onset == pytest.approx(1.7 + ONSET_M / 0.05, abs=0.03)
+
+
+def test_a_track_that_never_moves_has_no_onset():
+    times, track = _track(100.0)
+    assert motion_onset(times, track) is None
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "simtune.cli", *args], capture_output=True, text=True, timeout=600)
+
+
+def test_check_reports_quality_onsets_and_what_the_task_informs():
+    proc = _cli("check", "--engine", "mujoco", "--task", "cube", "--data", str(REFERENCE_DIR), "-s", "shared", "--json")
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout)
+    (cube,) = result["data_quality"]
+    assert [r["file"] for r in cube["repeats"]] == ["cube0001.tsv.gz", "cube0002.tsv.gz", "cube0003.tsv.gz"]
+    for r in cube["repeats"]:
+        assert r["lost_frames"] >= 0 and r["distance_to_mean_m"] < 0.05 and r["start_distance_m"] < 0.1
+        assert r["onset_s"] is not None and 0.0 < r["onset_s"] < 5.0
+    jac = result["jacobian"]
+    assert 0 < jac["rank"] <= jac["searched"] == len(jac["singular_values"])
+    informed = {p["name"] for p in result["parameters"] if p["informed"]}
+    inactive = {p["name"] for p in result["parameters"] if "inactive" in p}
+    assert "max_velocity_joint_2" in informed and "mass_cube_wood" in inactive and not informed & inactive
+
+
+def test_check_without_tasks_says_what_to_give():
+    proc = _cli("check")
+    assert proc.returncode == 2 and proc.stderr.startswith("error:") and "--task" in proc.stderr

@@ -1,0 +1,137 @@
+"""Uncertainty at the optimum: Gauss-Newton intervals, identifiability, the command and what a run stores."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from simtune.params import get_space
+from simtune.reference import REFERENCE_DIR
+from simtune.runs import RunConfig, start_run
+from simtune.store import RunStore
+from simtune.uncertainty import RCOND, Z95, Jacobian, analyse, correlation_time
+
+CONTRACT = {"name", "value", "low", "high", "active", "identifiable"}
+
+
+def test_gauss_newton_interval_matches_the_linear_model():
+    """On a linear model the interval is the textbook one: s^2 (J^T J)^-1, in each parameter's units."""
+    space = get_space("extended", only=["command_delay", "marker_offset_x", "marker_offset_y"])
+    width = np.array([p.high - p.low for p in space.parameters])
+    rng = np.random.default_rng(1)
+    m = 200
+    J = rng.normal(size=(m, 3))
+    J[:, 2] = 0.0  # the third parameter moves nothing: unidentifiable
+    r = rng.normal(scale=0.01, size=m)
+    x = np.array([1.0, 0.01, -0.02])
+    result = analyse(space, x, Jacobian(r, J, True))
+    entries = {e["name"]: e for e in result["parameters"]}
+    assert result["rank"] == 2 and result["residuals"] == m
+    variance = r @ r / (m - 2)
+    cov_unit = variance * np.linalg.inv(J[:, :2].T @ J[:, :2])
+    for i, name in enumerate(["command_delay", "marker_offset_x"]):
+        sd = np.sqrt(cov_unit[i, i]) * width[i]
+        assert entries[name]["identifiable"] is True
+        assert entries[name]["low"] == pytest.approx(x[i] - Z95 * sd)
+        assert entries[name]["high"] == pytest.approx(x[i] + Z95 * sd)
+    assert entries["marker_offset_y"]["identifiable"] is False
+    assert entries["marker_offset_y"]["low"] is None and entries["marker_offset_y"]["high"] is None
+    assert result["condition_number"] == pytest.approx(np.linalg.cond(J[:, :2]))
+    assert set(entries["command_delay"]) == CONTRACT
+
+
+def test_a_barely_moving_direction_is_cut_off_and_correlation_is_reported():
+    space = get_space("extended", only=["command_delay", "marker_offset_x"])
+    rng = np.random.default_rng(2)
+    a = rng.normal(size=300)
+    J = np.stack([a, a + RCOND * 1e-3 * rng.normal(size=300)], axis=1)  # two columns that are one direction
+    result = analyse(space, np.array([1.0, 0.0]), Jacobian(rng.normal(scale=1e-3, size=300), J, True))
+    assert result["rank"] == 1
+    assert not any(e["identifiable"] for e in result["parameters"])
+    # nearly collinear but resolvable: identifiable and strongly correlated
+    J2 = np.stack([a, a + 0.3 * rng.normal(size=300)], axis=1)
+    result2 = analyse(space, np.array([1.0, 0.0]), Jacobian(rng.normal(scale=1e-4, size=300), J2, True))
+    assert result2["rank"] == 2
+    assert result2["correlated_pairs"][0]["correlation"] < -0.9
+
+
+def test_an_inactive_parameter_is_never_identifiable():
+    space = get_space("extended", only=["command_delay"])
+    J = np.ones((50, 1))
+    result = analyse(space, np.array([1.0]), Jacobian(np.full(50, 1e-3), J, True), inactive={"command_delay": "x"})
+    assert result["parameters"][0]["active"] is False and result["parameters"][0]["identifiable"] is False
+
+
+@pytest.fixture(scope="module")
+def short_run(tmp_path_factory):
+    run = tmp_path_factory.mktemp("unc") / "run"
+    only = ["command_delay", "marker_offset_x", "mass_cube_wood", "lateral_friction_plastic"]
+    config = RunConfig(
+        engine="mujoco",
+        tasks="cube",
+        space="extended",
+        data=str(REFERENCE_DIR),
+        seed=1,
+        max_generations=2,
+        only=only,
+    )
+    start_run(config, run, show_progress=False)
+    return run
+
+
+def test_a_finished_run_stores_its_uncertainty_and_keeps_its_evaluations(short_run):
+    store = RunStore(short_run)
+    stored = store.get("uncertainty")
+    evaluations = store.count_evaluations()
+    store.close()
+    names = [e["name"] for e in stored["parameters"]]
+    assert names == ["mass_cube_wood", "lateral_friction_plastic", "command_delay", "marker_offset_x"]
+    wood = stored["parameters"][0]
+    assert wood["active"] is False  # named by --only: searched, yet it moves nothing on `cube`
+    assert wood["identifiable"] is False and wood["low"] is None
+    delay = next(e for e in stored["parameters"] if e["name"] == "command_delay")
+    assert delay["identifiable"] is True and delay["low"] < delay["value"] < delay["high"]
+    # the finite-difference rollouts went to a scratch store: the run's evaluations are as the search left them
+    proc = subprocess.run(
+        [sys.executable, "-m", "simtune.cli", "uncertainty", str(short_run), "--json"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    printed = json.loads(proc.stdout)
+    assert [set(e) for e in printed["parameters"]] == [CONTRACT] * 4
+    assert [e["name"] for e in printed["parameters"]] == names
+    store = RunStore(short_run)
+    assert store.count_evaluations() == evaluations
+    store.close()
+
+
+def test_uncertainty_of_a_folder_without_a_run_is_one_clear_line(tmp_path):
+    proc = subprocess.run(
+        [sys.executable, "-m", "simtune.cli", "uncertainty", str(tmp_path)], capture_output=True, text=True, timeout=60
+    )
+    assert proc.returncode == 2 and proc.stderr.startswith("error:") and "not a run folder" in proc.stderr
+
+
+def test_correlation_time_of_white_and_of_smooth_series():
+    rng = np.random.default_rng(3)
+    white = rng.normal(size=(4000, 3))
+    assert correlation_time([white]) == pytest.approx(1.0, abs=0.3)
+    # AR(1) with phi = 0.9, four series pooled: (1 + phi) / (1 - phi) = 19
+    series = [lfilter([1.0], [1.0, -0.9], rng.normal(size=20000))[:, None] for _ in range(4)]
+    assert correlation_time(series) == pytest.approx(19.0, rel=0.15)
+
+
+def test_a_kinked_parameter_is_not_identifiable():
+    """Forward and backward differences that disagree (a jump, as the time step makes) leave a parameter unpinned."""
+    space = get_space("extended", only=["command_delay", "marker_offset_x"])
+    rng = np.random.default_rng(4)
+    J = rng.normal(size=(100, 2))
+    jac = Jacobian(rng.normal(scale=1e-3, size=100), J, True, np.array([True, False]))
+    result = analyse(space, np.array([1.0, 0.0]), jac)
+    assert [e["identifiable"] for e in result["parameters"]] == [False, True]
+    assert result["non_smooth"] == ["command_delay"]
