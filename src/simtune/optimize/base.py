@@ -159,8 +159,12 @@ class BatchSearch:
             self.best_fitness = float(fitness[i])
             self.best_x = np.array(vectors[i], dtype=float)
 
-    def checkpoint(self, vectors, fitness) -> bool:
-        """Record a batch (or population) as a generation checkpoint; True when a budget says stop."""
+    def checkpoint(self, vectors, fitness, population: bool = True) -> bool:
+        """Record a batch (or population) as a generation checkpoint; True when a budget says stop.
+
+        ``population``: the batch is a search population that ``resume --rescore`` may start from (the store
+        keeps the latest such); a refinement's batches of points are not.
+        """
         generation = self.first_generation + len(self.history)
         self.history.append(self.best_fitness)
         elapsed = self.elapsed()
@@ -172,6 +176,7 @@ class BatchSearch:
             self.best_fitness,
             self.store.count_evaluations(),
             elapsed,
+            keep_population=population,
         )
         self.store.set(elapsed_s=elapsed)
         if self.settings.on_generation:

@@ -62,7 +62,7 @@ def least_squares_refine(
         results = search.evaluator.residuals(xs)
         fitness = np.array([score.fitness for _, score in results])
         search.track(xs, fitness)
-        search.checkpoint(xs, fitness)
+        search.checkpoint(xs, fitness, population=False)
         for u, (r, _) in zip(us, results):
             cache[np.asarray(u, dtype=float).tobytes()] = r
         return [r for r, _ in results]
