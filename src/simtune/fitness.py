@@ -105,3 +105,19 @@ def score_rollout(rollout: Rollout, reference: TaskData, params: dict[str, float
     return TaskScore(
         reference.task, fitness, wrist_error, object_error, rollout.stable, rollout.message, steps=rollout.steps
     )
+
+
+def rollout_residuals(rollout: Rollout, reference: TaskData, params: dict[str, float]) -> np.ndarray:
+    """One task's residual vector for least squares (kept apart from the scalar fitness above).
+
+    The simulated marker minus the mean recorded wrist at every 20 Hz sample (x, y, z), divided by
+    sqrt(samples), then, for a task with an object, the simulated minus the recorded final object
+    position.  Its sum of squares is the mean squared marker distance plus the squared object distance:
+    the task's fitness with squared instead of plain distances.  Coordinates rather than distances: they
+    are smooth where a distance has a kink (at zero), which Gauss-Newton steps need.
+    """
+    n = len(reference.times)
+    parts = [((marker_positions(rollout, params) - reference.wrist_mean) / np.sqrt(n)).ravel()]
+    if reference.object_final is not None and rollout.object_pos is not None:
+        parts.append(rollout.object_pos[-1] - reference.object_final_mean)
+    return np.concatenate(parts)

@@ -61,6 +61,7 @@ class BatchSearch:
             settings.on_evaluation,
             settings.eval_timeout,
             prune=prune and settings.prune,
+            threads=settings.threads,
         )
         self.evaluator.generation = first_generation
         self.first_generation = first_generation

@@ -7,6 +7,13 @@ process (a segfault inside an engine) or runs past ``eval_timeout`` seconds
 costs only itself: the worker is replaced, the evaluation is stored as failed
 with a penalty fitness, and the run goes on.
 
+With ``threads`` (``TuneSettings.threads``) there is no pool: each batch goes
+whole to :meth:`~simtune.objective.Objective.score_batch` in this process, whose
+engine may run it on ``workers`` threads (MuJoCo does), with the same results
+bit for bit.  That path has no crash isolation or time-out: an engine that
+segfaults ends the run (finished evaluations are kept; resume continues).
+One process (``workers`` = 1) uses the same batch path on one thread.
+
 The time-out counts the seconds this (the coordinating) process was running
 while the evaluation ran, not the clock on the wall: a coordinator that was
 stopped (SIGSTOP, Ctrl-Z, a cluster's pre-emption) or a machine that slept
@@ -60,6 +67,8 @@ class TuneSettings:
     on_generation: Callable[[int, float], None] | None = None  # (generation, best fitness)
     #: points the search starts from (rows of parameter vectors; ``simtune resume --rescore``), scored anew
     initial_population: np.ndarray | None = None
+    #: evaluate each batch in this process on ``workers`` threads (the engine's batch path) instead of processes
+    threads: bool = False
 
 
 @dataclass
@@ -190,8 +199,10 @@ class Evaluator:
         on_evaluation: Callable[[Score, bool], None] | None = None,
         eval_timeout: float | None = None,
         prune: bool = True,
+        threads: bool = False,
     ):
         self.objective = objective
+        self.threads = threads
         self.store = store
         self.workers = max(1, int(workers))
         self.on_evaluation = on_evaluation
@@ -209,7 +220,7 @@ class Evaluator:
         self._batch_failures: list[str] = []
 
     def __enter__(self) -> Evaluator:
-        if self.workers > 1:
+        if self.workers > 1 and not self.threads:
             # spawn: engines hold native handles that must not be shared through fork
             self._pool = ProcessPool(
                 self.workers,
@@ -244,18 +255,11 @@ class Evaluator:
 
         A failure of one evaluation (an engine error at a corner of the space, a
         dead or hung worker) gives a failed score and no payload; a SimtuneError
-        (bad input, full disk) stops the run.
+        (bad input, full disk) stops the run.  Without a pool the jobs go to the
+        objective as one batch (``work`` says which kind).
         """
         if self._pool is None:
-            for i, args in jobs.items():
-                t0 = time.perf_counter()
-                try:
-                    payload, score = work(self.objective, *args)
-                except SimtuneError:
-                    raise
-                except Exception as exc:
-                    payload, score = None, self._failed(f"{type(exc).__name__}: {exc}")
-                yield i, payload, score, time.perf_counter() - t0
+            yield from self._run_batch(work, jobs)
             return
         with _sigint_blocked():  # the pool's workers and threads start here, and inherit this
             futures: dict[Future, int] = {self._pool.schedule(_in_worker, (work, *args)): i for i, args in jobs.items()}
@@ -286,6 +290,34 @@ class Evaluator:
                     pending.discard(future)  # pebble stops its worker and starts another
                     reason = f"{TIMEOUT_REASON}{self.eval_timeout:g} s; worker replaced"
                     yield futures[future], None, self._failed(reason), time.perf_counter() - began
+
+    def _run_batch(self, work: Callable, jobs: dict[int, tuple]) -> Iterator[tuple[int, object, Score, float]]:
+        """:meth:`_run` in this process: the jobs as one batch of the objective (on ``workers`` threads with
+        ``threads``).  ``wall_s`` of a result is the time since the previous one (they add up to the batch's)."""
+        if not jobs:
+            return
+        indices = list(jobs)
+        space = self.objective.vector_space()
+        params = [space.to_dict(jobs[i][0]) for i in indices]
+        threads = self.workers if self.threads else 1
+        results: Iterator[tuple[int, object]]
+        if work is _score:
+            results = self.objective.score_batch(params, [jobs[i][1] for i in indices], threads)
+        else:
+            results = self.objective.residuals_batch(params, threads)
+        last = time.perf_counter()
+        for j, result in results:
+            now = time.perf_counter()
+            wall_s, last = now - last, now
+            if isinstance(result, SimtuneError):
+                raise result
+            if isinstance(result, Exception):
+                yield indices[j], None, self._failed(f"{type(result).__name__}: {result}"), wall_s
+            elif isinstance(result, Score):
+                yield indices[j], None, result, wall_s
+            else:
+                residuals, score = result
+                yield indices[j], residuals, score, wall_s
 
     def _end_batch(self, simulated: int) -> None:
         if simulated and len(self._batch_failures) == simulated:
