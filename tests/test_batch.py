@@ -75,3 +75,14 @@ def test_the_threaded_evaluator_stores_what_one_process_stores(tmp_path):
         store.close()
     assert rows["one"] == rows["threads"]
     assert sum(pruned for _, _, pruned, _ in rows["one"][0]) == 6
+
+
+def test_a_run_on_threads_is_the_run_of_one_process(tmp_path):
+    from simtune.runs import RunConfig, start_run
+
+    base = dict(engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), seed=2, max_generations=2)
+    base["only"] = ["command_delay", "max_velocity_joint_2", "mass_link_3"]
+    one = start_run(RunConfig(**base), tmp_path / "one", show_progress=False)
+    threaded = start_run(RunConfig(**base, workers=2, threads=True), tmp_path / "threads", show_progress=False)
+    assert threaded.fitness == one.fitness and threaded.evaluations == one.evaluations
+    np.testing.assert_array_equal(threaded.x, one.x)

@@ -271,6 +271,15 @@ def tune(
     ] = False,
     seed: SeedOpt = 0,
     workers: WorkersOpt = 1,
+    threads: Annotated[
+        bool,
+        typer.Option(
+            "--threads",
+            help="Evaluate on --workers threads of this process instead of worker processes (MuJoCo; the same "
+            "results; no --eval-timeout and no crash isolation).  On 2 cores processes are faster: "
+            "benchmarks/batch_threads.py.",
+        ),
+    ] = False,
     max_seconds: Annotated[
         float | None, typer.Option(help="Stop after this much wall time [s].", callback=_seconds)
     ] = None,
@@ -341,6 +350,7 @@ def tune(
         refine=refine,
         max_evaluations=max_evaluations,
         paper_exact=paper_exact,
+        threads=threads,
     )
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
     _report_tune(result, out_dir, config, RunStore(out_dir).get("generic"), as_json)

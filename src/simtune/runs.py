@@ -94,6 +94,9 @@ class RunConfig:
     #: the seed paper's exact search: SciPy's DE with immediate updating and polish, one worker, no
     #: pruning, and the paper's whole parameter list (parameters the engine lacks kept, without effect)
     paper_exact: bool = False
+    #: evaluate each batch in the coordinating process on --workers threads (the engine's batch path; the same
+    #: results as worker processes, without their crash isolation and time-outs)
+    threads: bool = False
 
     @classmethod
     def from_stored(cls, values, where: str) -> RunConfig:
@@ -136,7 +139,7 @@ class RunConfig:
                 raise bad(key, "a finite number of seconds above 0")
         if self.target_fitness is not None and (not _is_number(self.target_fitness) or self.target_fitness < 0):
             raise bad("target_fitness", "a finite number of at least 0")
-        for key in ("prune", "refine", "paper_exact"):
+        for key in ("prune", "refine", "paper_exact", "threads"):
             if not isinstance(getattr(self, key), bool):
                 raise bad(key, "true or false")
         if self.only is not None and (
@@ -450,6 +453,7 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
             on_evaluation=progress.evaluation,
             on_generation=progress.generation,
             initial_population=None if initial is None else np.array(initial, dtype=float),
+            threads=config.threads,
         )
         result = tune(objective, store, settings)
         if searched is None:
