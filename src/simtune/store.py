@@ -308,8 +308,9 @@ class RunStore:
         ).fetchone()
         return None if row is None else self._score_in(row)
 
-    def record_evaluation(self, x, score: Score, generation: int, wall_s: float) -> None:
-        """Store an evaluation; one stored earlier for the same vector is replaced (in its place: same id)."""
+    def record_evaluation(self, x, score: Score, generation: int, wall_s: float, residuals=None) -> None:
+        """Store an evaluation (with ``residuals``: its residual vector too, in the same transaction); one stored
+        earlier for the same vector is replaced (in its place: same id)."""
         stored_score = json.dumps(score.to_dict()) if self._legacy else _encode_tasks(score)
         with self._writing():
             self.db.execute(
@@ -333,6 +334,10 @@ class RunStore:
                     time.time(),
                 ),
             )
+            if residuals is not None:
+                self.db.execute(
+                    "INSERT OR IGNORE INTO residuals VALUES (?, ?)", (self._key(x), _float_bytes(residuals))
+                )
 
     def release_failures(self, retry: Callable[[Score], bool]) -> int:
         """Forget the failed evaluations ``retry`` picks that were never retried, so that a replay runs them again.

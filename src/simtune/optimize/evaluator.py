@@ -177,6 +177,17 @@ def _in_worker(work: Callable, *args) -> tuple[object, dict, float]:
     return payload, score.to_dict(), time.perf_counter() - t0
 
 
+def _twins(vectors: list[np.ndarray]) -> dict[int, int]:
+    """Index of each repeated vector of a batch -> index of its first occurrence."""
+    first: dict[bytes, int] = {}
+    twins = {}
+    for i, x in enumerate(vectors):
+        j = first.setdefault(x.tobytes(), i)
+        if j != i:
+            twins[i] = j
+    return twins
+
+
 class Evaluator:
     """Scores batches of vectors, from the store or by simulating; a map-like callable for SciPy.
 
@@ -242,8 +253,8 @@ class Evaluator:
         self._batch_failures.append(reason)
         return failed_score(reason)
 
-    def _record(self, x, score: Score, wall_s: float) -> None:
-        self.store.record_evaluation(x, score, self.generation, wall_s)
+    def _record(self, x, score: Score, wall_s: float, residuals: np.ndarray | None = None) -> None:
+        self.store.record_evaluation(x, score, self.generation, wall_s, residuals)
         self.new_evaluations += 1
         self.pruned_evaluations += score.pruned
         self.steps += sum(t.steps for t in score.tasks)
@@ -355,11 +366,18 @@ class Evaluator:
         if not self.prune or parents is None or len(parents) != len(vectors):
             parents = None  # no pruning
         fitness: list[float] = [0.0] * len(vectors)
-        jobs = {}
+        jobs: dict[int, tuple] = {}
+        twins = _twins(vectors)  # a vector asked for twice in a batch is simulated once
         for i, x in enumerate(vectors):
+            if i in twins:
+                continue
             known = self.store.lookup(x)
             if known is None:
-                jobs[i] = (x, float(parents[i]) if parents is not None else None)  # trial i competes with member i
+                # trial i competes with member i; a twin's result must hold for every parent: the loosest bound
+                bound = None
+                if parents is not None:
+                    bound = float(max(parents[j] for j in (i, *[t for t, f in twins.items() if f == i])))
+                jobs[i] = (x, bound)
                 continue
             fitness[i] = known.fitness
             if self.on_evaluation:
@@ -367,6 +385,8 @@ class Evaluator:
         for i, _, score, wall_s in self._run(_score, jobs):
             self._record(vectors[i], score, wall_s)
             fitness[i] = score.fitness
+        for i, first in twins.items():
+            fitness[i] = fitness[first]
         self._end_batch(len(jobs))
         return fitness
 
@@ -382,8 +402,11 @@ class Evaluator:
         self.requested += len(vectors)
         self._batch_failures = []
         results: list[tuple[np.ndarray, Score] | None] = [None] * len(vectors)
-        jobs = {}
+        jobs: dict[int, tuple] = {}
+        twins = _twins(vectors)
         for i, x in enumerate(vectors):
+            if i in twins:
+                continue
             known, residuals = self.store.lookup(x), self.store.lookup_residuals(x)
             if known is None or residuals is None:
                 jobs[i] = (x,)
@@ -398,10 +421,12 @@ class Evaluator:
                 residuals = self.objective.penalty_residuals()
             known = self.store.lookup(vectors[i])
             if known is None:
-                self._record(vectors[i], score, wall_s)
+                self._record(vectors[i], score, wall_s, residuals)  # both at once: a kill keeps both or neither
             else:
                 score = known  # simulated again only for its residuals: the stored evaluation stands
-            self.store.record_residuals(vectors[i], residuals)
+                self.store.record_residuals(vectors[i], residuals)
             results[i] = (residuals, score)
+        for i, first in twins.items():
+            results[i] = results[first]
         self._end_batch(len(jobs))
         return results  # type: ignore[return-value]
