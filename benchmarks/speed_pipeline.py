@@ -7,7 +7,8 @@ For each task:target, optimiser and seed: `simtune tune --engine mujoco --space 
 the real recordings, stopped at the target fitness or after --max-seconds.  Printed: the wall time at
 which the best fitness first reached the target (from the run store's generation checkpoints: the
 run's elapsed time after each batch; "not reached" if it did not), the evaluations used by then, and
-the best fitness at the end.  The load average is printed beside each run: the host is shared, and a
+the best fitness at the end, and when it passed 0.1, 0.05 and 0.04 on the way.  The load average is printed
+beside each run: the host is shared, and a
 run on a busy host is slower.  With --out the lines are appended to that file as well.
 """
 
@@ -24,6 +25,8 @@ from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"
+#: fitness levels whose times are printed on the way to the target
+MILESTONES = (0.1, 0.05, 0.04)
 
 
 def time_to_target(run_dir: Path, target: float) -> tuple[float | None, int | None, float]:
@@ -78,13 +81,19 @@ def main() -> None:
                         max_generations=100_000,
                     )
                     load = os.getloadavg()[0]
-                    result = start_run(config, Path(tmp) / "run", show_progress=False)
-                    seconds, evaluations, best = time_to_target(Path(tmp) / "run", float(target))
-                load = max(load, os.getloadavg()[0])
-                reached = f"{seconds:.1f} s ({evaluations} evaluations)" if seconds is not None else "not reached"
+                    run_dir = Path(tmp) / "run"
+                    result = start_run(config, run_dir, show_progress=False)
+                    seconds, evaluations, best = time_to_target(run_dir, float(target))
+                    load = max(load, os.getloadavg()[0])
+                    reached = f"{seconds:.1f} s ({evaluations} evaluations)" if seconds is not None else "not reached"
+                    on_the_way = ", ".join(
+                        f"<= {level:g} at {t:.0f} s" if t is not None else f"<= {level:g} never"
+                        for level, t in ((level, time_to_target(run_dir, level)[0]) for level in MILESTONES)
+                        if level > float(target)
+                    )
                 say(
                     f"{task} {optimizer} seed {seed}: fitness <= {target}: {reached}; best {best:.4f} after "
-                    f"{result.wall_s:.0f} s, {result.evaluations} evaluations; load average {load:.2f}"
+                    f"{result.wall_s:.0f} s, {result.evaluations} evaluations ({on_the_way}); load average {load:.2f}"
                 )
                 times.append(seconds if seconds is not None else float("inf"))
             say(f"{task} {optimizer}: median time to fitness <= {target}: {statistics.median(times):.1f} s")
