@@ -121,7 +121,8 @@ OptimizerOpt = Annotated[
     str,
     typer.Option(
         "--optimizer",
-        help="de: differential evolution as in the paper; cmaes: CMA-ES with restarts; bo: Bayesian "
+        help="de: differential evolution as in the paper; auto: rounds of a short DE then least squares on the "
+        "residuals (global, then local); cmaes: CMA-ES with restarts; bo: Bayesian "
         "optimisation (Optuna TPE, batches of --workers trials); random: uniform random search. cmaes and bo need "
         "`pip install 'simtune[opt]'`.",
     ),
