@@ -32,20 +32,20 @@ from simtune.optimize.random_search import random_search_tune
 from simtune.optimize.refine import least_squares_refine
 
 OPTIMIZERS: dict[str, Callable[..., TuneResult]] = {
-    "auto": global_local_tune,
     "de": differential_evolution_tune,
     "cmaes": cmaes_tune,
     "bo": bayesian_tune,
     "random": random_search_tune,
+    "auto": global_local_tune,
 }
 
 #: One line per optimiser, for --help and `simtune compare`.
 DESCRIPTIONS = {
-    "auto": "global then local: rounds of a short differential evolution and bounded least squares on the residuals",
     "de": "differential evolution as in the paper (SciPy best1bin, population 1 x D)",
     "cmaes": "CMA-ES with restarts (cmaes package), a generation = its population",
     "bo": "Bayesian optimisation, Optuna TPE, batches of `workers` trials, D trials = a generation",
     "random": "uniform random search, batches of D points",
+    "auto": "global then local: rounds of a short differential evolution and bounded least squares on the residuals",
 }
 
 
