@@ -154,7 +154,8 @@ OptimizerOpt = Annotated[
     str,
     typer.Option(
         "--optimizer",
-        help="de: differential evolution as in the paper; cmaes: CMA-ES with restarts; bo: Bayesian "
+        help="de: differential evolution as in the paper; auto: rounds of a short DE then least squares on the "
+        "residuals (global, then local); cmaes: CMA-ES with restarts; bo: Bayesian "
         "optimisation (Optuna TPE, batches of --workers trials); random: uniform random search. cmaes and bo need "
         "`pip install 'simtune[opt]'`.",
     ),
@@ -396,6 +397,15 @@ def tune(
     ] = False,
     seed: SeedOpt = 0,
     workers: WorkersOpt = 1,
+    threads: Annotated[
+        bool,
+        typer.Option(
+            "--threads",
+            help="Evaluate on --workers threads of this process instead of worker processes (MuJoCo; the same "
+            "results; no --eval-timeout and no crash isolation).  On 2 cores processes are faster: "
+            "benchmarks/batch_threads.py.",
+        ),
+    ] = False,
     max_seconds: Annotated[
         float | None, typer.Option(help="Stop after this much wall time [s].", callback=_seconds)
     ] = None,
@@ -475,6 +485,7 @@ def tune(
         joint_topic=joint_topic,
         project=_run_project(project),
         keep_inactive=keep_inactive,
+        threads=threads,
     )
     result = start_run(config, out_dir, show_progress=not quiet and not as_json)
     _report_tune(result, out_dir, config, RunStore(out_dir), as_json)

@@ -8,7 +8,9 @@ evaluations instead of rebuilding.
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
@@ -113,25 +115,49 @@ class Objective:
         ``bound``.  The optimiser passes a trial's parent fitness: a trial that
         cannot beat its parent is rejected either way, so the search is unchanged.
         """
-        scores: list[TaskScore] = []
-        spent = 0.0
-        offset = np.array([params.get(f"marker_offset_{a}", 0.0) for a in "xyz"])
-        for task in self.tasks:
+        return _one(self.score_batch([params], [bound]))
+
+    def score_batch(
+        self,
+        params: Sequence[dict[str, float]],
+        bounds: Sequence[float | None] | None = None,
+        threads: int = 1,
+    ) -> Iterator[tuple[int, Score | Exception]]:
+        """:meth:`score` of each parameter dict of a batch (``bounds[i]`` for member i), yielded as
+        ``(index, score)`` as each finishes; a member whose simulation raised yields the exception.
+
+        Each task runs the whole batch through its engine's :meth:`~simtune.engines.Engine.rollout_batch`
+        (on up to ``threads`` threads where the engine can); a member pruned on one task skips the rest.
+        """
+        spent = [0.0] * len(params)
+        parts: list[list[TaskScore]] = [[] for _ in params]
+        members = list(range(len(params)))
+        for t, task in enumerate(self.tasks):
             reference = self.references[task.name]
             n = len(reference.times)
-            # the summed marker error that proves the bound exceeded (with a margin far above
-            # rounding, so the rescored lower bound is sure to exceed it too); only the marker is
-            # watched while simulating, so without one (or with it weighing nothing) no trial stops early
-            monitor = None
-            if bound is not None and reference.wrist_mean is not None and self.weights.wrist > 0:
-                budget = ((bound - spent) * n * (1 + 1e-9) + 1e-12) / self.weights.wrist
-                monitor = _exceeds(reference.wrist_mean, offset, budget)
-            rollout = self._engine(task).rollout(params, n, monitor=monitor)
-            scores.append(self._score(task, rollout, params))
-            spent += scores[-1].fitness
-            if bound is not None and spent > bound:
-                break  # the remaining tasks cannot lower the sum
-        return Score.combine(scores)
+            monitors = None
+            if bounds is not None:
+                monitors = [
+                    _pruning_monitor(reference, params[i], bounds[i], spent[i], self.weights.wrist) for i in members
+                ]
+            going_on = []
+            batch = self._engine(task).rollout_batch([params[i] for i in members], n, monitors, threads)
+            for j, rollout in batch:
+                i = members[j]
+                try:
+                    if isinstance(rollout, Exception):
+                        raise rollout
+                    parts[i].append(self._score(task, rollout, params[i]))
+                except Exception as exc:
+                    yield i, exc
+                    continue
+                spent[i] += parts[i][-1].fitness
+                bound = None if bounds is None else bounds[i]
+                if t == len(self.tasks) - 1 or (bound is not None and spent[i] > bound):
+                    yield i, Score.combine(parts[i])  # the remaining tasks cannot lower the sum
+                else:
+                    going_on.append(i)
+            members = sorted(going_on)
 
     def _score(self, task: TaskSpec, rollout, params: dict[str, float]) -> TaskScore:
         return score_rollout(
@@ -161,30 +187,51 @@ class Objective:
     def residuals_and_score(self, params: dict[str, float]) -> tuple[np.ndarray, Score]:
         """Residual vector of ``params`` for least squares, and its score, from the same rollouts.
 
-        Per task: the simulated marker minus the mean recorded wrist at every
-        20 Hz sample (x, y, z), divided by sqrt(samples), then the simulated
-        minus the recorded final object position, then the simulated minus
-        the mean recorded joint angles, divided by sqrt(samples x joints); each
-        part times the square root of its weight.  Their sum of squares is the
-        weighted mean squared marker error plus squared object error plus mean
-        squared joint error, summed over the tasks: the fitness with squared
-        instead of plain distances.  A simulation that blew up gets
-        :meth:`penalty_residuals`.
+        The tasks' :func:`~simtune.fitness.residuals`, stacked: the simulated marker minus the mean
+        recorded wrist at every 20 Hz sample (x, y, z), divided by sqrt(samples), the simulated minus the
+        recorded final object position, and the simulated minus the mean recorded joint angles, divided
+        by sqrt(samples x joints); each part times the square root of its weight.  Their sum of squares is
+        the weighted mean squared marker error plus squared object error plus mean squared joint error,
+        summed over the tasks: the fitness with squared instead of plain distances.  A simulation that
+        blew up gets :meth:`penalty_residuals`.
         """
-        parts: list[np.ndarray] = []
-        scores: list[TaskScore] = []
-        w = self.weights
-        for task in self.tasks:
+        return _one(self.residuals_batch([params]))
+
+    def residuals_batch(
+        self, params: Sequence[dict[str, float]], threads: int = 1
+    ) -> Iterator[tuple[int, tuple[np.ndarray, Score] | Exception]]:
+        """:meth:`residuals_and_score` of each parameter dict of a batch, yielded as each finishes (see
+        :meth:`score_batch`)."""
+        parts: list[list[np.ndarray]] = [[] for _ in params]
+        scores: list[list[TaskScore]] = [[] for _ in params]
+        members = list(range(len(params)))
+        for t, task in enumerate(self.tasks):
             reference = self.references[task.name]
-            n = len(reference.times)
-            rollout = self._engine(task).rollout(params, n)
-            scores.append(self._score(task, rollout, params))
-            parts.append(task_residuals(rollout, reference, params, weights=w, joint_names=rollout_joint_names(task)))
-        score = Score.combine(scores)
-        residuals = np.concatenate(parts)
-        if not score.stable or not np.all(np.isfinite(residuals)):
-            residuals = self.penalty_residuals()
-        return residuals, score
+            joint_names = rollout_joint_names(task)
+            going_on = []
+            for j, rollout in self._engine(task).rollout_batch(
+                [params[i] for i in members], len(reference.times), None, threads
+            ):
+                i = members[j]
+                try:
+                    if isinstance(rollout, Exception):
+                        raise rollout
+                    scores[i].append(self._score(task, rollout, params[i]))
+                    parts[i].append(
+                        task_residuals(rollout, reference, params[i], weights=self.weights, joint_names=joint_names)
+                    )
+                except Exception as exc:
+                    yield i, exc
+                    continue
+                if t < len(self.tasks) - 1:
+                    going_on.append(i)
+                    continue
+                score = Score.combine(scores[i])
+                residuals = np.concatenate(parts[i])
+                if not score.stable or not np.all(np.isfinite(residuals)):
+                    residuals = self.penalty_residuals()
+                yield i, (residuals, score)
+            members = sorted(going_on)
 
     def residuals(self, params: dict[str, float]) -> np.ndarray:
         """The residual vector of :meth:`residuals_and_score` alone."""
@@ -203,6 +250,32 @@ class Objective:
         for engine in self._engines.values():
             engine.close()
         self._engines.clear()
+
+
+_T = TypeVar("_T")
+
+
+def _one(results: Iterator[tuple[int, _T | Exception]]) -> _T:
+    """The result of a batch of one member (its exception raised)."""
+    ((_, result),) = list(results)
+    if isinstance(result, Exception):
+        raise result
+    return result
+
+
+def _pruning_monitor(
+    reference: TaskData, params: dict[str, float], bound: float | None, spent: float, wrist_weight: float
+):
+    """The monitor that stops a task's rollout once its marker error proves the score will exceed ``bound``
+    (``spent``: what the earlier tasks scored); None without a bound.  Only the marker is watched while
+    simulating, so without one (or with it weighing nothing) no trial stops early."""
+    if bound is None or reference.wrist_mean is None or wrist_weight <= 0:
+        return None
+    offset = np.array([params.get(f"marker_offset_{a}", 0.0) for a in "xyz"])
+    n = len(reference.times)
+    # the summed marker error that proves the bound exceeded (with a margin far above rounding, so the
+    # rescored lower bound is sure to exceed it too)
+    return _exceeds(reference.wrist_mean, offset, ((bound - spent) * n * (1 + 1e-9) + 1e-12) / wrist_weight)
 
 
 def _exceeds(wrist_mean: np.ndarray, offset: np.ndarray, budget: float):

@@ -111,15 +111,20 @@ class RunConfig:
     #: with several tasks, one command delay per task (``command_delay_<task>``) instead of one shared
     #: delay; runs stored before this setting existed shared one
     task_delays: bool = True
+    #: evaluate each batch in the coordinating process on --workers threads (the engine's batch path; the same
+    #: results as worker processes, without their crash isolation and time-outs)
+    threads: bool = False
 
     def record(self) -> dict:
         """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
-        and ``weights`` and ``joint_topic`` at their defaults (None), so that the stores of runs made before
-        projects and joint logs and of new MICO runs compare equal."""
+        ``weights`` and ``joint_topic`` at their defaults (None) and ``threads`` when off, so that the stores of
+        runs made before projects, joint logs and the batch path and of new MICO runs compare equal."""
         values = asdict(self)
         for key in ("project", "weights", "joint_topic"):
             if values[key] is None:
                 del values[key]
+        if not values["threads"]:
+            del values["threads"]
         return values
 
     @classmethod
@@ -168,7 +173,7 @@ class RunConfig:
                 raise bad(key, "a finite number of seconds above 0")
         if self.target_fitness is not None and (not _is_number(self.target_fitness) or self.target_fitness < 0):
             raise bad("target_fitness", "a finite number of at least 0")
-        for key in ("prune", "refine", "paper_exact", "keep_inactive", "task_delays"):
+        for key in ("prune", "refine", "paper_exact", "keep_inactive", "task_delays", "threads"):
             if not isinstance(getattr(self, key), bool):
                 raise bad(key, "true or false")
         if self.only is not None and (
@@ -539,6 +544,7 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
             on_evaluation=progress.evaluation,
             on_generation=progress.generation,
             initial_population=None if initial is None else np.array(initial, dtype=float),
+            threads=config.threads,
         )
         result = tune(objective, store, settings)
         if searched is None:

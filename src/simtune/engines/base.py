@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import re
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -106,6 +106,10 @@ WRIST_LIMIT = 2.0
 OBJECT_LIMIT = 5.0
 #: Samples between two checks of the state for a blow-up (0.5 s of simulated time at 20 Hz).
 CHECK_EVERY = 10
+
+
+#: sees each sample (index, wrist position, wrist rotation) of a rollout; True stops it (see Engine.rollout)
+Monitor = Callable[[int, np.ndarray, np.ndarray], bool]
 
 
 @dataclass
@@ -243,7 +247,7 @@ class Engine(ABC):
         params: dict[str, float],
         n_samples: int,
         rate: float = 1.0 / CONTROL_PERIOD,
-        monitor: Callable[[int, np.ndarray, np.ndarray], bool] | None = None,
+        monitor: Monitor | None = None,
         after_step: Callable[[], None] | None = None,
     ) -> Rollout:
         """Run the task for ``n_samples`` control periods and sample the state at each.
@@ -320,6 +324,26 @@ class Engine(ABC):
             for samples in (wrist_pos, wrist_rot, angles, *([object_pos] if object_pos is not None else [])):
                 samples[samples_run:] = samples[samples_run - 1]
         return Rollout(times, wrist_pos, wrist_rot, angles, object_pos, stable, message, steps, samples_run, pruned)
+
+    def rollout_batch(
+        self,
+        params: Sequence[dict[str, float]],
+        n_samples: int,
+        monitors: Sequence[Monitor | None] | None = None,
+        threads: int = 1,
+    ) -> Iterator[tuple[int, Rollout | Exception]]:
+        """The rollout of each parameter dict of a batch, yielded as ``(index, rollout)`` as each finishes.
+
+        The seam where an engine runs a whole population at once (threads, a GPU): each member's rollout
+        must equal what :meth:`rollout` gives it alone, bit for bit.  ``monitors[i]`` watches member i (see
+        :meth:`rollout`); ``threads`` is how many the engine may use.  A member whose rollout raised yields
+        the exception instead (the others go on).  Here: one member after the other, in order.
+        """
+        for i, p in enumerate(params):
+            try:
+                yield i, self.rollout(p, n_samples, monitor=monitors[i] if monitors is not None else None)
+            except Exception as exc:  # one member's failure is that member's, as in a worker process
+                yield i, exc
 
     def _advance(self, n: int, after_step: Callable[[], None] | None) -> None:
         if after_step is None:

@@ -18,11 +18,15 @@ per-body velocity damping for the jointed arm or the static floor.
 
 from __future__ import annotations
 
+import copy
+import queue
 import warnings
+from collections.abc import Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 
 import numpy as np
 
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, Monitor, Rollout, unreachable_servo_limits
 from simtune.robot.description import RobotDescription
 from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf
 from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, ObjectSpec, TaskSpec
@@ -215,3 +219,76 @@ class MujocoEngine(Engine):
 
     def object_position(self) -> np.ndarray | None:
         return None if self._object is None else self.data.xpos[self._object].copy()
+
+    # --- batches across threads -------------------------------------------------------------------
+    def rollout_batch(
+        self,
+        params: Sequence[dict[str, float]],
+        n_samples: int,
+        monitors: Sequence[Monitor | None] | None = None,
+        threads: int = 1,
+    ) -> Iterator[tuple[int, Rollout | Exception]]:
+        """A batch's rollouts on ``threads`` threads, each with its own copy of the model and data.
+
+        MuJoCo releases the GIL while it steps, so threads step at once; the controller, sampling and checks
+        between steps are Python and take turns.  Each copy is reset from the compiled model's values before
+        every rollout (tuned masses and time steps differ per member), so a rollout is the one :meth:`rollout`
+        gives, whichever copy runs it.
+        """
+        threads = max(1, min(threads, len(params)))
+        if threads == 1:
+            yield from super().rollout_batch(params, n_samples, monitors)
+            return
+        copies = self._thread_copies(threads)
+        free: queue.SimpleQueue[MujocoEngine] = queue.SimpleQueue()
+        for engine in copies[:threads]:
+            free.put(engine)
+
+        def run(i: int) -> Rollout | Exception:
+            engine = free.get()
+            try:
+                return engine.rollout(params[i], n_samples, monitor=monitors[i] if monitors is not None else None)
+            except Exception as exc:
+                return exc
+            finally:
+                free.put(engine)
+
+        if self._pool is None or self._pool_threads < threads:
+            self._close_pool()
+            self._pool, self._pool_threads = ThreadPoolExecutor(threads, thread_name_prefix="mujoco-batch"), threads
+        futures: dict[Future, int] = {self._pool.submit(run, i): i for i in range(len(params))}
+        pending = set(futures)
+        try:
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for future in done:
+                    yield futures[future], future.result()
+        finally:  # a consumer that stops early: the rest are not started
+            for future in pending:
+                future.cancel()
+            wait(pending)
+
+    _pool: ThreadPoolExecutor | None = None
+    _pool_threads = 0
+    _copies: list[MujocoEngine] | None = None
+
+    def _thread_copies(self, n: int) -> list[MujocoEngine]:
+        """This engine and copies of it (own MjModel and MjData), ``n`` in all."""
+        if self._copies is None:
+            self._copies = [self]
+        while len(self._copies) < n:
+            twin = copy.copy(self)
+            twin.model = copy.deepcopy(self.model)
+            twin.data = mujoco.MjData(twin.model)
+            twin._copies, twin._pool = None, None
+            self._copies.append(twin)
+        return self._copies
+
+    def _close_pool(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def close(self) -> None:
+        self._close_pool()
+        self._copies = None

@@ -6,6 +6,7 @@ store cache, process pool) and keeps its budgets with
 :class:`~simtune.optimize.base.BatchSearch`.  Each is deterministic given its
 seed and the fitness values, so ``simtune resume`` replays it with every stored evaluation reused.
 
+- ``auto``: rounds of a short differential evolution then least squares on the residuals (:mod:`.pipeline`);
 - ``de``: the seed paper's differential evolution (SciPy), unchanged;
 - ``cmaes``: CMA-ES with restarts (``cmaes`` package);
 - ``bo``: Bayesian optimisation, Optuna's seeded TPE sampler;
@@ -26,6 +27,7 @@ from simtune.optimize.bayes import bayesian_tune
 from simtune.optimize.cmaes_search import cmaes_tune
 from simtune.optimize.de import differential_evolution_tune
 from simtune.optimize.evaluator import Evaluator, TuneResult, TuneSettings
+from simtune.optimize.pipeline import global_local_tune
 from simtune.optimize.random_search import random_search_tune
 from simtune.optimize.refine import least_squares_refine
 
@@ -34,6 +36,7 @@ OPTIMIZERS: dict[str, Callable[..., TuneResult]] = {
     "cmaes": cmaes_tune,
     "bo": bayesian_tune,
     "random": random_search_tune,
+    "auto": global_local_tune,
 }
 
 #: One line per optimiser, for --help and `simtune compare`.
@@ -42,6 +45,7 @@ DESCRIPTIONS = {
     "cmaes": "CMA-ES with restarts (cmaes package), a generation = its population",
     "bo": "Bayesian optimisation, Optuna TPE, batches of `workers` trials, D trials = a generation",
     "random": "uniform random search, batches of D points",
+    "auto": "global then local: rounds of a short differential evolution and bounded least squares on the residuals",
 }
 
 

@@ -61,6 +61,7 @@ class BatchSearch:
             settings.on_evaluation,
             settings.eval_timeout,
             prune=prune and settings.prune,
+            threads=settings.threads,
         )
         self.evaluator.generation = first_generation
         self.first_generation = first_generation
@@ -159,8 +160,12 @@ class BatchSearch:
             self.best_fitness = float(fitness[i])
             self.best_x = np.array(vectors[i], dtype=float)
 
-    def checkpoint(self, vectors, fitness) -> bool:
-        """Record a batch (or population) as a generation checkpoint; True when a budget says stop."""
+    def checkpoint(self, vectors, fitness, population: bool = True) -> bool:
+        """Record a batch (or population) as a generation checkpoint; True when a budget says stop.
+
+        ``population``: the batch is a search population that ``resume --rescore`` may start from (the store
+        keeps the latest such); a refinement's batches of points are not.
+        """
         generation = self.first_generation + len(self.history)
         self.history.append(self.best_fitness)
         elapsed = self.elapsed()
@@ -172,6 +177,7 @@ class BatchSearch:
             self.best_fitness,
             self.store.count_evaluations(),
             elapsed,
+            keep_population=population,
         )
         self.store.set(elapsed_s=elapsed)
         if self.settings.on_generation:

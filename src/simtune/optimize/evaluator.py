@@ -7,6 +7,13 @@ process (a segfault inside an engine) or runs past ``eval_timeout`` seconds
 costs only itself: the worker is replaced, the evaluation is stored as failed
 with a penalty fitness, and the run goes on.
 
+With ``threads`` (``TuneSettings.threads``) there is no pool: each batch goes
+whole to :meth:`~simtune.objective.Objective.score_batch` in this process, whose
+engine may run it on ``workers`` threads (MuJoCo does), with the same results
+bit for bit.  That path has no crash isolation or time-out: an engine that
+segfaults ends the run (finished evaluations are kept; resume continues).
+One process (``workers`` = 1) uses the same batch path on one thread.
+
 The time-out counts the seconds this (the coordinating) process was running
 while the evaluation ran, not the clock on the wall: a coordinator that was
 stopped (SIGSTOP, Ctrl-Z, a cluster's pre-emption) or a machine that slept
@@ -60,6 +67,8 @@ class TuneSettings:
     on_generation: Callable[[int, float], None] | None = None  # (generation, best fitness)
     #: points the search starts from (rows of parameter vectors; ``simtune resume --rescore``), scored anew
     initial_population: np.ndarray | None = None
+    #: evaluate each batch in this process on ``workers`` threads (the engine's batch path) instead of processes
+    threads: bool = False
 
 
 @dataclass
@@ -168,6 +177,17 @@ def _in_worker(work: Callable, *args) -> tuple[object, dict, float]:
     return payload, score.to_dict(), time.perf_counter() - t0
 
 
+def _twins(vectors: list[np.ndarray]) -> dict[int, int]:
+    """Index of each repeated vector of a batch -> index of its first occurrence."""
+    first: dict[bytes, int] = {}
+    twins = {}
+    for i, x in enumerate(vectors):
+        j = first.setdefault(x.tobytes(), i)
+        if j != i:
+            twins[i] = j
+    return twins
+
+
 class Evaluator:
     """Scores batches of vectors, from the store or by simulating; a map-like callable for SciPy.
 
@@ -190,8 +210,10 @@ class Evaluator:
         on_evaluation: Callable[[Score, bool], None] | None = None,
         eval_timeout: float | None = None,
         prune: bool = True,
+        threads: bool = False,
     ):
         self.objective = objective
+        self.threads = threads
         self.store = store
         self.workers = max(1, int(workers))
         self.on_evaluation = on_evaluation
@@ -209,7 +231,7 @@ class Evaluator:
         self._batch_failures: list[str] = []
 
     def __enter__(self) -> Evaluator:
-        if self.workers > 1:
+        if self.workers > 1 and not self.threads:
             # spawn: engines hold native handles that must not be shared through fork
             self._pool = ProcessPool(
                 self.workers,
@@ -231,8 +253,8 @@ class Evaluator:
         self._batch_failures.append(reason)
         return failed_score(reason)
 
-    def _record(self, x, score: Score, wall_s: float) -> None:
-        self.store.record_evaluation(x, score, self.generation, wall_s)
+    def _record(self, x, score: Score, wall_s: float, residuals: np.ndarray | None = None) -> None:
+        self.store.record_evaluation(x, score, self.generation, wall_s, residuals)
         self.new_evaluations += 1
         self.pruned_evaluations += score.pruned
         self.steps += sum(t.steps for t in score.tasks)
@@ -244,18 +266,11 @@ class Evaluator:
 
         A failure of one evaluation (an engine error at a corner of the space, a
         dead or hung worker) gives a failed score and no payload; a SimtuneError
-        (bad input, full disk) stops the run.
+        (bad input, full disk) stops the run.  Without a pool the jobs go to the
+        objective as one batch (``work`` says which kind).
         """
         if self._pool is None:
-            for i, args in jobs.items():
-                t0 = time.perf_counter()
-                try:
-                    payload, score = work(self.objective, *args)
-                except SimtuneError:
-                    raise
-                except Exception as exc:
-                    payload, score = None, self._failed(f"{type(exc).__name__}: {exc}")
-                yield i, payload, score, time.perf_counter() - t0
+            yield from self._run_batch(work, jobs)
             return
         with _sigint_blocked():  # the pool's workers and threads start here, and inherit this
             futures: dict[Future, int] = {self._pool.schedule(_in_worker, (work, *args)): i for i, args in jobs.items()}
@@ -286,6 +301,34 @@ class Evaluator:
                     pending.discard(future)  # pebble stops its worker and starts another
                     reason = f"{TIMEOUT_REASON}{self.eval_timeout:g} s; worker replaced"
                     yield futures[future], None, self._failed(reason), time.perf_counter() - began
+
+    def _run_batch(self, work: Callable, jobs: dict[int, tuple]) -> Iterator[tuple[int, object, Score, float]]:
+        """:meth:`_run` in this process: the jobs as one batch of the objective (on ``workers`` threads with
+        ``threads``).  ``wall_s`` of a result is the time since the previous one (they add up to the batch's)."""
+        if not jobs:
+            return
+        indices = list(jobs)
+        space = self.objective.vector_space()
+        params = [space.to_dict(jobs[i][0]) for i in indices]
+        threads = self.workers if self.threads else 1
+        results: Iterator[tuple[int, object]]
+        if work is _score:
+            results = self.objective.score_batch(params, [jobs[i][1] for i in indices], threads)
+        else:
+            results = self.objective.residuals_batch(params, threads)
+        last = time.perf_counter()
+        for j, result in results:
+            now = time.perf_counter()
+            wall_s, last = now - last, now
+            if isinstance(result, SimtuneError):
+                raise result
+            if isinstance(result, Exception):
+                yield indices[j], None, self._failed(f"{type(result).__name__}: {result}"), wall_s
+            elif isinstance(result, Score):
+                yield indices[j], None, result, wall_s
+            else:
+                residuals, score = result
+                yield indices[j], residuals, score, wall_s
 
     def _end_batch(self, simulated: int) -> None:
         if simulated and len(self._batch_failures) == simulated:
@@ -323,11 +366,18 @@ class Evaluator:
         if not self.prune or parents is None or len(parents) != len(vectors):
             parents = None  # no pruning
         fitness: list[float] = [0.0] * len(vectors)
-        jobs = {}
+        jobs: dict[int, tuple] = {}
+        twins = _twins(vectors)  # a vector asked for twice in a batch is simulated once
         for i, x in enumerate(vectors):
+            if i in twins:
+                continue
             known = self.store.lookup(x)
             if known is None:
-                jobs[i] = (x, float(parents[i]) if parents is not None else None)  # trial i competes with member i
+                # trial i competes with member i; a twin's result must hold for every parent: the loosest bound
+                bound = None
+                if parents is not None:
+                    bound = float(max(parents[j] for j in (i, *[t for t, f in twins.items() if f == i])))
+                jobs[i] = (x, bound)
                 continue
             fitness[i] = known.fitness
             if self.on_evaluation:
@@ -335,6 +385,8 @@ class Evaluator:
         for i, _, score, wall_s in self._run(_score, jobs):
             self._record(vectors[i], score, wall_s)
             fitness[i] = score.fitness
+        for i, first in twins.items():
+            fitness[i] = fitness[first]
         self._end_batch(len(jobs))
         return fitness
 
@@ -350,8 +402,11 @@ class Evaluator:
         self.requested += len(vectors)
         self._batch_failures = []
         results: list[tuple[np.ndarray, Score] | None] = [None] * len(vectors)
-        jobs = {}
+        jobs: dict[int, tuple] = {}
+        twins = _twins(vectors)
         for i, x in enumerate(vectors):
+            if i in twins:
+                continue
             known, residuals = self.store.lookup(x), self.store.lookup_residuals(x)
             if known is None or residuals is None:
                 jobs[i] = (x,)
@@ -366,10 +421,12 @@ class Evaluator:
                 residuals = self.objective.penalty_residuals()
             known = self.store.lookup(vectors[i])
             if known is None:
-                self._record(vectors[i], score, wall_s)
+                self._record(vectors[i], score, wall_s, residuals)  # both at once: a kill keeps both or neither
             else:
                 score = known  # simulated again only for its residuals: the stored evaluation stands
-            self.store.record_residuals(vectors[i], residuals)
+                self.store.record_residuals(vectors[i], residuals)
             results[i] = (residuals, score)
+        for i, first in twins.items():
+            results[i] = results[first]
         self._end_batch(len(jobs))
         return results  # type: ignore[return-value]

@@ -33,24 +33,17 @@ MAX_NFEV = 10  # solver steps (residual evaluations); each may add a D-evaluatio
 STEP = 0.01  # forward-difference step, as a fraction of each parameter's range
 
 
-def least_squares_refine(
-    objective: Objective,
-    store: RunStore,
-    x0,
-    settings: TuneSettings,
-    *,
-    first_generation: int = 1,
-    max_nfev: int = MAX_NFEV,
-    step: float = STEP,
-) -> TuneResult:
-    """Refine ``x0`` with bounded least squares; checkpoints each batch as a generation from ``first_generation``.
+class BudgetSpent(Exception):
+    """Raised inside SciPy's solver when a budget of the search says stop (SciPy has no other way out)."""
 
-    Of ``settings`` only the processes, the evaluation timeout, the callbacks and
-    ``elapsed_before`` apply: the refinement's budget is ``max_nfev``.
+
+def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float = STEP, ftol: float = 1e-8):
+    """SciPy's bounded least squares from ``x0`` through ``search`` (its evaluator and checkpoints).
+
+    Every batch (a trial point, or a Jacobian's D points) is checkpointed as a generation, not a population;
+    :class:`BudgetSpent` is raised once a checkpoint says a budget is spent.  Returns SciPy's result.
     """
     x0 = np.asarray(x0, dtype=float)
-    settings = replace(settings, max_seconds=None, max_generations=None, max_evaluations=None, target_fitness=None)
-    search = BatchSearch(objective, store, settings, first_generation=first_generation)
     u0 = search.to_unit(x0)
     cache: dict[bytes, np.ndarray] = {}
 
@@ -62,9 +55,11 @@ def least_squares_refine(
         results = search.evaluator.residuals(xs)
         fitness = np.array([score.fitness for _, score in results])
         search.track(xs, fitness)
-        search.checkpoint(xs, fitness)
+        stop = search.checkpoint(xs, fitness, population=False)
         for u, (r, _) in zip(us, results):
             cache[np.asarray(u, dtype=float).tobytes()] = r
+        if stop:
+            raise BudgetSpent
         return [r for r, _ in results]
 
     def fun(u: np.ndarray) -> np.ndarray:
@@ -82,9 +77,29 @@ def least_squares_refine(
         columns = batch(points)
         return np.stack([(r - r0) / hi for r, hi in zip(columns, h)], axis=1)
 
+    return least_squares(
+        fun, np.clip(u0, 0.0, 1.0), jac=jac, bounds=(0.0, 1.0), method="trf", max_nfev=max_nfev, ftol=ftol
+    )
+
+
+def least_squares_refine(
+    objective: Objective,
+    store: RunStore,
+    x0,
+    settings: TuneSettings,
+    *,
+    first_generation: int = 1,
+    max_nfev: int = MAX_NFEV,
+    step: float = STEP,
+) -> TuneResult:
+    """Refine ``x0`` with bounded least squares; checkpoints each batch as a generation from ``first_generation``.
+
+    Of ``settings`` only the processes, the evaluation timeout, the callbacks and
+    ``elapsed_before`` apply: the refinement's budget is ``max_nfev``.
+    """
+    settings = replace(settings, max_seconds=None, max_generations=None, max_evaluations=None, target_fitness=None)
+    search = BatchSearch(objective, store, settings, first_generation=first_generation)
     with search:
-        solution = least_squares(
-            fun, np.clip(u0, 0.0, 1.0), jac=jac, bounds=(0.0, 1.0), method="trf", max_nfev=max_nfev
-        )
+        solution = least_squares_phase(search, x0, max_nfev=max_nfev, step=step)
         message = f"least squares: {solution.message.rstrip('.')} after {solution.nfev} steps"
         return search.result(message, converged=bool(solution.status > 0))

@@ -1,0 +1,98 @@
+"""Evaluations per second of one batch: one process, a pool of 2 worker processes, 2 threads (MuJoCo's batch path).
+
+    python benchmarks/batch_threads.py [--data ../shared/datasets/qrg2019/mocap] [--evals 40] [--repeats 3]
+
+The real `cube` recordings, MuJoCo, the `extended` space; the batch is --evals random points of the middle
+of the space (stable simulations with differing masses and time steps, as a DE population has).  Each way is
+warmed up first (workers started, engines built), then timed on the same batch; the three ways take turns,
+--repeats times, and the median [min, max] is printed with the load average: the host is shared.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from simtune.engines import engine_class
+from simtune.objective import Objective, load_references
+from simtune.optimize.evaluator import Evaluator
+from simtune.params import get_space
+from simtune.store import RunStore
+from simtune.tasks import get_task
+
+DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"
+WAYS = {"1 process": (1, False), "2 processes": (2, False), "2 threads": (2, True)}
+
+
+def rate(objective: Objective, batch: np.ndarray, workers: int, threads: bool) -> float:
+    with tempfile.TemporaryDirectory() as tmp:
+        store = RunStore(Path(tmp), create=True)
+        with Evaluator(objective, store, workers, threads=threads) as evaluator:
+            evaluator(None, batch[:4] + 1e-9)  # warm-up: workers started, engines and thread copies built
+            t0 = time.perf_counter()
+            evaluator(None, batch)
+            seconds = time.perf_counter() - t0
+        store.close()
+    return len(batch) / seconds
+
+
+def stepping_share(objective: Objective, batch: np.ndarray) -> float:
+    """Share of one-at-a-time evaluation time spent inside ``mj_step`` (which runs without the GIL)."""
+    engine = objective._engine(objective.tasks[0])
+    step, inside = engine.step, [0.0]
+
+    def timed_step(n: int) -> None:
+        t0 = time.perf_counter()
+        step(n)
+        inside[0] += time.perf_counter() - t0
+
+    engine.step = timed_step  # type: ignore[method-assign]
+    t0 = time.perf_counter()
+    for x in batch:
+        objective.score_vector(x)
+    total = time.perf_counter() - t0
+    engine.step = step  # type: ignore[method-assign]
+    return inside[0] / total
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    parser.add_argument("--evals", type=int, default=40)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    task = get_task("cube")
+    space = get_space("extended", engine_class("mujoco").supported())
+    objective = Objective("mujoco", [task], load_references(args.data, [task]), space)
+    lo, hi = np.array(space.bounds).T
+    batch = lo + (0.3 + 0.4 * np.random.default_rng(0).random((args.evals, len(lo)))) * (hi - lo)
+    print(f"batch throughput, real cube, mujoco, extended, {args.evals} evaluations per batch, {os.cpu_count()} cores")
+    rates: dict[str, list[float]] = {way: [] for way in WAYS}
+    loads = []
+    for _ in range(args.repeats):
+        for way, (workers, threads) in WAYS.items():
+            rates[way].append(rate(objective, batch, workers, threads))
+            loads.append(os.getloadavg()[0])
+    for way, values in rates.items():
+        print(f"  {way}: {statistics.median(values):.2f} [{min(values):.2f}, {max(values):.2f}] eval/s")
+    share = stepping_share(objective, batch)
+    print(
+        f"  share of an evaluation inside mj_step (GIL released): {share:.2f}; the rest holds the GIL, so 2 "
+        f"threads can at best run {1 / ((1 - share) + share / 2):.2f} x as fast as one (Amdahl), 2 processes 2 x"
+    )
+    one = statistics.median(rates["1 process"])
+    print(
+        f"  speed-up over 1 process: 2 processes x{statistics.median(rates['2 processes']) / one:.2f}, "
+        f"2 threads x{statistics.median(rates['2 threads']) / one:.2f}; "
+        f"1-min load average {min(loads):.2f}-{max(loads):.2f} during the runs"
+    )
+
+
+if __name__ == "__main__":
+    main()

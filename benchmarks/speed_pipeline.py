@@ -1,0 +1,106 @@
+"""Time to a good fit: the default pipeline (`--optimizer auto`) against the paper's differential evolution.
+
+    python benchmarks/speed_pipeline.py [--data ../shared/datasets/qrg2019/mocap] [--optimizers auto,de]
+        [--seeds 0] [--tasks cube:0.03,single:0.01] [--max-seconds 150] [--workers 2] [--out FILE]
+
+For each task:target, optimiser and seed: `simtune tune --engine mujoco --space extended --workers 2` on
+the real recordings, stopped at the target fitness or after --max-seconds.  Printed: the wall time at
+which the best fitness first reached the target (from the run store's generation checkpoints: the
+run's elapsed time after each batch; "not reached" if it did not), the evaluations used by then, and
+the best fitness at the end, and when it passed 0.1, 0.05 and 0.04 on the way.  The load average is printed
+beside each run: the host is shared, and a
+run on a busy host is slower.  With --out the lines are appended to that file as well.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from simtune.runs import RunConfig, start_run
+from simtune.store import RunStore
+
+DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"
+#: fitness levels whose times are printed on the way to the target
+MILESTONES = (0.1, 0.05, 0.04)
+
+
+def time_to_target(run_dir: Path, target: float) -> tuple[float | None, int | None, float]:
+    """Elapsed seconds and evaluations when the best fitness first reached ``target``; the final best."""
+    store = RunStore.open_read_only(run_dir)
+    try:
+        generations = store.generations()
+    finally:
+        store.close()
+    for g in generations:
+        if g["best_fitness"] <= target:
+            return g["elapsed_s"], g["evaluations"], generations[-1]["best_fitness"]
+    return None, None, generations[-1]["best_fitness"] if generations else float("inf")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    parser.add_argument("--optimizers", default="auto,de")
+    parser.add_argument("--seeds", default="0")
+    parser.add_argument("--tasks", default="cube:0.03,single:0.01")
+    parser.add_argument("--max-seconds", type=float, default=150.0)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--out", type=Path)
+    args = parser.parse_args()
+    lines: list[str] = []
+
+    def say(line: str) -> None:
+        print(line, flush=True)
+        lines.append(line)
+
+    say(
+        f"# speed_pipeline: mujoco, extended, {args.workers} workers, data {args.data}, "
+        f"{os.cpu_count()} cores, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}"
+    )
+    for item in args.tasks.split(","):
+        task, target = item.split(":")
+        for optimizer in args.optimizers.split(","):
+            times = []
+            for seed in [int(s) for s in args.seeds.split(",")]:
+                with tempfile.TemporaryDirectory() as tmp:
+                    config = RunConfig(
+                        engine="mujoco",
+                        tasks=task,
+                        space="extended",
+                        data=str(args.data),
+                        seed=seed,
+                        workers=args.workers,
+                        max_seconds=args.max_seconds,
+                        target_fitness=float(target),
+                        optimizer=optimizer,
+                        max_generations=100_000,
+                    )
+                    load = os.getloadavg()[0]
+                    run_dir = Path(tmp) / "run"
+                    result = start_run(config, run_dir, show_progress=False)
+                    seconds, evaluations, best = time_to_target(run_dir, float(target))
+                    load = max(load, os.getloadavg()[0])
+                    reached = f"{seconds:.1f} s ({evaluations} evaluations)" if seconds is not None else "not reached"
+                    on_the_way = ", ".join(
+                        f"<= {level:g} at {t:.0f} s" if t is not None else f"<= {level:g} never"
+                        for level, t in ((level, time_to_target(run_dir, level)[0]) for level in MILESTONES)
+                        if level > float(target)
+                    )
+                say(
+                    f"{task} {optimizer} seed {seed}: fitness <= {target}: {reached}; best {best:.4f} after "
+                    f"{result.wall_s:.0f} s, {result.evaluations} evaluations ({on_the_way}); load average {load:.2f}"
+                )
+                times.append(seconds if seconds is not None else float("inf"))
+            say(f"{task} {optimizer}: median time to fitness <= {target}: {statistics.median(times):.1f} s")
+    if args.out:
+        with open(args.out, "a") as fh:
+            fh.write("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,105 @@
+"""Global, then local (``--optimizer auto``): a short differential evolution, then bounded least squares, in rounds.
+
+Each round:
+
+1. **global**: ``GLOBAL_GENERATIONS`` generations of differential evolution with the paper's settings
+   (:data:`simtune.optimize.de.DE_SETTINGS`: best1bin, population 1 x D, deferred updating, trials that
+   cannot beat their parent pruned); the first round starts from a latin hypercube (or, after ``resume
+   --rescore``, from the old run's last population), every later one from the last round's population
+   with a fresh seed: the global search goes on where it stopped;
+2. **local**: SciPy's ``least_squares`` (trust-region reflective, within the bounds, in the unit cube)
+   from the best point of the run on the per-sample residuals (:func:`simtune.fitness.residuals`),
+   with a forward-difference Jacobian whose D perturbed points go to the Evaluator as one batch (worker
+   processes, or the engine's batch path with ``--threads``).  It ends when a solver step gains less than
+   ``STALL_FTOL`` of the cost (it stalls: back to the global phase, which looks for a better basin) or
+   after ``LOCAL_NFEV`` solver steps.  A point already refined is not refined again: the round's own best
+   is then.
+
+Rounds go on until a budget of the settings is spent (time, evaluations, generations, target fitness),
+checked after every batch: a DE generation, a least-squares trial point or a Jacobian.  A generation of
+this optimiser is one such batch.
+
+Resume: the search is deterministic given its seed and the stored results (DE draws from the seed of its
+round; least squares is deterministic given the residuals, which the store keeps for every point of a
+local phase), so ``simtune resume`` replays it, taking every finished evaluation from the store, and
+goes on where the killed session stopped: no finished evaluation is lost or simulated twice.  The point
+a local phase starts from was scored without residuals; it is simulated once more for them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import differential_evolution
+
+from simtune.objective import Objective
+from simtune.optimize.base import BatchSearch
+from simtune.optimize.de import DE_SETTINGS
+from simtune.optimize.evaluator import TuneResult, TuneSettings
+from simtune.optimize.refine import BudgetSpent, least_squares_phase
+from simtune.store import RunStore
+
+GLOBAL_GENERATIONS = 10  # differential evolution generations per round's global phase
+LOCAL_NFEV = 12  # least-squares solver steps per local phase (each may add a D-evaluation Jacobian)
+STALL_FTOL = 1e-3  # a solver step that lowers the cost by less than this share ends the local phase
+
+
+def global_local_tune(objective: Objective, store: RunStore, settings: TuneSettings) -> TuneResult:
+    """Tune ``objective`` in rounds of differential evolution then least squares; every evaluation lands in
+    ``store``."""
+    search = BatchSearch(objective, store, settings, prune=True)
+    search.evaluator.generation = 0
+    refined: set[bytes] = set()  # the points local phases started from
+    rounds, local_steps = 0, 0
+    population = search.starting_points()
+    if population is not None and len(population) < 5:
+        population = None  # SciPy's DE needs 5 members or more
+    with search:
+        try:
+            while True:
+                population, last_energies, round_x = _global_phase(search, population, settings.seed + 1000 * rounds)
+                assert search.best_x is not None, "the global phase scored a batch"
+                start = search.best_x if search.best_x.tobytes() not in refined else round_x
+                refined.add(start.tobytes())
+                search.evaluator.parent_energies = None  # no parents to prune against in a local phase
+                local_steps += least_squares_phase(search, start, max_nfev=LOCAL_NFEV, ftol=STALL_FTOL).nfev
+                rounds += 1
+                # the next global phase goes on from this one's population, with the run's best point in it
+                if not any(np.array_equal(member, search.best_x) for member in population):
+                    population = population.copy()
+                    population[int(np.argmax(last_energies))] = search.best_x
+        except BudgetSpent:
+            pass
+        assert search.stop_reason is not None, "the rounds end only when a budget says stop"
+        return search.result(f"{search.stop_reason} ({rounds} full rounds, {local_steps} least-squares steps)")
+
+
+def _global_phase(search: BatchSearch, init: np.ndarray | None, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``GLOBAL_GENERATIONS`` generations of differential evolution (the paper's settings) from ``init`` (None:
+    a latin hypercube); its last population, their fitness and the best member."""
+    last: list[tuple[np.ndarray, np.ndarray]] = []
+    spent = False
+
+    def checkpoint(intermediate_result) -> bool:
+        nonlocal spent
+        population = np.array(intermediate_result.population, dtype=float)
+        energies = np.array(intermediate_result.population_energies, dtype=float)
+        search.evaluator.parent_energies = energies
+        search.track(population, energies)
+        last.append((population, energies))
+        spent = search.checkpoint(population, energies)
+        return spent
+
+    search.evaluator.parent_energies = None
+    differential_evolution(
+        lambda x: search.objective.score_vector(x).fitness,  # never called: the Evaluator is the workers map
+        bounds=search.space.bounds,
+        maxiter=GLOBAL_GENERATIONS,
+        rng=np.random.default_rng(seed),
+        workers=search.evaluator,
+        callback=checkpoint,
+        **{**DE_SETTINGS, **({"init": init} if init is not None else {})},
+    )
+    if spent:
+        raise BudgetSpent
+    population, energies = last[-1]
+    return population, energies, population[int(np.argmin(energies))]

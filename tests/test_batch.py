@@ -1,0 +1,88 @@
+"""The batch seam: a batch scored at once (MuJoCo on threads) equals its members scored one at a time, bit for bit."""
+
+import numpy as np
+import pytest
+
+from simtune.engines import engine_class
+from simtune.objective import Objective, load_references
+from simtune.optimize.evaluator import Evaluator
+from simtune.params import get_space
+from simtune.reference import REFERENCE_DIR
+from simtune.store import RunStore
+from simtune.tasks import parse_tasks
+
+
+def objective(tasks: str = "cube", data=REFERENCE_DIR) -> Objective:
+    specs = parse_tasks(tasks)
+    space = get_space("extended", engine_class("mujoco").supported())
+    return Objective("mujoco", specs, load_references(data, specs), space)
+
+
+def vectors(obj: Objective, n: int, seed: int = 0) -> np.ndarray:
+    """Random points of the space around its middle (stable, different masses and time steps)."""
+    space = obj.vector_space()
+    lo, hi = np.array(space.bounds).T
+    u = 0.3 + 0.4 * np.random.default_rng(seed).random((n, len(lo)))
+    return lo + u * (hi - lo)
+
+
+def in_order(results) -> list:
+    results = sorted(results, key=lambda item: item[0])
+    return [value for _, value in results]
+
+
+@pytest.mark.parametrize("threads", [1, 3])
+def test_a_batch_scores_each_member_as_alone(threads, two_task_data):
+    obj = objective("cube,single", two_task_data)
+    space = obj.vector_space()
+    params = [space.to_dict(x) for x in vectors(obj, 5)] + [{}]
+    alone = [obj.score(p) for p in params]
+    # bounds: none, far above, and below a member's fitness: pruned within its first task, after its first
+    # task (its wrist error under the bound, wrist plus object error over it), within its second task
+    cube = alone[2].tasks[0]
+    bounds = [None, alone[1].tasks[0].fitness * 0.5, cube.wrist_error + cube.object_error / 2, 100.0, None, None]
+    bounds[4] = alone[4].tasks[0].fitness + alone[4].tasks[1].fitness * 0.5
+    pruned_alone = [obj.score(p, b) for p, b in zip(params, bounds)]
+    assert [len(s.tasks) for s in pruned_alone] == [2, 1, 1, 2, 2, 2]
+    assert [s.pruned for s in pruned_alone] == [False, True, False, False, True, False]
+    fresh = objective("cube,single", two_task_data)  # engines built anew, as in a worker
+    assert in_order(fresh.score_batch(params, threads=threads)) == alone
+    assert in_order(fresh.score_batch(params, bounds, threads=threads)) == pruned_alone
+    for (r, s), (want_r, want_s) in zip(
+        in_order(fresh.residuals_batch(params, threads=threads)), [obj.residuals_and_score(p) for p in params]
+    ):
+        assert s == want_s
+        np.testing.assert_array_equal(r, want_r)
+    obj.close()
+    fresh.close()
+
+
+def test_the_threaded_evaluator_stores_what_one_process_stores(tmp_path):
+    obj = objective()
+    xs = vectors(obj, 6, seed=1)
+    rows = {}
+    for name, workers, threads in (("one", 1, False), ("threads", 2, True)):
+        store = RunStore(tmp_path / name, create=True)
+        with Evaluator(objective(), store, workers, threads=threads) as evaluator:
+            fitness = evaluator.evaluate(xs)
+            evaluator.parent_energies = fitness * 0.5  # every trial pruned against a better parent
+            evaluator.evaluate(xs + 1e-9)
+            residuals = evaluator.residuals(xs[:3] - 1e-9)
+        rows[name] = (
+            sorted((tuple(e["x"]), e["fitness"], e["pruned"], e["wrist_error"]) for e in store.evaluations()),
+            [(r.tolist(), s) for r, s in residuals],
+        )
+        store.close()
+    assert rows["one"] == rows["threads"]
+    assert sum(pruned for _, _, pruned, _ in rows["one"][0]) == 6
+
+
+def test_a_run_on_threads_is_the_run_of_one_process(tmp_path):
+    from simtune.runs import RunConfig, start_run
+
+    base = dict(engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), seed=2, max_generations=2)
+    base["only"] = ["command_delay", "max_velocity_joint_2", "mass_link_3"]
+    one = start_run(RunConfig(**base), tmp_path / "one", show_progress=False)
+    threaded = start_run(RunConfig(**base, workers=2, threads=True), tmp_path / "threads", show_progress=False)
+    assert threaded.fitness == one.fitness and threaded.evaluations == one.evaluations
+    np.testing.assert_array_equal(threaded.x, one.x)

@@ -1,0 +1,79 @@
+"""`--optimizer auto`: differential evolution, then least squares on the residuals, in rounds; resumable."""
+
+import shutil
+import sqlite3
+
+import numpy as np
+import pytest
+
+from simtune.optimize import pipeline
+from simtune.reference import REFERENCE_DIR
+from simtune.runs import RunConfig, resume_run, start_run
+from simtune.store import RunStore
+
+ONLY = ["command_delay", "max_velocity_joint_2", "marker_offset_z"]
+
+
+@pytest.fixture(autouse=True)
+def short_rounds(monkeypatch):
+    monkeypatch.setattr(pipeline, "GLOBAL_GENERATIONS", 2)  # rounds of 15 DE evaluations (population 5)
+    monkeypatch.setattr(pipeline, "LOCAL_NFEV", 4)
+
+
+def config(**kw) -> RunConfig:
+    base = dict(
+        engine="mujoco",
+        tasks="cube",
+        space="extended",
+        data=str(REFERENCE_DIR),
+        seed=1,
+        only=ONLY,
+        optimizer="auto",
+        max_evaluations=60,
+    )
+    return RunConfig(**{**base, **kw})
+
+
+@pytest.mark.slow  # three short runs: about 40 s
+def test_auto_alternates_global_and_local_phases_and_replays_from_the_store(tmp_path):
+    first = start_run(config(), tmp_path / "run", show_progress=False)
+    store = RunStore.open_read_only(tmp_path / "run")
+    generic = store.get("generic")["fitness"]
+    with_residuals = store.db.execute("SELECT COUNT(*) FROM residuals").fetchone()[0]
+    held = store.db.execute("SELECT COUNT(*) FROM generations WHERE population IS NOT NULL").fetchone()[0]
+    sizes = list(np.diff([0] + [g["evaluations"] for g in store.generations()]))
+    store.close()
+    assert first.fitness < generic
+    assert with_residuals >= 1 + len(ONLY)  # a local phase ran: a point and its Jacobian
+    # DE generations (5 members; the latest population alone kept), least-squares points and Jacobians (3)
+    assert 5 in sizes and len(ONLY) in sizes and held == 1
+    assert "least-squares steps" in first.message and 60 <= first.used_evaluations < 60 + 5
+
+    again = start_run(config(), tmp_path / "again", show_progress=False)
+    assert again.fitness == first.fitness
+    np.testing.assert_array_equal(again.x, first.x)
+    replay = resume_run(tmp_path / "run", show_progress=False)
+    assert replay.new_evaluations == 0 and replay.evaluations == first.evaluations
+    np.testing.assert_array_equal(replay.x, first.x)
+
+
+@pytest.mark.slow  # two short runs: about 30 s
+def test_auto_resumed_after_a_crash_in_a_local_phase_loses_and_redoes_nothing(tmp_path):
+    reference = start_run(config(), tmp_path / "whole", show_progress=False)
+    run_dir = tmp_path / "crashed"
+    shutil.copytree(tmp_path / "whole", run_dir)
+    (run_dir / "best_params.json").unlink()
+    with sqlite3.connect(run_dir / "run.sqlite") as db:  # what a kill in the middle of a Jacobian leaves
+        local = db.execute("SELECT MIN(id) FROM evaluations WHERE key IN (SELECT key FROM residuals)").fetchone()[0]
+        kept = local + 2
+        lost = db.execute("DELETE FROM evaluations WHERE id > ?", (kept,)).rowcount
+        db.execute("DELETE FROM residuals WHERE key NOT IN (SELECT key FROM evaluations)")
+        first_lost = db.execute("SELECT MAX(generation) FROM evaluations").fetchone()[0]
+        db.execute("DELETE FROM generations WHERE generation >= ?", (first_lost,))
+        db.execute("UPDATE meta SET value = ? WHERE key = 'status'", ('"running"',))
+    assert lost > 0
+    resumed = resume_run(run_dir, show_progress=False)
+    assert resumed.new_evaluations == lost
+    assert resumed.evaluations == reference.evaluations
+    assert resumed.fitness == reference.fitness
+    np.testing.assert_array_equal(resumed.x, reference.x)
