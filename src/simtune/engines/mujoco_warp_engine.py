@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from functools import cache
+from typing import Any
 
 import numpy as np
 
@@ -34,6 +35,7 @@ from simtune.engines.mujoco_engine import MujocoEngine, mujoco
 from simtune.robot.generate import OBJECT_BODY
 from simtune.tasks.spec import TaskSpec
 
+wp: Any  # None without the package
 try:
     import warp as wp
 
@@ -101,7 +103,7 @@ def _kernels():
         # the poses a world's own last step left (segment -1: the start state); a world waiting for the
         # others recomputes its poses from its final state, which MuJoCo's stepping never shows
         world = wp.tid()
-        last = int(0)
+        last = 0
         if segment >= 0:
             last = steps[world, segment] - 1
         if segment < 0 or substep == last:
@@ -212,16 +214,18 @@ class MujocoWarpEngine(Engine):
     def _batch_model(self, params: Sequence[dict[str, float]]):
         """One MJWarp model whose worlds hold the members' parameters, and the members' time steps."""
         n = len(params)
-        values = {name: [] for name in self._tuned_fields}
+        values: dict[str, list[np.ndarray]] = {name: [] for name in self._tuned_fields}
         dts = np.empty(n)
         for i, p in enumerate(params):
             self.host.reset(p)
             dts[i] = self.host.timestep
             for name in self._tuned_fields:
                 values[name].append(np.array(getattr(self.host.model, name)))
-        batched = [name for name in self._tuned_fields if any(not np.array_equal(v, values[name][0]) for v in values[name])]
+        batched = [
+            name for name in self._tuned_fields if any(not np.array_equal(v, values[name][0]) for v in values[name])
+        ]
         with wp.ScopedDevice(self._device):
-            model = mjw.put_model(self.host.model, batch_sizes={name: n for name in batched})
+            model = mjw.put_model(self.host.model, batch_sizes=dict.fromkeys(batched, n))
             for name in batched:
                 field = getattr(model, name)
                 setattr(model, name, wp.array(np.stack(values[name]), dtype=field.dtype, shape=(n, *field.shape[1:])))
@@ -321,7 +325,9 @@ class MujocoWarpEngine(Engine):
                 if k == n_samples - 1:
                     break
                 advance(2 * k)
-                wp.launch(control, dim=(n, nj), inputs=[targets, k, kp, v_max, arm_qpos, data.qpos], outputs=[data.ctrl])
+                wp.launch(
+                    control, dim=(n, nj), inputs=[targets, k, kp, v_max, arm_qpos, data.qpos], outputs=[data.ctrl]
+                )
                 advance(2 * k + 1)
             # copied back once: every sample of every world
             pos, rot, q = wrist_pos.numpy(), rot_host(wrist_rot), angles.numpy()
@@ -402,7 +408,7 @@ class MujocoWarpEngine(Engine):
     def arm_object_contact(self) -> bool:
         if self._object < 0:
             return False
-        model, data = self._world()
+        data = self._world()[1]
         n = min(int(data.nacon.numpy()[0]), data.contact.geom.shape[0])
         if not n:
             return False
