@@ -172,7 +172,10 @@ class MujocoWarpEngine(Engine):
 
     @classmethod
     def device(cls) -> str:
-        return warp_device()
+        if wp is None:
+            return "-"
+        device = wp.get_device(warp_device())
+        return f"GPU: {device.name} ({device.alias})" if device.is_cuda else "CPU (Warp found no GPU)"
 
     @classmethod
     def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
