@@ -74,18 +74,19 @@ def _kernels():
 
     @wp.kernel
     def control(
-        targets: wp.array3d(dtype=float),  # type: ignore[valid-type]
+        targets: wp.array3d(dtype=wp.float64),  # type: ignore[valid-type]
         sample: int,
-        kp: float,
-        v_max: wp.array2d(dtype=float),  # type: ignore[valid-type]
+        kp: wp.float64,
+        v_max: wp.array2d(dtype=wp.float64),  # type: ignore[valid-type]
         arm_qpos: wp.array(dtype=int),  # type: ignore[valid-type]
         qpos: wp.array2d(dtype=float),  # type: ignore[valid-type]
         ctrl: wp.array2d(dtype=float),  # type: ignore[valid-type]
     ):
+        # in 64 bits, as JointController computes it: the command is the one the step-by-step protocol sends
         world, joint = wp.tid()
         limit = v_max[world, joint]
-        velocity = kp * (targets[world, sample, joint] - qpos[world, arm_qpos[joint]])
-        ctrl[world, joint] = wp.clamp(velocity, -limit, limit)
+        velocity = (targets[world, sample, joint] - wp.float64(qpos[world, arm_qpos[joint]])) * kp
+        ctrl[world, joint] = wp.float32(wp.min(wp.max(velocity, -limit), limit))
 
     @wp.kernel
     def latch(
@@ -194,7 +195,9 @@ class MujocoWarpEngine(Engine):
         self._arm_body[[m.body(link.name).id for link in robot.links]] = True
         self._device = warp_device()
         self._tuned_fields = self._fields_parameters_change()
-        self._single: tuple | None = None  # (model, data) of the one-world interface, set by reset()
+        # the model and data of the one-world interface, and its time step: set by reset()
+        self._single: tuple | None = None
+        self._single_timestep = self.host.timestep
 
     # --- the model fields of a population --------------------------------------------------------------------
     def _fields_parameters_change(self) -> list[str]:
@@ -291,8 +294,8 @@ class MujocoWarpEngine(Engine):
         with wp.ScopedDevice(self._device):
             steps = wp.array(counts, dtype=int)
             dt = wp.array(dts, dtype=float)
-            targets = wp.array(np.stack([c.targets(times + c.phase) for c in controllers]), dtype=float)
-            v_max = wp.array(np.stack([c.v_max for c in controllers]), dtype=float)
+            targets = wp.array(np.stack([c.targets(times + c.phase) for c in controllers]), dtype=wp.float64)
+            v_max = wp.array(np.stack([c.v_max for c in controllers]), dtype=wp.float64)
             arm_qpos = wp.array(self._arm_qpos, dtype=int)
             wrist_pos = wp.zeros((n, n_samples), dtype=wp.vec3)
             wrist_rot = wp.zeros((n, n_samples), dtype=wp.mat33)
@@ -301,7 +304,7 @@ class MujocoWarpEngine(Engine):
             wrist_now = wp.zeros(n, dtype=wp.vec3)
             rot_now = wp.zeros(n, dtype=wp.mat33)
             object_now = wp.zeros(n, dtype=wp.vec3)
-            kp = float(self.task.kp)
+            kp = wp.float64(self.task.kp)
 
             def poses(segment: int, substep: int) -> None:
                 wp.launch(
@@ -376,12 +379,12 @@ class MujocoWarpEngine(Engine):
 
     @property
     def timestep(self) -> float:
-        return self.host.timestep
+        return self._single_timestep
 
     def reset(self, params: dict[str, float]) -> None:
         model, data, dts = self._batch_model([params])
         model.opt.timestep.assign(dts)
-        self._single = (model, data)
+        self._single, self._single_timestep = (model, data), float(dts[0])
 
     def _world(self):
         if self._single is None:
