@@ -237,7 +237,7 @@ class MujocoWarpEngine(Engine):
                 setattr(model, name, wp.array(np.stack(values[name]), dtype=field.dtype, shape=(n, *field.shape[1:])))
             model.opt.timestep = wp.zeros(n, dtype=float)
             model.opt.warn_overflow = 0  # overflows are read from data.overflow and reported per member
-            self.host.reset({})  # the start state all worlds share (only the state of the arm's start pose)
+            # the host's data: the start state every member shares (the last member's reset left it)
             data = mjw.put_data(
                 self.host.model,
                 self.host.data,
@@ -380,6 +380,11 @@ class MujocoWarpEngine(Engine):
     @property
     def timestep(self) -> float:
         return self._single_timestep
+
+    @property
+    def model(self):
+        """The MuJoCo model with the parameters of the last reset: the MJCF export writes it."""
+        return self.host.model
 
     def reset(self, params: dict[str, float]) -> None:
         model, data, dts = self._batch_model([params])
