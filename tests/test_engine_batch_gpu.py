@@ -11,7 +11,7 @@ import pytest
 from conftest import engine_or_skip
 
 from simtune.engines import make_engine
-from simtune.engines.mujoco_warp_engine import step_counts
+from simtune.engines.mujoco_warp_engine import step_counts, time_step_groups
 from simtune.params import get_space
 from simtune.tasks import get_task
 
@@ -88,3 +88,15 @@ def test_a_member_of_a_batch_is_the_member_alone_and_monitors_stop_it_as_alone()
     assert got.pruned and want.pruned
     assert (got.samples_run, got.steps) == (want.samples_run, want.steps)
     np.testing.assert_array_equal(got.wrist_pos[26:], np.repeat(got.wrist_pos[25:26], 15, axis=0))
+
+
+def test_cpu_batches_group_members_of_similar_time_steps():
+    steps = {0: 0.002, 1: 0.05, 2: 0.0035, 3: 0.001, 4: 0.0041, 5: 0.03}
+    groups = time_step_groups(steps, overhead=0.0)  # no cost per batch step: bins within a factor 2
+    assert groups == [[3, 0], [2, 4], [5, 1]]
+    # a batch step costing 100 worlds' work: merging saves more than the waiting worlds cost
+    assert time_step_groups(steps, overhead=100.0) == [[3, 0, 2, 4, 5, 1]]
+    many = {i: 0.001 * (1 + i % 50) for i in range(5000)}
+    groups = time_step_groups(many, overhead=100.0)
+    assert sorted(i for g in groups for i in g) == sorted(many)
+    assert 1 < len(groups) < 10

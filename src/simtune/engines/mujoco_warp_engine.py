@@ -12,7 +12,8 @@ launches, on a CUDA GPU when Warp finds one and on Warp's CPU device otherwise.
 - Time steps differ per world, so worlds take different numbers of physics steps per control period.
   Each world's step counts are fixed in advance, exactly as :meth:`Engine.rollout` counts them; the batch
   steps as often as its busiest world, and a world that has taken its steps waits with a time step of
-  zero, which leaves its state as it is.
+  zero, which leaves its state as it is.  On Warp's CPU device, where a waiting world costs as much as
+  a moving one, the population runs as a few batches of similar time steps instead (time_step_groups).
 - Monitors (early stopping) see the samples after the batch, in the order :meth:`Engine.rollout` shows
   them, so a member's rollout is the one it would have alone; they save no simulation here.
 
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from functools import cache
+from itertools import pairwise
 from typing import Any
 
 import numpy as np
@@ -162,6 +164,39 @@ def step_counts(dt: float, phase: float, n_samples: int, period: float = CONTROL
     return counts
 
 
+#: What one step of a batch costs on Warp's CPU device beyond its worlds' own work, in worlds: about 15 ms
+#: of kernel launches against 0.15 ms per world of `cube` (measured with benchmarks/gpu.py, 2026-11-23).
+CPU_STEP_OVERHEAD_WORLDS = 100.0
+
+
+def time_step_groups(timesteps: dict[int, float], overhead: float = CPU_STEP_OVERHEAD_WORLDS) -> list[list[int]]:
+    """Members (index -> time step) in batches for Warp's CPU device, shortest time steps first.
+
+    A batch steps as often as its member with the shortest time step, and a waiting world costs the CPU as
+    much as a moving one; a population's time steps span 1-50 ms, so one batch may compute 50 times the
+    steps it uses.  Each step of a batch also costs ``overhead`` worlds' work whatever its size.  So: bins
+    of time steps within a factor 2, then neighbouring bins merged while that costs less (a step of a
+    batch of n worlds costs n + ``overhead``).  (On a GPU a step costs about the same for any number of
+    worlds until the GPU is full: there the population is one batch.)
+    """
+    bins: list[list[int]] = []
+    for i in sorted(timesteps, key=lambda i: timesteps[i]):
+        if not bins or timesteps[i] > 2.0 * timesteps[bins[-1][0]]:
+            bins.append([])
+        bins[-1].append(i)
+
+    def cost(group: list[int]) -> float:  # steps per simulated second, times worlds plus overhead
+        return (len(group) + overhead) / timesteps[group[0]]
+
+    while len(bins) > 1:
+        savings = [cost(a) + cost(b) - cost(a + b) for a, b in pairwise(bins)]
+        best = int(np.argmax(savings))
+        if savings[best] <= 0:
+            break
+        bins[best : best + 2] = [bins[best] + bins[best + 1]]
+    return bins
+
+
 class MujocoWarpEngine(Engine):
     name = "mujoco-warp"
     reads_mjcf = True
@@ -255,30 +290,33 @@ class MujocoWarpEngine(Engine):
         monitors: Sequence[Monitor | None] | None = None,
         threads: int = 1,
     ) -> Iterator[tuple[int, Rollout | Exception]]:
-        """The rollouts of a whole batch, simulated as one MJWarp batch and yielded in order.
+        """The rollouts of a whole batch, simulated as one MJWarp batch (on a CPU: one per group of similar
+        time steps, see :func:`time_step_groups`), yielded as each batch finishes.
 
         ``threads`` is not used: the device runs the worlds in parallel.  A member whose parameters cannot
-        be applied yields that error and the rest run; an error of the batch itself is every member's.
+        be applied yields that error and the rest run; an error of a batch itself is each of its members'.
         """
-        good: list[int] = []
+        good: dict[int, float] = {}  # member -> its time step
         for i, p in enumerate(params):
             try:
                 JointController(self.task, p)
                 self.host.reset(p)
-                good.append(i)
+                good[i] = self.host.timestep
             except Exception as exc:  # that member's own error, as the one-at-a-time seam gives it
                 yield i, exc
-        if not good:
-            return
-        try:
-            rollouts = self._simulate([params[i] for i in good], n_samples)
-        except Exception as exc:
-            for i in good:
-                yield i, exc
-            return
-        for i, (roll, period_steps) in zip(good, rollouts, strict=True):
-            monitor = monitors[i] if monitors is not None else None
-            yield i, _replay(roll, period_steps, monitor)
+        on_gpu = wp.get_device(self._device).is_cuda
+        for group in [list(good)] if on_gpu else time_step_groups(good):
+            if not group:
+                continue
+            try:
+                rollouts = self._simulate([params[i] for i in group], n_samples)
+            except Exception as exc:
+                for i in group:
+                    yield i, exc
+                continue
+            for i, (roll, period_steps) in zip(group, rollouts, strict=True):
+                monitor = monitors[i] if monitors is not None else None
+                yield i, _replay(roll, period_steps, monitor)
 
     def _simulate(self, params: Sequence[dict[str, float]], n_samples: int) -> list[tuple[Rollout, np.ndarray]]:
         """Each member's samples to the end, and its physics steps in each control period (the state checks
@@ -480,4 +518,4 @@ def _replay(roll: Rollout, period_steps: np.ndarray, monitor: Monitor | None) ->
     return roll
 
 
-__all__ = ["MujocoWarpEngine", "step_counts", "warp_device"]
+__all__ = ["MujocoWarpEngine", "step_counts", "time_step_groups", "warp_device"]
