@@ -12,6 +12,9 @@ from simtune.errors import EngineUnavailable
 COSTLY_ENGINES = frozenset({"dart", "drake"})
 #: Engines whose long rollouts (every task, 20 s of `cube`) belong in the slow tier too.
 SLOWEST_ENGINES = frozenset({"drake"})
+#: Engines every test of which is slow without a GPU: MuJoCo Warp builds its kernels for about a minute on first
+#: use and steps one world 20-50 times slower than MuJoCo on Warp's CPU device.
+GPU_ENGINES = frozenset({"mujoco-warp"})
 
 
 def engine_or_skip(name: str) -> type[Engine]:
@@ -23,8 +26,9 @@ def engine_or_skip(name: str) -> type[Engine]:
 
 
 def every_engine(slow: frozenset[str] = frozenset()) -> list:
-    """Every engine of the registry as a test parameter; those in ``slow`` marked for the slow tier."""
-    return [pytest.param(name, marks=[pytest.mark.slow] if name in slow else []) for name in ENGINES]
+    """Every engine of the registry as a test parameter; those in ``slow`` (and the GPU engines) marked for the
+    slow tier."""
+    return [pytest.param(name, marks=[pytest.mark.slow] if name in slow | GPU_ENGINES else []) for name in ENGINES]
 
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -218,6 +218,8 @@ GENERIC = {
     "dart": {"timestep": 0.001, "lateral_friction_plastic": 1.0, "restitution_floor": 0.0},
     # MultibodyPlantConfig, the URDF parser's friction
     "drake": {"timestep": 0.001, "lateral_friction_gripper": 1.0},
+    # the MuJoCo engine's model and mapping
+    "mujoco-warp": {"timestep": 0.002, "lateral_friction_plastic": 1.0},
 }
 
 

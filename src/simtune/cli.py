@@ -841,16 +841,24 @@ def grid(
 
 @app.command()
 def engines() -> None:
-    """List the physics engines, their versions, and how to install a missing one."""
+    """List the physics engines, their versions, what each computes on (a GPU, if found), and how to install a
+    missing one."""
     import importlib
 
     from simtune.engines import ENGINES
 
-    table = text_table("physics engines", ("engine", "version", "installed", "install"))
+    table = text_table("physics engines", ("engine", "version", "installed", "device", "install"))
     for name, entry in ENGINES.items():
-        version = getattr(importlib.import_module(entry.module), entry.cls).version()
+        engine = getattr(importlib.import_module(entry.module), entry.cls)
+        version = engine.version()
         installed = version != "not installed"
-        table.add_row(name, version if installed else "-", "yes" if installed else "[red]no[/]", escape(entry.install))
+        table.add_row(
+            name,
+            version if installed else "-",
+            "yes" if installed else "[red]no[/]",
+            engine.device() if installed else "-",
+            escape(entry.install),
+        )
     out.print(table)
 
 

@@ -30,6 +30,8 @@ ENGINES: dict[str, EngineEntry] = {
     ),
     "dart": EngineEntry("simtune.engines.dart_engine", "DartEngine", "pip install 'simtune[dart]'"),
     "drake": EngineEntry("simtune.engines.drake_engine", "DrakeEngine", "pip install 'simtune[drake]'"),
+    # a whole population as one batch of MuJoCo Warp worlds, on a CUDA GPU when there is one (else the CPU)
+    "mujoco-warp": EngineEntry("simtune.engines.mujoco_warp_engine", "MujocoWarpEngine", "pip install 'simtune[gpu]'"),
 }
 
 

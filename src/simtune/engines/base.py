@@ -160,6 +160,11 @@ class Engine(ABC):
         return "unknown"
 
     @classmethod
+    def device(cls) -> str:
+        """What the engine computes on (``simtune engines`` shows it): a GPU engine names the GPU it found."""
+        return "CPU"
+
+    @classmethod
     def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
         """Parameters of this engine that cannot change a rollout of ``task``: name -> why.
 

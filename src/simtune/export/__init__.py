@@ -47,6 +47,8 @@ DR_FILE = "dr_ranges.yaml"
 #: engine -> the function that writes its model files into an export folder
 WRITERS: dict[str, Callable[[ExportContext], list[str]]] = {
     "mujoco": mujoco_model.write,
+    # the same parameters mapped onto the same MuJoCo model: a MuJoCo Warp run exports as MJCF
+    "mujoco-warp": mujoco_model.write,
     "pybullet": pybullet_model.write,
     "ode": ode_model.write,
     "dart": dart_model.write,
