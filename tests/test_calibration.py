@@ -147,3 +147,33 @@ def test_a_calibrated_run_is_not_exported_without_its_encoder_model(tmp_path):
     start_run(config, tmp_path / "run", show_progress=False)
     with pytest.raises(ConfigError, match="calibration parameters \\(joint_offset_2\\)"):
         export_run(tmp_path / "run", tmp_path / "export")
+
+
+def test_gravity_torques_of_a_urdf_robot_match_pybullets_inverse_dynamics():
+    """Another robot (the Franka Panda's URDF, fingers held): the same statics as PyBullet's."""
+    pybullet = pytest.importorskip("pybullet")
+    import pybullet_data
+
+    from simtune.robot.urdf import load_urdf
+
+    path = f"{pybullet_data.getDataPath()}/franka_panda/panda.urdf"
+    if not os.path.isfile(path):
+        pytest.skip(f"no Franka Panda URDF at {path}")
+    robot = load_urdf(path)
+    client = pybullet.connect(pybullet.DIRECT)
+    try:
+        pybullet.setGravity(0, 0, -9.81, physicsClientId=client)
+        body = pybullet.loadURDF(path, useFixedBase=True, physicsClientId=client)
+        infos = [pybullet.getJointInfo(body, i, physicsClientId=client) for i in range(pybullet.getNumJoints(body))]
+        movable = [info[1].decode() for info in infos if info[2] != pybullet.JOINT_FIXED]
+        held = dict(robot.held)
+        for seed in range(3):
+            q = np.random.default_rng(seed).uniform(-1.0, 1.0, robot.n_joints)
+            position = [q[robot.arm_joints.index(n)] if n in robot.arm_joints else held.get(n, 0.0) for n in movable]
+            zeros = [0.0] * len(movable)
+            holding = pybullet.calculateInverseDynamics(body, position, zeros, zeros, physicsClientId=client)
+            theirs = -np.array([holding[movable.index(j)] for j in robot.arm_joints])
+            np.testing.assert_allclose(robot.gravity_torques(q), theirs, atol=1e-6)
+    finally:
+        pybullet.disconnect(client)
+    assert "compliance_joint_7" in {p.name for p in robot_spaces(robot)["calibrated"]}
