@@ -163,11 +163,11 @@ class Probe:
 
 @pytest.mark.parametrize("engine", every_engine(slow=COSTLY_ENGINES))
 def test_every_parameter_changes_a_rollout_where_it_can_act_or_is_declared_inactive(engine):
-    """For each parameter of the engine's `extended` space: going to a bound changes the rollout on a
-    probe task where the engine does not declare it inactive, or the engine declares it inactive on
-    every probe; and where it is declared inactive, it really changes nothing."""
+    """For each parameter of the engine's `calibrated` space (`extended` and calibration): going to a
+    bound changes the rollout on a probe task where the engine does not declare it inactive, or the
+    engine declares it inactive on every probe; and where it is declared inactive, it really changes nothing."""
     cls = engine_or_skip(engine)
-    space = get_space("extended", cls.supported())
+    space = get_space("calibrated", cls.supported())
     probes: dict[str, Probe] = {}
     silent, false_claims = [], []
     for param in space.parameters:

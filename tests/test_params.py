@@ -9,6 +9,7 @@ def test_space_sizes_match_the_paper():
     assert len(SPACES["shared"]) == 31
     assert len(SPACES["individual"]) == 57
     assert len(SPACES["extended"]) == 61
+    assert len(SPACES["calibrated"]) == 72  # extended + 6 encoder offsets + 5 compliances (joint 1 never loaded)
 
 
 def test_ranges_of_table_one():

@@ -133,8 +133,9 @@ SpaceOpt = Annotated[
         "--space",
         "-s",
         help="Parameter space: shared (31, the paper's), "
-        "individual (57, the paper's), or extended (individual + command delay "
-        "and marker offset); an engine's lacks what it cannot map.",
+        "individual (57, the paper's), extended (individual + command delay "
+        "and marker offset) or calibrated (extended + encoder offsets and joint compliance); "
+        "an engine's lacks what it cannot map.",
     ),
 ]
 KeepInactiveOpt = Annotated[
@@ -978,7 +979,9 @@ def _tasks_contact(engine: str | None, task: str | None, figure: Path | None, as
 
 @app.command()
 def params(
-    space: Annotated[str, typer.Option("--space", "-s", help="shared, individual or extended.")] = "extended",
+    space: Annotated[
+        str, typer.Option("--space", "-s", help="shared, individual, extended or calibrated.")
+    ] = "extended",
     engine: Annotated[str | None, typer.Option("--engine", "-e", help="Only what this engine supports.")] = None,
     project: ProjectOpt = None,
     task: Annotated[

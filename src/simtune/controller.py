@@ -12,6 +12,18 @@ schedule reproduces it.  The shift is continuous, not a whole number of control
 periods: the controller's 20 Hz clock runs ``phase`` = delay mod 50 ms after the
 recording's 20 Hz sample clock, as two free-running clocks do (otherwise the
 fit could not tell delays within one period apart).
+
+The controller reads the joints through the arm's encoders, which the
+calibration parameters (``--space calibrated``) model: an encoder reads
+
+    encoder = true angle - compliance x gravity torque(true angles) + zero offset
+
+``joint_offset_<n>`` [deg] is the encoder's zero error, and
+``compliance_joint_<n>`` [rad/(N m)] the elastic deflection of the joint's drive
+under the static gravity load (the encoder sits on the motor side of a harmonic
+drive, the link sags past it by compliance x load).  The arm therefore settles
+where the encoder reads the target: at target - offset + compliance x gravity
+torque.  Without these parameters the encoder reads the true angle.
 """
 
 from __future__ import annotations
@@ -27,6 +39,11 @@ CONTROL_PERIOD = 0.05  # seconds between controller updates (20 Hz)
 def controller_parameters(n_joints: int) -> frozenset[str]:
     """The parameters the controller reads, for a robot with ``n_joints`` driven joints."""
     return frozenset({f"max_velocity_joint_{i}" for i in range(1, n_joints + 1)} | {"command_delay"})
+
+
+def encoder_parameters(n_joints: int) -> frozenset[str]:
+    """The calibration parameters of the encoders' model, for a robot with ``n_joints`` driven joints."""
+    return frozenset(f"{kind}_{i}" for kind in ("joint_offset", "compliance_joint") for i in range(1, n_joints + 1))
 
 
 #: those of the bundled six-joint MICO
@@ -51,6 +68,44 @@ class JointController:
         self.delay = float(params.get(f"command_delay_{task.name}", params.get("command_delay", 0.0)))
         #: how long after each 20 Hz sample instant the controller updates [s], in [0, CONTROL_PERIOD)
         self.phase = self.delay % CONTROL_PERIOD
+        robot = task.robot
+        self.offset = np.radians([params.get(f"joint_offset_{i}", 0.0) for i in range(1, n + 1)])
+        self.compliance = np.array([params.get(f"compliance_joint_{i}", 0.0) for i in range(1, n + 1)], dtype=float)
+        self._gravity = None
+        if self.compliance.any():  # the masses the engine simulates load the joints
+            masses = {
+                link: params[f"mass_link_{i}"]
+                for i, link in enumerate(robot.driven_links, start=1)
+                if f"mass_link_{i}" in params
+            }
+            self._gravity = robot.gravity(masses)
+        #: whether the encoders read anything but the true angles
+        self.calibrated = bool(self.offset.any()) or self._gravity is not None
+
+    def encoder(self, angles_rad: np.ndarray) -> np.ndarray:
+        """What the encoders read [rad] with the joints at ``angles_rad`` (true angles)."""
+        if not self.calibrated:
+            return angles_rad
+        reading = angles_rad + self.offset
+        if self._gravity is not None:
+            reading = reading - self.compliance * self._gravity(angles_rad)
+        return reading
+
+    def true_angles(self, reading_rad: np.ndarray, iterations: int = 4) -> np.ndarray:
+        """The true angles [rad] at which the encoders read ``reading_rad`` (the deflection is a small
+        correction, so a few fixed-point steps settle it to far below a micro-radian)."""
+        angles = np.asarray(reading_rad, dtype=float) - self.offset
+        if self._gravity is None:
+            return angles
+        base = angles
+        for _ in range(iterations):
+            angles = base + self.compliance * self._gravity(angles)
+        return angles
+
+    def start_angles(self) -> np.ndarray:
+        """The true joint angles [rad] the arm starts at: where its encoders read the task's start pose
+        (the controller holds the start pose until the first phase, so the arm starts at rest)."""
+        return self.true_angles(np.radians(np.asarray(self.task.start_pose_deg, dtype=float)))
 
     def targets(self, times: npt.ArrayLike) -> np.ndarray:
         """Joint targets [rad] in force at each simulated time of ``times`` (one row per time)."""

@@ -8,6 +8,7 @@ evaluations instead of rebuilding.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TypeVar
@@ -16,7 +17,7 @@ import numpy as np
 
 from simtune.data import TaskData, load_task_data
 from simtune.engines import Engine, engine_class, make_engine
-from simtune.errors import SimtuneError
+from simtune.errors import RecordingWarning, SimtuneError
 from simtune.fitness import (
     PENALTY,
     FitnessWeights,
@@ -37,6 +38,11 @@ def load_references(root: Path | None, tasks: list[TaskSpec], joint_topic: str |
     The task's duration, its robot's reach and its joint names go to the loader's sanity stage as
     plain values (data/ knows neither tasks nor robots); ``joint_topic`` picks the JointState
     topic of ROS 2 joint logs.
+
+    The arm's start pose is checked against the recordings: where the tracked link's origin at the
+    start pose lies more than :data:`START_WARN_M` from the mean recorded wrist of the first second,
+    a RecordingWarning says by how much (a wrong start pose, frame or body; the marker offset can
+    absorb a few centimetres at most).
     """
     if root is not None:
         root = Path(root)
@@ -58,7 +64,40 @@ def load_references(root: Path | None, tasks: list[TaskSpec], joint_topic: str |
             joint_names=rollout_joint_names(task),
             joint_topic=joint_topic,
         )
+        gap = start_pose_gap(task, refs[task.name])
+        if gap is not None and gap > START_WARN_M:
+            warnings.warn(
+                f"task {task.name!r}: start pose check: the arm's {task.tracked_link} starts {gap * 100:.1f} cm "
+                f"from the recorded wrist of the first second in {folder} (more than {START_WARN_M * 100:g} cm): "
+                "check the task's start_pose_deg and the recordings' frame",
+                RecordingWarning,
+                stacklevel=2,
+            )
     return refs
+
+
+#: A start pose whose tracked link lies farther than this [m] from the first recorded wrist position is
+#: warned about: more than the marker offset's +-5 cm per axis plausibly absorbs on one axis.
+START_WARN_M = 0.03
+
+
+def start_pose_gap(task: TaskSpec, reference: TaskData) -> float | None:
+    """Distance [m] between the tracked link's origin at the task's start pose and the mean recorded
+    wrist position of the first second; None when the recordings track no wrist."""
+    recorded = reference.wrist_start_mean
+    if recorded is None:
+        return None
+    simulated, _ = task.robot.forward_kinematics(np.radians(task.start_pose_deg), task.tracked_link)
+    return float(np.linalg.norm(simulated - recorded))
+
+
+def started_as_recorded(task: TaskSpec, reference: TaskData) -> TaskSpec:
+    """``task`` with its object where the recordings put it before the arm moves, when the task asks for
+    it (``start_from_recordings``) and the recordings track the object; else ``task`` itself."""
+    start = reference.object_start_mean
+    if not task.start_from_recordings or start is None:
+        return task
+    return task.started_at((float(start[0]), float(start[1])))
 
 
 def recordings_folder(root: Path | str | None, task: TaskSpec) -> Path:
@@ -99,7 +138,7 @@ class Objective:
 
     def _engine(self, task: TaskSpec) -> Engine:
         if task.name not in self._engines:
-            self._engines[task.name] = make_engine(self.engine, task)
+            self._engines[task.name] = make_engine(self.engine, started_as_recorded(task, self.references[task.name]))
         return self._engines[task.name]
 
     def rollouts(self, params: dict[str, float]) -> dict:

@@ -24,6 +24,10 @@ from simtune.data.sanity import (
 )
 from simtune.errors import ConfigError, RecordingError, RecordingWarning
 
+#: The first seconds of a recording, before the arm moves (every task holds its start pose at least
+#: this long): what the object's and the wrist's start positions are averaged over.
+REST_S = 1.0
+
 
 @dataclass
 class TaskData:
@@ -46,6 +50,21 @@ class TaskData:
     joint_names: list[str] = field(default_factory=list)
     joint_mean: np.ndarray | None = None
     joint_repeats: np.ndarray | None = None
+    #: per repeat, the object's mean position over the recording's first :data:`REST_S` seconds (3,) [m]
+    object_rest: np.ndarray | None = None
+
+    @property
+    def object_start_mean(self) -> np.ndarray | None:
+        """Where the object rests before the arm moves: the mean over the repeats of their first
+        :data:`REST_S` seconds, (3,) [m]; None when the recordings do not track it."""
+        return None if self.object_rest is None else self.object_rest.mean(axis=0)
+
+    @property
+    def wrist_start_mean(self) -> np.ndarray | None:
+        """The mean recorded wrist position over the first :data:`REST_S` seconds, (3,) [m], or None."""
+        if self.wrist_mean is None:
+            return None
+        return self.wrist_mean[self.times < REST_S].mean(axis=0)
 
     @property
     def object_final_mean(self) -> np.ndarray | None:
@@ -275,12 +294,19 @@ def load_task_data(
         angles = np.stack(
             [resample(t, np.stack([rec.joints[j] for j in joints], axis=1), rate, n) for rec, t, _ in repeats]
         )
-    starts = finals = None
+    starts = finals = rests = None
     if object_body is not None and object_body in bodies:
         # The object's first and last tracked positions (never a NaN of a lost first or last frame).
         seen = [np.flatnonzero(np.isfinite(rec.positions[object_body]).all(axis=1)) for rec, _, _ in repeats]
         starts = np.stack([rec.positions[object_body][s[0]] for (rec, _, _), s in zip(repeats, seen)])
         finals = np.stack([rec.positions[object_body][s[-1]] for (rec, _, _), s in zip(repeats, seen)])
+        # the object at rest: its tracked frames of the first REST_S seconds (the first one if none)
+        rests = np.stack(
+            [
+                rec.positions[object_body][s[t[s] < t[s[0]] + REST_S]].mean(axis=0)
+                for (rec, t, _), s in zip(repeats, seen)
+            ]
+        )
     return TaskData(
         task=task,
         rate=float(rate),
@@ -293,4 +319,5 @@ def load_task_data(
         joint_names=joints,
         joint_mean=None if angles is None else angles.mean(axis=0),
         joint_repeats=angles,
+        object_rest=rests,
     )

@@ -17,14 +17,14 @@ from typing import ClassVar
 
 import numpy as np
 
-from simtune.controller import CONTROL_PERIOD, CONTROLLER_PARAMETERS, JointController
+from simtune.controller import CONTROL_PERIOD, CONTROLLER_PARAMETERS, JointController, encoder_parameters
 from simtune.errors import ConfigError
 from simtune.robot.description import RobotDescription
 from simtune.robot.mico import MICO
 from simtune.tasks.spec import MATERIALS, SHAPES, TaskSpec
 
-#: Parameters applied outside the engine (controller and marker model): every engine has them.
-COMMON_PARAMETERS = CONTROLLER_PARAMETERS | {f"marker_offset_{a}" for a in "xyz"}
+#: Parameters applied outside the engine (controller, its encoders and the marker model): every engine has them.
+COMMON_PARAMETERS = CONTROLLER_PARAMETERS | encoder_parameters(6) | {f"marker_offset_{a}" for a in "xyz"}
 
 #: Rigid-body parameters any engine with masses, motors and joint damping maps;
 #: engines add their contact and damping parameters to these.
@@ -38,7 +38,9 @@ RIGID_BODY_PARAMETERS = frozenset(
 
 #: Parameters that come once per driven joint (``<kind>_<n>``, n = 1 for the first driven joint): the
 #: engines' names above are the six-joint MICO's; :meth:`Engine.supported` renames them for another robot.
-PER_JOINT = re.compile(r"^(mass_link|max_torque_joint|joint_damping|max_velocity_joint)_(\d+)$")
+PER_JOINT = re.compile(
+    r"^(mass_link|max_torque_joint|joint_damping|max_velocity_joint|joint_offset|compliance_joint)_(\d+)$"
+)
 
 
 def per_joint(names: frozenset[str], n_joints: int) -> frozenset[str]:
@@ -119,7 +121,7 @@ class Rollout:
     times: np.ndarray  # (n,) seconds
     wrist_pos: np.ndarray  # (n, 3) world position of the tracked link's origin (the MICO's link_6) [m]
     wrist_rot: np.ndarray  # (n, 3, 3) world rotation of the wrist frame
-    joint_angles: np.ndarray  # (n, driven joints) [rad]
+    joint_angles: np.ndarray  # (n, driven joints) [rad], as the encoders read them (true angles when uncalibrated)
     object_pos: np.ndarray | None  # (n, 3) or None for tasks without an object
     stable: bool = True
     message: str = ""
@@ -202,7 +204,13 @@ class Engine(ABC):
 
     @abstractmethod
     def reset(self, params: dict[str, float]) -> None:
-        """Apply ``params`` (missing ones take generic values) and put the scene in its start state."""
+        """Apply ``params`` (missing ones take generic values) and put the scene in its start state
+        (the arm at :meth:`start_angles`)."""
+
+    def start_angles(self, params: dict[str, float]) -> np.ndarray:
+        """The driven joints' start angles [rad]: where the encoders, as ``params`` model them, read
+        the task's start pose."""
+        return JointController(self.task, params).start_angles()
 
     @property
     @abstractmethod
@@ -284,7 +292,7 @@ class Engine(ABC):
         t_sim, steps, stable, message, samples_run, pruned = 0.0, 0, True, "", 0, False
         checked = 0  # samples [0, checked) passed the state check
         for k in range(n_samples):
-            q = self.joint_angles()
+            q = controller.encoder(self.joint_angles())
             wrist_pos[k], wrist_rot[k] = self.wrist_pose()
             angles[k] = q
             if object_pos is not None:
@@ -319,7 +327,7 @@ class Engine(ABC):
                     self._advance(n, after_step)
                     t_sim += n * dt
                     steps += n
-                    q = self.joint_angles()
+                    q = controller.encoder(self.joint_angles())
             self.set_joint_velocities(controller.velocity(targets[k], q))
             n = max(1, int(round(((k + 1) * period - t_sim) / dt)))
             self._advance(n, after_step)

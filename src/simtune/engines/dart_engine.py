@@ -188,7 +188,7 @@ class DartEngine(Engine):
                 aspect = node.getDynamicsAspect()
                 aspect.setFrictionCoeff(p[f"lateral_friction_{group}"])
                 aspect.setRestitutionCoeff(p[f"restitution_{group}"])
-        self.robot.setPositions(self._in_skeleton_order(np.radians(self.task.start_pose_deg)))
+        self.robot.setPositions(self._in_skeleton_order(self.start_angles(params)))
         self.robot.setVelocities(np.zeros(self.robot.getNumDofs()))
         self.robot.resetCommands()
         self.robot.resetGeneralizedForces()

@@ -298,7 +298,7 @@ class DrakeEngine(Engine):
                 ctx, s.object_body, RigidTransform(RotationMatrix(obj.rotation), obj.start_position)
             )
             s.plant.SetFreeBodySpatialVelocity(ctx, s.object_body, SpatialVelocity(np.zeros(3), np.zeros(3)))
-        self._pose(s, np.radians(self.task.start_pose_deg))
+        self._pose(s, self.start_angles(params))
         s.context.SetTime(0.0)
         self._steps = 0
         self._failed = ""

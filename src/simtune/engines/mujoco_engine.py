@@ -186,7 +186,7 @@ class MujocoEngine(Engine):
         # ..., used by the contact and solver settings) follow the new masses, as a model compiled with them has
         mujoco.mj_setConst(m, self.data)
         mujoco.mj_resetData(m, self.data)
-        self.data.qpos[self._arm_qpos] = np.radians(self.task.start_pose_deg)
+        self.data.qpos[self._arm_qpos] = self.start_angles(params)
         mujoco.mj_forward(m, self.data)
 
     def set_joint_velocities(self, velocities: np.ndarray) -> None:

@@ -31,9 +31,10 @@ from typing import Any
 
 import numpy as np
 
-from simtune.controller import CONTROL_PERIOD, JointController
+from simtune.controller import CONTROL_PERIOD, JointController, encoder_parameters
 from simtune.engines.base import CHECK_EVERY, Engine, Monitor, Rollout, _first_bad
 from simtune.engines.mujoco_engine import MujocoEngine, mujoco
+from simtune.robot.description import RobotDescription
 from simtune.robot.generate import OBJECT_BODY
 from simtune.tasks.spec import TaskSpec
 
@@ -202,6 +203,13 @@ class MujocoWarpEngine(Engine):
     @classmethod
     def version(cls) -> str:
         return mjw.__version__ if mjw is not None and mujoco is not None else "not installed"
+
+    @classmethod
+    def supported(cls, robot: RobotDescription | None = None) -> frozenset[str]:
+        """MuJoCo's parameters less the encoder model's (``--space calibrated``): the zero offsets and gravity
+        compliance live in the Python controller, which the batched controller kernel does not have yet."""
+        names = super().supported(robot)
+        return names - encoder_parameters(robot.n_joints if robot is not None else 6)
 
     @classmethod
     def device(cls) -> str:

@@ -428,7 +428,7 @@ class OdeEngine(Engine):
 
     def reset(self, params: dict[str, float]) -> None:
         self._build({**self._defaults, **params})
-        self._pose_arm(np.radians(self.task.start_pose_deg))
+        self._pose_arm(self.start_angles(params))
 
     def set_joint_velocities(self, velocities: np.ndarray) -> None:
         for hinge, v in zip(self._joints, velocities.tolist()):

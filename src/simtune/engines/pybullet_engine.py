@@ -204,7 +204,7 @@ class PybulletEngine(Engine):
             for body, link in members:
                 if changes:
                     p.changeDynamics(body, link, physicsClientId=c, **changes)
-        for joint, angle in zip(self._arm, np.radians(self.task.start_pose_deg)):
+        for joint, angle in zip(self._arm, self.start_angles(params)):
             p.resetJointState(self.robot, joint, angle, 0.0, physicsClientId=c)
 
     def set_joint_velocities(self, velocities: np.ndarray) -> None:

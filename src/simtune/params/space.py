@@ -3,7 +3,9 @@
 ``shared`` (31 values) and ``individual`` (57) are the seed paper's Table I;
 ``extended`` adds what the real recordings show the paper's set lacks: the
 delay between the start of the recording and the start of the commanded
-motion, and where the motion-capture marker sits on the hand.
+motion, and where the motion-capture marker sits on the hand.  ``calibrated``
+adds the arm's calibration errors: encoder zero offsets and the joints'
+elastic deflection under gravity (:mod:`simtune.controller`).
 
 A space is engine independent but robot dependent: the per-joint parameters
 come from the task's robot (:func:`robot_spaces`, rules in docs/parameters.md);
@@ -124,18 +126,57 @@ def _extended_extra() -> list[Parameter]:
     ]
 
 
+#: Range of the encoder zero offsets ``joint_offset_<n>`` [deg]: a mounting or homing error of a few degrees.
+JOINT_OFFSET_RANGE = 3.0
+#: The compliance range of each joint reaches this deflection [deg] under the largest gravity load the
+#: joint can carry (harmonic drives of arms of the MICO's class deflect by about that much).
+FULL_LOAD_DEFLECTION_DEG = 2.0
+
+
+def _calibration_extra(robot: RobotDescription) -> list[Parameter]:
+    ps = [
+        Parameter(
+            f"joint_offset_{i}",
+            -JOINT_OFFSET_RANGE,
+            JOINT_OFFSET_RANGE,
+            "deg",
+            f"encoder zero offset of joint {i} (the encoder reads the true angle plus this)",
+        )
+        for i in range(1, robot.n_joints + 1)
+    ]
+    for i, load in enumerate(robot.gravity_load_bounds(), start=1):
+        if load > 0:  # a joint gravity never loads (an upright first joint) cannot deflect under it
+            ps.append(
+                Parameter(
+                    f"compliance_joint_{i}",
+                    0.0,
+                    math.radians(FULL_LOAD_DEFLECTION_DEG) / load,
+                    "rad/(N m)",
+                    f"elastic deflection of joint {i} per N m of gravity torque",
+                )
+            )
+    return ps
+
+
 @lru_cache(maxsize=8)
 def robot_spaces(robot: RobotDescription) -> dict[str, tuple[Parameter, ...]]:
-    """The spaces ``shared``, ``individual`` and ``extended`` for ``robot``'s driven joints and links."""
+    """The spaces ``shared``, ``individual``, ``extended`` and ``calibrated`` for ``robot``'s driven
+    joints and links."""
     shared = _shared(robot)
     individual = shared + _individual_extra(robot)
     extended = individual + _extended_extra()
-    return {"shared": tuple(shared), "individual": tuple(individual), "extended": tuple(extended)}
+    calibrated = extended + _calibration_extra(robot)
+    return {
+        "shared": tuple(shared),
+        "individual": tuple(individual),
+        "extended": tuple(extended),
+        "calibrated": tuple(calibrated),
+    }
 
 
 def robot_parameters(robot: RobotDescription) -> dict[str, Parameter]:
     """Every parameter known for ``robot``, by name."""
-    return {p.name: p for p in robot_spaces(robot)["extended"]}
+    return {p.name: p for p in robot_spaces(robot)["calibrated"]}
 
 
 #: The bundled MICO's spaces (the seed paper's) and parameters.

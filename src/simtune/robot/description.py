@@ -26,6 +26,9 @@ import numpy as np
 
 from simtune.geometry import rpy_matrix
 
+#: Standard gravity [m/s^2], as every engine's scene has it (along -z).
+GRAVITY = 9.81
+
 Vec3 = tuple[float, float, float]
 ZERO3: Vec3 = (0.0, 0.0, 0.0)
 
@@ -270,6 +273,42 @@ class RobotDescription:
                     rot = rot @ r
         return pos, rot
 
+    # --- statics: gravity torques (the calibration model's elastic deflection) ----------------
+    def gravity(self, masses: dict[str, float] | None = None) -> GravityModel:
+        """The gravity torques about the driven joints as a function of their positions, with the
+        description's link masses (``masses``: link -> mass [kg] replacing some)."""
+        return GravityModel(self, masses or {})
+
+    def gravity_torques(self, q, masses: dict[str, float] | None = None) -> np.ndarray:
+        """The torque [N m] (force [N] for a prismatic joint) that gravity exerts about each driven joint at
+        driven joint positions ``q``; see :class:`GravityModel`."""
+        return self.gravity(masses)(q)
+
+    def gravity_load_bounds(self) -> np.ndarray:
+        """Per driven joint, an upper bound [N m] of the gravity torque about it over all poses: every
+        link below it at its largest possible lever (the joint offsets down to it plus its centre of
+        mass's distance).  0 for a joint gravity never loads: an upright axis that no joint above it turns."""
+        bounds = np.zeros(self.n_joints)
+        root_rot = rpy_matrix(self.base_rpy) if self.base_rpy != ZERO3 else np.eye(3)
+        for i, name in enumerate(self.arm_joints):
+            chain = self.chain(self.joint_by_name[name].child)
+            if not any(j.moves for j in chain[:-1]):
+                rot = root_rot
+                for j in chain:
+                    rot = rot @ rpy_matrix(j.rpy)
+                axis = rot @ np.asarray(chain[-1].axis, dtype=float)
+                if np.linalg.norm(np.cross(axis, [0.0, 0.0, 1.0])) < 1e-9 * np.linalg.norm(axis):
+                    continue
+            lever = {chain[-1].child: 0.0}
+            for joint in self.joints:  # parents before children: the path length from this joint down
+                if joint.parent in lever:
+                    lever[joint.child] = lever[joint.parent] + float(np.linalg.norm(joint.xyz))
+            bounds[i] = GRAVITY * sum(
+                self.link_by_name[link].mass * (path + float(np.linalg.norm(self.link_by_name[link].com)))
+                for link, path in lever.items()
+            )
+        return bounds
+
     def check(self) -> None:
         """Raise ValueError if the tree or the named joints and link do not fit together."""
         names = [link.name for link in self.links]
@@ -310,3 +349,86 @@ def mesh_hull(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
 
     hull = trimesh.Trimesh(vertices=mesh_vertices(mesh), process=True).convex_hull
     return np.asarray(hull.vertices, dtype=float), np.asarray(hull.faces, dtype=int)
+
+
+class GravityModel:
+    """Gravity torques about a robot's driven joints, for any pose: a static computation.
+
+    The links rigidly attached to each other (fixed joints) are lumped into one body per movable
+    joint, once; each call then walks the movable joints down the tree for their frames and sums
+    each body's mass and first moment up the tree, so that the torque about driven joint i is
+    axis_i . ((first moment below i - mass below i x origin_i) x m g).  Positive turns the joint in
+    its positive direction; the static load its motor holds is minus this.
+    """
+
+    def __init__(self, robot: RobotDescription, masses: dict[str, float]):
+        driven = {name: i for i, name in enumerate(robot.arm_joints)}
+        held = dict(robot.held)
+        self.n_joints = robot.n_joints
+        self.base = np.array(robot.base_position, dtype=float)
+        self.base_rot = rpy_matrix(robot.base_rpy) if robot.base_rpy != ZERO3 else np.eye(3)
+        body_of = {robot.root: 0}
+        # a link's place in its body's frame
+        placed: dict[str, tuple[np.ndarray, np.ndarray]] = {robot.root: (np.zeros(3), np.eye(3))}
+        #: per movable joint: parent body, joint frame in the parent body's frame, unit axis, prismatic?,
+        #: driven index (-1: held at ``value``), held value
+        self.joints: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, bool, int, float]] = []
+        for joint in robot.joints:
+            pos, rot = placed[joint.parent]
+            pos = pos + rot @ np.asarray(joint.xyz, dtype=float)
+            rot = rot @ rpy_matrix(joint.rpy)
+            if joint.moves:
+                axis = np.asarray(joint.axis, dtype=float) / np.linalg.norm(joint.axis)
+                index = driven.get(joint.name, -1)
+                value = float(held.get(joint.name, 0.0))
+                self.joints.append((body_of[joint.parent], pos, rot, axis, joint.kind == "prismatic", index, value))
+                body_of[joint.child] = len(self.joints)
+                placed[joint.child] = (np.zeros(3), np.eye(3))
+            else:
+                body_of[joint.child] = body_of[joint.parent]
+                placed[joint.child] = (pos, rot)
+        n_bodies = len(self.joints) + 1
+        self.mass = np.zeros(n_bodies)
+        self.moment = np.zeros((n_bodies, 3))  # mass times centre of mass, in the body's frame
+        for link in robot.links:
+            body, (pos, rot) = body_of[link.name], placed[link.name]
+            mass = float(masses.get(link.name, link.mass))
+            self.mass[body] += mass
+            self.moment[body] += mass * (pos + rot @ np.asarray(link.com, dtype=float))
+        self.parent = [0] + [j[0] for j in self.joints]
+
+    def __call__(self, q) -> np.ndarray:
+        q = np.asarray(q, dtype=float)
+        positions, rotations = [self.base], [self.base_rot]
+        origins, axes = [], []
+        for parent, offset, turn, axis, prismatic, index, value in self.joints:
+            pos, rot = positions[parent], rotations[parent]
+            origin = pos + rot @ offset
+            rot = rot @ turn
+            world_axis = rot @ axis
+            x = q[index] if index >= 0 else value
+            if prismatic:
+                origin_child = origin + world_axis * x
+            else:
+                origin_child = origin
+                rot = rot @ axis_angle_matrix(axis, x)
+            positions.append(origin_child)
+            rotations.append(rot)
+            origins.append(origin)
+            axes.append(world_axis)
+        mass = self.mass.copy()
+        moment = mass[:, None] * np.array(positions) + np.einsum("bij,bj->bi", np.array(rotations), self.moment)
+        for body in range(len(self.joints), 0, -1):  # children come after their parents
+            mass[self.parent[body]] += mass[body]
+            moment[self.parent[body]] += moment[body]
+        torques = np.zeros(self.n_joints)
+        for k, (_, _, _, _, prismatic, index, _) in enumerate(self.joints):
+            if index < 0:
+                continue
+            a, body = axes[k], k + 1
+            if prismatic:
+                torques[index] = -GRAVITY * mass[body] * a[2]
+            else:  # a . (v x g) with g = (0, 0, -G): G (a_y v_x - a_x v_y)
+                v = moment[body] - mass[body] * origins[k]
+                torques[index] = GRAVITY * (a[1] * v[0] - a[0] * v[1])
+        return torques

@@ -198,6 +198,7 @@ TASK_KEYS = (
     "mocap",
     "recordings",
     "public_recordings",
+    "start_from_recordings",
 )
 CONTROLLER_KEYS = ("law", "gain", "max_velocity_deg")
 PHASE_KEYS = ("start", "targets_deg")
@@ -267,6 +268,10 @@ def load_task_file(
             raise mocap.error("link", f"the engines report the pose of {robot.wrist_link} only: track that link")
     body = mocap.string("body", required=True)
     base_body = mocap.string("base_body")
+    obj = _object(keys)
+    start_from_recordings = keys.flag("start_from_recordings", False)
+    if start_from_recordings and obj is None:
+        raise keys.error("start_from_recordings", "the task has no object to start where the recordings put it")
     recordings = keys.string("recordings")
     if recordings is not None:
         recordings = str(((project_dir or path.parent) / recordings).resolve())
@@ -278,7 +283,7 @@ def load_task_file(
         phases=phases,
         kp=kp,
         max_velocity_deg=max_velocity,
-        object=_object(keys),
+        object=obj,
         wrist_body=body or "",
         start_pose_deg=start_pose,
         has_public_recordings=keys.flag("public_recordings", False),
@@ -286,6 +291,7 @@ def load_task_file(
         tracked_link=link,
         base_body=base_body,
         recordings=recordings,
+        start_from_recordings=start_from_recordings,
         **carried,
     )
 

@@ -7,7 +7,7 @@ spec through the same controller (:mod:`simtune.controller`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -131,6 +131,9 @@ class TaskSpec:
     recordings: str | None = field(default=None, metadata={FINGERPRINT: "never"})
     #: the robot the task drives (its driven joints are ``joints``, its tracked link ``tracked_link``)
     robot: RobotDescription = field(default=MICO, metadata={FINGERPRINT: "default"})
+    #: whether the object starts where the recordings put it (their first second, :func:`started_as_recorded`)
+    #: instead of at its ``xy``
+    start_from_recordings: bool = field(default=False, metadata={FINGERPRINT: "default"})
 
     def __post_init__(self) -> None:
         robot = self.robot
@@ -163,6 +166,12 @@ class TaskSpec:
                     f"task {self.name!r}: phase {k} has {len(phase.targets_deg)} joint targets, "
                     f"robot {robot.name!r} drives {n} joints"
                 )
+
+    def started_at(self, xy: tuple[float, float]) -> TaskSpec:
+        """The task with its object starting at ``xy`` [m] (resting on the floor, turned as before)."""
+        if self.object is None:
+            return self
+        return replace(self, object=replace(self.object, xy=(float(xy[0]), float(xy[1]))))
 
     @cached_property
     def schedule(self) -> tuple[np.ndarray, np.ndarray]:
