@@ -116,7 +116,7 @@ def measure_activity(
     """Probe every parameter of ``space`` on ``task`` (see the module's notes): name -> Activity."""
     cls = engine_class(engine)
     declared = schedule_reasons(task) | cls.inactive_parameters(task)
-    supported = cls.supported()
+    supported = cls.supported(task.robot)
     n = samples or task_samples(task)
     sim = make_engine(engine, task)
     found: dict[str, Activity] = {}
@@ -227,6 +227,29 @@ def inactive_parameters(
             else:
                 inactive[name] = "; ".join(f"{task}: {found[name].reason}" for task, found in per_task.items())
     return inactive
+
+
+def declared_inactive(engine: str, tasks: list[TaskSpec], space: ParameterSpace) -> dict[str, str]:
+    """The parameters of ``space`` that the engine (``Engine.inactive_parameters``), the schedules (a joint never
+    moved) or the engine's parameter list rule out in every one of ``tasks``: name -> why, without a rollout.
+
+    What a run that keeps every parameter (``--keep-inactive``, ``--paper-exact``) records instead of the
+    probe, whose rollouts such a run has no use for (for a slow engine, minutes before the search)."""
+    cls = engine_class(engine)
+    per_task = []
+    for task in tasks:
+        supported = cls.supported(task.robot)
+        reasons = {
+            name: f"engine {engine!r} has no such parameter"
+            for name in space.names
+            if not is_supported(name, supported)
+        }
+        per_task.append(schedule_reasons(task) | cls.inactive_parameters(task) | reasons)
+    return {
+        name: "; ".join(dict.fromkeys(reasons[name] for reasons in per_task))
+        for name in space.names
+        if all(name in reasons for reasons in per_task)
+    }
 
 
 def active_space(space: ParameterSpace, inactive: dict[str, str], keep: list[str] | None = None) -> ParameterSpace:

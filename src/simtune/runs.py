@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 import simtune
-from simtune.activity import active_space, inactive_parameters
+from simtune.activity import active_space, declared_inactive, inactive_parameters
 from simtune.data.fingerprint import fingerprint_changes, folders_fingerprint
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, RunInterrupted, SimtuneError
@@ -284,8 +284,14 @@ def full_space(config: RunConfig) -> ParameterSpace:
 
 
 def run_inactive(config: RunConfig) -> dict[str, str]:
-    """Parameters of the run's full space that change no rollout of its tasks: name -> why (measured, cached)."""
-    return inactive_parameters(config.engine, parse_tasks(config.tasks, config.project), full_space(config))
+    """Parameters of the run's full space that change no rollout of its tasks: name -> why (measured, cached).
+
+    A run that keeps them all (``keep_inactive``, ``paper_exact``) records what the engine and the schedules
+    declare instead: it searches every parameter either way, and the probe would only cost it rollouts."""
+    tasks = parse_tasks(config.tasks, config.project)
+    if config.keep_inactive or config.paper_exact:
+        return declared_inactive(config.engine, tasks, full_space(config))
+    return inactive_parameters(config.engine, tasks, full_space(config))
 
 
 def build_objective(config: RunConfig, inactive: dict[str, str] | None = None) -> Objective:
