@@ -156,7 +156,10 @@ def _encode_tasks(score: Score) -> str:
 
 def _decode_score(fitness: float, wrist_error: float, object_error: float | None, tasks: str) -> Score:
     totals = {"fitness": fitness, "wrist_error": wrist_error, "object_error": object_error}
-    return Score(fitness, wrist_error, object_error, [TaskScore(**{**totals, **t}) for t in json.loads(tasks)])
+    parts = [TaskScore(**{**totals, **t}) for t in json.loads(tasks)]
+    # the joint error (joint logs) has no column: it is the sum of the tasks' own, as Score.combine makes it
+    joint = [t.joint_error for t in parts if t.joint_error is not None]
+    return Score(fitness, wrist_error, object_error, parts, float(sum(joint)) if joint else None)
 
 
 def _population_digest(population: np.ndarray, energies: np.ndarray) -> bytes:
