@@ -174,7 +174,8 @@ def main() -> None:
                     "truth_here": truth_here,
                     "ratio": {t: tuned[t] / floor[t] for t in TASKS},
                     "within_2x": all(tuned[t] <= 2 * floor[t] for t in TASKS),
-                    "params": {k: values.get(k) for k in TRUTH},
+                    # tuned together, each task's recordings get their own command delay (command_delay_<task>)
+                    "params": {k: values.get(k, _task_values(values, k)) for k in TRUTH},
                 }
             )
 
@@ -196,7 +197,7 @@ def main() -> None:
     lines += ["", "| engine | tune wall [s] | " + " | ".join(TRUTH) + " |", "|---|---|" + "---|" * len(TRUTH)]
     lines.append("| truth | - | " + " | ".join(f"{v:g}" for v in TRUTH.values()) + " |")
     for row in rows:
-        shown = [f"{v:.3g}" if isinstance(v, int | float) else "-" for v in row["params"].values()]
+        shown = [_shown(v) for v in row["params"].values()]
         lines.append(f"| {row['engine']} | {row['wall_s']:g} | " + " | ".join(shown) + " |")
     table = "\n".join(lines)
     print(table)
@@ -205,6 +206,18 @@ def main() -> None:
     (args.results / f"panda-recovery-{stamp}.md").write_text(table + "\n")
     summary = {"truth": TRUTH, "noise_mm": NOISE_MM, "floor": floor, "contact": contact, "engines": rows}
     (args.results / f"panda-recovery-{stamp}.json").write_text(json.dumps(summary, indent=2) + "\n")
+
+
+def _task_values(values: dict, name: str) -> dict[str, float] | None:
+    """A per-task parameter's values (``<name>_<task>`` -> task: value), or None if there are none."""
+    found = {t: values[f"{name}_{t}"] for t in TASKS if f"{name}_{t}" in values}
+    return found or None
+
+
+def _shown(value) -> str:
+    if isinstance(value, dict):
+        return ", ".join(f"{t} {v:.3g}" for t, v in value.items())
+    return f"{value:.3g}" if isinstance(value, int | float) else "-"
 
 
 if __name__ == "__main__":
