@@ -27,7 +27,6 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Sequence
 from functools import cache
 from itertools import pairwise
-from typing import Any
 
 import numpy as np
 
@@ -38,7 +37,6 @@ from simtune.robot.description import RobotDescription
 from simtune.robot.generate import OBJECT_BODY
 from simtune.tasks.spec import TaskSpec
 
-wp: Any  # None without the package
 try:
     import warp as wp
 
