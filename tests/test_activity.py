@@ -179,5 +179,6 @@ def test_tune_searches_the_active_parameters_unless_told_to_keep_them(tmp_path):
 
     active, kept = tune(), tune("--keep-inactive")
     assert kept["search_dimension"] == 31 and active["search_dimension"] == 31 - len(active["inactive_parameters"])
-    assert active["inactive_parameters"] == kept["inactive_parameters"]
+    # a run that keeps every parameter records the declared list (no probe): the measured one adds to it
+    assert set(kept["inactive_parameters"]) <= set(active["inactive_parameters"])
     assert "mass_cube_wood" in active["inactive_parameters"]
