@@ -31,6 +31,21 @@ from simtune.params import ParameterSpace
 from simtune.tasks import TaskSpec
 
 
+def load_task_recordings(folder: Path, task: TaskSpec, joint_topic: str | None = None) -> TaskData:
+    """One task's recordings from ``folder``, with what the task and its robot tell the loader's sanity stage."""
+    return load_task_data(
+        folder,
+        task.name,
+        wrist_body=task.wrist_body,
+        object_body=task.object.mocap_body if task.object is not None else None,
+        duration_s=task.duration,
+        reach_m=task.robot.reach,
+        base_body=task.base_body,
+        joint_names=rollout_joint_names(task),
+        joint_topic=joint_topic,
+    )
+
+
 def load_references(root: Path | None, tasks: list[TaskSpec], joint_topic: str | None = None) -> dict[str, TaskData]:
     """The recordings of each task, from ``root/<task name>/``, checked against the task and the arm.
 
@@ -53,17 +68,7 @@ def load_references(root: Path | None, tasks: list[TaskSpec], joint_topic: str |
         folder = recordings_folder(root, task)
         if not folder.is_dir():
             raise SimtuneError(f"no recordings for task {task.name!r}: folder {folder} does not exist")
-        refs[task.name] = load_task_data(
-            folder,
-            task.name,
-            wrist_body=task.wrist_body,
-            object_body=task.object.mocap_body if task.object is not None else None,
-            duration_s=task.duration,
-            reach_m=task.robot.reach,
-            base_body=task.base_body,
-            joint_names=rollout_joint_names(task),
-            joint_topic=joint_topic,
-        )
+        refs[task.name] = load_task_recordings(folder, task, joint_topic)
         gap = start_pose_gap(task, refs[task.name])
         if gap is not None and gap > START_WARN_M:
             warnings.warn(

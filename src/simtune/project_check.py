@@ -20,8 +20,7 @@ import numpy as np
 
 from simtune.engines import ENGINES, engine_class
 from simtune.errors import EngineUnavailable, SimtuneError
-from simtune.fitness import rollout_joint_names
-from simtune.objective import recordings_folder
+from simtune.objective import load_task_recordings, recordings_folder
 from simtune.project import Project, load_project
 
 #: A start position of the tracked link farther than this from the first recorded marker position
@@ -69,8 +68,6 @@ def check_project(path: Path | str, engines: tuple[str, ...] | None = None) -> l
 def _check_recordings(project: Project, name: str) -> list[Finding]:
     """The task's recordings hold its bodies or joints; the tracked link at the start pose against the first
     recorded marker position."""
-    from simtune.data.task import load_task_data
-
     task = project.tasks[name]
     try:
         folder = recordings_folder(None, task)
@@ -82,16 +79,7 @@ def _check_recordings(project: Project, name: str) -> list[Finding]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            data = load_task_data(
-                folder,
-                task.name,
-                wrist_body=task.wrist_body,
-                object_body=task.object.mocap_body if task.object is not None else None,
-                duration_s=task.duration,
-                reach_m=task.robot.reach,
-                base_body=task.base_body,
-                joint_names=rollout_joint_names(task),
-            )
+            data = load_task_recordings(folder, task)
         except SimtuneError as exc:
             return [Finding("problem", f"{where}: recordings: {exc}")]
     findings = [Finding("warning", f"{where}: recordings: {w.message}") for w in caught]
