@@ -1,9 +1,10 @@
 """Time to a good fit: the default pipeline (`--optimizer auto`) against the paper's differential evolution.
 
     python benchmarks/speed_pipeline.py [--data ../shared/datasets/qrg2019/mocap] [--optimizers auto,de]
-        [--seeds 0] [--tasks cube:0.03,single:0.01] [--max-seconds 150] [--workers 2] [--out FILE]
+        [--seeds 0] [--tasks cube:0.03,single:0.01] [--spaces extended] [--max-seconds 150] [--workers 2]
+        [--out FILE]
 
-For each task:target, optimiser and seed: `simtune tune --engine mujoco --space extended --workers 2` on
+For each task:target, space, optimiser and seed: `simtune tune --engine mujoco --space S --workers 2` on
 the real recordings, stopped at the target fitness or after --max-seconds.  Printed: the wall time at
 which the best fitness first reached the target (from the run store's generation checkpoints: the
 run's elapsed time after each batch; "not reached" if it did not), the evaluations used by then, and
@@ -48,6 +49,7 @@ def main() -> None:
     parser.add_argument("--optimizers", default="auto,de")
     parser.add_argument("--seeds", default="0")
     parser.add_argument("--tasks", default="cube:0.03,single:0.01")
+    parser.add_argument("--spaces", default="extended")
     parser.add_argument("--max-seconds", type=float, default=150.0)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path)
@@ -59,44 +61,48 @@ def main() -> None:
         lines.append(line)
 
     say(
-        f"# speed_pipeline: mujoco, extended, {args.workers} workers, data {args.data}, "
+        f"# speed_pipeline: mujoco, {args.workers} workers, data {args.data}, "
         f"{os.cpu_count()} cores, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}"
     )
-    for item in args.tasks.split(","):
-        task, target = item.split(":")
-        for optimizer in args.optimizers.split(","):
-            times = []
-            for seed in [int(s) for s in args.seeds.split(",")]:
-                with tempfile.TemporaryDirectory() as tmp:
-                    config = RunConfig(
-                        engine="mujoco",
-                        tasks=task,
-                        space="extended",
-                        data=str(args.data),
-                        seed=seed,
-                        workers=args.workers,
-                        max_seconds=args.max_seconds,
-                        target_fitness=float(target),
-                        optimizer=optimizer,
-                        max_generations=100_000,
-                    )
-                    load = os.getloadavg()[0]
-                    run_dir = Path(tmp) / "run"
-                    result = start_run(config, run_dir, show_progress=False)
-                    seconds, evaluations, best = time_to_target(run_dir, float(target))
-                    load = max(load, os.getloadavg()[0])
-                    reached = f"{seconds:.1f} s ({evaluations} evaluations)" if seconds is not None else "not reached"
-                    on_the_way = ", ".join(
-                        f"<= {level:g} at {t:.0f} s" if t is not None else f"<= {level:g} never"
-                        for level, t in ((level, time_to_target(run_dir, level)[0]) for level in MILESTONES)
-                        if level > float(target)
-                    )
-                say(
-                    f"{task} {optimizer} seed {seed}: fitness <= {target}: {reached}; best {best:.4f} after "
-                    f"{result.wall_s:.0f} s, {result.evaluations} evaluations ({on_the_way}); load average {load:.2f}"
+    runs = [
+        (*item.split(":"), space, optimizer)
+        for item in args.tasks.split(",")
+        for space in args.spaces.split(",")
+        for optimizer in args.optimizers.split(",")
+    ]
+    for task, target, space, optimizer in runs:
+        times = []
+        for seed in [int(s) for s in args.seeds.split(",")]:
+            with tempfile.TemporaryDirectory() as tmp:
+                config = RunConfig(
+                    engine="mujoco",
+                    tasks=task,
+                    space=space,
+                    data=str(args.data),
+                    seed=seed,
+                    workers=args.workers,
+                    max_seconds=args.max_seconds,
+                    target_fitness=float(target),
+                    optimizer=optimizer,
+                    max_generations=100_000,
                 )
-                times.append(seconds if seconds is not None else float("inf"))
-            say(f"{task} {optimizer}: median time to fitness <= {target}: {statistics.median(times):.1f} s")
+                load = os.getloadavg()[0]
+                run_dir = Path(tmp) / "run"
+                result = start_run(config, run_dir, show_progress=False)
+                seconds, evaluations, best = time_to_target(run_dir, float(target))
+                load = max(load, os.getloadavg()[0])
+                reached = f"{seconds:.1f} s ({evaluations} evaluations)" if seconds is not None else "not reached"
+                on_the_way = ", ".join(
+                    f"<= {level:g} at {t:.0f} s" if t is not None else f"<= {level:g} never"
+                    for level, t in ((level, time_to_target(run_dir, level)[0]) for level in MILESTONES)
+                    if level > float(target)
+                )
+            say(
+                f"{task} {space} {optimizer} seed {seed}: fitness <= {target}: {reached}; best {best:.4f} after "
+                f"{result.wall_s:.0f} s, {result.evaluations} evaluations ({on_the_way}); load average {load:.2f}"
+            )
+            times.append(seconds if seconds is not None else float("inf"))
+        say(f"{task} {space} {optimizer}: median time to fitness <= {target}: {statistics.median(times):.1f} s")
     if args.out:
         with open(args.out, "a") as fh:
             fh.write("\n".join(lines) + "\n")

@@ -114,6 +114,7 @@ def test_paper_exact_refuses_what_the_paper_did_not_do(change, message):
         config.check()
 
 
+@pytest.mark.slow  # 24 s: a paper-exact search over the full D
 def test_paper_exact_keeps_parameters_the_engine_lacks(single_data):
     """The individual space in Drake: 57 parameters in the vector, though Drake maps far fewer of them."""
     pytest.importorskip("pydrake")

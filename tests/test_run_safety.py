@@ -40,6 +40,7 @@ def config(**kw) -> RunConfig:
 
 
 def tune_cmd(out: Path, *extra: str, data: Path = REFERENCE_DIR) -> list[str]:
+    """A short tune: differential evolution (its kills and resumes count DE's generations of 1 x D trials)."""
     return [
         sys.executable,
         "-m",
@@ -54,6 +55,7 @@ def tune_cmd(out: Path, *extra: str, data: Path = REFERENCE_DIR) -> list[str]:
         "--out",
         str(out),
         "--quiet",
+        *([] if "--optimizer" in extra else ["--optimizer", "de"]),
         *extra,
     ]
 

@@ -30,10 +30,10 @@ from simtune.data.onset import motion_onset
 from simtune.engines import engine_class, make_engine
 from simtune.errors import SimtuneError
 from simtune.fitness import marker_positions
-from simtune.objective import Objective, load_references
+from simtune.objective import Objective, generic_values, load_references
 from simtune.params import get_space
 from simtune.tasks import TaskSpec
-from simtune.uncertainty import RCOND, analyse, correlation_time, generic_values, jacobian
+from simtune.uncertainty import RCOND, analyse, correlation_time, jacobian
 
 #: A repeat whose mean distance from the mean track exceeds this multiple of the median repeat's is flagged.
 OUTLIER_FACTOR = 3.0

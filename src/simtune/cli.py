@@ -386,7 +386,17 @@ def tune(
     task: TaskOpt = "cube",
     data: DataOpt = None,
     space: SpaceOpt = "extended",
-    optimizer: OptimizerOpt = "de",
+    optimizer: Annotated[
+        str | None,
+        typer.Option(
+            "--optimizer",
+            help="auto (the default): a least-squares opening from the generic point with the recordings' clock, "
+            "then rounds of a short DE and least squares; de: differential evolution as in the paper (the "
+            "default with --paper-exact); cmaes: CMA-ES with restarts; bo: Bayesian optimisation (Optuna TPE); "
+            "random: uniform random search. cmaes and bo need `pip install 'simtune[opt]'`.",
+            show_default=False,
+        ),
+    ] = None,
     refine: Annotated[
         bool,
         typer.Option(
@@ -411,7 +421,12 @@ def tune(
         float | None, typer.Option(help="Stop after this much wall time [s].", callback=_seconds)
     ] = None,
     max_generations: Annotated[
-        int, typer.Option(min=1, help="Stop after this many generations (bo and random: D evaluations count as one).")
+        int,
+        typer.Option(
+            min=1,
+            help="Stop after this many generations (bo and random: D evaluations count as one; auto: each batch, a DE "
+            "generation, a least-squares trial point or a Jacobian).",
+        ),
     ] = 1000,
     max_evaluations: MaxEvalsOpt = None,
     target_fitness: Annotated[
@@ -453,7 +468,7 @@ def tune(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
 ) -> None:
-    """Tune an engine's parameters to recorded tasks (differential evolution by default; --optimizer).
+    """Tune an engine's parameters to recorded tasks (global then local by default; --optimizer de: the paper's DE).
 
     Every evaluation is stored in OUT/run.sqlite as it finishes; if the run is
     killed, `simtune resume OUT` continues it without redoing any evaluation
@@ -478,7 +493,7 @@ def tune(
         eval_timeout=eval_timeout,
         target_fitness=target_fitness,
         prune=not no_prune,
-        optimizer=optimizer,
+        optimizer=optimizer or ("de" if paper_exact else "auto"),
         refine=refine,
         max_evaluations=max_evaluations,
         paper_exact=paper_exact,

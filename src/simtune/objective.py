@@ -15,6 +15,7 @@ from typing import TypeVar
 
 import numpy as np
 
+from simtune.controller import CONTROLLER_PARAMETERS
 from simtune.data import TaskData, load_task_data
 from simtune.engines import Engine, engine_class, make_engine
 from simtune.errors import RecordingWarning, SimtuneError
@@ -294,6 +295,26 @@ class Objective:
         for engine in self._engines.values():
             engine.close()
         self._engines.clear()
+
+
+def generic_values(objective: Objective, names: list[str]) -> dict[str, float]:
+    """The values parameters outside the search keep: the engine's generic ones, the controller's defaults."""
+    values: dict[str, float] = {}
+    for task in objective.tasks:
+        sim = make_engine(objective.engine, task)
+        try:
+            values = {**sim.defaults(), **values}
+        finally:
+            sim.close()
+    task = objective.tasks[0]
+    for name in names:
+        if name in values:
+            continue
+        if name.startswith("max_velocity_joint_"):
+            values[name] = task.max_velocity_deg
+        elif name in CONTROLLER_PARAMETERS or name.startswith("marker_offset_"):
+            values[name] = 0.0
+    return {n: float(values[n]) for n in names if n in values}
 
 
 _T = TypeVar("_T")

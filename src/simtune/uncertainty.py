@@ -33,9 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simtune.controller import CONTROLLER_PARAMETERS
-from simtune.engines import make_engine
-from simtune.objective import Objective
+from simtune.objective import Objective, generic_values
 from simtune.optimize.evaluator import Evaluator
 from simtune.params import ParameterSpace
 from simtune.store import RunStore
@@ -229,26 +227,6 @@ def analyse(
             f"{Z95:.2f} sd; a parameter whose forward and backward differences disagree is not identifiable"
         ),
     }
-
-
-def generic_values(objective: Objective, names: list[str]) -> dict[str, float]:
-    """The values parameters outside the search keep: the engine's generic ones, the controller's defaults."""
-    values: dict[str, float] = {}
-    for task in objective.tasks:
-        sim = make_engine(objective.engine, task)
-        try:
-            values = {**sim.defaults(), **values}
-        finally:
-            sim.close()
-    task = objective.tasks[0]
-    for name in names:
-        if name in values:
-            continue
-        if name.startswith("max_velocity_joint_"):
-            values[name] = task.max_velocity_deg
-        elif name in CONTROLLER_PARAMETERS or name.startswith("marker_offset_"):
-            values[name] = 0.0
-    return {n: float(values[n]) for n in names if n in values}
 
 
 def uncertainty(

@@ -1,11 +1,15 @@
 """Global, then local (``--optimizer auto``): a short differential evolution, then bounded least squares, in rounds.
 
-Each round:
+It opens with a local phase from the generic point with each task's clock aligned to its recordings
+(:func:`aligned_generic_start`: the command delay from the recordings' motion onset, then a 1-D search over
+the delay alone): on real recordings most of the generic error is the recording's clock, and what is left
+is often one basin away.  Then, in rounds:
 
 1. **global**: ``GLOBAL_GENERATIONS`` generations of differential evolution with the paper's settings
    (:data:`simtune.optimize.de.DE_SETTINGS`: best1bin, population 1 x D, deferred updating, trials that
-   cannot beat their parent pruned); the first round starts from a latin hypercube (or, after ``resume
-   --rescore``, from the old run's last population), every later one from the last round's population
+   cannot beat their parent pruned); the first round starts from a latin hypercube with the opening's
+   best point in it (or, after ``resume --rescore``, from the old run's last population, with no
+   opening), every later one from the last round's population
    with a fresh seed: the global search goes on where it stopped;
 2. **local**: SciPy's ``least_squares`` (trust-region reflective, within the bounds, in the unit cube)
    from the best point of the run on the per-sample residuals (:func:`simtune.fitness.residuals`),
@@ -23,17 +27,21 @@ Resume: the search is deterministic given its seed and the stored results (DE dr
 round; least squares is deterministic given the residuals, which the store keeps for every point of a
 local phase), so ``simtune resume`` replays it, taking every finished evaluation from the store, and
 goes on where the killed session stopped: no finished evaluation is lost or simulated twice.  The point
-a local phase starts from was scored without residuals; it is simulated once more for them.
+a local phase starts from was scored without residuals; it is simulated once more for them.  The
+opening's delay search (a dozen rollouts in the coordinating process, not stored: they are not
+evaluations of the search) is deterministic and is run again by a resumed run.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import differential_evolution
+from scipy.stats import qmc
 
-from simtune.objective import Objective
+from simtune.alignment import delay_parameter, estimate_delay
+from simtune.objective import Objective, generic_values
 from simtune.optimize.base import BatchSearch
-from simtune.optimize.de import DE_SETTINGS
+from simtune.optimize.de import DE_SETTINGS, POPSIZE
 from simtune.optimize.evaluator import TuneResult, TuneSettings
 from simtune.optimize.refine import BudgetSpent, least_squares_phase
 from simtune.store import RunStore
@@ -53,8 +61,17 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
     population = search.starting_points()
     if population is not None and len(population) < 5:
         population = None  # SciPy's DE needs 5 members or more
+    opening = population is None and settings.initial_population is None
     with search:
         try:
+            if opening:
+                start = aligned_generic_start(objective)
+                refined.add(start.tobytes())
+                search.evaluator.parent_energies = None
+                local_steps += least_squares_phase(search, start, max_nfev=LOCAL_NFEV, ftol=STALL_FTOL).nfev
+                assert search.best_x is not None, "the opening scored its start"
+                population = _latin_hypercube(search, settings.seed)
+                population[0] = search.best_x
             while True:
                 population, last_energies, round_x = _global_phase(search, population, settings.seed + 1000 * rounds)
                 assert search.best_x is not None, "the global phase scored a batch"
@@ -71,6 +88,28 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
             pass
         assert search.stop_reason is not None, "the rounds end only when a budget says stop"
         return search.result(f"{search.stop_reason} ({rounds} full rounds, {local_steps} least-squares steps)")
+
+
+def aligned_generic_start(objective: Objective) -> np.ndarray:
+    """The generic point of ``objective``'s space with each task's command delay aligned to its recordings.
+
+    A parameter without a generic value (none of the engine's, the controller's or the task's) starts mid-range.
+    """
+    space = objective.vector_space()
+    values = generic_values(objective, space.names)
+    for task in objective.tasks:
+        name = delay_parameter(task.name) if delay_parameter(task.name) in space.names else "command_delay"
+        if name in space.names:
+            values[name] = estimate_delay(objective, task, values).delay_s
+    return np.array([min(max(values.get(p.name, (p.low + p.high) / 2), p.low), p.high) for p in space.parameters])
+
+
+def _latin_hypercube(search: BatchSearch, seed: int) -> np.ndarray:
+    """A latin hypercube of DE's population size (as SciPy draws its own) over the bounds."""
+    dim = len(search.lows)
+    size = max(5, POPSIZE * dim)  # SciPy's own population size
+    unit = qmc.LatinHypercube(d=dim, rng=np.random.default_rng(seed)).random(size)
+    return search.from_unit(unit)
 
 
 def _global_phase(search: BatchSearch, init: np.ndarray | None, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
