@@ -113,7 +113,17 @@ def find_project_file(path: Path) -> Path:
 
 
 #: Keys of a project file's ``[robot]`` table (a robot from a URDF file; arguments of ``load_urdf``).
-ROBOT_KEYS = ("urdf", "name", "joints", "tracked_link", "base_position", "base_rpy", "held", "gripper_links")
+ROBOT_KEYS = (
+    "urdf",
+    "name",
+    "joints",
+    "tracked_link",
+    "base_position",
+    "base_rpy",
+    "held",
+    "gripper_links",
+    "servo_gain",
+)
 
 
 def resolve_robot(keys: Keys, folder: Path) -> RobotNames:
@@ -156,8 +166,9 @@ def _urdf_robot(keys: Keys, folder: Path) -> RobotDescription:
         raise table.error("joints", "name at least one driven joint (or leave the key out)")
     tracked_link = table.string("tracked_link")
     gripper_links = table.strings("gripper_links")
+    servo_gain = table.number("servo_gain", above=0.0)
     try:
-        return load_urdf(
+        robot = load_urdf(
             urdf,
             arm_joints=joints,
             tracked_link=tracked_link,
@@ -173,6 +184,7 @@ def _urdf_robot(keys: Keys, folder: Path) -> RobotDescription:
         named = {"joints": joints or (), "tracked_link": (tracked_link,), "held": held, "gripper_links": gripper_links}
         key = next((k for k, names in named.items() if any(f"{n!r}" in message for n in names or ())), "urdf")
         raise table.error(key, message) from None
+    return robot if servo_gain is None else replace(robot, servo_gain=float(servo_gain))
 
 
 def load_project(path: Path | str) -> Project:

@@ -93,6 +93,10 @@ def project_text(robot: RobotDescription, urdf: Path) -> str:
         f"base_rpy = {_toml(list(robot.base_rpy))}",
         "# links with the gripper's contact parameters (friction, restitution ...); the other links are 'arm'",
         f"gripper_links = {_toml(gripper)}",
+        "# the gain of MuJoCo's and Drake's joint velocity servos [N m s/rad]; such a servo lags its command by about",
+        "# the joint's inertia over the gain (default: MuJoCo 50, Drake 100, set for the MICO's light links):",
+        "# a heavier arm follows its commands as a real velocity loop does with a stiffer one (the Panda: 300)",
+        "# servo_gain = 300.0",
     ]
     if robot.held:
         lines += [

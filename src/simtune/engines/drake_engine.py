@@ -120,7 +120,7 @@ class DrakeEngine(Engine):
 
     @classmethod
     def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
-        return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KD, task)
+        return super().inactive_parameters(task) | unreachable_servo_limits(task.robot.servo_gain or SERVO_KD, task)
 
     def __init__(self, task: TaskSpec):
         super().__init__(task)
@@ -160,7 +160,7 @@ class DrakeEngine(Engine):
         actuators = []
         for i, joint in enumerate(joints):
             actuator = plant.AddJointActuator(f"{joint.name()}_servo", joint, robot.generic_effort(i))
-            actuator.set_controller_gains(PdControllerGains(p=0.0, d=SERVO_KD))
+            actuator.set_controller_gains(PdControllerGains(p=0.0, d=robot.servo_gain or SERVO_KD))
             actuators.append(actuator)
         inspector = scene_graph.model_inspector()
         arm_geometries = [

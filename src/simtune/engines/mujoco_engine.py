@@ -68,7 +68,7 @@ def compile_scene(robot: RobotDescription, obj: ObjectSpec | None):
         geom.contype, geom.conaffinity, geom.condim = 2, 1, 3  # the generated scene's "arm" class
     for i, joint in enumerate(robot.arm_joints):
         servo = scene.add_actuator(name=joint, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        servo.set_to_velocity(kv=SERVO_KV)
+        servo.set_to_velocity(kv=robot.servo_gain or SERVO_KV)
         limit = robot.generic_effort(i)
         servo.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
         servo.forcerange = [-limit, limit]
@@ -94,7 +94,7 @@ class MujocoEngine(Engine):
 
     @classmethod
     def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
-        return super().inactive_parameters(task) | unreachable_servo_limits(SERVO_KV, task)
+        return super().inactive_parameters(task) | unreachable_servo_limits(task.robot.servo_gain or SERVO_KV, task)
 
     def __init__(self, task: TaskSpec):
         super().__init__(task)

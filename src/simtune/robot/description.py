@@ -189,6 +189,11 @@ class RobotDescription:
     #: an MJCF file the robot comes from: the MuJoCo-family engines build the robot from it; the others,
     #: which need a URDF, refuse the robot
     mjcf: str | None = None
+    #: the gain of the velocity servos that drive the joints in MuJoCo and Drake [N m s/rad] (None: each
+    #: engine's own, MuJoCo 50, Drake 100).  Such a servo lags its command by about the joint's inertia
+    #: over the gain: a heavier arm than the MICO needs a stiffer servo to follow as a real arm's velocity
+    #: loop does (PyBullet, ODE and DART drive velocities as constraints, without that lag).
+    servo_gain: float | None = None
 
     # --- lookups ----------------------------------------------------------------------------
     @cached_property

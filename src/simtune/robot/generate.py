@@ -173,7 +173,7 @@ def scene_mjcf(robot: RobotDescription, obj: SceneObject | None = None) -> str:
         # that the largest command step (-40 to +40 deg/s) asks for 70 N m, below the smallest
         # limit of the MICO's search range (100): a clipped servo force on the light wrist links is
         # not damped by the implicit integrator and sets them spinning (seen in seed-2).
-        f'    <velocity name="{j}" joint="{j}" kv="{SERVO_KV:g}" '
+        f'    <velocity name="{j}" joint="{j}" kv="{robot.servo_gain or SERVO_KV:g}" '
         f'forcerange="{-robot.generic_effort(i):.9g} {robot.generic_effort(i):.9g}"/>'
         for i, j in enumerate(robot.arm_joints)
         if robot.mjcf is None
