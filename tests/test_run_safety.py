@@ -233,10 +233,14 @@ def test_fingerprint_names_changed_tasks_and_engine_versions():
 )
 def test_rescore_starts_every_optimizer_from_the_old_population(optimizer, tmp_path):
     data = _data_root(tmp_path)
-    cfg = config(optimizer=optimizer, data=str(data), max_evaluations=12, max_generations=1000, workers=1)
+    # auto opens with a least-squares phase (no population) before its first DE population
+    budget = 60 if optimizer == "auto" else 12
+    cfg = config(optimizer=optimizer, data=str(data), max_evaluations=budget, max_generations=1000, workers=1)
     start_run(cfg, tmp_path / "run", show_progress=False)
     store = RunStore(tmp_path / "run")
-    last = store.last_checkpoint()["population"]
+    checkpoint = store.last_checkpoint()
+    assert checkpoint is not None, "the run ended before its first population"
+    last = checkpoint["population"]
     store.close()
     shutil.copy(data / "cube" / "cube0001.tsv.gz", data / "cube" / "cube0003.tsv.gz")
     with pytest.raises(SimtuneError, match=r"cube/cube0003.tsv.gz changed"):
@@ -245,7 +249,12 @@ def test_rescore_starts_every_optimizer_from_the_old_population(optimizer, tmp_p
     store = RunStore(tmp_path / "run")
     xs = np.array([r["x"] for r in store.evaluations()])
     store.close()
-    np.testing.assert_array_equal(xs[: len(last)], last)  # the first points scored are the old population
+    # the first points scored are the old population (auto's: through SciPy's scaling to the unit cube and back,
+    # which its opening's points, not drawn by SciPy, may not survive to the last bit)
+    if optimizer == "auto":
+        np.testing.assert_allclose(xs[: len(last)], last, rtol=1e-14, atol=0)
+    else:
+        np.testing.assert_array_equal(xs[: len(last)], last)
 
 
 # --- pauses and time-outs --------------------------------------------------------------------------------------

@@ -105,6 +105,8 @@ def test_repeated_kill_minus_9_then_resume_loses_and_repeats_nothing(tmp_path):
         "--out",
         str(run_dir),
         "--quiet",
+        "--optimizer",
+        "de",  # the reference run is config()'s: differential evolution
     ]
     resume = [sys.executable, "-m", "simtune.cli", "resume", str(run_dir), "--quiet"]
     points = sorted(random.Random(7).sample(range(5, reference.evaluations - 5), 3))
