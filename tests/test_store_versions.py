@@ -1,5 +1,6 @@
-"""Run stores of version 1 (vectors, scores and every generation's population as JSON text) stay usable:
-read by the report, `compare` and `export`, and resumed in their own format; version 2 keeps one population."""
+"""Run stores of every version stay usable: version 1 (vectors, scores and every generation's population as JSON
+text) and version 2 (every vector as float64, one population) are read by the report, `compare` and `export`, and
+resumed in their own format; version 3 keeps the exact vector only where it is read (the best, generation 0)."""
 
 import json
 import shutil
@@ -11,27 +12,11 @@ import pytest
 
 from simtune.compare import curve_from_store
 from simtune.export import export_run
-from simtune.fitness import Score, TaskScore
+from simtune.fitness import PENALTY, Score, TaskScore, pruned_message
 from simtune.reference import REFERENCE_DIR
 from simtune.report.collect import load_run
-from simtune.runs import RunConfig, resume_run, start_run
+from simtune.runs import BEST_PARAMS_FILE, RunConfig, resume_run, start_run
 from simtune.store import STORE_FILE, RunStore, vector_key
-
-#: the tables of a version 1 store, as simtune 0.x created them
-VERSION_1_SCHEMA = """
-CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-CREATE TABLE evaluations (
-    id INTEGER PRIMARY KEY, key TEXT UNIQUE NOT NULL, x TEXT NOT NULL, fitness REAL NOT NULL,
-    wrist_error REAL, object_error REAL, stable INTEGER NOT NULL, pruned INTEGER NOT NULL DEFAULT 0,
-    score TEXT NOT NULL, generation INTEGER NOT NULL, wall_s REAL NOT NULL, finished_at REAL NOT NULL
-);
-CREATE TABLE generations (
-    generation INTEGER PRIMARY KEY, best_fitness REAL NOT NULL, best_x TEXT NOT NULL, population TEXT NOT NULL,
-    energies TEXT NOT NULL, evaluations INTEGER NOT NULL, elapsed_s REAL NOT NULL, finished_at REAL NOT NULL
-);
-CREATE TABLE residuals (key TEXT PRIMARY KEY, r BLOB NOT NULL);
-CREATE TABLE retried (key TEXT PRIMARY KEY);
-"""
 
 
 def config(**kw) -> RunConfig:
@@ -48,11 +33,12 @@ def config(**kw) -> RunConfig:
 
 
 def as_version_1(run_dir: Path, populations: dict[int, np.ndarray]) -> None:
-    """Rewrite the (version 2) store of ``run_dir`` as a version 1 store of the same run, by plain SQL.
+    """Rewrite the version 2 store of ``run_dir`` as a version 1 store of the same run, by plain SQL.
 
     Version 2 keeps only the last population: ``populations`` gives every generation's, as version 1 held them.
     """
     store = RunStore(run_dir)
+    assert store.version == 2
     meta = store.db.execute("SELECT key, value FROM meta").fetchall()
     rows = store.db.execute(
         "SELECT id, x, fitness, wrist_error, object_error, stable, pruned, generation, wall_s, finished_at"
@@ -64,9 +50,9 @@ def as_version_1(run_dir: Path, populations: dict[int, np.ndarray]) -> None:
     ).fetchall()
     store.close()
     (run_dir / STORE_FILE).unlink()
+    RunStore(run_dir, create=True, version=1).close()  # the tables of version 1, as simtune 0.x created them
     db = sqlite3.connect(run_dir / STORE_FILE)
-    db.executescript(VERSION_1_SCHEMA)
-    db.executemany("INSERT INTO meta VALUES (?, ?)", meta)
+    db.executemany("INSERT OR REPLACE INTO meta VALUES (?, ?)", meta)
     db.execute("UPDATE meta SET value = '1' WHERE key = 'schema_version'")
     for r, score in zip(rows, scores):
         x = np.frombuffer(r[1]).tolist()
@@ -95,80 +81,134 @@ def as_version_1(run_dir: Path, populations: dict[int, np.ndarray]) -> None:
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    """A finished run in this version's store, and the same run's store rewritten as version 1."""
+    """One run in a store of each version (3: this simtune's; 2: the same run written as version 2; 1: that store
+    rewritten as version 1), the run's result, every population and every vector it evaluated, in order."""
     root = tmp_path_factory.mktemp("versions")
     populations: dict[int, tuple] = {}
-    from simtune.store import RunStore as Store
+    vectors: list[np.ndarray] = []
+    record_generation, record_evaluation = RunStore.record_generation, RunStore.record_evaluation
 
-    record = Store.record_generation
-
-    def spy(self, generation, population, energies, *args, **kwargs):  # every population, as version 1 kept them
+    def spy_generation(self, generation, population, energies, *args, **kwargs):  # every population, as v1 kept them
         populations[generation] = (np.array(population, dtype=float), np.array(energies, dtype=float))
-        return record(self, generation, population, energies, *args, **kwargs)
+        return record_generation(self, generation, population, energies, *args, **kwargs)
 
-    Store.record_generation = spy
-    try:
-        result = start_run(config(), root / "new", show_progress=False)
-    finally:
-        Store.record_generation = record
-    shutil.copytree(root / "new", root / "old")
-    as_version_1(root / "old", populations)
-    return root / "new", root / "old", result, populations
+    def spy_evaluation(self, x, *args, **kwargs):
+        if self.run_dir == root / "v3":  # not the scratch stores of the uncertainty at the end
+            vectors.append(np.array(x, dtype=float))
+        return record_evaluation(self, x, *args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(RunStore, "record_generation", spy_generation)
+        patch.setattr(RunStore, "record_evaluation", spy_evaluation)
+        result = start_run(config(), root / "v3", show_progress=False)
+        patch.setattr("simtune.store.SCHEMA_VERSION", 2)
+        result_v2 = start_run(config(), root / "v2", show_progress=False)
+    assert result_v2.fitness == result.fitness and result_v2.evaluations == result.evaluations
+    shutil.copytree(root / "v2", root / "v1")
+    as_version_1(root / "v1", populations)
+    return {3: root / "v3", 2: root / "v2", 1: root / "v1"}, result, populations, vectors
 
 
-def test_a_new_store_keeps_binary_vectors_and_only_the_last_population(runs):
-    new, _, result, populations = runs
-    store = RunStore.open_read_only(new)
+def test_a_new_store_keeps_exact_vectors_where_they_are_read_and_float32_elsewhere(runs):
+    stores, result, populations, vectors = runs
+    store = RunStore.open_read_only(stores[3])
+    assert store.version == 3
+    rows = store.db.execute("SELECT key, x, x32, generation, fitness FROM evaluations ORDER BY id").fetchall()
+    assert len(rows) == len(vectors) == result.evaluations
+    best_row = min(range(len(rows)), key=lambda i: (rows[i][4], i))
+    floats32 = 0
+    for i, ((key, x, x32, generation, _), wanted) in enumerate(zip(rows, vectors)):
+        assert key == bytes.fromhex(vector_key(wanted))
+        assert (x is None) != (x32 is None)  # one of the two, never both
+        if x is None:
+            floats32 += 1
+            assert np.frombuffer(x32, dtype=np.float32).tobytes() == wanted.astype(np.float32).tobytes()
+        else:
+            assert x == wanted.tobytes()
+        if generation == 0 or i == best_row:
+            assert x is not None
+    assert floats32 > len(rows) / 2
+    # what reads vectors gets them exact: the best point, generation 0, the last population, best_params.json
+    best = store.best_evaluation()
+    np.testing.assert_array_equal(best["x"], result.x)
+    assert best["score"]["fitness"] == result.fitness
+    assert store.initial_population() == [v.tolist() for v, r in zip(vectors, rows) if r[3] == 0]
+    held = store.db.execute("SELECT generation FROM generations WHERE population IS NOT NULL").fetchall()
+    assert held == [(3,)] and len(store.generations()) == 3
+    np.testing.assert_array_equal(store.last_checkpoint()["population"], populations[3][0])
+    np.testing.assert_array_equal(store.last_checkpoint()["energies"], populations[3][1])
+    store.close()
+    params = json.loads((stores[3] / BEST_PARAMS_FILE).read_text())["params"]
+    assert list(params.values()) == result.x.tolist()
+    assert load_run(stores[3]).best_x == result.x.tolist()
+
+
+def test_a_version_2_store_keeps_every_vector_exact_and_only_the_last_population(runs):
+    stores, result, populations, vectors = runs
+    store = RunStore.open_read_only(stores[2])
     assert store.version == 2
     kinds = store.db.execute("SELECT DISTINCT typeof(key), typeof(x) FROM evaluations").fetchall()
     assert kinds == [("blob", "blob")]
+    assert [r["x"] for r in store.evaluations()] == [v.tolist() for v in vectors]
     held = store.db.execute("SELECT generation FROM generations WHERE population IS NOT NULL").fetchall()
     assert held == [(3,)] and len(store.generations()) == 3
-    last = store.last_checkpoint()
-    np.testing.assert_array_equal(last["population"], populations[3][0])
-    np.testing.assert_array_equal(last["energies"], populations[3][1])
+    np.testing.assert_array_equal(store.last_checkpoint()["population"], populations[3][0])
     np.testing.assert_array_equal(store.best_evaluation()["x"], result.x)
     store.close()
 
 
-def test_a_version_1_store_reads_as_the_same_run(runs):
-    new, old, _, populations = runs
-    stores = [RunStore.open_read_only(new), RunStore.open_read_only(old)]
-    assert [s.version for s in stores] == [2, 1]
-    a, b = stores
-    assert a.evaluations() == b.evaluations()
-    assert a.best_evaluation() == b.best_evaluation()
-    assert a.generations() == b.generations()
-    assert a.initial_population() == b.initial_population()
-    x = a.evaluations()[4]["x"]
-    assert a.lookup(x) == b.lookup(x)
+def test_stores_of_every_version_read_as_the_same_run(runs):
+    stores, _, populations, _ = runs
+    new, v2, v1 = (RunStore.open_read_only(stores[v]) for v in (3, 2, 1))
+    assert [s.version for s in (new, v2, v1)] == [3, 2, 1]
+    assert v2.evaluations() == v1.evaluations()
+    for rows in zip(new.evaluations(), v2.evaluations(), strict=True):  # the same, but for float32 vectors
+        a, b = (dict(r) for r in rows)
+        np.testing.assert_allclose(a.pop("x"), b.pop("x"), rtol=1e-7)
+        assert a.pop("wall_s") >= 0 and b.pop("wall_s") >= 0  # (two runs: their times differ)
+        assert a == b
+    for other in (v2, v1):
+        assert new.best_evaluation() == other.best_evaluation()
+        untimed = [[{k: v for k, v in g.items() if k != "elapsed_s"} for g in s.generations()] for s in (new, other)]
+        assert untimed[0] == untimed[1]
+        assert new.initial_population() == other.initial_population()
+        assert new.initial_fitness() == other.initial_fitness()
+        assert new.count_outcomes() == other.count_outcomes()
+        x = v2.evaluations()[-1]["x"]  # exact in version 2: every vector's key is found in every version
+        assert new.lookup(x) == other.lookup(x) and new.lookup(x) is not None
     for g in (1, 2):  # version 1 kept every generation's population
-        np.testing.assert_array_equal(b.last_checkpoint(up_to=g)["population"], populations[g][0])
-    for s in stores:
+        np.testing.assert_array_equal(v1.last_checkpoint(up_to=g)["population"], populations[g][0])
+    for s in (new, v2, v1):
         s.close()
-    # the report, `compare` and `export` read it
-    record = load_run(old)
-    assert record.best_fitness == load_run(new).best_fitness
-    assert curve_from_store(old, 10)[0] == curve_from_store(new, 10)[0]
+    # the report and `compare` read them
+    records = [load_run(stores[v]) for v in (3, 2, 1)]
+    assert len({r.best_fitness for r in records}) == 1 and len({tuple(r.best_x) for r in records}) == 1
+    assert records[0].initial_population == records[1].initial_population == records[2].initial_population
+    assert (
+        curve_from_store(stores[3], 10)[0] == curve_from_store(stores[2], 10)[0] == curve_from_store(stores[1], 10)[0]
+    )
 
 
-def test_a_version_1_store_exports_the_same_model(runs, tmp_path):
-    new, old, _, _ = runs
+def test_stores_of_every_version_export_the_same_model(runs, tmp_path):
+    stores = runs[0]
     exported = {}
-    for name, run_dir in (("new", new), ("old", old)):
-        export_run(run_dir, tmp_path / name, engine="mujoco")
-        exported[name] = {
-            p.relative_to(tmp_path / name): [line for line in p.read_text().splitlines() if str(run_dir) not in line]
-            for p in sorted((tmp_path / name).rglob("*"))
+    for version, run_dir in stores.items():
+        export_run(run_dir, tmp_path / str(version), engine="mujoco")
+        exported[version] = {
+            p.relative_to(tmp_path / str(version)): [
+                line for line in p.read_text().splitlines() if str(run_dir) not in line
+            ]
+            for p in sorted((tmp_path / str(version)).rglob("*"))
             if p.is_file() and p.suffix in (".xml", ".yaml")
         }
-    assert exported["old"] and exported["old"] == exported["new"]
+    assert exported[1] and exported[1] == exported[2] == exported[3]
 
 
-def test_a_version_1_run_resumes_in_its_own_format_losing_and_redoing_nothing(runs, tmp_path):
-    _, old, reference, _ = runs
+@pytest.mark.parametrize("version", [1, 2, 3])
+def test_a_run_resumes_in_its_own_format_losing_and_redoing_nothing(runs, version, tmp_path):
+    stores, reference, _, _ = runs
     run_dir = tmp_path / "crashed"
-    shutil.copytree(old, run_dir)
+    shutil.copytree(stores[version], run_dir)
     (run_dir / "best_params.json").unlink()
     with sqlite3.connect(run_dir / STORE_FILE) as db:  # cut back to what a kill in the last generation leaves
         kept = db.execute("SELECT MIN(id) + 1 FROM evaluations WHERE generation = 3").fetchone()[0]
@@ -181,15 +221,61 @@ def test_a_version_1_run_resumes_in_its_own_format_losing_and_redoing_nothing(ru
     assert resumed.evaluations == reference.evaluations
     assert resumed.fitness == reference.fitness
     np.testing.assert_array_equal(resumed.x, reference.x)
-    store = RunStore.open_read_only(run_dir)
-    assert store.version == 1
-    assert store.db.execute("SELECT DISTINCT typeof(x) FROM evaluations").fetchall() == [("text",)]
-    assert len(store.generations()) == 3 and store.last_checkpoint(up_to=1) is not None
+    store, uninterrupted = RunStore.open_read_only(run_dir), RunStore.open_read_only(stores[version])
+    assert store.version == version
+    kinds = {1: [("text",)], 2: [("blob",)], 3: [("blob",), ("null",)]}[version]
+    assert sorted(store.db.execute("SELECT DISTINCT typeof(x) FROM evaluations").fetchall()) == kinds
+    # the same vectors kept exact as by the run that was never interrupted
+    exact = "SELECT key FROM evaluations WHERE x IS NOT NULL ORDER BY key"
+    assert store.db.execute(exact).fetchall() == uninterrupted.db.execute(exact).fetchall()
+    assert len(store.generations()) == 3 and (store.last_checkpoint(up_to=1) is not None) == (version == 1)
     store.close()
+    uninterrupted.close()
 
 
-def test_scores_come_back_from_the_store_exactly(tmp_path):
-    store = RunStore(tmp_path, create=True)
+def test_version_3_keeps_the_exact_vector_of_every_evaluation_that_could_be_the_best(tmp_path):
+    """Generation 0 and whatever is at least as good as every stable evaluation of the generations before its
+    own: the best one is always exact, and a batch's order does not change what is kept."""
+    rng = np.random.default_rng(3)
+    xs = rng.uniform(size=(12, 5))
+
+    def score(fitness: float, stable: bool = True) -> Score:
+        return Score.combine([TaskScore("cube", fitness, fitness, None, stable, steps=7)])
+
+    batches = [  # (generation, [(vector, fitness, stable)])
+        (0, [(0, 0.5, True), (1, 0.9, True), (2, PENALTY, False)]),
+        (1, [(3, 0.7, True), (4, 0.4, True), (5, 0.45, True), (6, 0.3, False)]),
+        (2, [(7, 0.4, True), (8, 0.41, True), (9, 0.35, True)]),
+    ]
+    exact = {0, 1, 2, 4, 5, 6, 7, 9}  # generation 0; then at most 0.5; then at most 0.4
+    kept = []
+    for order in (1, -1):  # each batch's results in one order, then in the other
+        store = RunStore(tmp_path / str(order), create=True)
+        recorded: list[tuple[float, int]] = []
+        for generation, batch in batches:
+            for i, fitness, stable in batch[::order]:
+                store.record_evaluation(xs[i], score(fitness, stable), generation, 0.25)
+                recorded.append((fitness, i))
+                best = min(recorded, key=lambda r: r[0])[1]  # the first stored of equals, as the store's
+                assert np.array(store.best_evaluation()["x"]).tobytes() == xs[best].tobytes()
+        rows = store.evaluations()
+        got = {i for i in range(12) if any(np.array(r["x"]).tobytes() == xs[i].tobytes() for r in rows)}
+        assert got == exact
+        for r in rows:  # the others as float32, as floats
+            assert any(np.array(r["x"], dtype=np.float32).tobytes() == x.astype(np.float32).tobytes() for x in xs)
+        assert rows[0]["wall_s"] == 0.25
+        kept.append(store.db.execute("SELECT key FROM evaluations WHERE x IS NOT NULL ORDER BY key").fetchall())
+        # stored again (outside the Evaluator): the row keeps its place and gets its exact vector
+        store.record_evaluation(xs[8], score(0.2), 2, 0.1)
+        assert np.array(store.best_evaluation()["x"]).tobytes() == xs[8].tobytes()
+        store.close()
+    assert kept[0] == kept[1]
+
+
+@pytest.mark.parametrize("version", [1, 2, 3])
+def test_scores_come_back_from_the_store_exactly(tmp_path, version):
+    store = RunStore(tmp_path, create=True, version=version)
+    assert store.version == version
     one = Score.combine([TaskScore("cube", 0.1 + 0.2, 0.1, 0.2, steps=5000)])
     two = Score.combine(
         [
@@ -198,9 +284,20 @@ def test_scores_come_back_from_the_store_exactly(tmp_path):
         ]
     )
     pruned = Score.combine([TaskScore("cube", 0.5, 0.5, None, True, "pruned at t=0.40 s", pruned=True, steps=300)])
-    for i, score in enumerate((one, two, pruned, Score(1.0, 0.5, None))):
+    as_pruned = Score.combine([TaskScore("cube", 0.5, 0.5, None, True, pruned_message("16.90"), pruned=True, steps=9)])
+    others = [
+        Score.combine([TaskScore("cube", 0.2, 0.1, 0.1)]),  # no steps
+        Score.combine([TaskScore("single", 0.2, 0.1, None, steps=3)]),  # not the first score's task
+        Score.combine([TaskScore("cube", 0.6, 0.25, 0.1, joint_error=0.5, steps=3)]),
+        Score.combine([TaskScore("cube", 0.6, 0.25, 0.1, steps=3), TaskScore("cube", 0.5, 0.5, None, steps=4)]),
+        Score.combine([TaskScore("cube", 0.2, 0.1, 0.1, pruned=True, steps=5)]),  # pruned without the message
+        Score.combine([TaskScore("cube", 0.2, 0.1, 0.1, message=pruned_message("1.00"), steps=5)]),  # not pruned
+    ]
+    for i, score in enumerate((one, two, pruned, Score(1.0, 0.5, None), as_pruned, *others)):
         x = np.array([i, np.pi, -0.0])
         store.record_evaluation(x, score, 0, 0.1)
         assert store.lookup(x) == score
         assert store.lookup(x.copy()) is not None and store.lookup(x + 1e-16 * (i + 1) + 1e-12) is None
+    if version == 3:  # a one-task score of the store's task that holds its steps alone: that integer
+        assert store.db.execute("SELECT score FROM evaluations ORDER BY id LIMIT 1").fetchone() == (5000,)
     store.close()

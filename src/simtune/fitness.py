@@ -206,7 +206,7 @@ def score_rollout(
         wrist = None if distances is None else float(distances[:run].sum() / n)
         joint = None if joint_abs is None else float(joint_abs[:run].sum() / joint_abs.size)
         bound = _weighted(weights, wrist, None, joint)
-        message = f"pruned at t={rollout.times[run - 1]:.2f} s: cannot beat its parent"
+        message = pruned_message(f"{rollout.times[run - 1]:.2f}")
         return TaskScore(
             reference.task, bound, wrist, None, True, message, pruned=True, steps=rollout.steps, joint_error=joint
         )
@@ -228,6 +228,11 @@ def score_rollout(
         steps=rollout.steps,
         joint_error=joint_error,
     )
+
+
+def pruned_message(at: str) -> str:
+    """The message of a task pruned at time ``at`` [s, as written] (the run store keeps ``at`` alone)."""
+    return f"pruned at t={at} s: cannot beat its parent"
 
 
 def _weighted(weights: FitnessWeights, wrist: float | None, obj: float | None, joint: float | None) -> float:
