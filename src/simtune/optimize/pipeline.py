@@ -7,9 +7,8 @@ is often one basin away.  Then, in rounds:
 
 1. **global**: ``GLOBAL_GENERATIONS`` generations of differential evolution with the paper's settings
    (:data:`simtune.optimize.de.DE_SETTINGS`: best1bin, population 1 x D, deferred updating, trials that
-   cannot beat their parent pruned); the first round starts from a latin hypercube, without the
-   opening's point: best1bin mutates around the best member, and a population led by a local optimum
-   searches near it alone (or, after ``resume --rescore``, from the old run's last population, with no
+   cannot beat their parent pruned); the first round starts from a latin hypercube with the opening's
+   best point in it (or, after ``resume --rescore``, from the old run's last population, with no
    opening), every later one from the last round's population
    with a fresh seed: the global search goes on where it stopped;
 2. **local**: SciPy's ``least_squares`` (trust-region reflective, within the bounds, in the unit cube)
@@ -37,11 +36,12 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import differential_evolution
+from scipy.stats import qmc
 
 from simtune.alignment import delay_parameter, estimate_delay
 from simtune.objective import Objective, generic_values
 from simtune.optimize.base import BatchSearch
-from simtune.optimize.de import DE_SETTINGS
+from simtune.optimize.de import DE_SETTINGS, POPSIZE
 from simtune.optimize.evaluator import TuneResult, TuneSettings
 from simtune.optimize.refine import BudgetSpent, least_squares_phase
 from simtune.store import RunStore
@@ -69,6 +69,9 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
                 refined.add(start.tobytes())
                 search.evaluator.parent_energies = None
                 local_steps += least_squares_phase(search, start, max_nfev=LOCAL_NFEV, ftol=STALL_FTOL).nfev
+                assert search.best_x is not None, "the opening scored its start"
+                population = _latin_hypercube(search, settings.seed)
+                population[0] = search.best_x
             while True:
                 population, last_energies, round_x = _global_phase(search, population, settings.seed + 1000 * rounds)
                 assert search.best_x is not None, "the global phase scored a batch"
@@ -99,6 +102,14 @@ def aligned_generic_start(objective: Objective) -> np.ndarray:
         if name in space.names:
             values[name] = estimate_delay(objective, task, values).delay_s
     return np.array([min(max(values.get(p.name, (p.low + p.high) / 2), p.low), p.high) for p in space.parameters])
+
+
+def _latin_hypercube(search: BatchSearch, seed: int) -> np.ndarray:
+    """A latin hypercube of DE's population size (as SciPy draws its own) over the bounds."""
+    dim = len(search.lows)
+    size = max(5, POPSIZE * dim)  # SciPy's own population size
+    unit = qmc.LatinHypercube(d=dim, rng=np.random.default_rng(seed)).random(size)
+    return search.from_unit(unit)
 
 
 def _global_phase(search: BatchSearch, init: np.ndarray | None, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
