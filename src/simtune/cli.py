@@ -390,9 +390,9 @@ def tune(
         str | None,
         typer.Option(
             "--optimizer",
-            help="auto (the default): a least-squares opening from the generic point with the recordings' clock, "
-            "then rounds of a short DE and least squares; de: differential evolution as in the paper (the "
-            "default with --paper-exact); cmaes: CMA-ES with restarts; bo: Bayesian optimisation (Optuna TPE); "
+            help="de (the default): differential evolution as in the paper; auto: a least-squares opening from the "
+            "generic point with each task's clock aligned to its recordings, then rounds of a short DE and least "
+            "squares (faster with --space calibrated, slower with extended: see the README's Speed); cmaes: CMA-ES with restarts; bo: Bayesian optimisation (Optuna TPE); "
             "random: uniform random search. cmaes and bo need `pip install 'simtune[opt]'`.",
             show_default=False,
         ),
@@ -468,7 +468,7 @@ def tune(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
 ) -> None:
-    """Tune an engine's parameters to recorded tasks (global then local by default; --optimizer de: the paper's DE).
+    """Tune an engine's parameters to recorded tasks (differential evolution by default; --optimizer).
 
     Every evaluation is stored in OUT/run.sqlite as it finishes; if the run is
     killed, `simtune resume OUT` continues it without redoing any evaluation
@@ -493,7 +493,7 @@ def tune(
         eval_timeout=eval_timeout,
         target_fitness=target_fitness,
         prune=not no_prune,
-        optimizer=optimizer or ("de" if paper_exact else "auto"),
+        optimizer=optimizer or "de",
         refine=refine,
         max_evaluations=max_evaluations,
         paper_exact=paper_exact,
