@@ -392,7 +392,8 @@ def tune(
             "--optimizer",
             help="de (the default): differential evolution as in the paper; auto: a least-squares opening from the "
             "generic point with each task's clock aligned to its recordings, then rounds of a short DE and least "
-            "squares (faster with --space calibrated, slower with extended: see the README's Speed); cmaes: CMA-ES with restarts; bo: Bayesian optimisation (Optuna TPE); "
+            "squares (faster with --space calibrated, slower with extended: see the README's Speed); "
+            "cmaes: CMA-ES with restarts; bo: Bayesian optimisation (Optuna TPE); "
             "random: uniform random search. cmaes and bo need `pip install 'simtune[opt]'`.",
             show_default=False,
         ),
