@@ -561,6 +561,13 @@ class RunStore:
             self.db.executemany("DELETE FROM residuals WHERE key = ?", keys)
         return len(keys)
 
+    def failed_scores(self) -> list[Score]:
+        """The scores of the failed evaluations (blown up, crashed or timed out), in store order, each with why."""
+        rows = self.db.execute(
+            "SELECT fitness, wrist_error, object_error, score FROM evaluations WHERE stable = 0 ORDER BY id"
+        ).fetchall()
+        return [self._score_in(row) for row in rows]
+
     def lookup_residuals(self, x) -> np.ndarray | None:
         row = self.db.execute("SELECT r FROM residuals WHERE key = ?", (self._key(x),)).fetchone()
         return _floats(row[0]) if row else None
