@@ -55,7 +55,8 @@ def tune_cmd(out: Path, *extra: str, data: Path = REFERENCE_DIR) -> list[str]:
         "--out",
         str(out),
         "--quiet",
-        *([] if "--optimizer" in extra else ["--optimizer", "de"]),
+        "--optimizer",
+        "de",
         *extra,
     ]
 

@@ -155,10 +155,11 @@ OptimizerOpt = Annotated[
     str,
     typer.Option(
         "--optimizer",
-        help="de: differential evolution as in the paper; auto: rounds of a short DE then least squares on the "
-        "residuals (global, then local); cmaes: CMA-ES with restarts; bo: Bayesian "
-        "optimisation (Optuna TPE, batches of --workers trials); random: uniform random search. cmaes and bo need "
-        "`pip install 'simtune[opt]'`.",
+        help="de: differential evolution as in the paper; auto: a least-squares opening from the generic point "
+        "with each task's clock aligned to its recordings, then rounds of a short DE and least squares on the "
+        "residuals (faster with --space calibrated, slower with extended: see the README's Speed); cmaes: CMA-ES "
+        "with restarts; bo: Bayesian optimisation (Optuna TPE, batches of --workers trials); random: uniform random "
+        "search. cmaes and bo need `pip install 'simtune[opt]'`.",
     ),
 ]
 MaxEvalsOpt = Annotated[
@@ -386,18 +387,7 @@ def tune(
     task: TaskOpt = "cube",
     data: DataOpt = None,
     space: SpaceOpt = "extended",
-    optimizer: Annotated[
-        str | None,
-        typer.Option(
-            "--optimizer",
-            help="de (the default): differential evolution as in the paper; auto: a least-squares opening from the "
-            "generic point with each task's clock aligned to its recordings, then rounds of a short DE and least "
-            "squares (faster with --space calibrated, slower with extended: see the README's Speed); "
-            "cmaes: CMA-ES with restarts; bo: Bayesian optimisation (Optuna TPE); "
-            "random: uniform random search. cmaes and bo need `pip install 'simtune[opt]'`.",
-            show_default=False,
-        ),
-    ] = None,
+    optimizer: OptimizerOpt = "de",
     refine: Annotated[
         bool,
         typer.Option(
@@ -494,7 +484,7 @@ def tune(
         eval_timeout=eval_timeout,
         target_fitness=target_fitness,
         prune=not no_prune,
-        optimizer=optimizer or "de",
+        optimizer=optimizer,
         refine=refine,
         max_evaluations=max_evaluations,
         paper_exact=paper_exact,

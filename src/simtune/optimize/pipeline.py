@@ -101,7 +101,7 @@ def aligned_generic_start(objective: Objective) -> np.ndarray:
         name = delay_parameter(task.name) if delay_parameter(task.name) in space.names else "command_delay"
         if name in space.names:
             values[name] = estimate_delay(objective, task, values).delay_s
-    return np.array([min(max(values.get(p.name, (p.low + p.high) / 2), p.low), p.high) for p in space.parameters])
+    return space.vector_within_bounds(values)
 
 
 def _latin_hypercube(search: BatchSearch, seed: int) -> np.ndarray:

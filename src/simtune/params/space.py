@@ -208,6 +208,10 @@ class ParameterSpace:
     def to_vector(self, values: dict[str, float]) -> np.ndarray:
         return np.array([values[p.name] for p in self.parameters], dtype=float)
 
+    def vector_within_bounds(self, values: Mapping[str, float]) -> np.ndarray:
+        """``values`` as a vector, each clipped into its range; a parameter without a value starts mid-range."""
+        return np.array([min(max(values.get(p.name, (p.low + p.high) / 2), p.low), p.high) for p in self.parameters])
+
 
 #: A task's own command delay, when several tasks are tuned together: ``command_delay_<task>``.
 TASK_DELAY_PREFIX = "command_delay_"
