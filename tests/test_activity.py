@@ -79,6 +79,7 @@ def _config(**kw):
     return RunConfig(**{**base, **kw})
 
 
+@pytest.mark.slow  # about 16 s: two activity probes of the whole space
 def test_search_leaves_out_inactive_parameters_unless_kept():
     config = _config()
     full, inactive = full_space(config), run_inactive(config)

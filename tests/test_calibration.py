@@ -123,6 +123,7 @@ def test_calibrated_space_is_extended_plus_calibration_for_every_engine():
 
 
 def test_params_command_lists_the_calibration_parameters():
+    engine_or_skip("ode")
     out = subprocess.run(
         [sys.executable, "-m", "simtune.cli", "params", "--space", "calibrated", "--engine", "ode"],
         capture_output=True,

@@ -100,8 +100,8 @@ def round_trip(tmp_path_factory, tmp_path, engine: str, monkeypatch) -> None:
     assert abs(score.fitness - best["fitness"]) <= tolerance, (score.fitness, best["fitness"])
 
 
-# every engine whose export can be driven from its files; Drake's takes about 10 s (its run's generic evaluation)
-@pytest.mark.parametrize("engine", list(REPLAYS))
+# every engine whose export can be driven from its files; Drake's (about 20 s: its run's evaluations) in the slow tier
+@pytest.mark.parametrize("engine", [pytest.param(e, marks=[pytest.mark.slow] if e == "drake" else []) for e in REPLAYS])
 def test_round_trip(tmp_path_factory, tmp_path, engine, monkeypatch):
     round_trip(tmp_path_factory, tmp_path, engine, monkeypatch)
 
@@ -172,6 +172,7 @@ def test_provenance_in_every_file(tmp_path_factory, tmp_path):
 
 
 def test_ode_sidecar_only(tmp_path_factory, tmp_path):
+    engine_or_skip("ode")
     run_dir = tuned_run(tmp_path_factory, "ode")
     params = json.loads((run_dir / "best_params.json").read_text())["params"]
     result = export_run(run_dir, tmp_path / "x")

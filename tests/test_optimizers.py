@@ -39,7 +39,11 @@ def simtune(*args):
     return subprocess.run([sys.executable, "-m", "simtune.cli", *args], capture_output=True, text=True, timeout=300)
 
 
-@pytest.mark.parametrize("optimizer", list(OPTIMIZERS))
+# random search and Bayesian optimisation (about 10 s each) in the slow tier: their code paths are the simplest
+# and the one shared with cmaes
+@pytest.mark.parametrize(
+    "optimizer", [pytest.param(o, marks=[pytest.mark.slow] if o in ("random", "bo") else []) for o in OPTIMIZERS]
+)
 def test_optimizer_improves_is_deterministic_and_replays_from_the_store(optimizer, tmp_path):
     first = start_run(config(optimizer=optimizer), tmp_path / "a", show_progress=False)
     store = RunStore(tmp_path / "a")
@@ -167,6 +171,7 @@ def test_missing_package_gives_an_install_hint(optimizer, module, tmp_path, monk
     assert not (tmp_path / "x").exists()  # refused before any run folder is made
 
 
+@pytest.mark.slow  # about 9 s: three short runs
 def test_compare_prints_the_table_from_the_run_stores(tmp_path):
     out = tmp_path / "cmp"
     args = [

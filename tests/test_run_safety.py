@@ -180,6 +180,7 @@ def _data_root(tmp_path: Path) -> Path:
     return root
 
 
+@pytest.mark.slow  # about 11 s: a killed run, a refused resume and a rescored one
 def test_resume_after_the_data_changed_is_refused_naming_the_file_and_rescore_starts_anew(tmp_path):
     data = _data_root(tmp_path)
     run_dir = tmp_path / "run"

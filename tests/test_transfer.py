@@ -35,6 +35,7 @@ def synthetic_root(tmp_path_factory):
     return root
 
 
+@pytest.mark.slow  # about 15 s: a tuning run and its transfer
 def test_transfer_runs_end_to_end_and_its_params_evaluate_on_the_test_task(synthetic_root, tmp_path):
     out = tmp_path / "transfer"
     args = [

@@ -428,6 +428,9 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
     path = run_dir / STORE_FILE
     if not path.exists():
         raise SimtuneError(f"{run_dir} is not a run folder (no {STORE_FILE})")
+    # a run in progress there: say who runs it, at once, before reading its store (a read-only look at a store
+    # whose writer is stopped mid-transaction can fail with SQLite's "locking protocol" instead)
+    check_free(run_dir)
     if not check_store_file(path):  # read-only: a foreign file gets no lock file beside it and no tables in it
         raise SimtuneError(
             f"{run_dir}: the run was never set up (its process died while creating it): "
