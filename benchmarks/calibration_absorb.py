@@ -5,7 +5,10 @@ compliances) are fitted to the recordings by least squares on the marker residua
 ``least_squares``, trust-region reflective within the parameters' ranges, as simtune's
 refinement does).  Printed: the wrist and object errors before and after, and the fitted values.
 
-    python benchmarks/calibration_absorb.py RUN_DIR [--data ROOT] [--max-evaluations 150]
+    python benchmarks/calibration_absorb.py RUN_DIR [--data ROOT] [--max-evaluations 150] [--range-scale 1]
+
+``--range-scale K`` widens every calibration range K times (offsets +-3K deg, compliances up to 2K deg of
+deflection at full load): does the data ask for more than the space allows?
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from scipy.optimize import least_squares
 from simtune.fitness import marker_positions
 from simtune.objective import Objective, load_references
 from simtune.params import get_space
+from simtune.params.space import FULL_LOAD_DEFLECTION_DEG
 from simtune.tasks import parse_tasks
 
 
@@ -30,6 +34,7 @@ def main() -> int:
     parser.add_argument("run", type=Path)
     parser.add_argument("--data", type=Path, default=None)
     parser.add_argument("--max-evaluations", type=int, default=150)
+    parser.add_argument("--range-scale", type=float, default=1.0)
     args = parser.parse_args()
     best = json.loads((args.run / "best_params.json").read_text())
     base = dict(best["params"])
@@ -40,8 +45,8 @@ def main() -> int:
     objective = Objective(best["engine"], [task], refs)
     space = get_space("calibrated", robot=task.robot)
     calibration = [p for p in space.parameters if p.name.startswith(("joint_offset_", "compliance_joint_"))]
-    scale = np.array([p.high - p.low for p in calibration])
-    low = np.array([p.low for p in calibration])
+    scale = np.array([p.high - p.low for p in calibration]) * args.range_scale
+    low = np.array([p.low for p in calibration]) * args.range_scale
 
     def params_of(u: np.ndarray) -> dict[str, float]:
         return {**base, **{p.name: float(low[i] + u[i] * scale[i]) for i, p in enumerate(calibration)}}
@@ -52,13 +57,16 @@ def main() -> int:
         diff = (marker_positions(roll, params) - ref.wrist_mean).ravel() / np.sqrt(len(ref.times))
         return diff
 
-    start = np.array([(base.get(p.name, 0.0) - p.low) / (p.high - p.low) for p in calibration])
+    start = np.array([(base.get(p.name, 0.0) - low[i]) / scale[i] for i, p in enumerate(calibration)])
     before = objective.score(params_of(start))
     t0 = time.perf_counter()
     fit = least_squares(residual, start, bounds=(0.0, 1.0), diff_step=1e-3, max_nfev=args.max_evaluations)
     after = objective.score(params_of(fit.x))
     objective.close()
-    print(f"\n#### Calibration fitted on top of {args.run.name} ({best['engine']} {task.name} {best['space']})\n")
+    widened = f", ranges x{args.range_scale:g}" if args.range_scale != 1 else ""
+    print(
+        f"\n#### Calibration fitted on top of {args.run.name} ({best['engine']} {task.name} {best['space']}{widened})\n"
+    )
     print(
         f"{fit.nfev} residual evaluations (plus finite differences), {time.perf_counter() - t0:.0f} s; {fit.message}\n"
     )
@@ -71,7 +79,7 @@ def main() -> int:
     fitted = params_of(fit.x)
     for p in calibration:
         v = fitted[p.name]
-        note = f"{v / p.high * 2:.2f} deg" if p.name.startswith("compliance_joint_") else ""
+        note = f"{v / p.high * FULL_LOAD_DEFLECTION_DEG:.2f} deg" if p.name.startswith("compliance_joint_") else ""
         print(f"| {p.name} | {v:.4g} | {p.unit} | {note} |")
     (args.run / "calibration-absorb.json").write_text(
         json.dumps({"before": before.fitness, "after": after.fitness, "params": fitted}, indent=1)

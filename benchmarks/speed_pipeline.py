@@ -8,7 +8,7 @@ For each task:target, space, optimiser and seed: `simtune tune --engine mujoco -
 the real recordings, stopped at the target fitness or after --max-seconds.  Printed: the wall time at
 which the best fitness first reached the target (from the run store's generation checkpoints: the
 run's elapsed time after each batch; "not reached" if it did not), the evaluations used by then, and
-the best fitness at the end, and when it passed 0.1, 0.05 and 0.04 on the way.  The load average is printed
+the best fitness at the end, and when it passed 0.1, 0.05, 0.04, 0.03 and 0.025 on the way.  The load average is printed
 beside each run: the host is shared, and a
 run on a busy host is slower.  With --out the lines are appended to that file as well.
 """
@@ -27,7 +27,7 @@ from simtune.store import RunStore
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"
 #: fitness levels whose times are printed on the way to the target
-MILESTONES = (0.1, 0.05, 0.04)
+MILESTONES = (0.1, 0.05, 0.04, 0.03, 0.025)
 
 
 def time_to_target(run_dir: Path, target: float) -> tuple[float | None, int | None, float]:

@@ -132,6 +132,7 @@ def test_residuals_square_to_the_fitness_with_squared_distances():
     objective.close()
 
 
+@pytest.mark.slow  # about 10 s: a search, its polish and a replay (auto's test covers least squares by default)
 def test_refine_improves_on_the_search_and_replays_from_the_store(tmp_path):
     cfg = config(optimizer="random", max_evaluations=6, only=["command_delay", "marker_offset_z"], refine=True)
     refined = start_run(cfg, tmp_path / "r", show_progress=False)

@@ -411,6 +411,7 @@ def _titles_inside(fig) -> list[str]:
     ]
 
 
+@pytest.mark.slow  # about 8 s: a run and a report with the paper's tables and figure 4
 def test_paper_tables_figure4_and_titles_of_a_short_run(tmp_path):
     """Tables II and III in the paper's layout, Figure 4 for a chosen parameter, and no title past its figure."""
     from simtune.engines.contact import probe_contact
