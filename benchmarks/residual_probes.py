@@ -1,0 +1,184 @@
+"""What might explain a tuned run's remaining marker error: four candidate effects, each measured on top of the run.
+
+The run's best parameters stay fixed; each probe adds one effect the parameter spaces do not have and
+reports the mean wrist (marker) error with it, against the run's own:
+
+- ``translation``: the whole recording shifted by one constant vector (a motion-capture frame offset),
+  the best such vector (Nelder-Mead on the mean 3-D error);
+- ``link lengths``: the joint origins of the kinematic chain lengthened or shortened (the main axis of
+  each of joints 1-6, within +-2 cm), fitted by least squares on the marker residual.  The simulated
+  joint angles stay as simulated; only the marker is moved by the difference of the two chains'
+  forward kinematics (a geometry error of this size barely changes the dynamics);
+- ``feedback lag``: the controller reads its encoders 0.5-3 control periods late (interpolated), the
+  run simulated anew for each;
+- ``lag + dead band``: as well, the velocity command dropped to zero below 2, 5 or 10 deg/s (a
+  joint that stops once the P law asks for less than its static friction lets it).
+
+Also printed: the marker error every 0.25 s with the simulated and recorded wrist, whether the arm
+touches the object then (from the engine's contact list), and (MuJoCo) the simulated wrist when the
+fingers pass through the object: where the error sits, and whether a contact holds the arm.
+
+    python benchmarks/residual_probes.py RUN_DIR [--data ROOT]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import least_squares, minimize
+
+from simtune.controller import JointController
+from simtune.engines import engine_class
+from simtune.fitness import marker_positions
+from simtune.objective import Objective, load_references
+from simtune.tasks import parse_tasks
+
+#: the main axis of each joint origin of the MICO's chain that a length error would change (joint, axis)
+CHAIN_LENGTHS = (
+    ("joint_1", 2),
+    ("joint_2", 2),
+    ("joint_3", 1),
+    ("joint_4", 1),
+    ("joint_4", 2),
+    ("joint_5", 1),
+    ("joint_5", 2),
+    ("joint_6", 1),
+    ("joint_6", 2),
+)
+
+
+@contextmanager
+def controller_variant(lag_periods: float, dead_band_deg_s: float):
+    """Every JointController made inside reads its encoders ``lag_periods`` control periods late and sends no
+    velocity below ``dead_band_deg_s``."""
+    original_init, original_velocity = JointController.__init__, JointController.velocity
+
+    def init(self, *args, **kwargs):
+        original_init(self, *args, **kwargs)
+        self.history = []
+
+    def velocity(self, target, angles):
+        self.history.append(np.array(angles))
+        whole, part = int(np.floor(lag_periods)), lag_periods - np.floor(lag_periods)
+        newer = self.history[max(0, len(self.history) - 1 - whole)]
+        older = self.history[max(0, len(self.history) - 2 - whole)]
+        command = original_velocity(self, target, (1 - part) * newer + part * older)
+        return np.where(np.abs(command) < np.radians(dead_band_deg_s), 0.0, command)
+
+    JointController.__init__, JointController.velocity = init, velocity  # type: ignore[method-assign]
+    try:
+        yield
+    finally:
+        JointController.__init__, JointController.velocity = original_init, original_velocity  # type: ignore[method-assign]
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("run", type=Path)
+    parser.add_argument("--data", type=Path, default=None)
+    args = parser.parse_args()
+    best = json.loads((args.run / "best_params.json").read_text())
+    params = dict(best["params"])
+    (task,) = parse_tasks(best["tasks"])
+    ref = load_references(args.data, [task])[task.name]
+    assert ref.wrist_mean is not None, "a wrist-tracking task"
+    objective = Objective(best["engine"], [task], {task.name: ref})
+    rollout = objective.rollouts(params)[task.name]
+    marker = marker_positions(rollout, params)
+    diff = marker - ref.wrist_mean
+    wrist = float(np.linalg.norm(diff, axis=1).mean())
+    print(f"\n#### Residual probes on {args.run} ({best['engine']} {task.name} {best['space']})\n")
+
+    # where the error sits, with the arm's contacts with the object
+    engine = engine_class(best["engine"])(task)
+    touching: set[int] = set()
+    clock = {"t": 0.0}
+
+    def after_step() -> None:
+        clock["t"] += engine.timestep
+        if engine.arm_object_contact():
+            touching.add(int(clock["t"] * 4))
+
+    engine.rollout(params, len(ref.times), after_step=after_step)
+    through = None
+    if best["engine"] == "mujoco":  # the same run with the fingers passing through the object
+        import mujoco
+
+        model = engine.model  # type: ignore[attr-defined]
+        fingers = [
+            g
+            for g in range(model.ngeom)
+            if "finger" in (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[g]) or "")
+        ]
+        model.geom_contype[fingers] = model.geom_conaffinity[fingers] = 0
+        through = marker_positions(engine.rollout(params, len(ref.times)), params)
+    engine.close()
+    print(
+        "| t [s] | simulated wrist [mm] | recorded [mm] | error [mm] | arm touches object | fingers through it [mm] |"
+    )
+    print("|---:|---|---|---:|---|---|")
+    for k in range(0, len(ref.times), 5):
+        t = float(ref.times[k])
+        sim, real = (" ".join(f"{v * 1000:.0f}" for v in p) for p in (marker[k], ref.wrist_mean[k]))
+        touch = "yes" if int(t * 4) in touching else ""
+        free = "" if through is None else " ".join(f"{v * 1000:.0f}" for v in through[k])
+        print(f"| {t:.2f} | {sim} | {real} | {np.linalg.norm(diff[k]) * 1000:.1f} | {touch} | {free} |")
+
+    rows = [("the run", wrist)]
+    shift = minimize(lambda v: np.linalg.norm(diff - v, axis=1).mean(), diff.mean(axis=0), method="Nelder-Mead")
+    rows.append((f"translation {np.round(shift.x * 1000, 1).tolist()} mm", float(shift.fun)))
+
+    robot = task.robot
+    controller = JointController(task, params)
+    true_angles = np.array([controller.true_angles(q) for q in rollout.joint_angles])
+    offset = np.array([params.get(f"marker_offset_{a}", 0.0) for a in "xyz"])
+    names = [j.name for j in robot.joints]
+
+    def chain_markers(deltas: np.ndarray) -> np.ndarray:
+        joints = list(robot.joints)
+        for (name, axis), delta in zip(CHAIN_LENGTHS, deltas):
+            i = names.index(name)
+            xyz = list(joints[i].xyz)
+            xyz[axis] += delta
+            joints[i] = dataclasses.replace(joints[i], xyz=tuple(xyz))
+        changed = dataclasses.replace(robot, joints=tuple(joints))
+        out = []
+        for q in true_angles:
+            pos, rot = changed.forward_kinematics(q)
+            out.append(pos + rot @ offset)
+        return np.array(out)
+
+    nominal = chain_markers(np.zeros(len(CHAIN_LENGTHS)))
+    n = len(ref.times)
+    fit = least_squares(
+        lambda d: ((marker + chain_markers(d) - nominal - ref.wrist_mean) / np.sqrt(n)).ravel(),
+        np.zeros(len(CHAIN_LENGTHS)),
+        bounds=(-0.02, 0.02),
+        diff_step=1e-3,
+    )
+    moved = marker + chain_markers(fit.x) - nominal
+    lengths = ", ".join(f"{j} {'xyz'[a]} {d * 1000:+.1f}" for (j, a), d in zip(CHAIN_LENGTHS, fit.x))
+    rows.append((f"link lengths ({lengths} mm)", float(np.linalg.norm(moved - ref.wrist_mean, axis=1).mean())))
+
+    for lag, band in [(lag, 0.0) for lag in (0.5, 1, 2, 3)] + [(1, band) for band in (2, 5, 10)]:
+        with controller_variant(lag, band):
+            score = objective.score(params)
+        label = f"feedback lag {lag:g} periods" + (f" + dead band {band:g} deg/s" if band else "")
+        rows.append((f"{label} (object {score.object_error or 0.0:.4f} m)", score.wrist_error or 0.0))
+    objective.close()
+
+    print("\n| with | wrist error [m] |")
+    print("|---|---:|")
+    for label, value in rows:
+        print(f"| {label} | {value:.4f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
