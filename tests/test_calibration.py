@@ -136,28 +136,6 @@ def test_params_command_lists_the_calibration_parameters():
     assert "compliance_joint_1" not in out
 
 
-def test_a_calibrated_run_is_not_exported_without_its_encoder_model(tmp_path):
-    """controller.yaml has no encoder model yet: exporting such a run is refused in one line."""
-    engine_or_skip("mujoco")
-    from simtune.errors import ConfigError
-    from simtune.export import export_run
-    from simtune.reference import REFERENCE_DIR
-    from simtune.runs import RunConfig, start_run
-
-    config = RunConfig(
-        engine="mujoco",
-        tasks="cube",
-        space="calibrated",
-        data=str(REFERENCE_DIR),
-        optimizer="random",
-        max_evaluations=2,
-        only=["joint_offset_2"],
-    )
-    start_run(config, tmp_path / "run", show_progress=False)
-    with pytest.raises(ConfigError, match="calibration parameters \\(joint_offset_2\\)"):
-        export_run(tmp_path / "run", tmp_path / "export")
-
-
 def test_gravity_torques_of_a_urdf_robot_match_pybullets_inverse_dynamics():
     """Another robot (the Franka Panda's URDF, fingers held): the same statics as PyBullet's."""
     pybullet = pytest.importorskip("pybullet")

@@ -70,11 +70,11 @@ def one_line_error(proc, message: str) -> None:
     assert "Traceback" not in proc.stderr
 
 
-def round_trip(tmp_path_factory, tmp_path, engine: str, monkeypatch) -> None:
+def round_trip(tmp_path_factory, tmp_path, engine: str, monkeypatch, space: str = "extended") -> None:
     engine_or_skip(engine)
     assert engine in ROUND_TRIPS, f"add {engine}'s round-trip tolerance to ROUND_TRIPS in {__file__}"
     tolerance = ROUND_TRIPS[engine][1]
-    run_dir = tuned_run(tmp_path_factory, engine)
+    run_dir = tuned_run(tmp_path_factory, engine, space=space)
     best = json.loads((run_dir / "best_params.json").read_text())
     out = tmp_path / "export"
     export_run(run_dir, out, engine=engine)
@@ -104,6 +104,18 @@ def round_trip(tmp_path_factory, tmp_path, engine: str, monkeypatch) -> None:
 @pytest.mark.parametrize("engine", [pytest.param(e, marks=[pytest.mark.slow] if e == "drake" else []) for e in REPLAYS])
 def test_round_trip(tmp_path_factory, tmp_path, engine, monkeypatch):
     round_trip(tmp_path_factory, tmp_path, engine, monkeypatch)
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
+def test_round_trip_of_a_calibrated_run(tmp_path_factory, tmp_path, engine, monkeypatch):
+    """controller.yaml carries the encoder model: the files replay a run with encoder offsets and compliance."""
+    round_trip(tmp_path_factory, tmp_path, engine, monkeypatch, space="calibrated")
+    control = yaml.safe_load((tmp_path / "export" / "controller.yaml").read_text())
+    encoders = control["control"]["encoders"]
+    assert all(encoders["zero_offset_deg"]) and any(encoders["compliance_rad_per_n_m"][1:])
+    cube = control["tasks"]["cube"]
+    # the arm starts where its encoders read the start pose, not at it
+    assert np.abs(np.subtract(cube["start_angles_deg"], cube["start_pose_deg"])).max() > 0.1
 
 
 def test_mjcf_holds_the_tuned_values_and_loads(tmp_path_factory, tmp_path):

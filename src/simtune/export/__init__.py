@@ -64,19 +64,6 @@ class ExportResult:
     files: list[str]  # written into ``out``, provenance.json last
 
 
-def _refuse_calibrated(run: TunedRun) -> TunedRun:
-    """``run``, or a ConfigError if it tuned calibration parameters: controller.yaml has no encoder model yet,
-    so a replay of its files would not be the run."""
-    calibrated = sorted(n for n, v in run.params.items() if n.startswith(("joint_offset_", "compliance_joint_")) and v)
-    if calibrated:
-        raise ConfigError(
-            f"{run.path}: the run tuned calibration parameters ({', '.join(calibrated[:3])}"
-            f"{' ...' if len(calibrated) > 3 else ''}), which an export cannot carry yet (no encoder model in "
-            "controller.yaml): export a run of another space"
-        )
-    return run
-
-
 def export_run(
     run_dir: Path | str,
     out_dir: Path | str,
@@ -98,7 +85,6 @@ def export_run(
             f"{run_dir} was tuned with engine {run.engine!r}, not {engine!r}: its values are {run.engine}'s "
             f"(tune {engine} to export {engine})"
         )
-    _refuse_calibrated(run)
     out = Path(out_dir)
     _prepare(out, force)
     ranges = _dr_ranges([run]) if dr else None
@@ -122,7 +108,7 @@ def export_runs(
     skipped: list[tuple[Path, str]] = []
     for d in dirs:
         try:
-            runs.append(_refuse_calibrated(read_run(d)))
+            runs.append(read_run(d))
         except SimtuneError as exc:
             skipped.append((d, str(exc)))
     if not runs:

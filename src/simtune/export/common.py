@@ -212,6 +212,8 @@ def controller_yaml(ctx: ExportContext, samples: dict[str, int]) -> str:
                 for i in range(1, len(ctx.robot.driven_joints) + 1)
             ],
             "start_pose_deg": [float(v) for v in task.start_pose_deg],
+            # the true angles the arm starts at: where its encoders (control.encoders) read the start pose
+            "start_angles_deg": [float(v) for v in np.degrees(ctl.start_angles())],
             "schedule": [
                 {"start_s": float(s), "targets_deg": [float(v) for v in row]} for s, row in zip(starts, table[1:])
             ],
@@ -228,6 +230,7 @@ def controller_yaml(ctx: ExportContext, samples: dict[str, int]) -> str:
         }
     delay = float(params.get("command_delay", 0.0))
     values = ctx.values
+    joints = range(1, len(ctx.robot.driven_joints) + 1)
     data = {
         "control": {
             "rate_hz": 1.0 / CONTROL_PERIOD,
@@ -235,9 +238,13 @@ def controller_yaml(ctx: ExportContext, samples: dict[str, int]) -> str:
             "joints": list(ctx.robot.driven_joints),
             "command_delay_s": delay,
             "update_phase_s": delay % CONTROL_PERIOD,
-            "max_torque_n_m": [
-                float(values[f"max_torque_joint_{i}"]) for i in range(1, len(ctx.robot.driven_joints) + 1)
-            ],
+            "max_torque_n_m": [float(values[f"max_torque_joint_{i}"]) for i in joints],
+            # the encoder model of --space calibrated (zero offsets and compliance 0: the encoders read the true angles)
+            "encoders": {
+                "zero_offset_deg": [float(params.get(f"joint_offset_{i}", 0.0)) for i in joints],
+                "compliance_rad_per_n_m": [float(params.get(f"compliance_joint_{i}", 0.0)) for i in joints],
+                "gravity_link_masses_kg": [float(values[f"mass_link_{i}"]) for i in joints],
+            },
         },
         "tracking": {
             "link": ctx.robot.wrist_link,
@@ -252,7 +259,12 @@ def controller_yaml(ctx: ExportContext, samples: dict[str, int]) -> str:
         "  (the model files hold the same limits).  At control.rate_hz, for each joint:",
         "    velocity [deg/s] = clamp(kp_per_s * (target - angle), -max_velocity_deg_s, +max_velocity_deg_s)",
         "  sent as the motor's velocity target and held until the next update.",
-        "- The arm starts at rest at the task's start_pose_deg.  Phase i of the schedule is in force from",
+        "- The controller reads each joint through its encoder (control.encoders; all zero: the true angle):",
+        "    encoder = angle + zero_offset_deg - compliance_rad_per_n_m * gravity torque about the joint",
+        "  (the static gravity torque [N m] at the present angles, of the model's links with",
+        "  gravity_link_masses_kg: the masses of the driven joints' child links, as the model files hold).",
+        "- The arm starts at rest at the task's start_angles_deg, where the encoders read start_pose_deg",
+        "  (the same angles without an encoder model).  Phase i of the schedule is in force from",
         "  the task's command_delay_s + start_s on; before the first phase the target is the start pose.",
         "- Samples are taken at k * period_s (k = 0 .. samples - 1); update k happens update_phase_s later,",
         "  at k * period_s + update_phase_s, from the joint angles at that instant, with the targets in force",

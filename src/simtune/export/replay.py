@@ -40,6 +40,7 @@ def task_from_controller(folder: Path, name: str, like: TaskSpec) -> TaskSpec:
         t["kp_per_s"],
         object=like.object,
         start_pose_deg=tuple(t["start_pose_deg"]),
+        robot=like.robot,  # the encoders' gravity torques are the robot's
     )
 
 
@@ -50,6 +51,14 @@ def controller_params(folder: Path, name: str) -> dict[str, float]:
     # the task's own delay (tasks tuned together each had one); files from before it hold the shared one only
     params["command_delay"] = ctl["tasks"][name].get("command_delay_s", ctl["control"]["command_delay_s"])
     params.update({f"marker_offset_{a}": v for a, v in zip("xyz", ctl["tracking"]["marker_offset_m"])})
+    encoders = ctl["control"].get("encoders")  # exports from before the encoder model have none
+    if encoders is not None:
+        for kind, key in (
+            ("joint_offset", "zero_offset_deg"),
+            ("compliance_joint", "compliance_rad_per_n_m"),
+            ("mass_link", "gravity_link_masses_kg"),  # the controller's gravity torques; the files hold the masses
+        ):
+            params.update({f"{kind}_{i}": v for i, v in enumerate(encoders[key], start=1)})
     return params
 
 
@@ -72,7 +81,6 @@ class _FromFiles(Engine):
         self.folder = folder
         self.joints = ctl["control"]["joints"]
         self.wrist = ctl["tracking"]["link"]
-        self.start = np.radians(ctl["tasks"][task.name]["start_pose_deg"])
         self.has_object = ctl["tasks"][task.name]["object"] is not None
 
     def defaults(self) -> dict[str, float]:
@@ -99,7 +107,7 @@ class MujocoFiles(_FromFiles):
 
     def reset(self, params):
         self.mj.mj_resetData(self.model, self.data)
-        self.data.qpos[self.qpos] = self.start
+        self.data.qpos[self.qpos] = self.start_angles(params)
         self.mj.mj_forward(self.model, self.data)
 
     def set_joint_velocities(self, velocities):
@@ -147,7 +155,7 @@ class PybulletFiles(_FromFiles):
         self.arm = [joints[j] for j in self.joints]
         self.wrist_index = next(i[0] for i in infos if i[12].decode() == self.wrist)
         self.forces = json.loads((self.folder / "pybullet.json").read_text())["motors"]["forces"]
-        for j, angle in zip(self.arm, self.start):
+        for j, angle in zip(self.arm, self.start_angles(params)):
             p.resetJointState(robot, j, angle, 0.0, physicsClientId=self.client)
 
     def set_joint_velocities(self, velocities):
@@ -200,7 +208,7 @@ class DartFiles(_FromFiles):
         self.world, self.robot, self.body = self.script.load(self.task.name)
         self.dofs = [self.robot.getJoint(j).getIndexInSkeleton(0) for j in self.joints]
         positions = np.zeros(self.robot.getNumDofs())
-        positions[self.dofs] = self.start
+        positions[self.dofs] = self.start_angles(params)
         self.robot.setPositions(positions)
 
     def set_joint_velocities(self, velocities):
@@ -242,7 +250,7 @@ class DrakeFiles(_FromFiles):
 
     def reset(self, params):
         self.simulator.get_system().SetDefaultContext(self.context)
-        for joint, angle in zip(self.arm, self.start):
+        for joint, angle in zip(self.arm, self.start_angles(params)):
             joint.set_angle(self.plant_context, float(angle))
             joint.set_angular_rate(self.plant_context, 0.0)
         self.context.SetTime(0.0)
