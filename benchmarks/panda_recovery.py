@@ -173,7 +173,7 @@ def main() -> None:
             started = time.monotonic()
             simtune("tune", "--project", project, "--engine", engine, "--task", ",".join(TASKS), "--data", data,
                     "--only", ",".join(TRUTH), "--max-seconds", args.max_seconds, "--out", run, "--quiet",
-                    "--json")  # fmt: skip
+                    "--optimizer", "de", "--json")  # fmt: skip
             wall = time.monotonic() - started
             best_file = run / "best_params.json"
             tuned = fitness_per_task(project, engine, data, best_file)

@@ -175,7 +175,7 @@ def tune(
     project: Project | Path | str | None = None,
     data: Path | str | None = None,
     space: str = "extended",
-    optimizer: str = "de",
+    optimizer: str = "auto",
     refine: bool = False,
     seed: int = 0,
     workers: int = 1,

@@ -157,7 +157,7 @@ OptimizerOpt = Annotated[
         "--optimizer",
         help="de: differential evolution as in the paper; auto: a least-squares opening from the generic point "
         "with each task's clock aligned to its recordings, then rounds of a short DE and least squares on the "
-        "residuals (faster with --space calibrated, slower with extended: see the README's Speed); cmaes: CMA-ES "
+        "residuals (simtune tune's default: see the README's Speed); cmaes: CMA-ES "
         "with restarts; bo: Bayesian optimisation (Optuna TPE, batches of --workers trials); random: uniform random "
         "search. cmaes and bo need `pip install 'simtune[opt]'`.",
     ),
@@ -387,7 +387,18 @@ def tune(
     task: TaskOpt = "cube",
     data: DataOpt = None,
     space: SpaceOpt = "extended",
-    optimizer: OptimizerOpt = "de",
+    optimizer: Annotated[
+        str | None,
+        typer.Option(
+            "--optimizer",
+            help="auto (the default): a least-squares opening from the generic point with each task's clock "
+            "aligned to its recordings, then rounds of a short DE and least squares on the residuals; de: "
+            "differential evolution as in the paper (the default with --paper-exact); cmaes: CMA-ES with restarts; "
+            "bo: Bayesian optimisation (Optuna TPE, batches of --workers trials); random: uniform random search. "
+            "cmaes and bo need `pip install 'simtune[opt]'`.",
+            show_default=False,
+        ),
+    ] = None,
     refine: Annotated[
         bool,
         typer.Option(
@@ -459,7 +470,7 @@ def tune(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     as_json: JsonOpt = False,
 ) -> None:
-    """Tune an engine's parameters to recorded tasks (differential evolution by default; --optimizer).
+    """Tune an engine's parameters to recorded tasks (global then local by default; --optimizer de: the paper's DE).
 
     Every evaluation is stored in OUT/run.sqlite as it finishes; if the run is
     killed, `simtune resume OUT` continues it without redoing any evaluation
@@ -484,7 +495,7 @@ def tune(
         eval_timeout=eval_timeout,
         target_fitness=target_fitness,
         prune=not no_prune,
-        optimizer=optimizer,
+        optimizer=optimizer or ("de" if paper_exact else "auto"),
         refine=refine,
         max_evaluations=max_evaluations,
         paper_exact=paper_exact,
