@@ -106,7 +106,8 @@ def test_round_trip(tmp_path_factory, tmp_path, engine, monkeypatch):
     round_trip(tmp_path_factory, tmp_path, engine, monkeypatch)
 
 
-@pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
+# PyBullet's (about 23 s) in the slow tier
+@pytest.mark.parametrize("engine", ["mujoco", pytest.param("pybullet", marks=pytest.mark.slow)])
 def test_round_trip_of_a_calibrated_run(tmp_path_factory, tmp_path, engine, monkeypatch):
     """controller.yaml carries the encoder model: the files replay a run with encoder offsets and compliance."""
     round_trip(tmp_path_factory, tmp_path, engine, monkeypatch, space="calibrated")
