@@ -151,17 +151,14 @@ OnlyOpt = Annotated[
     typer.Option(help="Only these parameters of the space (comma-separated); the rest keep their generic values."),
 ]
 WorkersOpt = Annotated[int, typer.Option("--workers", "-w", min=1, help="Processes evaluating in parallel.")]
-OptimizerOpt = Annotated[
-    str,
-    typer.Option(
-        "--optimizer",
-        help="de: differential evolution as in the paper; auto: a least-squares opening from the generic point "
-        "with each task's clock aligned to its recordings, then rounds of a short DE and least squares on the "
-        "residuals (simtune tune's default: see the README's Speed); cmaes: CMA-ES "
-        "with restarts; bo: Bayesian optimisation (Optuna TPE, batches of --workers trials); random: uniform random "
-        "search. cmaes and bo need `pip install 'simtune[opt]'`.",
-    ),
-]
+#: what each optimiser is, said once for every command's --optimizer
+OPTIMIZER_HELP = (
+    "auto: a least-squares opening from the generic point with each task's clock aligned to its recordings, then "
+    "rounds of a short DE and least squares on the residuals (see the README's Speed); de: differential evolution "
+    "as in the paper; cmaes: CMA-ES with restarts; bo: Bayesian optimisation (Optuna TPE, batches of --workers "
+    "trials); random: uniform random search. cmaes and bo need `pip install 'simtune[opt]'`."
+)
+OptimizerOpt = Annotated[str, typer.Option("--optimizer", help=OPTIMIZER_HELP)]
 MaxEvalsOpt = Annotated[
     int | None,
     typer.Option(
@@ -391,11 +388,7 @@ def tune(
         str | None,
         typer.Option(
             "--optimizer",
-            help="auto (the default): a least-squares opening from the generic point with each task's clock "
-            "aligned to its recordings, then rounds of a short DE and least squares on the residuals; de: "
-            "differential evolution as in the paper (the default with --paper-exact); cmaes: CMA-ES with restarts; "
-            "bo: Bayesian optimisation (Optuna TPE, batches of --workers trials); random: uniform random search. "
-            "cmaes and bo need `pip install 'simtune[opt]'`.",
+            help=f"Default auto (de with --paper-exact). {OPTIMIZER_HELP}",
             show_default=False,
         ),
     ] = None,
