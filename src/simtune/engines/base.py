@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import re
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterator, Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -276,6 +276,30 @@ class Engine(ABC):
         a time, which changes no engine's result): for probes of events shorter
         than a control period, such as a first contact.
         """
+        rollout = self.rollout_steps(params, n_samples, rate, monitor, after_step)
+        try:
+            n = next(rollout)
+            while True:
+                self.step(n)
+                n = rollout.send(None)
+        except StopIteration as finished:
+            return finished.value
+
+    def rollout_steps(
+        self,
+        params: dict[str, float],
+        n_samples: int,
+        rate: float = 1.0 / CONTROL_PERIOD,
+        monitor: Monitor | None = None,
+        after_step: Callable[[], None] | None = None,
+    ) -> Generator[int, None, Rollout]:
+        """:meth:`rollout` as a generator that yields each run of physics steps it needs, and returns the rollout.
+
+        Whoever drives it takes ``n`` steps of this engine (``self.step(n)``) for each ``n`` it yields, then
+        resumes it: :meth:`rollout` does so at once; a batch path may step many members' engines together (on
+        threads, without the GIL) before it resumes them, with results equal bit for bit, since each member's
+        engine sees the same calls in the same order.  With ``after_step`` it steps itself and yields nothing.
+        """
         period = 1.0 / rate
         self.reset(params)
         controller = JointController(self.task, params)
@@ -324,13 +348,13 @@ class Engine(ABC):
             if phase:  # run on to the controller's update instant, which reads the state there
                 n = int(round((k * period + phase - t_sim) / dt))
                 if n > 0:
-                    self._advance(n, after_step)
+                    yield from self._advance(n, after_step)
                     t_sim += n * dt
                     steps += n
                     q = controller.encoder(self.joint_angles())
             self.set_joint_velocities(controller.velocity(targets[k], q))
             n = max(1, int(round(((k + 1) * period - t_sim) / dt)))
-            self._advance(n, after_step)
+            yield from self._advance(n, after_step)
             t_sim += n * dt
             steps += n
         if 0 < samples_run < n_samples:  # ended early: hold the last good sample for the rest
@@ -358,9 +382,9 @@ class Engine(ABC):
             except Exception as exc:  # one member's failure is that member's, as in a worker process
                 yield i, exc
 
-    def _advance(self, n: int, after_step: Callable[[], None] | None) -> None:
+    def _advance(self, n: int, after_step: Callable[[], None] | None) -> Generator[int, None, None]:
         if after_step is None:
-            self.step(n)
+            yield n  # the driver steps
             return
         for _ in range(n):
             self.step(1)

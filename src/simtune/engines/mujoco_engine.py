@@ -19,10 +19,9 @@ per-body velocity damping for the jointed arm or the static floor.
 from __future__ import annotations
 
 import copy
-import queue
 import warnings
 from collections.abc import Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -228,52 +227,63 @@ class MujocoEngine(Engine):
         monitors: Sequence[Monitor | None] | None = None,
         threads: int = 1,
     ) -> Iterator[tuple[int, Rollout | Exception]]:
-        """A batch's rollouts on ``threads`` threads, each with its own copy of the model and data.
+        """A batch's rollouts stepped on ``threads`` threads, each member with its own copy of the model and data.
 
-        MuJoCo releases the GIL while it steps, so threads step at once; the controller, sampling and checks
-        between steps are Python and take turns.  Each copy is reset from the compiled model's values before
-        every rollout (tuned masses and time steps differ per member), so a rollout is the one :meth:`rollout`
-        gives, whichever copy runs it.
+        Lockstep rounds: every member runs :meth:`rollout_steps` (controller, sampling, checks: Python) in
+        this thread up to the physics steps it asks for next; then all members' steps are shared among
+        ``threads`` threads (this one and the pool's), which call ``mj_step`` without the GIL.  Thread
+        hand-overs are what cost here, so there are two per round, whatever the batch's size.  Each copy
+        is reset from the compiled model's values before every rollout (tuned masses and time steps differ
+        per member) and sees the calls :meth:`rollout` makes, in the same order: the results are those of
+        :meth:`rollout`, bit for bit.
         """
         threads = max(1, min(threads, len(params)))
         if threads == 1:
             yield from super().rollout_batch(params, n_samples, monitors)
             return
-        copies = self._thread_copies(threads)
-        free: queue.SimpleQueue[MujocoEngine] = queue.SimpleQueue()
-        for engine in copies[:threads]:
-            free.put(engine)
-
-        def run(i: int) -> Rollout | Exception:
-            engine = free.get()
-            try:
-                return engine.rollout(params[i], n_samples, monitor=monitors[i] if monitors is not None else None)
-            except Exception as exc:
-                return exc
-            finally:
-                free.put(engine)
-
-        if self._pool is None or self._pool_threads < threads:
+        engines = self._thread_copies(len(params))
+        if self._pool is None or self._pool_threads != threads:
             self._close_pool()
-            self._pool, self._pool_threads = ThreadPoolExecutor(threads, thread_name_prefix="mujoco-batch"), threads
-        futures: dict[Future, int] = {self._pool.submit(run, i): i for i in range(len(params))}
-        pending = set(futures)
+            self._pool, self._pool_threads = ThreadPoolExecutor(threads - 1, thread_name_prefix="mujoco-batch"), threads
+        members = {
+            i: engines[i].rollout_steps(p, n_samples, monitor=monitors[i] if monitors is not None else None)
+            for i, p in enumerate(params)
+        }
+        asked = dict.fromkeys(members, 0)  # member -> the steps it asks for next (0: none yet, it starts)
         try:
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for future in done:
-                    yield futures[future], future.result()
-        finally:  # a consumer that stops early: the rest are not started
-            for future in pending:
-                future.cancel()
-            wait(pending)
+            while members:
+                # every member's steps, in ``threads`` shares of about equal step counts
+                shares: list[list[int]] = [[] for _ in range(threads)]
+                loads = [0] * threads
+                for i in sorted(asked, key=lambda member: asked[member], reverse=True):
+                    if asked[i]:
+                        least = loads.index(min(loads))
+                        shares[least].append(i)
+                        loads[least] += asked[i]
+                # the first share is stepped in this thread: one hand-over fewer per round
+                futures = [self._pool.submit(_step_each, [(engines[i], asked[i]) for i in s]) for s in shares[1:] if s]
+                _step_each([(engines[i], asked[i]) for i in shares[0]])
+                for future in futures:
+                    future.result()
+                for i in list(members):
+                    try:
+                        asked[i] = members[i].send(None)
+                    except StopIteration as finished:
+                        del members[i], asked[i]
+                        yield i, finished.value
+                    except Exception as exc:  # one member's failure is that member's, as in a worker process
+                        del members[i], asked[i]
+                        yield i, exc
+        finally:  # a consumer that stops early: the members left are dropped
+            for rollout in members.values():
+                rollout.close()
 
     _pool: ThreadPoolExecutor | None = None
     _pool_threads = 0
     _copies: list[MujocoEngine] | None = None
 
     def _thread_copies(self, n: int) -> list[MujocoEngine]:
-        """This engine and copies of it (own MjModel and MjData), ``n`` in all."""
+        """This engine and copies of it (own MjModel and MjData), ``n`` in all: one per member of a batch."""
         if self._copies is None:
             self._copies = [self]
         while len(self._copies) < n:
@@ -292,3 +302,9 @@ class MujocoEngine(Engine):
     def close(self) -> None:
         self._close_pool()
         self._copies = None
+
+
+def _step_each(steps: list[tuple[MujocoEngine, int]]) -> None:
+    """Take ``n`` steps of each engine, one after the other (a share of a batch, on one thread of the pool)."""
+    for engine, n in steps:
+        engine.step(n)

@@ -16,8 +16,8 @@ is often one basin away.  Then, in rounds:
    with a forward-difference Jacobian whose D perturbed points go to the Evaluator as one batch (worker
    processes, or the engine's batch path with ``--threads``).  It ends when a solver step gains less than
    ``STALL_FTOL`` of the cost (it stalls: back to the global phase, which looks for a better basin) or
-   after ``LOCAL_NFEV`` solver steps.  A point already refined is not refined again: the round's own best
-   is then.
+   after ``LOCAL_NFEV`` solver steps.  A point already refined, or where a local phase stalled, is not
+   refined again: the round's own best is then.
 
 Rounds go on until a budget of the settings is spent (time, evaluations, generations, target fitness),
 checked after every batch: a DE generation, a least-squares trial point or a Jacobian.  A generation of
@@ -68,7 +68,7 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
                 start = aligned_generic_start(objective)
                 refined.add(start.tobytes())
                 search.evaluator.parent_energies = None
-                local_steps += least_squares_phase(search, start, max_nfev=LOCAL_NFEV, ftol=STALL_FTOL).nfev
+                local_steps += _local_phase(search, start, refined)
                 assert search.best_x is not None, "the opening scored its start"
                 population = _latin_hypercube(search, settings.seed)
                 population[0] = search.best_x
@@ -78,7 +78,7 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
                 start = search.best_x if search.best_x.tobytes() not in refined else round_x
                 refined.add(start.tobytes())
                 search.evaluator.parent_energies = None  # no parents to prune against in a local phase
-                local_steps += least_squares_phase(search, start, max_nfev=LOCAL_NFEV, ftol=STALL_FTOL).nfev
+                local_steps += _local_phase(search, start, refined)
                 rounds += 1
                 # the next global phase goes on from this one's population, with the run's best point in it
                 if not any(np.array_equal(member, search.best_x) for member in population):
@@ -88,6 +88,18 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
             pass
         assert search.stop_reason is not None, "the rounds end only when a budget says stop"
         return search.result(f"{search.stop_reason} ({rounds} full rounds, {local_steps} least-squares steps)")
+
+
+def _local_phase(search: BatchSearch, start: np.ndarray, refined: set[bytes]) -> int:
+    """One local phase from ``start``; its solver steps.
+
+    Where it stalled (rather than ran out of steps), the run's best point is marked refined as well: a
+    stalled phase ends at that point (or never left ``start``), and a new phase from it would only stall
+    again, at the cost of a Jacobian per step."""
+    solution = least_squares_phase(search, start, max_nfev=LOCAL_NFEV, ftol=STALL_FTOL)
+    if solution.status != 0 and search.best_x is not None:
+        refined.add(search.best_x.tobytes())
+    return int(solution.nfev)
 
 
 def aligned_generic_start(objective: Objective) -> np.ndarray:
