@@ -47,6 +47,11 @@ def test_probe_finds_what_cannot_act_and_says_why(cube_probe):
         assert a.active == (a.change > activity.TOLERANCE) and bool(a.reason) != a.active
 
 
+def test_probe_on_worker_processes_finds_what_one_process_finds(cube_probe):
+    space, found = cube_probe
+    assert measure_activity("mujoco", get_task("cube"), space, workers=2) == found
+
+
 def test_probe_is_cached_per_engine_task_and_space(tmp_path, monkeypatch):
     monkeypatch.setenv(activity.CACHE_ENV, str(tmp_path))
     monkeypatch.setattr(activity, "_MEMORY", {})

@@ -67,6 +67,7 @@ def test_the_delay_of_a_recording_is_found_with_the_physics_fixed(cube_objective
     assert estimate.fitness == pytest.approx(objective.score({**physics, "command_delay": estimate.delay_s}).fitness)
 
 
+@pytest.mark.slow  # 9 s
 def test_evaluate_aligns_a_clock_when_asked_and_says_so(tmp_path):
     physics = {k: v for k, v in TRUTH.items() if k != "command_delay"}
     path = tmp_path / "tuned.json"

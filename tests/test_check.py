@@ -38,6 +38,7 @@ def _cli(*args):
     return subprocess.run([sys.executable, "-m", "simtune.cli", *args], capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.slow  # 7 s
 def test_check_reports_quality_onsets_and_what_the_task_informs():
     proc = _cli("check", "--engine", "mujoco", "--task", "cube", "--data", str(REFERENCE_DIR), "-s", "shared", "--json")
     assert proc.returncode == 0, proc.stderr

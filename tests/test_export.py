@@ -100,8 +100,11 @@ def round_trip(tmp_path_factory, tmp_path, engine: str, monkeypatch, space: str 
     assert abs(score.fitness - best["fitness"]) <= tolerance, (score.fitness, best["fitness"])
 
 
-# every engine whose export can be driven from its files; Drake's (about 20 s: its run's evaluations) in the slow tier
-@pytest.mark.parametrize("engine", [pytest.param(e, marks=[pytest.mark.slow] if e == "drake" else []) for e in REPLAYS])
+# every engine whose export can be driven from its files; Drake's (about 20 s: its run's evaluations) and PyBullet's
+# (5 s) in the slow tier
+@pytest.mark.parametrize(
+    "engine", [pytest.param(e, marks=[pytest.mark.slow] if e in ("drake", "pybullet") else []) for e in REPLAYS]
+)
 def test_round_trip(tmp_path_factory, tmp_path, engine, monkeypatch):
     round_trip(tmp_path_factory, tmp_path, engine, monkeypatch)
 
@@ -241,6 +244,7 @@ def test_other_versions_and_missing_store_are_refused(run_copy, tmp_path):
     one_line_error(simtune_cli("export", str(run_copy), "--out", str(tmp_path / "x")), "run.sqlite is missing")
 
 
+@pytest.mark.slow  # 7 s
 def test_engine_mismatch_and_non_empty_folder(tmp_path_factory, tmp_path):
     run_dir = tuned_run(tmp_path_factory, "mujoco")
     out = tmp_path / "x"

@@ -44,6 +44,7 @@ def local_grid(two_task_data, tmp_path_factory):
     return grid_dir, results(index)
 
 
+@pytest.mark.slow  # the local grid fixture: 17 s
 def test_local_grid_runs_every_unit_once(local_grid):
     grid_dir, res = local_grid
     assert len(res) == 8 and all(status == "done" for status, _, _ in res.values())
@@ -53,6 +54,7 @@ def test_local_grid_runs_every_unit_once(local_grid):
         assert store.best_evaluation()["score"]["fitness"] == pytest.approx(fitness)
 
 
+@pytest.mark.slow  # the local grid fixture: 17 s
 def test_running_again_skips_finished_units(local_grid, two_task_data):
     grid_dir, res = local_grid
     before = {u: RunStore(grid_dir / "runs" / u).count_evaluations() for u in res}
@@ -168,6 +170,7 @@ def postgres_url():
         shutil.rmtree(root, ignore_errors=True)
 
 
+@pytest.mark.slow  # the local grid fixture: 17 s
 def test_postgres_index_records_the_same_grid(local_grid, two_task_data, postgres_url, tmp_path):
     grid_dir, expected = local_grid
     # a fresh index for a finished grid: every unit resumes from its store, nothing is simulated again

@@ -286,6 +286,7 @@ def test_cli_joint_count_mismatch_is_one_line_exit_2(panda_project, tmp_path):
     assert "reach.toml: phases[0].targets_deg: expected 7 numbers (one per driven joint" in result.stderr
 
 
+@pytest.mark.slow  # 10 s
 def test_cli_recordings_without_the_named_body_is_one_line_exit_2(panda_project, tmp_path):
     project = copy_project(panda_project, tmp_path / "panda")
     data = tmp_path / "rec"

@@ -132,6 +132,7 @@ def test_two_tunes_on_one_folder_one_runs_the_other_is_refused_at_once(tmp_path)
     store.close()
 
 
+@pytest.mark.slow  # 9 s
 def test_two_resumes_of_one_run_one_continues_the_other_is_refused_at_once(tmp_path):
     run_dir = tmp_path / "run"
     kept = kill_when(tune_cmd(run_dir, "--max-generations", "3", "--no-prune"), run_dir, 8)

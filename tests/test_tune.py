@@ -152,6 +152,7 @@ def test_short_tune_on_real_recordings_improves_on_generic(mocap_root, tmp_path)
     assert 0.8 < result.params["command_delay"] < 2.0
 
 
+@pytest.mark.slow  # 8 s
 def test_params_file_reproduces_the_stored_best_fitness_exactly(tmp_path):
     import subprocess
 

@@ -27,8 +27,10 @@ from __future__ import annotations
 
 import hashlib
 import json
+import multiprocessing
 import os
 import tempfile
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -111,17 +113,26 @@ def base_points(space: ParameterSpace, points: int = PROBE_POINTS, seed: int = P
 
 
 def measure_activity(
-    engine: str, task: TaskSpec, space: ParameterSpace, points: int = PROBE_POINTS, samples: int | None = None
+    engine: str,
+    task: TaskSpec,
+    space: ParameterSpace,
+    points: int = PROBE_POINTS,
+    samples: int | None = None,
+    workers: int = 1,
 ) -> dict[str, Activity]:
-    """Probe every parameter of ``space`` on ``task`` (see the module's notes): name -> Activity."""
+    """Probe every parameter of ``space`` on ``task`` (see the module's notes): name -> Activity.
+
+    With ``workers`` > 1 the rollouts of each round (every parameter still inactive at its lower bound,
+    then those unmoved at their upper bound) run on that many worker processes: the same rollouts as one
+    after the other, so the same outcome, in about 1 / ``workers`` of the time (minutes for a slow engine).
+    """
     cls = engine_class(engine)
     declared = schedule_reasons(task) | cls.inactive_parameters(task)
     supported = cls.supported(task.robot)
     n = samples or task_samples(task)
-    sim = make_engine(engine, task)
     found: dict[str, Activity] = {}
     largest = dict.fromkeys(space.names, 0.0)
-    try:
+    with _Probe(engine, task, n, workers) as probe:
         pending = [p for p in space.parameters if is_supported(p.name, supported)]
         for p in space.parameters:
             if not is_supported(p.name, supported):
@@ -129,31 +140,76 @@ def measure_activity(
         for base in base_points(space, points):
             if not pending:
                 break
-            reference = sim.rollout(base, n)
-            if not reference.stable:
+            (seen,) = probe.tracks([base])
+            if seen is None:
                 continue
-            seen = visible_track(reference, base)
-            still = []
-            for p in pending:
-                for value in (p.low, p.high):
-                    moved = {**base, p.name: value}
-                    rollout = sim.rollout(moved, n)
-                    change = float(np.abs(visible_track(rollout, moved) - seen).max()) if rollout.stable else np.inf
+            for bound in ("low", "high"):  # the upper bound only for what the lower one left unmoved
+                unmoved = [p for p in pending if largest[p.name] <= TOLERANCE]
+                moved = [{**base, p.name: getattr(p, bound)} for p in unmoved]
+                for p, track in zip(unmoved, probe.tracks(moved)):
+                    change = float(np.abs(track - seen).max()) if track is not None else np.inf
                     largest[p.name] = max(largest[p.name], change)
-                    if change > TOLERANCE:
-                        break
+            for p in pending:
                 if largest[p.name] > TOLERANCE:
                     found[p.name] = Activity(p.name, True, largest[p.name])
-                else:
-                    still.append(p)
-            pending = still
+            pending = [p for p in pending if largest[p.name] <= TOLERANCE]
         for p in pending:
             found[p.name] = Activity(
                 p.name, False, largest[p.name], declared.get(p.name) or measured_reason(largest[p.name], points)
             )
-    finally:
-        sim.close()
     return {name: found[name] for name in space.names}
+
+
+class _Probe:
+    """The probe's rollouts: each parameter dict's visible track (None where the rollout blew up), here or on
+    ``workers`` processes (spawned: engines hold native handles that must not be shared through fork)."""
+
+    def __init__(self, engine: str, task: TaskSpec, samples: int, workers: int):
+        self.engine, self.task, self.samples, self.workers = engine, task, samples, workers
+        self.pool: ProcessPoolExecutor | None = None
+
+    def __enter__(self) -> _Probe:
+        if self.workers > 1:
+            self.pool = ProcessPoolExecutor(
+                self.workers,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=_build_engine,
+                initargs=(self.engine, self.task, self.samples),
+            )
+        else:
+            _build_engine(self.engine, self.task, self.samples)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(cancel_futures=True)
+        else:
+            _close_engine()
+
+    def tracks(self, params: list[dict[str, float]]) -> list[np.ndarray | None]:
+        if self.pool is None:
+            return [_track(p) for p in params]
+        return list(self.pool.map(_track, params))
+
+
+#: this process's probe engine and rollout length (a worker's, or the caller's own while it probes)
+_SIM: list = []
+
+
+def _build_engine(engine: str, task: TaskSpec, samples: int) -> None:
+    _SIM[:] = [make_engine(engine, task), samples]
+
+
+def _close_engine() -> None:
+    if _SIM:
+        _SIM[0].close()
+        _SIM.clear()
+
+
+def _track(params: dict[str, float]) -> np.ndarray | None:
+    sim, samples = _SIM
+    rollout = sim.rollout(params, samples)
+    return visible_track(rollout, params) if rollout.stable else None
 
 
 def cache_dir() -> Path:
@@ -181,9 +237,15 @@ _MEMORY: dict[Path, dict[str, Activity]] = {}
 
 
 def task_activity(
-    engine: str, task: TaskSpec, space: ParameterSpace, points: int = PROBE_POINTS, use_cache: bool = True
+    engine: str,
+    task: TaskSpec,
+    space: ParameterSpace,
+    points: int = PROBE_POINTS,
+    use_cache: bool = True,
+    workers: int = 1,
 ) -> dict[str, Activity]:
-    """:func:`measure_activity`, from the cache when it holds this engine x task x space (and into it after)."""
+    """:func:`measure_activity` (on ``workers`` processes), from the cache when it holds this engine x task x
+    space (and into it after)."""
     path = cache_dir() / "activity" / f"{engine}-{task.name}-{space.name}-{cache_key(engine, task, space, points)}.json"
     if use_cache and path in _MEMORY:
         return _MEMORY[path]
@@ -194,7 +256,7 @@ def task_activity(
             return _MEMORY[path]
         except (OSError, ValueError, KeyError, TypeError):
             pass  # not cached yet, or a damaged entry: measure again
-    found = measure_activity(engine, task, space, points)
+    found = measure_activity(engine, task, space, points, workers=workers)
     if use_cache:
         _write_cache(path, {name: asdict(a) for name, a in found.items()})
         _MEMORY[path] = found
@@ -214,10 +276,12 @@ def _write_cache(path: Path, data: dict) -> None:
 
 
 def inactive_parameters(
-    engine: str, tasks: list[TaskSpec], space: ParameterSpace, use_cache: bool = True
+    engine: str, tasks: list[TaskSpec], space: ParameterSpace, use_cache: bool = True, workers: int = 1
 ) -> dict[str, str]:
-    """Parameters of ``space`` that change no rollout of any of ``tasks``: name -> why (per task where they differ)."""
-    per_task = {task.name: task_activity(engine, task, space, use_cache=use_cache) for task in tasks}
+    """Parameters of ``space`` that change no rollout of any of ``tasks``: name -> why (per task where they differ).
+
+    A probe not cached yet runs on ``workers`` processes."""
+    per_task = {task.name: task_activity(engine, task, space, use_cache=use_cache, workers=workers) for task in tasks}
     inactive = {}
     for name in space.names:
         if all(not found[name].active for found in per_task.values()):

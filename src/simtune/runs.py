@@ -291,7 +291,7 @@ def run_inactive(config: RunConfig) -> dict[str, str]:
     tasks = parse_tasks(config.tasks, config.project)
     if config.keep_inactive or config.paper_exact:
         return declared_inactive(config.engine, tasks, full_space(config))
-    return inactive_parameters(config.engine, tasks, full_space(config))
+    return inactive_parameters(config.engine, tasks, full_space(config), workers=config.workers)
 
 
 def build_objective(config: RunConfig, inactive: dict[str, str] | None = None) -> Objective:

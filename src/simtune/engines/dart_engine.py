@@ -74,6 +74,13 @@ class DartEngine(Engine):
         # Bullet's collision detection: DART's default (FCL with meshed primitives) loses the
         # cone and lets a pushed box sink into the floor plane
         self.world.setCollisionDetector(d.simulation.CollisionDetectorType.BULLET)
+        # no sleeping bodies: DART 6.20 puts a body that stays slow for 0.5 s to sleep, and its sleep clock
+        # outlives every reset, so a rollout depended on the one before it (up to 9e-7 m on `cube` after
+        # one with a slippery floor); DART before 6.20 does not sleep at all
+        if hasattr(self.world, "getDeactivationOptions"):
+            deactivation = self.world.getDeactivationOptions()
+            deactivation.mEnabled = False
+            self.world.setDeactivationOptions(deactivation)
 
         loader = d.utils.DartLoader()
         options = d.utils.DartLoader.Options()
