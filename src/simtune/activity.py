@@ -29,6 +29,7 @@ import hashlib
 import json
 import multiprocessing
 import os
+import signal
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
@@ -173,7 +174,7 @@ class _Probe:
             self.pool = ProcessPoolExecutor(
                 self.workers,
                 mp_context=multiprocessing.get_context("spawn"),
-                initializer=_build_engine,
+                initializer=_start_worker,
                 initargs=(self.engine, self.task, self.samples),
             )
         else:
@@ -194,6 +195,13 @@ class _Probe:
 
 #: this process's probe engine and rollout length (a worker's, or the caller's own while it probes)
 _SIM: list = []
+
+
+def _start_worker(engine: str, task: TaskSpec, samples: int) -> None:
+    # Ctrl-C is the coordinating process's to handle (the run stops, saying how to resume); a worker would
+    # only print a traceback
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _build_engine(engine, task, samples)
 
 
 def _build_engine(engine: str, task: TaskSpec, samples: int) -> None:
