@@ -56,7 +56,7 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
     ``store``."""
     search = BatchSearch(objective, store, settings, prune=True)
     search.evaluator.generation = 0
-    refined: set[bytes] = set()  # the points local phases started from
+    refined: set[bytes] = set()  # the points local phases started from or stalled at
     rounds, local_steps = 0, 0
     population = search.starting_points()
     if population is not None and len(population) < 5:
@@ -65,10 +65,7 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
     with search:
         try:
             if opening:
-                start = aligned_generic_start(objective)
-                refined.add(start.tobytes())
-                search.evaluator.parent_energies = None
-                local_steps += _local_phase(search, start, refined)
+                local_steps += _local_phase(search, aligned_generic_start(objective), refined)
                 assert search.best_x is not None, "the opening scored its start"
                 population = _latin_hypercube(search, settings.seed)
                 population[0] = search.best_x
@@ -76,8 +73,6 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
                 population, last_energies, round_x = _global_phase(search, population, settings.seed + 1000 * rounds)
                 assert search.best_x is not None, "the global phase scored a batch"
                 start = search.best_x if search.best_x.tobytes() not in refined else round_x
-                refined.add(start.tobytes())
-                search.evaluator.parent_energies = None  # no parents to prune against in a local phase
                 local_steps += _local_phase(search, start, refined)
                 rounds += 1
                 # the next global phase goes on from this one's population, with the run's best point in it
@@ -91,11 +86,13 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
 
 
 def _local_phase(search: BatchSearch, start: np.ndarray, refined: set[bytes]) -> int:
-    """One local phase from ``start``; its solver steps.
+    """One local phase from ``start`` (marked refined); its solver steps.
 
     Where it stalled (rather than ran out of steps), the run's best point is marked refined as well: a
     stalled phase ends at that point (or never left ``start``), and a new phase from it would only stall
     again, at the cost of a Jacobian per step."""
+    refined.add(start.tobytes())
+    search.evaluator.parent_energies = None  # no parents to prune against in a local phase
     solution = least_squares_phase(search, start, max_nfev=LOCAL_NFEV, ftol=STALL_FTOL)
     if solution.status != 0 and search.best_x is not None:
         refined.add(search.best_x.tobytes())
