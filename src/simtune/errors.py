@@ -38,5 +38,9 @@ class RunInterrupted(KeyboardInterrupt):
         self.run_dir = run_dir
 
 
+class RobotWarning(UserWarning):
+    """A robot description that loads, but where simtune chose or changed something the user should know."""
+
+
 class RobotError(SimtuneError):
     """A robot description (URDF, meshes) that cannot be loaded, or a link or joint it does not have."""

@@ -19,7 +19,7 @@ remembers them).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -194,6 +194,8 @@ class RobotDescription:
     #: over the gain: a heavier arm than the MICO needs a stiffer servo to follow as a real arm's velocity
     #: loop does (PyBullet, ODE and DART drive velocities as constraints, without that lag).
     servo_gain: float | None = None
+    #: what the loader chose for the user and why (root, tracked link, held joints), for ``simtune init``
+    choices: tuple[str, ...] = field(default=(), compare=False)
 
     # --- lookups ----------------------------------------------------------------------------
     @cached_property
@@ -335,6 +337,12 @@ class RobotDescription:
                 raise ValueError(f"joint {joint.name!r} moves but is neither driven nor held")
         if self.tracked_link not in self.link_by_name:
             raise ValueError(f"tracked link {self.tracked_link!r} is not a link of robot {self.name!r}")
+        gripper = [link.name for link in self.links if link.material == "gripper"]
+        if self.mjcf is None and not any(self.link_by_name[g].shapes for g in gripper):
+            raise ValueError(
+                f"no gripper link ({', '.join(gripper) or 'none'}) has a collision shape: the gripper's contact "
+                "parameters need one (name gripper links that have shapes)"
+            )
         if self.nominal_masses is not None and len(self.nominal_masses) != len(self.arm_joints):
             raise ValueError("one nominal mass per driven joint")
 

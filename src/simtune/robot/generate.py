@@ -181,7 +181,7 @@ def scene_mjcf(robot: RobotDescription, obj: SceneObject | None = None) -> str:
     return "\n".join(
         [
             f"<mujoco model={quoteattr(robot.name + '_scene')}>",
-            '  <compiler angle="radian" autolimits="true"/>',
+            '  <compiler angle="radian" autolimits="true" balanceinertia="true"/>',
             # implicitfast integrates the velocity servos' damping-like forces stably at large steps
             '  <option integrator="implicitfast" gravity="0 0 -9.81"/>',
             "  <default>",

@@ -1,26 +1,51 @@
 """A robot from a URDF file: parsed with ``yourdfpy``, turned into a :class:`RobotDescription`.
 
-The driven joints default to the revolute joints from the root down to the tracked link,
-and the tracked link to where the root's chain first branches or ends (a hand with its
-fingers: the hand).  Every other movable joint is held at a fixed pose (a gripper's
-fingers): at the position the caller gives, else at 0 clamped into its limits, a mimic
-joint at its multiplier and offset from the joint it follows.  A driven joint may not be
-a mimic joint (simtune has no coupled joints).  Mesh file names may be relative to the
-URDF's folder, ``file://`` or ``package://NAME/...`` (NAME looked for beside the URDF and
-in its parent folders, the way pybullet_data's models use it); the description keeps
-their absolute paths.  The links' collision elements are kept, their visual ones ignored.
+Published descriptions are read as the engines read them:
+
+- A root link named ``world`` is the world frame, not a body: it is dropped and the fixed joint
+  from it places the robot's base (added to the caller's ``base_position``/``base_rpy``).  Of several
+  roots (or of several arms fixed to ``world``), the tree with the most movable joints is the robot,
+  the others are left out with a warning.
+- The tracked link is the end of the longest chain of arm joints from the root (followed on through
+  fixed joints while they do not branch), so a base with a sensor or flange link on its own branch
+  (most ROS arms, the ROS-Industrial UR layout) finds the arm's chain, not the first branch.
+  Gripper joints (a mimic joint, a prismatic joint, a joint named like a gripper, finger or jaw) are
+  held, not driven; :func:`arm_choice` says what was chosen and why.
+- Mesh file names may be relative to the URDF's folder, ``file://`` or ``package://NAME/...``: NAME is
+  looked for in ``package_path`` and the folders of ``$SIMTUNE_PACKAGE_PATH`` and
+  ``$ROS_PACKAGE_PATH`` (each a package folder, or a folder holding packages), then beside the URDF
+  and in its parent folders (pybullet_data's models use it so).  Every mesh becomes an OBJ file every
+  engine reads (:mod:`simtune.robot.meshes`).  Collision elements are kept, visual ones ignored.
+- Undeclared namespace prefixes (``drake:`` attributes in some UR descriptions) are declared with a
+  warning, as the engines' own parsers tolerate them.
+- Physically impossible values stop at load with one line naming the URDF, the link or joint and the
+  value: a mass that is negative or not finite, an inertia that is not positive semi-definite, a zero
+  axis on a movable joint, a lower limit above the upper one.  A body that moves but has no mass (no
+  ``<inertial>`` anywhere on it) gets :data:`FLOOR_MASS` with a warning, since no engine simulates a
+  massless moving body.
+
+Movable joints that are not driven are held at a fixed pose: at the position the caller gives, else at
+0 clamped into its limits, a mimic joint at its multiplier and offset from the joint it follows.  A
+driven joint may not be a mimic joint (simtune has no coupled joints).
 """
 
 from __future__ import annotations
 
+import io
+import math
+import os
+import re
+import warnings
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from simtune.errors import RobotError
+from simtune.errors import RobotError, RobotWarning
 from simtune.geometry import rpy_matrix
 from simtune.robot.description import (
+    ZERO3,
     Box,
     Cylinder,
     Joint,
@@ -32,6 +57,7 @@ from simtune.robot.description import (
     Vec3,
     axis_angle_matrix,
 )
+from simtune.robot.meshes import engine_mesh
 
 _MOVABLE = ("revolute", "continuous", "prismatic")
 
@@ -45,7 +71,9 @@ def _rpy(rotation: np.ndarray) -> Vec3:
     """URDF roll-pitch-yaw of a rotation matrix (R = Rz(yaw) Ry(pitch) Rx(roll): SciPy's extrinsic xyz)."""
     from scipy.spatial.transform import Rotation
 
-    return _vec(Rotation.from_matrix(rotation).as_euler("xyz"))
+    with warnings.catch_warnings():  # at pitch +-90 deg ("gimbal lock") the angles SciPy picks still make R
+        warnings.simplefilter("ignore", UserWarning)
+        return _vec(Rotation.from_matrix(rotation).as_euler("xyz"))
 
 
 def _origin(matrix) -> tuple[Vec3, Vec3]:
@@ -55,15 +83,27 @@ def _origin(matrix) -> tuple[Vec3, Vec3]:
     return _vec(m[:3, 3]), _rpy(m[:3, :3])
 
 
-def resolve_mesh(filename: str, urdf: Path) -> Path | None:
+def package_folders(extra: Iterable[str | Path] = ()) -> list[Path]:
+    """Folders to look for ``package://`` packages in: ``extra``, then ``$SIMTUNE_PACKAGE_PATH`` and
+    ``$ROS_PACKAGE_PATH`` (``os.pathsep``-separated, as ROS writes it)."""
+    folders = [Path(f).expanduser() for f in extra]
+    for variable in ("SIMTUNE_PACKAGE_PATH", "ROS_PACKAGE_PATH"):
+        folders += [Path(f).expanduser() for f in os.environ.get(variable, "").split(os.pathsep) if f]
+    return folders
+
+
+def resolve_mesh(filename: str, urdf: Path, package_path: Iterable[str | Path] = ()) -> Path | None:
     """The mesh file a URDF names, or None if it is not found."""
     folder = urdf.parent
     if filename.startswith("file://"):
         candidates = [Path(filename[len("file://") :])]
     elif filename.startswith("package://"):
         package, _, rest = filename[len("package://") :].partition("/")
+        candidates = []
+        for root in package_folders(package_path):  # a package folder itself, or a folder of packages
+            candidates += [root / rest] if root.name == package else [root / package / rest]
         ancestors = [folder, *folder.parents]
-        candidates = [folder / package / rest]
+        candidates.append(folder / package / rest)
         candidates += [a / rest for a in ancestors if a.name == package]
         candidates += [a / package / rest for a in ancestors[1:]]
         candidates.append(folder / rest)
@@ -73,7 +113,7 @@ def resolve_mesh(filename: str, urdf: Path) -> Path | None:
     return next((c.resolve() for c in candidates if c.is_file()), None)
 
 
-def _shape(geometry, origin, urdf: Path, where: str) -> Shape:
+def _shape(geometry, origin, urdf: Path, where: str, package_path: Iterable[str | Path]) -> Shape:
     xyz, rpy = _origin(origin)
     if geometry.box is not None:
         half = _vec(np.asarray(geometry.box.size, dtype=float) / 2)
@@ -84,26 +124,50 @@ def _shape(geometry, origin, urdf: Path, where: str) -> Shape:
         return Cylinder(xyz, float(geometry.cylinder.radius), float(geometry.cylinder.length), rpy)
     if geometry.mesh is not None:
         name = geometry.mesh.filename
-        path = resolve_mesh(name, urdf)
+        path = resolve_mesh(name, urdf, package_path)
         if path is None:
-            raise RobotError(f"{urdf}: {where}: mesh file {name!r} not found")
+            hint = " (set --package-path or SIMTUNE_PACKAGE_PATH to the folder of its package)"
+            raise RobotError(f"{urdf}: {where}: mesh file {name!r} not found{hint if '://' in name else ''}")
+        path = engine_mesh(path, f"{urdf}: {where}")
         scale = geometry.mesh.scale
         scale3 = (1.0, 1.0, 1.0) if scale is None else _vec(np.broadcast_to(np.asarray(scale, dtype=float), 3))
         return Mesh(str(path), scale3, xyz, rpy)
     raise RobotError(f"{urdf}: {where}: a collision element without a geometry simtune knows")
 
 
-def _link(link, urdf: Path, material: str) -> Link:
+#: The mass [kg] and inertia [kg m^2] of a moving body the URDF gives no mass: light enough to change
+#: no motion of an arm, heavy enough for every engine (MuJoCo, DART and ODE refuse a massless moving body).
+FLOOR_MASS = 1e-3
+FLOOR_INERTIA = 1e-6
+
+
+def _inertia_problem(moments: np.ndarray) -> str:
+    """Why a 3x3 inertia about the centre of mass is impossible, or ''."""
+    if not np.all(np.isfinite(moments)):
+        return "is not finite"
+    eigen = np.linalg.eigvalsh((moments + moments.T) / 2)
+    scale = max(float(np.abs(eigen).max()), 1e-12)
+    if eigen.min() < -1e-9 * scale:
+        return f"is not positive semi-definite (principal moments {', '.join(f'{e:.4g}' for e in eigen)})"
+    return ""
+
+
+def _link(link, urdf: Path, material: str, package_path: Iterable[str | Path]) -> Link:
     inertial = link.inertial
     if inertial is None or inertial.mass is None:
         mass, com, inertia_rpy = 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         moments = np.zeros((3, 3))
     else:
         mass = float(inertial.mass)
+        if not math.isfinite(mass) or mass < 0:
+            raise RobotError(f"{urdf}: link {link.name!r}: mass {mass:g} kg is not possible (a mass is >= 0)")
         com, inertia_rpy = _origin(inertial.origin)
         moments = np.asarray(inertial.inertia if inertial.inertia is not None else np.zeros((3, 3)), dtype=float)
+        problem = _inertia_problem(moments)
+        if problem:
+            raise RobotError(f"{urdf}: link {link.name!r}: its inertia {problem}")
     shapes = tuple(
-        _shape(c.geometry, c.origin, urdf, f"link {link.name!r} collision {k + 1}")
+        _shape(c.geometry, c.origin, urdf, f"link {link.name!r} collision {k + 1}", package_path)
         for k, c in enumerate(link.collisions)
     )
     return Link(
@@ -168,6 +232,10 @@ def _joint(joint, driven: bool, position: float) -> Joint:
     )
 
 
+_GRIPPER_NAME = re.compile(r"grip|finger|jaw|claw", re.IGNORECASE)
+_UNDECLARED = re.compile(r"Namespace prefix (\S+) (?:for \S+ )?on \S+ is not defined")
+
+
 def _parse(path: Path):
     try:
         import yourdfpy
@@ -177,87 +245,212 @@ def _parse(path: Path):
 
     if not path.is_file():
         raise RobotError(f"{path}: no such URDF file")
+    text = path.read_bytes()
     try:  # strictly first: yourdfpy would recover from broken XML and read what is left
-        etree.parse(str(path))
+        root = etree.fromstring(text)
     except etree.XMLSyntaxError as exc:
-        raise RobotError(f"{path} line {exc.lineno}: not valid XML ({exc.msg})") from None
+        prefixes = sorted({m.group(1) for e in exc.error_log if (m := _UNDECLARED.search(e.message or ""))})
+        if not prefixes:
+            raise RobotError(f"{path} line {exc.lineno}: not valid XML ({exc.msg})") from None
+        # undeclared prefixes (`drake:` attributes of some UR descriptions): the engines' parsers read past
+        # them, so declare them and read on
+        declarations = "".join(f' xmlns:{p}="urn:simtune:undeclared:{p}"' for p in prefixes)
+        text = re.sub(rb"<robot\b", b"<robot" + declarations.encode(), text, count=1)
+        warnings.warn(
+            f"{path}: namespace prefix {', '.join(prefixes)} used without a declaration: read as declared",
+            RobotWarning,
+            stacklevel=3,
+        )
+        try:
+            root = etree.fromstring(text)
+        except etree.XMLSyntaxError as again:
+            raise RobotError(f"{path} line {again.lineno}: not valid XML ({again.msg})") from None
+    if root.tag != "robot":
+        raise RobotError(f"{path}: not a URDF: its root element is <{root.tag}>, a URDF's is <robot>")
     try:
         return yourdfpy.URDF.load(
-            str(path),
+            io.BytesIO(text),
             load_meshes=False,
             build_scene_graph=False,
             build_collision_scene_graph=False,
             load_collision_meshes=False,
         ).robot
     except (ValueError, KeyError, AttributeError, TypeError) as exc:
-        raise RobotError(f"{path}: not a URDF simtune can read ({exc})") from None
+        raise RobotError(f"{path}: not a URDF simtune can read ({type(exc).__name__}: {exc})") from None
 
 
-def load_urdf(
-    path: str | Path,
-    *,
-    arm_joints: Iterable[str] | None = None,
-    tracked_link: str | None = None,
-    base_position: Vec3 = (0.0, 0.0, 0.0),
-    base_rpy: Vec3 = (0.0, 0.0, 0.0),
-    held: Mapping[str, float] | None = None,
-    gripper_links: Iterable[str] | None = None,
-    name: str | None = None,
-) -> RobotDescription:
-    """The robot of the URDF at ``path``; ``RobotError`` (one line naming the file and element) if it
-    cannot be used.
+def _check_joint(joint, path: Path) -> None:
+    """One line naming the URDF and joint for a type simtune has no use for or impossible values."""
+    if joint.type not in (*_MOVABLE, "fixed"):
+        raise RobotError(
+            f"{path}: joint {joint.name!r}: type {joint.type!r} is not supported (revolute, continuous, prismatic "
+            "or fixed)"
+        )
+    if joint.type == "fixed":
+        return  # published fixed joints carry zero axes and empty limits that nothing reads
+    if joint.axis is not None:
+        axis = np.asarray(joint.axis, dtype=float)
+        if not np.all(np.isfinite(axis)) or float(np.linalg.norm(axis)) < 1e-12:
+            raise RobotError(f"{path}: joint {joint.name!r}: axis {_vec(axis)} has no direction")
+    limit = joint.limit
+    if joint.type != "continuous" and limit is not None and limit.lower is not None and limit.upper is not None:
+        lower, upper = float(limit.lower), float(limit.upper)
+        if not (math.isfinite(lower) and math.isfinite(upper)):
+            raise RobotError(f"{path}: joint {joint.name!r}: limits [{lower:g}, {upper:g}] are not finite")
+        if lower > upper:
+            raise RobotError(f"{path}: joint {joint.name!r}: lower limit {lower:g} is above upper limit {upper:g}")
 
-    ``arm_joints``: the driven joints in order (default: the revolute and continuous joints from the
-    root to the tracked link); ``tracked_link``: the link the motion capture follows (default: where the root's
-    chain first branches or ends); ``held``: positions of joints held at a fixed pose (default 0,
-    clamped into the joint's limits); ``gripper_links``: the links with the gripper's contact
-    parameters (default: the tracked link and every link below it).
-    """
-    path = Path(path).expanduser().resolve()
-    robot = _parse(path)
-    held = dict(held or {})
-    joints_by_name = {j.name: j for j in robot.joints}
-    link_names = [link.name for link in robot.links]
-    for j in robot.joints:
-        if j.type not in (*_MOVABLE, "fixed"):
-            raise RobotError(
-                f"{path}: joint {j.name!r}: type {j.type!r} is not supported (revolute, continuous, prismatic or fixed)"
-            )
-    children = {j.child for j in robot.joints}
-    roots = [n for n in link_names if n not in children]
-    if len(roots) != 1:
-        raise RobotError(f"{path}: expected one root link, found {len(roots)} ({', '.join(roots[:3])})")
-    below: dict[str, list] = {}
-    for j in robot.joints:
-        below.setdefault(j.parent, []).append(j)
-    order: list = []  # joints, parents before children
-    queue = [roots[0]]
-    while queue:
-        link = queue.pop(0)
-        for j in below.get(link, []):
-            order.append(j)
-            queue.append(j.child)
-    parent_joint = {j.child: j for j in order}
 
-    def chain(link: str) -> list:
+def gripper_reason(joint) -> str:
+    """Why a movable URDF joint is a gripper's (held, not driven), or '' for an arm joint."""
+    if joint.mimic is not None:
+        return f"it mimics {joint.mimic.joint!r}"
+    if joint.type == "prismatic":
+        return "it is prismatic (a finger's slide)"
+    if _GRIPPER_NAME.search(joint.name):
+        return "its name is a gripper's"
+    return ""
+
+
+@dataclass
+class _Tree:
+    """The URDF's joints as a tree from the chosen root: joints in order (parents first), per link the joints
+    below it, and where the root stands (the caller's base, with a dropped ``world`` link's joint added)."""
+
+    root: str
+    order: list
+    below: dict[str, list]
+    base_position: Vec3
+    base_rpy: Vec3
+    notes: list[str]
+
+    def chain(self, link: str) -> list:
+        parent_joint = {j.child: j for j in self.order}
         out = []
         while link in parent_joint:
             out.append(parent_joint[link])
             link = parent_joint[link].parent
         return out[::-1]
 
-    if tracked_link is None:
-        tracked_link = roots[0]
-        while len(below.get(tracked_link, [])) == 1:
-            tracked_link = below[tracked_link][0].child
-    elif tracked_link not in link_names:
-        raise RobotError(f"{path}: tracked link {tracked_link!r} is not a link of the URDF")
-    if arm_joints is None:
-        driven = [j.name for j in chain(tracked_link) if j.type in ("revolute", "continuous")]
+
+def _subtree(root: str, below: dict[str, list]) -> list:
+    order: list = []
+    queue = [root]
+    while queue:
+        for j in below.get(queue.pop(0), []):
+            order.append(j)
+            queue.append(j.child)
+    return order
+
+
+def _tree(robot, path: Path, base_position: Vec3, base_rpy: Vec3) -> _Tree:
+    """Choose the robot's root: a root link named ``world`` is dropped (its fixed joints place what hangs
+    from it), and of several trees the one with the most movable joints is the robot."""
+    below: dict[str, list] = {}
+    for j in robot.joints:
+        below.setdefault(j.parent, []).append(j)
+    children = {j.child for j in robot.joints}
+    roots = [link.name for link in robot.links if link.name not in children]
+    if not roots:
+        raise RobotError(f"{path}: no root link: the joints form a loop")
+    base = (np.asarray(base_position, dtype=float), rpy_matrix(base_rpy))
+    notes: list[str] = []
+    candidates = []  # (root link, position, rotation)
+    for root in roots:
+        hanging = below.get(root, [])
+        if root.lower() == "world" and hanging and all(j.type == "fixed" for j in hanging):
+            for j in hanging:
+                xyz, rpy = _origin(j.origin)
+                candidates.append((j.child, base[0] + base[1] @ np.asarray(xyz), base[1] @ rpy_matrix(rpy)))
+            notes.append(f"link {root!r} is the world frame: dropped, its fixed joint places the base")
+        else:
+            candidates.append((root, *base))
+    movable = [sum(j.type in _MOVABLE for j in _subtree(c[0], below)) for c in candidates]
+    best = int(np.argmax(movable))
+    root, position, rotation = candidates[best]
+    others = [c[0] for k, c in enumerate(candidates) if k != best]
+    if others:
+        warnings.warn(
+            f"{path}: several trees: the robot is the one from {root!r} ({movable[best]} movable joints); "
+            f"left out: the tree(s) from {', '.join(repr(o) for o in others)}",
+            RobotWarning,
+            stacklevel=3,
+        )
+    if root.lower() == "world":  # MuJoCo's and Drake's world body: a movable joint from it needs another name
+        raise RobotError(f"{path}: link {root!r} is the robot's root and a joint moves from it: rename the link")
+    if position.any() or not np.allclose(rotation, np.eye(3)):
+        notes.append(f"base of {root!r} at ({', '.join(f'{v:.4g}' for v in position)}) m")
+    order = _subtree(root, below)
+    return _Tree(root, order, below, _vec(position), _rpy(rotation), notes)
+
+
+def _tip(tree: _Tree, link: str, held: set[str]) -> str:
+    """``link`` followed on through fixed joints while they do not branch (a flange, then a hand)."""
+    while True:
+        hanging = tree.below.get(link, [])
+        if len(hanging) != 1 or hanging[0].type != "fixed" or hanging[0].name in held:
+            return link
+        link = hanging[0].child
+
+
+def _arm_choice(
+    tree: _Tree, path: Path, link_names: list[str], arm_joints: list[str] | None, tracked_link: str | None
+) -> tuple[list[str], str, list[str]]:
+    """(driven joints, tracked link, notes saying why) for the caller's choices, else the defaults: the
+    longest chain of arm joints from the root, gripper joints held."""
+    gripper = {j.name: why for j in tree.order if j.type in _MOVABLE and (why := gripper_reason(j))}
+    notes = [f"joint {name!r} held: {why}" for name, why in gripper.items()]
+
+    def arm(chain) -> list[str]:
+        return [j.name for j in chain if j.type in ("revolute", "continuous") and j.name not in gripper]
+
+    if tracked_link is not None:
+        if tracked_link not in link_names:
+            raise RobotError(f"{path}: tracked link {tracked_link!r} is not a link of the URDF")
+        notes.append(f"tracked link {tracked_link!r}: as given")
+    elif arm_joints is not None:
+        joint_of = {j.name: j for j in tree.order}
+        last = max((joint_of[n] for n in arm_joints if n in joint_of), key=tree.order.index, default=None)
+        tracked_link = tree.root if last is None else _tip(tree, last.child, set(gripper))
+        notes.append(f"tracked link {tracked_link!r}: below the last driven joint")
     else:
-        driven = list(arm_joints)
+        ends = [j.child for j in tree.order]
+        counts = [len(arm(tree.chain(end))) for end in ends]
+        if not ends or max(counts) == 0:
+            raise RobotError(f"{path}: no revolute or continuous arm joint below root link {tree.root!r}")
+        end = ends[int(np.argmax(counts))]
+        last = arm(tree.chain(end))[-1]
+        start = next(j.child for j in tree.order if j.name == last)
+        tracked_link = _tip(tree, start, set(gripper))
+        notes.append(
+            f"tracked link {tracked_link!r}: the end of the longest chain of arm joints from {tree.root!r} "
+            f"({max(counts)} joints)"
+        )
+    driven = arm(tree.chain(tracked_link)) if arm_joints is None else list(arm_joints)
     if not driven:
         raise RobotError(f"{path}: no movable joint to drive up to link {tracked_link!r}")
+    return driven, tracked_link, notes
+
+
+def _gripper_links(tree: _Tree, tracked_link: str, links_by_name: dict, notes: list[str]) -> set[str]:
+    """The tracked link and every link below it; where none of them has a collision shape (a tool frame
+    tracked beyond the last link with a surface), the links above it up to the first with one."""
+    gripper = {tracked_link}
+    for j in tree.order:
+        if j.parent in gripper:
+            gripper.add(j.child)
+    if any(links_by_name[g].collisions for g in gripper):
+        return gripper
+    for joint in reversed(tree.chain(tracked_link)):
+        gripper.add(joint.parent)
+        if links_by_name[joint.parent].collisions:
+            notes.append(f"gripper surface: link {joint.parent!r}, the last with a collision shape")
+            break
+    return gripper
+
+
+def _check_driven(robot, path: Path, driven: list[str], held: Mapping[str, float]) -> None:
+    joints_by_name = {j.name: j for j in robot.joints}
     for name_ in driven:
         j = joints_by_name.get(name_)
         if j is None:
@@ -277,11 +470,77 @@ def load_urdf(
         if name_ not in joints_by_name:
             raise RobotError(f"{path}: held joint {name_!r} is not a joint of the URDF")
 
+
+def _with_floor_masses(links: list[Link], joints: list[Joint], path: Path) -> list[Link]:
+    """``links`` with :data:`FLOOR_MASS` on the first link of every moving body (a driven joint's child and
+    what is fixed to it) that has no mass at all, with a warning naming it."""
+    below: dict[str, list[Joint]] = {}
+    for j in joints:
+        below.setdefault(j.parent, []).append(j)
+    mass = {link.name: link.mass for link in links}
+    light = set()
+    for j in joints:
+        if not j.moves:
+            continue
+        body, queue = [], [j.child]
+        while queue:
+            body.append(queue.pop())
+            queue += [k.child for k in below.get(body[-1], []) if not k.moves]
+        if sum(mass[b] for b in body) <= 0:
+            light.add(j.child)
+    if light:
+        warnings.warn(
+            f"{path}: link {', '.join(repr(n) for n in sorted(light))} moves but has no mass: given "
+            f"{FLOOR_MASS:g} kg (add an <inertial> for its real mass)",
+            RobotWarning,
+            stacklevel=3,
+        )
+    floor = (FLOOR_INERTIA,) * 3
+    return [
+        replace(link, mass=FLOOR_MASS, inertia=floor, products=ZERO3, com=ZERO3) if link.name in light else link
+        for link in links
+    ]
+
+
+def load_urdf(
+    path: str | Path,
+    *,
+    arm_joints: Iterable[str] | None = None,
+    tracked_link: str | None = None,
+    base_position: Vec3 = (0.0, 0.0, 0.0),
+    base_rpy: Vec3 = (0.0, 0.0, 0.0),
+    held: Mapping[str, float] | None = None,
+    gripper_links: Iterable[str] | None = None,
+    name: str | None = None,
+    package_path: Iterable[str | Path] = (),
+) -> RobotDescription:
+    """The robot of the URDF at ``path``; ``RobotError`` (one line naming the file and element) if it
+    cannot be used.  The module's docstring says how a published description is read.
+
+    ``arm_joints``: the driven joints in order (default: the arm joints from the root to the tracked
+    link); ``tracked_link``: the link the motion capture follows (default: the end of the longest chain of
+    arm joints, or below the last of ``arm_joints``); ``base_position``/``base_rpy``: where the root stands
+    (a dropped ``world`` link's joint is added to it); ``held``: positions of joints held at a fixed pose
+    (default 0, clamped into the joint's limits); ``gripper_links``: the links with the gripper's contact
+    parameters (default: the tracked link and every link below it); ``package_path``: folders to look
+    for ``package://`` packages in first.  :attr:`RobotDescription.choices` says what was chosen and why.
+    """
+    path = Path(path).expanduser().resolve()
+    robot = _parse(path)
+    held = dict(held or {})
+    link_names = [link.name for link in robot.links]
+    for j in robot.joints:
+        _check_joint(j, path)
+    tree = _tree(robot, path, _vec(base_position), _vec(base_rpy))
+    driven, tracked_link, notes = _arm_choice(
+        tree, path, link_names, None if arm_joints is None else list(arm_joints), tracked_link
+    )
+    _check_driven(robot, path, driven, held)
+    links_by_name = {link.name: link for link in robot.links}
+    if tracked_link != tree.root and tracked_link not in {j.child for j in tree.order}:
+        raise RobotError(f"{path}: tracked link {tracked_link!r} is not in the robot's tree from {tree.root!r}")
     if gripper_links is None:
-        gripper = {tracked_link}
-        for j in order:
-            if j.parent in gripper:
-                gripper.add(j.child)
+        gripper = _gripper_links(tree, tracked_link, links_by_name, notes)
     else:
         gripper = set(gripper_links)
         for g in gripper:
@@ -291,7 +550,7 @@ def load_urdf(
     positions: dict[str, float] = {}
     held_at: list[tuple[str, float]] = []
     joints = []
-    for j in order:
+    for j in tree.order:
         is_driven = j.name in driven
         position = 0.0
         if j.type in _MOVABLE and not is_driven:
@@ -299,19 +558,19 @@ def load_urdf(
             positions[j.name] = position
             held_at.append((j.name, position))
         joints.append(_joint(j, is_driven, position))
-    links_by_name = {link.name: link for link in robot.links}
-    ordered_links = [roots[0], *(j.child for j in order)]
-    links = tuple(_link(links_by_name[n], path, "gripper" if n in gripper else "arm") for n in ordered_links)
+    ordered_links = [tree.root, *(j.child for j in tree.order)]
+    links = [_link(links_by_name[n], path, "gripper" if n in gripper else "arm", package_path) for n in ordered_links]
     description = RobotDescription(
         name=name or robot.name or path.stem,
-        links=links,
+        links=tuple(_with_floor_masses(links, joints, path)),
         joints=tuple(joints),
         arm_joints=tuple(driven),
         tracked_link=tracked_link,
-        base_position=_vec(base_position),
-        base_rpy=_vec(base_rpy),
+        base_position=tree.base_position,
+        base_rpy=tree.base_rpy,
         held=tuple(held_at),
         source=str(path),
+        choices=tuple(tree.notes + notes),
     )
     try:
         description.check()

@@ -1,0 +1,92 @@
+"""Mesh files as every engine can read them: one OBJ per source mesh, converted once and cached.
+
+Published robot descriptions name collision meshes in Collada (``.dae``), STL (``.stl``, ``.STL``) or
+OBJ.  The engines read different subsets: MuJoCo no Collada, Drake's convex hulls OBJ alone (not STL),
+PyBullet and DART most.  So the description (:func:`simtune.robot.urdf.load_urdf`) names an OBJ file
+for every mesh: an OBJ source as it is, any other converted through trimesh (pycollada for Collada,
+whose ``<unit>`` is applied: a description in millimetres becomes metres) into a cache folder, keyed by
+the source file's content hash, so a second load reads the converted file and an edited mesh is
+converted anew.  The cache is ``$SIMTUNE_CACHE/meshes`` (default ``~/.cache/simtune/meshes``, XDG's
+``$XDG_CACHE_HOME`` where set); files are written whole (a temporary name, then renamed), so parallel
+workers converting the same mesh never read half a file.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+
+from simtune.errors import RobotError
+
+#: Extensions every engine reads as they are (compared in lower case).
+READ_AS_IS = (".obj",)
+#: Extensions converted to OBJ (trimesh reads them; Collada through pycollada).
+CONVERTED = (".stl", ".dae", ".ply", ".off", ".glb", ".gltf")
+
+
+def cache_folder() -> Path:
+    """Where converted meshes are kept (see the module's docstring)."""
+    root = os.environ.get("SIMTUNE_CACHE")
+    if root:
+        return Path(root).expanduser() / "meshes"
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg).expanduser() if xdg else Path.home() / ".cache") / "simtune" / "meshes"
+
+
+def _digest(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()[:32]
+
+
+def _convert(source: Path, target: Path, where: str) -> None:
+    try:
+        import trimesh
+    except ImportError:
+        raise RobotError(f"{where}: reading mesh {source.name} needs trimesh: pip install 'simtune[urdf]'") from None
+    try:
+        loaded = trimesh.load(str(source))
+        if isinstance(loaded, trimesh.Scene):
+            if loaded.units not in (None, "m", "meter", "meters"):
+                loaded = loaded.convert_units("meters")
+            mesh = loaded.to_mesh() if loaded.geometry else None
+        else:
+            mesh = loaded
+    except ImportError as exc:  # pycollada for .dae
+        raise RobotError(f"{where}: reading mesh {source.name} needs {exc.name}: pip install 'simtune[urdf]'") from None
+    except Exception as exc:  # trimesh raises many kinds on a broken file
+        raise RobotError(f"{where}: mesh {source} cannot be read ({type(exc).__name__}: {exc})") from None
+    if mesh is None or len(mesh.vertices) < 4:
+        raise RobotError(f"{where}: mesh {source} holds no solid (fewer than 4 vertices)")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, staging = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=".obj", dir=target.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_color=False, digits=9))
+        os.replace(staging, target)
+    except BaseException:
+        Path(staging).unlink(missing_ok=True)
+        raise
+
+
+def engine_mesh(source: Path, where: str) -> Path:
+    """The OBJ file every engine reads for the mesh ``source``: itself if it is an OBJ, else its converted
+    copy in :func:`cache_folder` (made here the first time).  ``where`` names the URDF and element for
+    the one-line :class:`RobotError` of a mesh that cannot be read or converted."""
+    suffix = source.suffix.lower()
+    if suffix in READ_AS_IS:
+        return source
+    if suffix not in CONVERTED:
+        known = ", ".join((*READ_AS_IS, *CONVERTED))
+        raise RobotError(f"{where}: mesh {source.name}: unknown mesh format {source.suffix!r} (known: {known})")
+    target = cache_folder() / f"{source.stem}-{_digest(source)}.obj"
+    if not target.is_file():
+        try:
+            _convert(source, target, where)
+        except OSError as exc:
+            raise RobotError(f"{where}: cannot write the converted mesh to {target.parent} ({exc.strerror})") from None
+    return target
