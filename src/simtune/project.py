@@ -123,6 +123,7 @@ ROBOT_KEYS = (
     "held",
     "gripper_links",
     "servo_gain",
+    "package_path",
 )
 
 
@@ -167,6 +168,7 @@ def _urdf_robot(keys: Keys, folder: Path) -> RobotDescription:
     tracked_link = table.string("tracked_link")
     gripper_links = table.strings("gripper_links")
     servo_gain = table.number("servo_gain", above=0.0)
+    package_path = [folder / Path(f).expanduser() for f in table.strings("package_path") or ()]
     try:
         robot = load_urdf(
             urdf,
@@ -177,6 +179,7 @@ def _urdf_robot(keys: Keys, folder: Path) -> RobotDescription:
             held=held,
             gripper_links=gripper_links,
             name=table.string("name"),
+            package_path=package_path,
         )
     except RobotError as exc:
         # name the key whose joint or link the URDF lacks; the message itself names the URDF

@@ -68,7 +68,7 @@ def reach_poses(robot: RobotDescription) -> tuple[list[float], list[float]]:
     return _deg(start), _deg(target)
 
 
-def project_text(robot: RobotDescription, urdf: Path) -> str:
+def project_text(robot: RobotDescription, urdf: Path, package_path: tuple[Path, ...] = ()) -> str:
     gripper = [link.name for link in robot.links if link.material == "gripper"]
     lines = [
         f"# A simtune project for the robot of {urdf.name} (schema: docs/task-files.md).",
@@ -89,8 +89,9 @@ def project_text(robot: RobotDescription, urdf: Path) -> str:
         "# the link whose origin the motion capture's wrist body follows (the engines report its pose)",
         f"tracked_link = {_toml(robot.tracked_link)}",
         "# where the robot's root link stands [m] and how it is turned [rad]; the floor is the plane z = 0",
-        f"base_position = {_toml(list(robot.base_position))}",
-        f"base_rpy = {_toml(list(robot.base_rpy))}",
+        "# (added to the URDF's own placement of its base: a fixed joint from a link named `world`)",
+        "base_position = [0.0, 0.0, 0.0]",
+        "base_rpy = [0.0, 0.0, 0.0]",
         "# links with the gripper's contact parameters (friction, restitution ...); the other links are 'arm'",
         f"gripper_links = {_toml(gripper)}",
         "# the gain of MuJoCo's and Drake's joint velocity servos [N m s/rad]; such a servo lags its command by about",
@@ -98,6 +99,11 @@ def project_text(robot: RobotDescription, urdf: Path) -> str:
         "# a heavier arm follows its commands as a real velocity loop does with a stiffer one (the Panda: 300)",
         "# servo_gain = 300.0",
     ]
+    if package_path:
+        lines += [
+            "# folders where the URDF's package:// names are found (a package folder, or a folder of packages)",
+            f"package_path = {_toml([str(p) for p in package_path])}",
+        ]
     if robot.held:
         lines += [
             "",
@@ -151,31 +157,64 @@ def reach_text(robot: RobotDescription) -> str:
     )
 
 
-def init_project(urdf: Path | str, out: Path | str) -> Path:
+def init_project(
+    urdf: Path | str,
+    out: Path | str,
+    *,
+    tracked_link: str | None = None,
+    driven_joints: list[str] | None = None,
+    package_path: list[Path] | tuple[Path, ...] = (),
+    loaded: list[RobotDescription] | None = None,
+) -> Path:
     """Write a project for the robot of ``urdf`` into the new (or empty) folder ``out``; the project file.
 
+    ``tracked_link`` and ``driven_joints`` override the loader's choices; ``package_path`` lists folders
+    for the URDF's ``package://`` names (written into the project); ``loaded``, a list, receives the robot
+    as loaded (its :attr:`~RobotDescription.choices` say what was chosen and why).
     ``ProjectError``/``RobotError`` (one line) if ``out`` holds anything or the URDF cannot be used; then
     nothing is written.
     """
     urdf = Path(urdf).expanduser().resolve()
-    out = Path(out).expanduser()
+    out = Path(out).expanduser().absolute()
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise ProjectError(f"{out}: exists and is not an empty folder: choose a new --out (nothing was written)")
-    robot = load_urdf(urdf)
+    package_path = tuple(Path(p).expanduser().resolve() for p in package_path)
+    robot = load_urdf(urdf, tracked_link=tracked_link, arm_joints=driven_joints, package_path=package_path)
+    if loaded is not None:
+        loaded.append(robot)
     parent = out.resolve().parent
     if not parent.is_dir():
         raise ProjectError(f"{out}: its folder {parent} does not exist")
+    texts = {"simtune.toml": project_text(robot, urdf, package_path), "tasks/reach.toml": reach_text(robot)}
+    if out.is_dir():  # empty: written in place (it may be the working folder, which cannot be replaced)
+        _write_project(out, texts, remove_on_error=False)
+        return out / "simtune.toml"
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
     try:
         umask = os.umask(0)
         os.umask(umask)
         staging.chmod(0o777 & ~umask)  # mkdtemp's folder is private; a project folder is an ordinary one
-        (staging / "tasks").mkdir()
-        (staging / "simtune.toml").write_text(project_text(robot, urdf), encoding="utf-8")
-        (staging / "tasks" / "reach.toml").write_text(reach_text(robot), encoding="utf-8")
-        load_project(staging)  # what init writes must load as written
-        os.replace(staging, out)  # an empty ``out`` is replaced; a new one appears whole
+        _write_project(staging, texts, remove_on_error=True)
+        os.replace(staging, out)  # a new folder appears whole
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise
     return out / "simtune.toml"
+
+
+def _write_project(folder: Path, texts: dict[str, str], remove_on_error: bool) -> None:
+    """Write ``texts`` (relative path -> text) into ``folder`` and load the project as written; on an error,
+    the files written here are removed again (and ``folder`` itself when ``remove_on_error``)."""
+    written: list[Path] = []
+    try:
+        (folder / "tasks").mkdir(exist_ok=True)
+        for name, text in texts.items():
+            (folder / name).write_text(text, encoding="utf-8")
+            written.append(folder / name)
+        load_project(folder)  # what init writes must load as written
+    except BaseException:
+        if not remove_on_error:
+            for file in written:
+                file.unlink(missing_ok=True)
+            (folder / "tasks").rmdir()
+        raise

@@ -8,6 +8,7 @@ unstable simulations live here, once, so every engine runs the same protocol.
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 from abc import ABC, abstractmethod
@@ -18,7 +19,7 @@ from typing import ClassVar
 import numpy as np
 
 from simtune.controller import CONTROL_PERIOD, CONTROLLER_PARAMETERS, JointController, encoder_parameters
-from simtune.errors import ConfigError
+from simtune.errors import ConfigError, RobotError, SimtuneError
 from simtune.robot.description import RobotDescription
 from simtune.robot.mico import MICO
 from simtune.tasks.spec import MATERIALS, SHAPES, TaskSpec
@@ -130,6 +131,29 @@ class Rollout:
     pruned: bool = False  # stopped early by the monitor: the rest could not change the outcome
 
 
+def _load_errors_in_one_line(init: Callable) -> Callable:
+    """An engine's ``__init__`` whose failures to build a task's robot (an engine library's own exception:
+    MuJoCo's XML compiler, Drake's parser, DART's skeleton ...) become one :class:`RobotError` naming the
+    engine, the robot's file and the engine's first line about the element, so that no command ends in a
+    traceback on a robot that one engine cannot load."""
+
+    @functools.wraps(init)
+    def build(self, task: TaskSpec, *args, **kwargs) -> None:
+        try:
+            init(self, task, *args, **kwargs)
+        except SimtuneError:
+            raise
+        except Exception as exc:
+            robot = task.robot
+            first = next((line.strip() for line in str(exc).splitlines() if line.strip()), "")
+            raise RobotError(
+                f"engine {self.name!r} cannot load robot {robot.name!r} ({robot.source}): {type(exc).__name__}: "
+                f"{first}"
+            ) from exc
+
+    return build
+
+
 class Engine(ABC):
     """A physics engine with one task's robot and object loaded."""
 
@@ -138,6 +162,11 @@ class Engine(ABC):
     engine_parameters: ClassVar[frozenset[str]]
     #: whether the engine builds a robot from an MJCF file (:attr:`RobotDescription.mjcf`)
     reads_mjcf: ClassVar[bool] = False
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        if "__init__" in cls.__dict__:  # every engine's model building, wrapped once where it is written
+            setattr(cls, "__init__", _load_errors_in_one_line(cls.__dict__["__init__"]))  # noqa: B010
 
     def __init__(self, task: TaskSpec):
         if self.version() == "not installed":

@@ -22,6 +22,19 @@ from simtune.robot.description import Box, Cylinder, Joint, Link, Mesh, RobotDes
 
 #: Gain of MuJoCo's joint velocity servos [N m s/rad].
 SERVO_KV = 50.0
+#: The largest step of a velocity command the controller makes [rad/s] (-40 to +40 deg/s).
+LARGEST_COMMAND_STEP = 1.4
+
+
+def servo_gain(robot: RobotDescription, index: int) -> float:
+    """The gain of MuJoCo's velocity servo on driven joint ``index`` [N m s/rad]: the robot's ``servo_gain``
+    where it sets one, else :data:`SERVO_KV` lowered so that the largest command step asks for no more than
+    the joint's generic force limit.  A clipped servo force is not damped by the implicit integrator and
+    sets light links spinning (the MICO's wrist in seed-2; a SO-101, whose URDF allows 10 N m, at every
+    step with 50): for the MICO (limits 100 N m) the gain stays 50."""
+    if robot.servo_gain is not None:
+        return robot.servo_gain
+    return min(SERVO_KV, robot.generic_effort(index) / LARGEST_COMMAND_STEP)
 
 #: Name of the MuJoCo/URDF body that carries the task's object.
 OBJECT_BODY = "object"
@@ -169,11 +182,9 @@ def scene_mjcf(robot: RobotDescription, obj: SceneObject | None = None) -> str:
         assets = _mjcf_meshes(robot) + assets
         arm = _mjcf_link(robot, robot.links[0], None, "    ")
     actuators = [
-        # A velocity servo; its force limit (max torque) is set per evaluation.  kv is chosen so
-        # that the largest command step (-40 to +40 deg/s) asks for 70 N m, below the smallest
-        # limit of the MICO's search range (100): a clipped servo force on the light wrist links is
-        # not damped by the implicit integrator and sets them spinning (seen in seed-2).
-        f'    <velocity name="{j}" joint="{j}" kv="{robot.servo_gain or SERVO_KV:g}" '
+        # A velocity servo; its force limit (max torque) is set per evaluation.  Its gain (servo_gain) keeps
+        # the largest command step's force within the generic limit: for the MICO, 70 N m below 100.
+        f'    <velocity name="{j}" joint="{j}" kv="{servo_gain(robot, i):.9g}" '
         f'forcerange="{-robot.generic_effort(i):.9g} {robot.generic_effort(i):.9g}"/>'
         for i, j in enumerate(robot.arm_joints)
         if robot.mjcf is None
