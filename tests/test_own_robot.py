@@ -336,9 +336,8 @@ def test_servo_gain_of_a_project_drives_mujoco_and_drake_and_brings_the_engines_
     gap = {}
     for name, spec in (("default", default), ("stiff", task)):
         engine = make_engine("mujoco", spec)
-        # by default 50, lowered where the joint's URDF limit (the Panda's wrist: 12 N m) would clip the largest
-        # command step's force (1.4 rad/s)
-        expected = [50.0] * 4 + [12.0 / 1.4] * 3 if name == "default" else [300.0] * 7
+        # by default at most the URDF's force limit over the largest command step (1.4 rad/s): 87 and 12 N m
+        expected = [87.0 / 1.4] * 4 + [12.0 / 1.4] * 3 if name == "default" else [300.0] * 7
         assert np.allclose(engine.model.actuator_gainprm[:, 0], expected)
         rollout = engine.rollout(params, samples)
         gap[name] = float(np.linalg.norm(rollout.wrist_pos - pybullet.wrist_pos, axis=1).mean())

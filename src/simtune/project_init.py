@@ -27,6 +27,10 @@ from simtune.robot.urdf import load_urdf
 REACH_DEG = 20.0
 #: Lowest height [m] the tracked link may have at the reach's poses (above the floor, z = 0).
 CLEARANCE_M = 0.05
+#: Lowest height [m] of the arm's frames at the start pose before init looks for a higher one, and the angles
+#: [deg] it tries per joint.
+START_CLEARANCE_M = 0.1
+START_CANDIDATES_DEG = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0, 120.0, -120.0)
 
 
 def _toml(value) -> str:
@@ -42,22 +46,51 @@ def _deg(values) -> list[float]:
     return [round(float(v), 3) for v in values]
 
 
+def _room(robot: RobotDescription, name: str) -> tuple[float, float]:
+    """A driven joint's range less a tenth of it at each end [deg] (a continuous joint: +-180)."""
+    joint = robot.joint_by_name[name]
+    if joint.lower is None or joint.upper is None:
+        return -180.0, 180.0
+    lower, upper = math.degrees(joint.lower), math.degrees(joint.upper)
+    margin = 0.1 * (upper - lower)
+    return lower + margin, upper - margin
+
+
+def clearance(robot: RobotDescription, q_deg) -> float:
+    """The height [m] of the lowest link frame that the driven joints can raise or lower (those below the second
+    driven joint, up to the tracked link) at ``q_deg``."""
+    q = np.radians(np.asarray(q_deg, dtype=float))
+    chain = [j.child for j in robot.chain(robot.tracked_link)]
+    names = [robot.parent_joint[link].name for link in chain]
+    second = robot.arm_joints[1] if robot.n_joints > 1 else robot.arm_joints[0]
+    moved = chain[names.index(second) + 1 :] if second in names else chain[-1:]
+    return min(float(robot.forward_kinematics(q, link)[0][2]) for link in moved or chain[-1:])
+
+
+def _start_pose(robot: RobotDescription) -> list[float]:
+    """Each joint at 0 moved inside its limits; where that leaves the arm within ``START_CLEARANCE_M`` of the
+    floor (a UR lies stretched out at its zeros), each joint in turn set to the angle of
+    ``START_CANDIDATES_DEG`` that lifts the arm's lowest frame highest."""
+    rooms = [_room(robot, name) for name in robot.arm_joints]
+    start = [min(max(0.0, low), high) for low, high in rooms]
+    if clearance(robot, start) >= START_CLEARANCE_M:
+        return start
+    for _ in range(2):
+        for i, (low, high) in enumerate(rooms):
+            options = sorted({min(max(c, low), high) for c in START_CANDIDATES_DEG}, key=abs)
+            start[i] = max(options, key=lambda a: clearance(robot, [*start[:i], a, *start[i + 1 :]]))
+    return start
+
+
 def reach_poses(robot: RobotDescription) -> tuple[list[float], list[float]]:
-    """(start, target) of the example reach [deg]: each joint at 0 moved inside its limits by a tenth of its
-    range, then turned by up to ``REACH_DEG`` towards its wider side; the turn halved while the tracked link
-    would come nearer the floor than ``CLEARANCE_M``."""
-    start, turn = [], []
-    for name in robot.arm_joints:
-        joint = robot.joint_by_name[name]
-        if joint.lower is None or joint.upper is None:
-            start.append(0.0)
-            turn.append(REACH_DEG)
-            continue
-        lower, upper = math.degrees(joint.lower), math.degrees(joint.upper)
-        margin = 0.1 * (upper - lower)
-        angle = min(max(0.0, lower + margin), upper - margin)
-        room_up, room_down = upper - margin - angle, angle - (lower + margin)
-        start.append(angle)
+    """(start, target) of the example reach [deg]: the start pose of :func:`_start_pose`, then each joint
+    turned by up to ``REACH_DEG`` towards its wider side; the turn halved while the tracked link would come
+    nearer the floor than ``CLEARANCE_M``."""
+    start = _start_pose(robot)
+    turn = []
+    for name, angle in zip(robot.arm_joints, start):
+        low, high = _room(robot, name)
+        room_up, room_down = high - angle, angle - low
         turn.append(min(REACH_DEG, room_up) if room_up >= room_down else -min(REACH_DEG, room_down))
     scale = 1.0
     for _ in range(4):

@@ -280,6 +280,29 @@ class RobotDescription:
                     rot = rot @ r
         return pos, rot
 
+    def joint_inertias(self) -> np.ndarray:
+        """Per driven joint, the moment of inertia [kg m^2] about its axis of every link below it, at the
+        zero pose: what its servo accelerates (the arm's reflected inertia, no motor rotor)."""
+        q = np.zeros(self.n_joints)
+        frames = {link.name: self.forward_kinematics(q, link.name) for link in self.links}
+        inertias = np.zeros(self.n_joints)
+        for i, name in enumerate(self.arm_joints):
+            joint = self.joint_by_name[name]
+            origin, turn = frames[joint.child]
+            axis = turn @ np.asarray(joint.axis, dtype=float)
+            axis /= np.linalg.norm(axis)
+            below = {joint.child}
+            for other in self.joints:  # parents before children
+                if other.parent in below:
+                    below.add(other.child)
+            for link_name in below:
+                link = self.link_by_name[link_name]
+                pos, rot = frames[link_name]
+                r = pos + rot @ np.asarray(link.com, dtype=float) - origin
+                about = rot @ link.inertia_matrix() @ rot.T + link.mass * (r @ r * np.eye(3) - np.outer(r, r))
+                inertias[i] += float(axis @ about @ axis)
+        return inertias
+
     # --- statics: gravity torques (the calibration model's elastic deflection) ----------------
     def gravity(self, masses: dict[str, float] | None = None) -> GravityModel:
         """The gravity torques about the driven joints as a function of their positions, with the

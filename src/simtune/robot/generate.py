@@ -24,17 +24,22 @@ from simtune.robot.description import Box, Cylinder, Joint, Link, Mesh, RobotDes
 SERVO_KV = 50.0
 #: The largest step of a velocity command the controller makes [rad/s] (-40 to +40 deg/s).
 LARGEST_COMMAND_STEP = 1.4
+#: How long a default velocity servo may lag its command [s]: the servo's time constant, inertia over gain.
+SERVO_LAG_S = 0.01
 
 
 def servo_gain(robot: RobotDescription, index: int) -> float:
     """The gain of MuJoCo's velocity servo on driven joint ``index`` [N m s/rad]: the robot's ``servo_gain``
-    where it sets one, else :data:`SERVO_KV` lowered so that the largest command step asks for no more than
-    the joint's generic force limit.  A clipped servo force is not damped by the implicit integrator and
-    sets light links spinning (the MICO's wrist in seed-2; a SO-101, whose URDF allows 10 N m, at every
-    step with 50): for the MICO (limits 100 N m) the gain stays 50."""
+    where it sets one, else :data:`SERVO_KV`, raised where the joint's inertia (at the zero pose) would make
+    the servo lag its command by more than :data:`SERVO_LAG_S` (a heavy arm's shoulder), and lowered where the
+    largest command step would ask for more than the joint's generic force limit: a clipped servo force is
+    not damped by the implicit integrator and sets light links spinning (the MICO's wrist in seed-2; a
+    SO-101, whose URDF allows 10 N m, at every step with 50).  For the MICO the gain stays 50."""
     if robot.servo_gain is not None:
         return robot.servo_gain
-    return min(SERVO_KV, robot.generic_effort(index) / LARGEST_COMMAND_STEP)
+    gain = max(SERVO_KV, float(robot.joint_inertias()[index]) / SERVO_LAG_S)
+    return min(gain, robot.generic_effort(index) / LARGEST_COMMAND_STEP)
+
 
 #: Name of the MuJoCo/URDF body that carries the task's object.
 OBJECT_BODY = "object"

@@ -13,6 +13,7 @@ workers converting the same mesh never read half a file.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import tempfile
@@ -43,7 +44,9 @@ def _digest(path: Path) -> str:
     return digest.hexdigest()[:32]
 
 
-def _convert(source: Path, target: Path, where: str) -> None:
+def _read(source: Path, where: str):
+    """The mesh in ``source`` as one trimesh (a scene's parts joined, in metres); a one-line RobotError for a
+    file that is not one, or holds no solid (fewer than 4 vertices: DART crashes on such a mesh)."""
     try:
         import trimesh
     except ImportError:
@@ -62,6 +65,20 @@ def _convert(source: Path, target: Path, where: str) -> None:
         raise RobotError(f"{where}: mesh {source} cannot be read ({type(exc).__name__}: {exc})") from None
     if mesh is None or len(mesh.vertices) < 4:
         raise RobotError(f"{where}: mesh {source} holds no solid (fewer than 4 vertices)")
+    return mesh
+
+
+@functools.lru_cache(maxsize=1024)
+def _check(source: Path, stamp: tuple[int, int], where: str) -> None:
+    """Read an OBJ file once per version (``stamp``: its modification time and size) to refuse a broken one at
+    load rather than in an engine."""
+    _read(source, where)
+
+
+def _convert(source: Path, target: Path, where: str) -> None:
+    import trimesh
+
+    mesh = _read(source, where)
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, staging = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=".obj", dir=target.parent)
     try:
@@ -79,6 +96,8 @@ def engine_mesh(source: Path, where: str) -> Path:
     the one-line :class:`RobotError` of a mesh that cannot be read or converted."""
     suffix = source.suffix.lower()
     if suffix in READ_AS_IS:
+        stat = source.stat()
+        _check(source, (stat.st_mtime_ns, stat.st_size), where)
         return source
     if suffix not in CONVERTED:
         known = ", ".join((*READ_AS_IS, *CONVERTED))
