@@ -23,7 +23,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
-from robot_corpus import CORPUS, ENGINES, TRUE_DELAY_S, TUNED_IN, walk  # noqa: E402
+from robot_corpus import CORPUS, ENGINES, TRUE_DELAY_S, TUNED_IN, walk
 
 
 def table(rows: list[dict]) -> str:
@@ -73,7 +73,8 @@ def main() -> None:
     args.results.mkdir(parents=True, exist_ok=True)
     header = (
         f"Robot corpus, {date}: `python benchmarks/robot_corpus.py --tune-seconds {args.tune_seconds:g}`; "
-        f"recordings by MuJoCo with a command delay of {TRUE_DELAY_S} s, 2 mm noise, 3 repeats.\n\n"
+        f"recordings with a command delay of {TRUE_DELAY_S} s, 2 mm noise, 3 repeats: by MuJoCo for the generic "
+        "columns (each engine against MuJoCo's recordings), by the engine tuned for the delay columns.\n\n"
     )
     (args.results / f"robot-corpus-{date}.md").write_text(header + text + "\n")
     (args.results / f"robot-corpus-{date}.json").write_text(json.dumps(rows, indent=1, default=str))

@@ -1,7 +1,9 @@
 """Public arm descriptions as they are published, used in place from installed packages, and the new
-user's path through each: ``init -> check -> synth -> evaluate`` in every engine, ``tune --only
-command_delay`` in MuJoCo and PyBullet.  Shared by tests/test_robot_corpus.py (which asserts) and
-benchmarks/robot_corpus.py (which measures the table of docs/robots.md).
+user's path through each: ``init -> check -> synth`` (MuJoCo) ``-> evaluate`` in every engine against
+those recordings, and ``tune --only command_delay`` in MuJoCo and PyBullet, each against recordings it
+made itself (the delay's recovery; how far the engines differ is the generic fitness of each against
+MuJoCo's).  Shared by tests/test_robot_corpus.py (which asserts) and benchmarks/robot_corpus.py (which
+measures the table of docs/robots.md).
 
 The packages: ``pybullet_data`` (pybullet's own models), ``example-robot-data`` (a cmeel package of
 public robot descriptions, ``share/example-robot-data/robots``) and ``airo-models`` (UR e-series).
@@ -175,11 +177,16 @@ def walk(robot: CorpusRobot, folder: Path, engines=ENGINES, tuned_in=TUNED_IN, t
                       "--json")  # fmt: skip
         if result.returncode == 0:
             out["generic"][engine] = float(last_json(result)["fitness"])
-    for engine in tuned_in:
+    for engine in tuned_in:  # recovery: recordings by the engine tuned (the engines' gap is the generic column)
+        data = recordings
+        if engine != "mujoco":
+            data = folder / f"recordings-{engine}"
+            step(f"synth {engine}", "synth", "--project", project, "--engine", engine, "--task", "reach",
+                 "--repeats", "3", "--out", data)  # fmt: skip
         run = folder / f"run-{engine}"
         result = step(f"tune {engine}", "tune", "--project", project, "--engine", engine, "--task", "reach",
-                      "--only", "command_delay", "--max-seconds", tune_seconds, "--out", run, "--quiet",
-                      "--json")  # fmt: skip
+                      "--data", data, "--only", "command_delay", "--max-seconds", tune_seconds, "--out", run,
+                      "--quiet", "--json")  # fmt: skip
         if result.returncode == 0:
             best = json.loads((run / "best_params.json").read_text())
             out["delay"][engine] = float(best.get("params", best)["command_delay"])

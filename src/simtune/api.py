@@ -17,6 +17,8 @@ one-line :class:`~simtune.errors.SimtuneError` for bad input.  docs/api.md has t
 
 from __future__ import annotations
 
+import os
+import sqlite3
 import time
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
@@ -24,7 +26,7 @@ from pathlib import Path
 
 from simtune.alignment import DelayEstimate, aligned, estimate_delay
 from simtune.engines import engine_class
-from simtune.errors import SimtuneError
+from simtune.errors import ConfigError, SimtuneError
 from simtune.fitness import FitnessWeights, Score, TaskScore
 from simtune.objective import Objective, load_references
 from simtune.params import read_params_file, validate_params
@@ -89,26 +91,85 @@ class Result:
 
 def load_project(path: Path | str | None = None) -> Project:
     """The project in folder ``path`` (docs/task-files.md); None: the bundled Kinova MICO project."""
-    return get_project(None) if path is None else _load_project(path)
+    return get_project(None) if path is None else _load_project(_path("path", path))
 
 
-def _weights(weights: FitnessWeights | Mapping[str, float] | str | None) -> FitnessWeights | None:
+# --- the arguments, each checked where it enters: a ConfigError naming it, never a TypeError deep inside ------------
+
+
+def _path(name: str, value: object) -> Path:
+    """A file or folder given as a str or a Path."""
+    if isinstance(value, str | os.PathLike) and not isinstance(value, bytes):
+        return Path(value)
+    raise ConfigError(f"{name}: expected a file or folder (a str or a Path), got {value!r}")
+
+
+def _names(name: str, value: object, example: str) -> list[str]:
+    """Names given as one string (comma-separated) or as a list of strings; at least one."""
+    if isinstance(value, str):
+        names = [part.strip() for part in value.split(",") if part.strip()]
+    elif isinstance(value, Collection) and not isinstance(value, Mapping) and all(isinstance(v, str) for v in value):
+        names = [v.strip() for v in value]
+    else:
+        raise ConfigError(f"{name}: expected names (a string such as {example!r}, or a list of them), got {value!r}")
+    if not names or not all(names):
+        raise ConfigError(f"{name}: names nothing ({value!r}): give one or more, e.g. {example!r}")
+    return names
+
+
+def _project(project: object) -> Project:
+    if project is None or isinstance(project, Project):
+        return get_project(project)
+    return get_project(_path("project", project))
+
+
+def _weights(weights: object) -> FitnessWeights | None:
     """Fitness weights given as FitnessWeights, a mapping or ``joint=0.1,wrist=1`` (None: the defaults)."""
     if weights is None or isinstance(weights, FitnessWeights):
         return weights
     if isinstance(weights, str):
         return FitnessWeights.parse(weights)
+    if not isinstance(weights, Mapping) or not all(isinstance(k, str) for k in weights):
+        raise ConfigError(
+            "weights: expected FitnessWeights, a mapping such as {'joint': 0.1} or the text 'joint=0.1,wrist=1', "
+            f"got {weights!r}"
+        )
     return FitnessWeights.from_mapping(weights, "weights")
 
 
-def _root(data: Path | str | None, project: Project) -> Path | None:
-    """``data``, else the project's data root (None: each task's own recordings folder)."""
-    return Path(data) if data is not None else project.data_root()
+def _params(params: object) -> Mapping[str, float] | Path:
+    """Parameter values given as a mapping of names to numbers, or as a params file (a str or a Path)."""
+    if params is None:
+        return {}
+    if isinstance(params, Mapping):
+        if not all(isinstance(k, str) for k in params):
+            raise ConfigError(f"params: expected parameter names (strings) as keys, got {list(params)!r}")
+        return params
+    return _path("params", params)
+
+
+def _root(data: object, project: Project) -> Path | None:
+    """``data`` (absolute: a run stores it), else the project's data root (None: each task's own recordings)."""
+    return Path(os.path.abspath(_path("data", data))) if data is not None else project.data_root()
+
+
+def _aligned(align_clock: object, specs) -> set[str]:
+    """The tasks whose clocks ``align_clock`` names: True (all), False (none) or task names of ``specs``."""
+    if align_clock is None or isinstance(align_clock, bool):
+        return {t.name for t in specs} if align_clock else set()
+    if not isinstance(align_clock, str | Collection) or isinstance(align_clock, Mapping):
+        raise ConfigError(f"align_clock: expected True, False or task names, got {align_clock!r}")
+    names = _names("align_clock", align_clock, "cube") if align_clock else []
+    known = [t.name for t in specs]
+    for name in names:
+        if name not in known:
+            raise ConfigError(f"align_clock: unknown task {name!r} (the tasks evaluated: {', '.join(known)})")
+    return set(names)
 
 
 def evaluate(
     engine: str = "mujoco",
-    tasks: str = "cube",
+    tasks: str | Collection[str] = "cube",
     *,
     project: Project | Path | str | None = None,
     data: Path | str | None = None,
@@ -118,26 +179,31 @@ def evaluate(
     align_clock: bool | Collection[str] = False,
 ) -> Result:
     """Fitness of ``params`` (a mapping, or a params file such as best_params.json; default: the engine's
-    generic values) for ``engine`` on ``tasks`` (names, groups, comma-separated) of ``project``.
+    generic values) for ``engine`` on ``tasks`` (names or groups: comma-separated, or a list) of ``project``.
 
     ``data``: the data root (``DATA/<task>/``); default: the project's recordings.  ``weights``: of the
     fitness's parts (``simtune.fitness.FitnessWeights``, a mapping or ``"joint=0.1,wrist=1"``);
     ``joint_topic``: the JointState topic of ROS 2 joint logs (docs/recordings.md).  ``align_clock``:
     True, or the names of the tasks whose recording clock is aligned first (their command delay estimated
     from the recordings with the physics of ``params`` held fixed, :mod:`simtune.alignment`); the result's
-    ``fitness_unaligned`` is the fitness without it.
+    ``fitness_unaligned`` is the fitness without it.  An argument of the wrong type or value is a
+    :class:`~simtune.errors.ConfigError` naming it.
     """
     fitness_weights = _weights(weights)
-    proj = get_project(project)
-    specs = proj.parse_tasks(tasks)
+    proj = _project(project)
+    specs = proj.parse_tasks(",".join(_names("tasks", tasks, "single,cube")))
+    names = _aligned(align_clock, specs)
+    given = _params(params)
+    if joint_topic is not None and not isinstance(joint_topic, str):
+        raise ConfigError(f"joint_topic: expected a topic name (a string), got {joint_topic!r}")
     cls = engine_class(engine)
     robot = common_robot(specs)
     supported = cls.supported(robot)
-    if isinstance(params, Path | str):
-        file_values = read_params_file(Path(params), engine)
-        values = validate_params(file_values, supported, engine, where=str(params), robot=robot)
+    if isinstance(given, Path):
+        file_values = read_params_file(given, engine)
+        values = validate_params(file_values, supported, engine, where=str(given), robot=robot)
     else:
-        values = validate_params(dict(params or {}), supported, engine, where="params", robot=robot)
+        values = validate_params(dict(given), supported, engine, where="params", robot=robot)
     references = load_references(_root(data, proj), specs, joint_topic)
     objective = Objective(engine, specs, references, weights=fitness_weights)
     try:
@@ -146,7 +212,6 @@ def evaluate(
         wall = time.perf_counter() - start
         generic = score if not values else objective.score({})
         evaluations = 1 if not values else 2
-        names = {t.name for t in specs} if align_clock is True else set(align_clock or ())
         estimates = tuple(estimate_delay(objective, t, values) for t in specs if t.name in names)
         unaligned = score
         if estimates:
@@ -169,7 +234,7 @@ def evaluate(
 
 def tune(
     engine: str = "mujoco",
-    tasks: str = "cube",
+    tasks: str | Collection[str] = "cube",
     *,
     out: Path | str,
     project: Project | Path | str | None = None,
@@ -183,7 +248,7 @@ def tune(
     max_seconds: float | None = None,
     max_generations: int = 1000,
     target_fitness: float | None = None,
-    only: list[str] | None = None,
+    only: str | Collection[str] | None = None,
     eval_timeout: float = 600.0,
     weights: FitnessWeights | Mapping[str, float] | str | None = None,
     joint_topic: str | None = None,
@@ -192,20 +257,22 @@ def tune(
     """Tune ``engine`` on ``tasks`` of ``project`` into the new run folder ``out`` (``simtune tune``).
 
     The run is an ordinary one: ``simtune resume OUT`` continues it, ``read_run(OUT)`` reads it.
-    The run stores the project by its project file (the bundled MICO project: not at all).
+    The run stores the project by its project file (the bundled MICO project: not at all).  ``only``: the
+    parameters to tune (a comma-separated string or a list; None: the whole space).
     """
-    proj = get_project(project)
+    out_dir = _path("out", out)
+    proj = _project(project)
     fitness_weights = _weights(weights)
     config = RunConfig(
         engine=engine,
-        tasks=tasks,
+        tasks=",".join(_names("tasks", tasks, "single,cube")),
         space=space,
         data=None if (root := _root(data, proj)) is None else str(root),
         seed=seed,
         workers=workers,
         max_seconds=max_seconds,
         max_generations=max_generations,
-        only=list(only) if only else None,
+        only=None if only is None else _names("only", only, "command_delay"),
         eval_timeout=eval_timeout,
         target_fitness=target_fitness,
         optimizer=optimizer,
@@ -215,15 +282,22 @@ def tune(
         weights=None if fitness_weights is None else fitness_weights.as_dict(),
         joint_topic=joint_topic,
     )
-    start_run(config, Path(out), show_progress=show_progress)
-    return read_run(out)
+    start_run(config, out_dir, show_progress=show_progress)
+    return read_run(out_dir)
 
 
 def read_run(run_dir: Path | str) -> Result:
     """The best parameters of the run in ``run_dir`` (finished or not) as a :class:`Result`."""
-    run_dir = Path(run_dir)
+    run_dir = _path("run_dir", run_dir)
     if not (run_dir / STORE_FILE).is_file():
         raise SimtuneError(f"{run_dir} is not a run folder (no {STORE_FILE})")
+    try:
+        return _read_run(run_dir)
+    except sqlite3.DatabaseError as exc:
+        raise SimtuneError(f"{run_dir / STORE_FILE}: cannot read the run store ({exc}): is it damaged?") from None
+
+
+def _read_run(run_dir: Path) -> Result:
     store = RunStore.open_read_only(run_dir)
     try:
         config = store.get("config")

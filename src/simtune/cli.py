@@ -179,9 +179,11 @@ EvalTimeoutOpt = Annotated[
 
 
 def _data_root(data: Path | None) -> Path:
+    """--data made absolute (a run stores it: resume, uncertainty and export read it from any folder), else the
+    shipped reference recordings."""
     from simtune.reference import REFERENCE_DIR
 
-    return data if data is not None else REFERENCE_DIR
+    return Path(os.path.abspath(data)) if data is not None else REFERENCE_DIR
 
 
 def _project_data(data: Path | None, project: Path | None) -> Path | None:
@@ -484,7 +486,7 @@ def tune(
         workers=workers,
         max_seconds=max_seconds,
         max_generations=max_generations,
-        only=_split(only) if only else None,
+        only=_only(only),
         eval_timeout=eval_timeout,
         target_fitness=target_fitness,
         prune=not no_prune,
@@ -718,6 +720,17 @@ def _split(text: str) -> list[str]:
     return [part.strip() for part in text.split(",") if part.strip()]
 
 
+def _only(text: str | None) -> list[str] | None:
+    """--only's parameter names (None without the option); an --only that names none is an error, never the
+    whole space."""
+    if text is None:
+        return None
+    names = _split(text)
+    if not names:
+        raise SimtuneError(f"--only: no parameter named in {text!r}: name one or more, e.g. --only command_delay")
+    return names
+
+
 @app.command()
 def grid(
     engines: Annotated[str, typer.Option(help="Engines, comma-separated.")] = "mujoco,pybullet",
@@ -785,7 +798,7 @@ def grid(
         data=str(_data_root(data)),
         max_seconds_per_run=max_seconds_per_run,
         max_generations=max_generations,
-        only=_split(only) if only else None,
+        only=_only(only),
         keep_inactive=keep_inactive,
     )
     if plan:
@@ -1089,7 +1102,9 @@ def synth(
             "--format",
             help="What each recording holds: tsv (markers, Qualisys TSV), csv (markers and joint angles, simtune "
             "CSV), joints-csv (joint angles alone), mcap or rosbag2 (joint angles alone as ROS 2 JointState "
-            "messages: an MCAP file, a rosbag2 folder).",
+            "messages: an MCAP file, a rosbag2 folder), lerobot or lerobot-v2.1 (joint angles and commanded "
+            "targets as one LeRobot dataset per task, OUT/<task>/, v3.0 or v2.1 layout; the task file states "
+            "the unit: [recordings] units).",
         ),
     ] = "tsv",
     joint_noise_deg: Annotated[
@@ -1106,23 +1121,34 @@ def synth(
         typer.Option(
             "--out",
             "-o",
-            help="Data root to write: `OUT/<task>/<task>NNNN.tsv` (or --format's kind) and OUT/truth.json.",
+            help="Data root to write: `OUT/<task>/<task>NNNN.tsv` (or --format's kind), each task's truth "
+            "`OUT/truth-<task>.json` and `OUT/truth.json`.",
             show_default=False,
             callback=_path,
         ),
     ],
     project: ProjectOpt = None,
+    force: Annotated[
+        bool,
+        typer.Option(
+            "--force",
+            help="Replace the truth files of an earlier synth into OUT (OUT/truth.json holding another truth); "
+            "each task's own OUT/truth-<task>.json is kept.",
+        ),
+    ] = False,
 ) -> None:
     """Make recordings with a known ground truth: simulate with chosen parameters, add mocap-like noise.
 
     Writes Qualisys 6D TSV files (with header) to `OUT/<task>/` (or joint logs:
-    --format), read by every command's --data OUT like real recordings, and
-    OUT/truth.json (also a --params-file). Tune on them to check that tuning
-    recovers the truth.
+    --format), read by every command's --data OUT like real recordings, each
+    task's truth to OUT/truth-<task>.json and OUT/truth.json (the truth of every
+    task synthesised into OUT with it; each file also a --params-file).  Tune on
+    them to check that tuning recovers the truth.  Another truth already in OUT
+    is never overwritten without --force.
 
     Example: simtune synth --engine mujoco --task single,cube,double --delay-s 1.5 --out data/synthetic
     """
-    from simtune.synth import DEFAULT_JOINT_NOISE_DEG, load_truth, make_synthetic
+    from simtune.synth import DEFAULT_JOINT_NOISE_DEG, TRUTH_FILE, load_truth, make_synthetic, truth_file
 
     values = load_truth(truth, engine, delay_s)
     result = make_synthetic(
@@ -1137,16 +1163,23 @@ def synth(
         fmt=fmt,
         joint_noise_rad=math.radians(DEFAULT_JOINT_NOISE_DEG if joint_noise_deg is None else joint_noise_deg),
         project=project,
+        force=force,
     )
     for name, files in result.files.items():
-        out.print(f"{name}: {len(files)} recordings in {out_dir / name}")
+        held = f"{repeats} episodes of a LeRobot dataset" if fmt.startswith("lerobot") else f"{len(files)} recordings"
+        out.print(f"{name}: {held} in {out_dir / name}")
     shown = ", ".join(f"{k}={v:g}" for k, v in values.items())
     noises = {
         "tsv": f"{noise_mm:g} mm",
         "csv": f"{noise_mm:g} mm and {math.degrees(result.joint_noise_rad):g} deg",
     }
     noise = noises.get(fmt, f"{math.degrees(result.joint_noise_rad):g} deg")
-    out.print(f"truth ({engine}): {shown}; noise {noise}, jitter +-{jitter_s:g} s -> {out_dir / 'truth.json'}")
+    written = ", ".join(str(out_dir / truth_file(name)) for name in result.files)
+    out.print(
+        f"truth ({engine}): {shown}; noise {noise}, jitter +-{jitter_s:g} s -> {written} and {out_dir / TRUTH_FILE}",
+        highlight=False,
+        soft_wrap=True,
+    )
 
 
 @app.command()
@@ -1159,14 +1192,49 @@ def init(
         Path,
         typer.Option("--out", "-o", help="The new project folder (must not exist, or be empty).", callback=_path),
     ],
+    tracked_link: Annotated[
+        str | None,
+        typer.Option(
+            "--tracked-link",
+            help="The link the motion capture follows (default: the end of the longest chain of arm joints).",
+        ),
+    ] = None,
+    driven_joints: Annotated[
+        str | None,
+        typer.Option(
+            "--driven-joints",
+            help="The joints the controller drives, in order, joined by commas (default: the arm joints up to "
+            "the tracked link; gripper joints are held).",
+        ),
+    ] = None,
+    package_path: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--package-path",
+            help="A folder where the URDF's package:// names are found (a package, or a folder of packages); "
+            "repeat for several. Also read: $SIMTUNE_PACKAGE_PATH, $ROS_PACKAGE_PATH.",
+        ),
+    ] = None,
 ) -> None:
     """Start a project for your robot: a commented simtune.toml and an example task `reach`.
 
+    Prints what it chose (tracked link, driven and held joints) and why.
     Example: simtune init --robot arm.urdf --out myproject; then simtune check myproject
     """
     from simtune.project_init import init_project
 
-    file = init_project(robot, out_dir)
+    joints = None if driven_joints is None else _split(driven_joints)
+    if joints is not None and not joints:
+        raise SimtuneError("init: --driven-joints names no joint (joint names joined by commas)")
+    loaded: list = []
+    file = init_project(
+        robot, out_dir, tracked_link=tracked_link, driven_joints=joints, package_path=package_path or (), loaded=loaded
+    )
+    description = loaded[0]
+    out.print(f"robot {description.name!r} from {robot}:", highlight=False, soft_wrap=True)
+    out.print(f"  driven joints: {', '.join(description.arm_joints)}", highlight=False, soft_wrap=True)
+    for note in description.choices:
+        out.print(f"  {note}", highlight=False, soft_wrap=True, markup=False)
     out.print(f"wrote {file} and {out_dir / 'tasks' / 'reach.toml'}", highlight=False, soft_wrap=True)
     out.print(f"next: simtune check {out_dir}", highlight=False, soft_wrap=True)
 
@@ -1221,7 +1289,7 @@ def compare(
         space=space,
         data=str(_data_root(data)),
         workers=workers,
-        only=_split(only) if only else None,
+        only=_only(only),
         eval_timeout=eval_timeout,
     )
 
@@ -1296,7 +1364,7 @@ def transfer(
         max_seconds=max_seconds,
         max_generations=max_generations,
         max_evaluations=max_evaluations,
-        only=_split(only) if only else None,
+        only=_only(only),
         eval_timeout=eval_timeout,
         optimizer=optimizer,
         refine=refine,
@@ -1390,7 +1458,7 @@ def sensitivity(
     from simtune.params import get_space
     from simtune.sensitivity import evaluation_count, run_sensitivity, sensitivity_table
 
-    dim = len(get_space(space, engine_class(engine).supported(), _split(only) if only else None))
+    dim = len(get_space(space, engine_class(engine).supported(), _only(only)))
     total = evaluation_count(method, samples, dim)
     with Progress(
         TextColumn("[bold]sensitivity[/]"),
@@ -1409,7 +1477,7 @@ def sensitivity(
             out_dir,
             samples=samples,
             method=method,
-            only=_split(only) if only else None,
+            only=_only(only),
             seed=seed,
             workers=workers,
             eval_timeout=eval_timeout,

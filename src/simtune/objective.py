@@ -17,8 +17,9 @@ import numpy as np
 
 from simtune.controller import CONTROLLER_PARAMETERS
 from simtune.data import TaskData, load_task_data
+from simtune.data.sanity import JointRange
 from simtune.engines import Engine, engine_class, make_engine
-from simtune.errors import RecordingWarning, SimtuneError
+from simtune.errors import ConfigError, RecordingError, RecordingWarning, SimtuneError
 from simtune.fitness import (
     PENALTY,
     FitnessWeights,
@@ -30,11 +31,16 @@ from simtune.fitness import (
 from simtune.fitness import residuals as task_residuals
 from simtune.params import ParameterSpace
 from simtune.tasks import TaskSpec
+from simtune.tasks.lerobot import reading_for
 
 
 def load_task_recordings(folder: Path, task: TaskSpec, joint_topic: str | None = None) -> TaskData:
-    """One task's recordings from ``folder``, with what the task and its robot tell the loader's sanity stage."""
-    return load_task_data(
+    """One task's recordings from ``folder``, with what the task and its robot tell the loader's sanity stage.
+
+    A task that starts its object where the recordings put it (``start_from_recordings``) needs recordings that
+    track the object: joint logs alone are a one-line error.
+    """
+    data = load_task_data(
         folder,
         task.name,
         wrist_body=task.wrist_body,
@@ -44,7 +50,32 @@ def load_task_recordings(folder: Path, task: TaskSpec, joint_topic: str | None =
         base_body=task.base_body,
         joint_names=rollout_joint_names(task),
         joint_topic=joint_topic,
+        lerobot=reading_for(task),
+        joint_ranges=joint_ranges(task),
     )
+    if task.start_from_recordings and task.object is not None and data.object_start_mean is None:
+        raise RecordingError(
+            f"task {task.name!r}: start_from_recordings = true starts the object where the recordings track it, "
+            f"but the recordings in {folder} are joint logs, without the object {task.object.mocap_body!r}: "
+            "set start_from_recordings = false in its task file, or record the object"
+        )
+    return data
+
+
+def joint_ranges(task: TaskSpec) -> dict[str, JointRange]:
+    """What each driven joint's logged angles should fit [rad]: the task's start angle, the range its schedule
+    commands (start pose and every target) and the joint's limits (the units check of joint logs)."""
+    _, table = task.schedule
+    angles = np.radians(table)
+    ranges = {}
+    for k, name in enumerate(task.joints):
+        joint = task.robot.joint_by_name[name]
+        if joint.kind in ("revolute", "continuous"):
+            column = angles[:, k]
+            ranges[name] = JointRange(
+                float(column[0]), float(column.min()), float(column.max()), joint.lower, joint.upper
+            )
+    return ranges
 
 
 def load_references(root: Path | None, tasks: list[TaskSpec], joint_topic: str | None = None) -> dict[str, TaskData]:
@@ -63,12 +94,14 @@ def load_references(root: Path | None, tasks: list[TaskSpec], joint_topic: str |
     if root is not None:
         root = Path(root)
         if not root.is_dir():
-            raise SimtuneError(f"data folder {root} does not exist (expected {root}/<task>/*.tsv)")
+            what = "is a file, not a folder of recordings" if root.exists() else "does not exist"
+            raise SimtuneError(f"data folder {root} {what} (expected {root}/<task>/*.tsv)")
     refs = {}
     for task in tasks:
         folder = recordings_folder(root, task)
         if not folder.is_dir():
-            raise SimtuneError(f"no recordings for task {task.name!r}: folder {folder} does not exist")
+            what = f"{folder} is a file, not a folder" if folder.exists() else f"folder {folder} does not exist"
+            raise SimtuneError(f"no recordings for task {task.name!r}: {what}")
         refs[task.name] = load_task_recordings(folder, task, joint_topic)
         gap = start_pose_gap(task, refs[task.name])
         if gap is not None and gap > START_WARN_M:
@@ -135,7 +168,32 @@ class Objective:
         self.references = references
         self.space = space
         self.weights = FitnessWeights() if weights is None else weights
+        self._check_weights()
         self._engines: dict[str, Engine] = {}
+
+    def recorded_parts(self) -> list[str]:
+        """The parts of the fitness the recordings hold (``wrist``, ``object``, ``joint``), in that order."""
+        held = {
+            part
+            for task in self.tasks
+            for part, there in (
+                ("wrist", self.references[task.name].wrist_mean is not None),
+                ("object", self._has_object_residual(task)),
+                ("joint", bool(self.references[task.name].joint_names)),
+            )
+            if there
+        }
+        return [part for part in ("wrist", "object", "joint") if part in held]
+
+    def _check_weights(self) -> None:
+        """Weights that zero every part the recordings hold would score every simulation 0: a ConfigError."""
+        parts = self.recorded_parts()
+        if parts and not any(getattr(self.weights, part) > 0 for part in parts):
+            zeroed = ",".join(f"{part}=0" for part in parts)
+            raise ConfigError(
+                f"--weights / weights: {zeroed} weighs nothing the recordings hold ({', '.join(parts)}): every "
+                "simulation would score 0; give one of them a weight above 0"
+            )
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)

@@ -86,7 +86,9 @@ class Project:
     def validate(self) -> list[str]:
         """Problems a loaded project still has, one line each (empty: none found)."""
         problems = []
-        if self.data is not None and not self.data.is_dir():
+        if self.data is not None and self.data.exists() and not self.data.is_dir():
+            problems.append(f"{self.file}: data: {self.data} is a file, not a folder of recordings")
+        elif self.data is not None and not self.data.is_dir():
             problems.append(f"{self.file}: data: folder {self.data} does not exist")
         for name, task in self.tasks.items():
             folder = None if task.recordings is None else Path(task.recordings)
@@ -219,6 +221,9 @@ def load_project(path: Path | str) -> Project:
         raise keys.error("groups", "expected a table: group name = [task names]")
     for group, members in (keys.data.get("groups") or {}).items():
         where = f"groups.{group}"
+        if not isinstance(group, str) or not group or group.strip() != group or any(c in group for c in ",+"):
+            # --task splits its names at commas (and grid joins tasks with +): such a group could not be named
+            raise keys.error(where, f"{group!r} cannot name a group (no , or +, no spaces at its ends)")
         if group in tasks:
             raise keys.error(where, f"{group!r} already names a task")
         if not isinstance(members, list) or not members or not all(isinstance(m, str) for m in members):

@@ -425,28 +425,16 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
     With ``rescore``: start a new run from its last population on the data as it is now (see the module's notes).
     """
     run_dir = Path(run_dir)
-    path = run_dir / STORE_FILE
-    if not path.exists():
-        raise SimtuneError(f"{run_dir} is not a run folder (no {STORE_FILE})")
-    # a run in progress there: say who runs it, at once, before reading its store (a read-only look at a store
-    # whose writer is stopped mid-transaction can fail with SQLite's "locking protocol" instead)
-    check_free(run_dir)
-    if not check_store_file(path):  # read-only: a foreign file gets no lock file beside it and no tables in it
-        raise SimtuneError(
-            f"{run_dir}: the run was never set up (its process died while creating it): "
-            f"`simtune tune --out {run_dir}` starts it afresh"
-        )
+    path = _run_to_write(run_dir, "resume")
     with run_lock(run_dir):
         store = RunStore(run_dir)
         try:
             store.verify()
             stored = store.get("config")
             if stored is None:
-                raise SimtuneError(
-                    f"{run_dir}: the run was never set up (its process died while creating it): "
-                    f"`simtune tune --out {run_dir}` starts it afresh"
-                )
+                raise never_set_up(run_dir)
             config = RunConfig.from_stored(stored, f"{path}")
+            check_data_found(run_dir, config)
             stored_fingerprint = store.get("fingerprint")
             changes = []  # a run from before fingerprints has nothing to compare with
             if stored_fingerprint is not None:
@@ -467,6 +455,55 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
             raise SimtuneError(f"{path} is damaged ({exc})") from None
         finally:
             store.close()
+
+
+def check_data_found(run_dir: Path, config: RunConfig) -> None:
+    """A run reads its recordings from where it was tuned on them: a data folder that has gone is one line saying
+    so (rather than every recording in it "removed")."""
+    tasks = parse_tasks(config.tasks, config.project)
+    folders = [Path(config.data)] if config.data is not None else [recordings_folder(None, t) for t in tasks]
+    for folder in folders:
+        if not folder.is_dir():
+            relative = "" if folder.is_absolute() else " (stored relative to the folder the run started in)"
+            raise SimtuneError(
+                f"{run_dir}: its data folder {folder} was not found{relative}: the run reads its recordings from "
+                "there; put them back there to go on with it"
+            )
+
+
+def _run_to_write(run_dir: Path, command: str) -> Path:
+    """The store of the run in ``run_dir``, checked before ``command`` writes to it: a run folder, not in use by
+    another process, writable, its store simtune's and set up; one line for each that is not."""
+    path = run_dir / STORE_FILE
+    if not path.exists():
+        raise SimtuneError(f"{run_dir} is not a run folder (no {STORE_FILE})")
+    # a run in progress there: say who runs it, at once, before reading its store (a read-only look at a store
+    # whose writer is stopped mid-transaction can fail with SQLite's "locking protocol" instead)
+    check_free(run_dir)
+    written = [run_dir, *(run_dir / name for name in (*STORE_FILES, BEST_PARAMS_FILE, LOCK_FILE))]
+    if any(p.exists() and not os.access(p, os.W_OK) for p in written):
+        raise SimtuneError(
+            f"{run_dir} is read-only ({command} writes its store, its lock and best_params.json): copy the run "
+            f"folder where you can write (cp -r {run_dir} NEW) and {command} the copy"
+        )
+    if not check_store_file(path):  # read-only: a foreign file gets no lock file beside it and no tables in it
+        raise never_set_up(run_dir)
+    return path
+
+
+def never_set_up(run_dir: Path) -> SimtuneError:
+    """The error for a run folder whose store holds no run (its process died while creating it, or the file was
+    emptied): where to start it afresh, a folder `simtune tune --out` takes."""
+    others = sorted(p.name for p in run_dir.iterdir() if p.name not in _OWN_ENTRIES)
+    if not others:
+        return SimtuneError(
+            f"{run_dir}: the run was never set up (its process died while creating it): "
+            f"`simtune tune --out {run_dir}` starts it afresh"
+        )
+    return SimtuneError(
+        f"{run_dir}: the run was never set up (its store holds no run), and the folder holds {', '.join(others[:3])}: "
+        "start the run afresh in a new folder (`simtune tune ... --out NEW`)"
+    )
 
 
 def _check_parameters(run_dir: Path, objective: Objective, store: RunStore, config: RunConfig) -> None:
@@ -610,13 +647,15 @@ def _uncertainty_or_reason(objective: Objective, config: RunConfig, store: RunSt
 def run_uncertainty(run_dir: Path, workers: int = 1) -> dict:
     """Compute (again) the uncertainty at a finished run's best point and store it in the run (store meta)."""
     run_dir = Path(run_dir)
-    path = run_dir / STORE_FILE
-    if not path.exists():
-        raise SimtuneError(f"{run_dir} is not a run folder (no {STORE_FILE})")
+    path = _run_to_write(run_dir, "uncertainty")
     with run_lock(run_dir):
         store = RunStore(run_dir)
         try:
-            config = RunConfig.from_stored(store.get("config"), str(path))
+            stored = store.get("config")
+            if stored is None:
+                raise never_set_up(run_dir)
+            config = RunConfig.from_stored(stored, str(path))
+            check_data_found(run_dir, config)
             if store.get("status") != "finished":
                 raise SimtuneError(f"{run_dir}: the run is not finished: `simtune resume {run_dir}` finishes it")
             objective = build_objective(config, store.get("inactive_parameters"))

@@ -7,9 +7,14 @@ repeat gets motion-capture-like noise and a little start-time jitter
 Qualisys 6D TSV with header, the format real recordings come in, so tuning
 reads them through the same loader; or as joint logs (the arm's joint angles
 with encoder-like noise), beside the markers in simtune CSV or instead of
-them in a CSV, an MCAP file or a rosbag2 folder.  ``OUT/truth.json`` holds the
-truth and the settings; it is also a parameter file (``simtune evaluate
---params-file OUT/truth.json``).
+them in a CSV, an MCAP file or a rosbag2 folder; or each task's repeats as the
+episodes of one LeRobot dataset ``OUT/<task>/`` (joint angles and the commanded
+targets, at 30 frames per second).  ``OUT/truth-<task>.json`` holds each task's
+truth and settings, and ``OUT/truth.json`` the truth of every task synthesised
+into ``OUT`` with the same truth and settings; each is also a parameter file
+(``simtune evaluate --params-file OUT/truth.json``).  Synthesising into a folder
+that holds another truth is refused unless ``force``: no truth is overwritten
+without it, and none is lost with it (each task keeps its own file).
 """
 
 from __future__ import annotations
@@ -21,17 +26,22 @@ from pathlib import Path
 
 import simtune
 from simtune.data import Recording, write_csv, write_joint_bag, write_qualisys_tsv
-from simtune.data.loaders import is_recording_file
+from simtune.data.fingerprint import task_files
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, SimtuneError
 from simtune.fitness import rollout_joint_names
 from simtune.params import read_params_file, validate_params
 from simtune.project import Project
-from simtune.reference.make import synthesize
+from simtune.reference.make import RATE, synthesize
 from simtune.robot.description import RobotDescription
 from simtune.tasks import parse_tasks
+from simtune.tasks.lerobot import SYNTH_FPS, stated_units, write_task_dataset
 
 TRUTH_FILE = "truth.json"
+#: the most marker noise [m] and encoder noise [deg] synth writes: beyond them the recordings' own checks (a
+#: coordinate beyond 10 m, the units and degrees checks) would refuse what it wrote
+MAX_NOISE_M = 0.1
+MAX_JOINT_NOISE_DEG = 2.0
 DEFAULT_DELAY_S = 1.5  # the real qrg2019 recordings start 1.2-2.3 s before the arm moves
 #: encoder noise of synthetic joint logs [deg]: an arm's encoders read to about a tenth of a degree
 DEFAULT_JOINT_NOISE_DEG = 0.05
@@ -43,8 +53,12 @@ FORMATS = {
     "joints-csv": "joint angles alone in a simtune CSV",
     "mcap": "joint angles alone as sensor_msgs/JointState in an MCAP file",
     "rosbag2": "joint angles alone as sensor_msgs/JointState in a rosbag2 folder (SQLite 3 storage)",
+    "lerobot": "joint angles and commanded targets as a LeRobot v3.0 dataset (OUT/<task>/ is the dataset)",
+    "lerobot-v2.1": "the same in LeRobot's v2.1 layout (one Parquet file per episode)",
 }
 _ENDINGS = {"tsv": ".tsv", "csv": ".csv", "joints-csv": ".csv", "mcap": ".mcap", "rosbag2": ""}
+#: ``--format`` -> the LeRobot layout it writes (each task's repeats one dataset, each repeat an episode)
+LEROBOT_FORMATS = {"lerobot": "v3.0", "lerobot-v2.1": "v2.1"}
 
 
 @dataclass
@@ -88,12 +102,13 @@ def make_synthetic(
     fmt: str = "tsv",
     joint_noise_rad: float = math.radians(DEFAULT_JOINT_NOISE_DEG),
     project: Project | Path | str | None = None,
+    force: bool = False,
 ) -> SynthResult:
     """Write ``repeats`` synthetic recordings of each task in ``tasks`` (names, groups, comma-separated) of
-    ``project`` (default: the bundled MICO project).
+    ``project`` (default: the bundled MICO project), and each task's truth (:func:`truth_file`).
 
     ``fmt`` is a key of :data:`FORMATS`; joint angles get Gaussian noise of
-    ``joint_noise_rad`` per sample.
+    ``joint_noise_rad`` per sample.  ``OUT/truth.json`` holding another truth is refused unless ``force``.
     """
     specs = parse_tasks(tasks, project)
     if fmt not in FORMATS:
@@ -106,13 +121,32 @@ def make_synthetic(
         raise ConfigError(f"--noise-mm must be zero or more, got {noise_m * 1000:g}")
     if not jitter_s >= 0:
         raise ConfigError(f"--jitter-s must be zero or more, got {jitter_s:g}")
+    _check_noise(noise_m, joint_noise_rad)
+    for spec in specs:
+        _check_delay(spec.name, spec.duration, truth.get("command_delay", 0.0), jitter_s)
     out = Path(out)
+    meta = {
+        "engine": engine,
+        "tasks": [s.name for s in specs],
+        "noise_m": noise_m,
+        "jitter_s": jitter_s,
+        "format": fmt,
+        "joint_noise_rad": joint_noise_rad if fmt != "tsv" else None,
+        "repeats": repeats,
+        "seed": seed,
+        "simtune": simtune.__version__,
+        "parameters": list(truth),
+        "params": truth,
+    }
     for spec in specs:
         folder = out / spec.name
-        if folder.is_dir() and any(is_recording_file(p) for p in folder.iterdir()):
+        if fmt in LEROBOT_FORMATS:
+            stated_units(spec)  # before any simulation: the dataset's unit must be the one its task reads
+        if folder.is_dir() and task_files(folder):
             raise SimtuneError(
                 f"{folder} already holds recordings: choose another --out (new files would be averaged with them)"
             )
+    _check_truths(out, meta, force)  # before any simulation: no truth is overwritten without force
     files: dict[str, list[Path]] = {}
     for spec in specs:
         folder = out / spec.name
@@ -129,26 +163,107 @@ def make_synthetic(
             noise_m=noise_m,
             jitter_s=jitter_s,
             seed=hash_seed(seed, spec.name),
-            suffix=_ENDINGS[fmt],
+            suffix=_ENDINGS.get(fmt, ""),
+            rate=SYNTH_FPS if fmt in LEROBOT_FORMATS else RATE,
             joint_names=None if fmt == "tsv" else rollout_joint_names(spec),
             joint_noise_rad=joint_noise_rad,
         )
-        files[spec.name] = [write_recording(folder / rec.source.name, rec, fmt) for rec in recordings]
-    meta = {
-        "engine": engine,
-        "tasks": [s.name for s in specs],
-        "noise_m": noise_m,
-        "jitter_s": jitter_s,
-        "format": fmt,
-        "joint_noise_rad": joint_noise_rad if fmt != "tsv" else None,
-        "repeats": repeats,
-        "seed": seed,
-        "simtune": simtune.__version__,
-        "parameters": list(truth),
-        "params": truth,
-    }
-    (out / TRUTH_FILE).write_text(json.dumps(meta, indent=2) + "\n")
+        if fmt in LEROBOT_FORMATS:
+            files[spec.name] = [write_task_dataset(folder, spec, recordings, LEROBOT_FORMATS[fmt])]
+        else:
+            files[spec.name] = [write_recording(folder / rec.source.name, rec, fmt) for rec in recordings]
+    _write_truths(out, meta, force)
     return SynthResult(out, truth, files, joint_noise_rad)
+
+
+def truth_file(task: str) -> str:
+    """The name of ``task``'s truth file in a synthetic data root: ``truth-<task>.json``."""
+    return f"truth-{task}.json"
+
+
+def _check_noise(noise_m: float, joint_noise_rad: float) -> None:
+    """Noise the recordings' own checks would refuse (markers beyond 10 m, angles beyond two turns) is refused
+    before anything is simulated."""
+    if noise_m > MAX_NOISE_M:
+        raise ConfigError(
+            f"--noise-mm: {noise_m * 1000:g} mm of marker noise would put the markers where the recordings' checks "
+            f"refuse them (and no motion capture is that far off): at most {MAX_NOISE_M * 1000:g} mm"
+        )
+    if math.degrees(joint_noise_rad) > MAX_JOINT_NOISE_DEG:
+        raise ConfigError(
+            f"--joint-noise-deg: {math.degrees(joint_noise_rad):g} deg of encoder noise would make joint logs the "
+            f"recordings' checks refuse (no encoder is that far off): at most {MAX_JOINT_NOISE_DEG:g} deg"
+        )
+
+
+def _check_delay(task: str, duration: float, delay: float, jitter_s: float) -> None:
+    """Every repeat's command delay (the truth's, moved by up to the jitter) must start the motion within the task."""
+    if delay >= duration:
+        raise ConfigError(
+            f"--delay-s: a command delay of {delay:g} s starts the motion after the task's end ({task} lasts "
+            f"{duration:g} s): the recordings would hold no motion"
+        )
+    if delay + jitter_s >= duration:
+        raise ConfigError(
+            f"--jitter-s: {jitter_s:g} s of jitter on the command delay of {delay:g} s starts some repeats' motion "
+            f"after the task's end ({task} lasts {duration:g} s): at most {duration - delay:.3g} s"
+        )
+
+
+def _same_truth(a: dict, b: dict) -> bool:
+    """Whether two truth files hold the same truth and settings (whatever their tasks)."""
+    settled = ("tasks", "simtune")
+    return {k: v for k, v in a.items() if k not in settled} == {k: v for k, v in b.items() if k not in settled}
+
+
+def _read_truth(path: Path) -> dict | None:
+    """A truth file's content; None when it is not one (unreadable, not an object with ``params``)."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) and isinstance(data.get("params"), dict) else None
+
+
+def _check_truths(out: Path, meta: dict, force: bool) -> dict | None:
+    """Refuse (unless ``force``) to overwrite a truth: a task's own truth file, or an ``OUT/truth.json`` holding
+    another truth or not simtune's.  Returns what truth.json holds now (None: nothing to keep)."""
+    for task in meta["tasks"]:
+        path = out / truth_file(task)
+        if path.exists() and not force:
+            raise SimtuneError(
+                f"{path} holds the truth of an earlier synth of {task}: choose another --out, or --force to replace it"
+            )
+    path = out / TRUTH_FILE
+    if not path.exists():
+        return None
+    earlier = _read_truth(path)
+    if earlier is not None and _same_truth(earlier, meta):
+        return earlier
+    if not force:
+        tasks = ", ".join(map(str, (earlier or {}).get("tasks") or [])) or "other tasks"
+        what = "is not a truth file of simtune synth" if earlier is None else f"holds another truth (of {tasks})"
+        raise SimtuneError(
+            f"{path} {what}: choose another --out, or --force to replace it (each task's truth stays in its own "
+            f"{truth_file('<task>')})"
+        )
+    return earlier
+
+
+def _write_truths(out: Path, meta: dict, force: bool) -> None:
+    """Each task's truth file, and ``truth.json``: the truth of every task synthesised into ``out`` with it."""
+    earlier = _check_truths(out, meta, force)
+    if earlier is not None and not _same_truth(earlier, meta):
+        # replaced (force): an earlier truth.json's tasks without their own file get one first, so none is lost
+        for task in earlier.get("tasks") or []:
+            own = out / truth_file(str(task))
+            if isinstance(task, str) and not own.exists():
+                own.write_text(json.dumps({**earlier, "tasks": [task]}, indent=2) + "\n")
+        earlier = None
+    for task in meta["tasks"]:
+        (out / truth_file(task)).write_text(json.dumps({**meta, "tasks": [task]}, indent=2) + "\n")
+    tasks = [t for t in (earlier or {}).get("tasks", []) if t not in meta["tasks"]] + meta["tasks"]
+    (out / TRUTH_FILE).write_text(json.dumps({**meta, "tasks": tasks}, indent=2) + "\n")
 
 
 def write_recording(path: Path, rec: Recording, fmt: str) -> Path:

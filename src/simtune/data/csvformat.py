@@ -35,6 +35,7 @@ from simtune.data._table import (
     write_bytes,
 )
 from simtune.data.recording import (
+    DEGREES_HINT,
     MAX_ABS_JOINT_RAD,
     Recording,
     check_for_writing,
@@ -56,6 +57,7 @@ class _JointColumn:
     column: int  # 0-based
     to_rad: float
     unit: str
+    declared: bool  # the header (or the task) says the unit; else radians by the format
 
 
 def _is_marker_column(name: str) -> bool:
@@ -63,7 +65,7 @@ def _is_marker_column(name: str) -> bool:
 
 
 def _parse_header(
-    fields: list[str], display: str, line: int, known_joints: Collection[str] | None
+    fields: list[str], display: str, line: int, known_joints: Collection[str] | None, unit: str | None = None
 ) -> tuple[list[str], list[_JointColumn]]:
     """Body names (from ``<body>.x`` .. ``.qw`` runs) and joint columns of the header; errors name the column."""
     if not fields or fields[0].strip().lower() != "time":
@@ -82,7 +84,7 @@ def _parse_header(
     while col < len(fields):
         got = fields[col].strip()
         if not _is_marker_column(got):
-            joints.append(_joint_column(got, col, display, line, known_joints, [j.name for j in joints]))
+            joints.append(_joint_column(got, col, display, line, known_joints, [j.name for j in joints], unit))
             col += 1
             continue
         body = got.rpartition(".")[0] if got.endswith(".x") else ""
@@ -101,10 +103,12 @@ def _parse_header(
 
 
 def _joint_column(
-    text: str, col: int, display: str, line: int, known: Collection[str] | None, seen: list[str]
+    text: str, col: int, display: str, line: int, known: Collection[str] | None, seen: list[str], stated: str | None
 ) -> _JointColumn:
+    """One joint column of the header: its name and unit (``[deg]`` after the name, else ``stated``, the task's
+    unit, else radians)."""
     where = f"{display} line {line}, column {col + 1}"
-    name, unit = text, "rad"
+    name, unit = text, stated or "rad"
     match = _UNIT.match(text)
     if match:
         name, unit = match["name"].strip(), match["unit"].strip().lower()
@@ -118,7 +122,7 @@ def _joint_column(
         raise RecordingError(f"{where}: unknown joint {shorten(name)!r} (the arm's joints: {', '.join(known)})")
     if name in seen:
         raise RecordingError(f"{where}: joint {name!r} appears twice")
-    return _JointColumn(name, col, JOINT_UNITS[unit], unit)
+    return _JointColumn(name, col, JOINT_UNITS[unit], unit, bool(match) or stated is not None)
 
 
 def _joint_angles(
@@ -141,7 +145,7 @@ def _joint_angles(
             i = int(beyond[0])
             value = f"{raw[i]:.6g} rad" if jc.unit == "rad" else f"{raw[i]:.6g} deg ({angles[i]:.4g} rad)"
             if jc.unit == "rad":
-                hint = f"looks like degrees: declare the unit in the header as '{jc.name} [deg]'"
+                hint = f"looks like degrees: declare the unit in the header as '{jc.name} [deg]' ({DEGREES_HINT})"
             else:
                 hint = "more than two turns, not a joint angle"
             raise RecordingError(
@@ -152,8 +156,9 @@ def _joint_angles(
     return joints
 
 
-def read_csv(path: Path, joint_names: Collection[str] | None = None) -> Recording:
-    """Read a simtune CSV recording (optionally gzipped); ``joint_names``: the joints a column may name."""
+def read_csv(path: Path, joint_names: Collection[str] | None = None, joint_units: str | None = None) -> Recording:
+    """Read a simtune CSV recording (optionally gzipped); ``joint_names``: the joints a column may name;
+    ``joint_units``: the unit of joint columns that declare none (the task's; default radians)."""
     display = display_name(path)
     raw = split_lines(read_bytes(path, display))
     # Comments and blank lines carry no data; remember real line numbers for messages.
@@ -162,7 +167,7 @@ def read_csv(path: Path, joint_names: Collection[str] | None = None) -> Recordin
         raise RecordingError(f"{display} line 1: file is empty (no header and no data lines)")
     head_line, head = kept[0]
     names, joint_columns = _parse_header(
-        head.decode("utf-8", errors="replace").split(","), display, head_line, joint_names
+        head.decode("utf-8", errors="replace").split(","), display, head_line, joint_names, joint_units
     )
     if len(kept) == 1:
         raise RecordingError(f"{display} line {head_line}: no data lines after the header")
@@ -198,7 +203,9 @@ def read_csv(path: Path, joint_names: Collection[str] | None = None) -> Recordin
         "has values up to {peak:.4g} — looks like millimetres; this format expects metres",
     )
     joints = _joint_angles(values, joint_columns, linenos, display)
-    return finish_recording(Path(path), display, values[:, 0].copy(), linenos, positions, rotations, joints)
+    rec = finish_recording(Path(path), display, values[:, 0].copy(), linenos, positions, rotations, joints)
+    rec.joint_units = {jc.name: jc.unit for jc in joint_columns if jc.declared}
+    return rec
 
 
 def write_csv(path: Path | str, rec: Recording) -> None:

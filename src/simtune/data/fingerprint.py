@@ -11,16 +11,20 @@ import hashlib
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
+from simtune.data.lerobot import dataset_members, is_lerobot_dataset
 from simtune.data.loaders import is_recording_file
 
 
 def task_files(folder: Path | str) -> list[Path]:
-    """The recordings of one task folder (files, and rosbag2 folders), sorted by name.
+    """The recordings of one task folder (files, rosbag2 and LeRobot dataset folders), sorted by name; a task
+    folder that is itself a LeRobot dataset is its one source.
 
     macOS AppleDouble companions (``._name.tsv``, written beside every file
     copied from a Mac onto a foreign file system) hold metadata, not data.
     """
     folder = Path(folder)
+    if is_lerobot_dataset(folder):
+        return [folder]
     return sorted(
         (
             p
@@ -32,9 +36,13 @@ def task_files(folder: Path | str) -> list[Path]:
 
 
 def file_fingerprint(path: Path) -> dict:
-    """``{"file", "bytes", "sha256"}`` of one file, or of a rosbag2 folder (its files' names and content)."""
+    """``{"file", "bytes", "sha256"}`` of one file, or of a rosbag2 folder (its files' names and content), or of
+    a LeRobot dataset (the files simtune reads: not its videos)."""
     digest = hashlib.sha256()
-    members = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+    if is_lerobot_dataset(path):
+        members = dataset_members(path)
+    else:
+        members = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
     for member in members:
         if path.is_dir():
             digest.update(member.relative_to(path).as_posix().encode() + b"\0")

@@ -8,6 +8,7 @@ from pathlib import Path
 from simtune.data._table import display_name
 from simtune.data.c3dformat import read_c3d
 from simtune.data.csvformat import read_csv
+from simtune.data.lerobot import LeRobotReading, is_lerobot_dataset, read_lerobot_dataset
 from simtune.data.qualisys import read_qualisys_tsv
 from simtune.data.recording import Recording
 from simtune.data.rosbag import is_bag_folder, read_joint_bag
@@ -18,10 +19,11 @@ RECORDING_SUFFIXES = (".tsv", ".tsv.gz", ".csv", ".csv.gz", ".c3d", ".mcap")
 
 
 def is_recording_file(path: Path) -> bool:
-    """True for a file named with one of RECORDING_SUFFIXES (case-insensitive), or a rosbag2 folder."""
+    """True for a file named with one of RECORDING_SUFFIXES (case-insensitive), a rosbag2 folder or a LeRobot
+    dataset folder."""
     path = Path(path)
     if path.is_dir():
-        return is_bag_folder(path)
+        return is_bag_folder(path) or is_lerobot_dataset(path)
     return path.name.lower().endswith(RECORDING_SUFFIXES)
 
 
@@ -31,6 +33,7 @@ def load_recording(
     *,
     joint_names: Collection[str] | None = None,
     joint_topic: str | None = None,
+    joint_units: str | None = None,
 ) -> Recording:
     """Load a recording, its format told by its name (see docs/recordings.md).
 
@@ -44,19 +47,42 @@ def load_recording(
     ``body_names`` names the bodies of a headerless TSV in column order
     (default QRG2019_BODIES); a TSV header's BODY_NAMES wins, and CSV files
     carry their own names.  ``joint_names`` are the joints a recording may
-    name (the arm's); None accepts any.
+    name (the arm's); None accepts any.  ``joint_units`` ("rad", "deg") is the
+    unit of joint angles whose file does not declare one (the task's; None:
+    the format's, radians).
     """
     path = Path(path)
     name = path.name.lower()
+    if is_lerobot_dataset(path):
+        raise RecordingError(
+            f"{display_name(path)}: a LeRobot dataset holds many episodes: read it with load_recordings"
+        )
     if is_bag_folder(path) or name.endswith(".mcap"):
-        return read_joint_bag(path, joint_names, joint_topic)
+        return read_joint_bag(path, joint_names, joint_topic, joint_units)
     if name.endswith((".tsv", ".tsv.gz")):
         return read_qualisys_tsv(path, body_names)
     if name.endswith((".csv", ".csv.gz")):
-        return read_csv(path, joint_names)
+        return read_csv(path, joint_names, joint_units)
     if name.endswith(".c3d"):
         return read_c3d(path)
     raise RecordingError(
         f"{display_name(path)}: unknown recording format "
         f"(expected {', '.join(RECORDING_SUFFIXES)}, or a rosbag2 folder)"
     )
+
+
+def load_recordings(
+    path: Path | str,
+    body_names: list[str] | None = None,
+    *,
+    joint_names: Collection[str] | None = None,
+    joint_topic: str | None = None,
+    lerobot: LeRobotReading | None = None,
+) -> list[Recording]:
+    """The repeats one recording source holds: each episode of a LeRobot dataset folder (``lerobot``: its
+    angle unit, names and episodes), else the one recording :func:`load_recording` reads."""
+    path = Path(path)
+    if is_lerobot_dataset(path):
+        return read_lerobot_dataset(path, joint_names, lerobot)
+    units = None if lerobot is None else lerobot.units  # the task's unit, for every joint log
+    return [load_recording(path, body_names, joint_names=joint_names, joint_topic=joint_topic, joint_units=units)]

@@ -25,6 +25,8 @@ _ORTHO_TOL = 1e-2
 #: degrees in a file (or a column) that promises radians.  Degrees of a motion that stays
 #: within +-12.6 deg pass unnoticed; the check catches the common case of any real motion.
 MAX_ABS_JOINT_RAD = 4 * math.pi
+#: how a joint log says it is in degrees whatever its format (the task file's key, docs/task-files.md)
+DEGREES_HINT = 'or units = "deg" in the [recordings] table of the task file'
 
 
 @dataclass
@@ -48,6 +50,9 @@ class Recording:
     lines: np.ndarray | None = None
     joints: dict[str, np.ndarray] = field(default_factory=dict)
     line_word: str = "line"  # what ``lines`` counts: "line" of a text file, "frame" of a binary one
+    #: joint -> the angle unit its file or the task declared ("rad", "deg"); a joint not named was read as
+    #: radians because its format says so, and the units check of task data tells degrees from its values
+    joint_units: dict[str, str] = field(default_factory=dict)
 
     def where(self, frame: int) -> str:
         """``line N`` (or ``frame N`` without line numbers) of a 0-based frame index, for messages."""

@@ -7,19 +7,24 @@ named.  Angles are matched to joints by each message's ``name`` field, so the
 order may change from message to message and several publishers may share the
 topic (each joint is then interpolated onto the union of their time stamps).
 Time is the messages' header stamp, or the time the log received them where
-the publisher left the stamps at zero.  See docs/recordings.md.
+the publisher left the stamps at zero.  A rosbag2 folder that lacks its
+``metadata.yaml`` (what a killed ``ros2 bag record`` leaves) is read from its
+storage files alone where they are whole: SQLite 3 files through their own
+tables, MCAP files through their own index.  See docs/recordings.md.
 """
 
 from __future__ import annotations
 
+import re
+import sqlite3
 from collections.abc import Collection
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from simtune.data._table import display_name
-from simtune.data.recording import MAX_ABS_JOINT_RAD, Recording
+from simtune.data.recording import DEGREES_HINT, MAX_ABS_JOINT_RAD, Recording
 from simtune.errors import RecordingError
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -27,12 +32,34 @@ JOINT_STATE = "sensor_msgs/msg/JointState"
 DEFAULT_TOPIC = "/joint_states"
 #: ``write_joint_bag`` storages: rosbag2's two storage plugins
 STORAGES = ("mcap", "sqlite3")
+#: the storage files of a rosbag2 folder (SQLite 3, MCAP)
+STORAGE_SUFFIXES = (".db3", ".mcap")
+#: the angle units a log may be stated in (the task file's ``[recordings] units``), and the factor to radians
+_UNITS = {"rad": 1.0, "deg": np.pi / 180.0}
 _INSTALL = "pip install 'simtune[ros]'"
 
 
+class UnindexedBag(RecordingError):
+    """A rosbag2 folder without its metadata.yaml whose storage files cannot be read alone (a task's repeats
+    leave it out with a warning)."""
+
+
 def is_bag_folder(path: Path) -> bool:
-    """A rosbag2 folder: a directory holding the ``metadata.yaml`` that rosbag2 writes."""
-    return path.is_dir() and (path / "metadata.yaml").is_file()
+    """A rosbag2 folder: a directory holding the ``metadata.yaml`` that rosbag2 writes, or only its storage
+    files (a recording killed before rosbag2 wrote the metadata: :func:`storage_files`)."""
+    if not path.is_dir():
+        return False
+    return (path / "metadata.yaml").is_file() or bool(storage_files(path))
+
+
+def storage_files(folder: Path) -> list[Path]:
+    """The storage files rosbag2 writes into a bag folder: ``<folder>.db3`` or ``.mcap``, or split ones
+    ``<folder>_0.db3``, ``<folder>_1.db3`` ... (other files, a folder of separate logs among them, are not)."""
+    own = re.compile(rf"{re.escape(folder.name)}(_[0-9]+)?")
+    return sorted(
+        (p for p in folder.iterdir() if p.suffix.lower() in STORAGE_SUFFIXES and own.fullmatch(p.stem) and p.is_file()),
+        key=lambda p: (len(p.stem), p.stem),
+    )
 
 
 def _rosbags(display: str):
@@ -46,12 +73,15 @@ def _rosbags(display: str):
     return highlevel, typesys
 
 
-def read_joint_bag(path: Path | str, joint_names: Collection[str] | None = None, topic: str | None = None) -> Recording:
+def read_joint_bag(
+    path: Path | str, joint_names: Collection[str] | None = None, topic: str | None = None, units: str | None = None
+) -> Recording:
     """The JointState messages of ``topic`` (default: the only JointState topic) as a joint-angle Recording.
 
-    ``joint_names``: the joints a message may name (None: any).  Every problem
-    is a RecordingError naming the file and the message (1-based, in the log's
-    order on that topic).
+    ``joint_names``: the joints a message may name (None: any); ``units``: the unit the task states for its
+    logs (None: radians, as JointState says).  Every problem is a RecordingError naming the file and the
+    message (1-based, in the log's order on that topic); a rosbag2 folder without its metadata.yaml whose
+    storage cannot be read alone is an :class:`UnindexedBag`.
     """
     path = Path(path)
     display = display_name(path)
@@ -59,6 +89,9 @@ def read_joint_bag(path: Path | str, joint_names: Collection[str] | None = None,
     if not path.exists():
         raise RecordingError(f"{display}: no such file or folder ({path})")
     store = typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
+    if path.is_dir() and not (path / "metadata.yaml").is_file():
+        where, samples = _read_without_metadata(path, topic, display, store, highlevel)
+        return _joint_recording(path, where, samples, joint_names, units)
     try:
         with highlevel.AnyReader([path], default_typestore=store) as reader:
             connections = _pick_topic(reader.connections, topic, display)
@@ -72,7 +105,55 @@ def read_joint_bag(path: Path | str, joint_names: Collection[str] | None = None,
     except Exception as exc:  # the library's errors on damaged or foreign files have no common base class
         text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise RecordingError(f"{display}: cannot read as a ROS 2 bag or MCAP file ({text})") from None
-    return _joint_recording(path, where, samples, joint_names)
+    return _joint_recording(path, where, samples, joint_names, units)
+
+
+class _Connection(NamedTuple):
+    """A topic of a SQLite 3 storage file, as rosbags' connections name it."""
+
+    id: int
+    topic: str
+    msgtype: str
+
+
+def _read_without_metadata(path: Path, topic: str | None, display: str, store, highlevel) -> tuple[str, list]:
+    """The messages of ``topic`` in a rosbag2 folder that lacks metadata.yaml, read from its storage files:
+    SQLite 3 files through their ``topics`` and ``messages`` tables, MCAP files through their own index."""
+    files = storage_files(path)
+    databases = [p for p in files if p.suffix.lower() == ".db3"]
+    try:
+        if not databases:
+            with highlevel.AnyReader(files, default_typestore=store) as reader:
+                connections = _pick_topic(reader.connections, topic, display)
+                samples = [
+                    (logged, reader.deserialize(raw, conn.msgtype))
+                    for conn, logged, raw in reader.messages(connections=connections)
+                ]
+            return f"{display} topic {connections[0].topic}", samples
+        rows: list[tuple[int, _Connection, bytes]] = []
+        chosen: list[_Connection] = []
+        for db_file in databases:
+            db = sqlite3.connect(f"{db_file.resolve().as_uri()}?mode=ro", uri=True)
+            try:
+                topics = [_Connection(*row) for row in db.execute("SELECT id, name, type FROM topics")]
+                chosen = _pick_topic(topics, topic, display)
+                ids = {c.id: c for c in chosen}
+                marks = ",".join("?" * len(ids))
+                query = f"SELECT topic_id, timestamp, data FROM messages WHERE topic_id IN ({marks}) ORDER BY id"
+                rows += [(logged, ids[tid], bytes(raw)) for tid, logged, raw in db.execute(query, list(ids))]
+            finally:
+                db.close()
+        rows.sort(key=lambda row: row[0])  # the log's order, as rosbag2 replays it
+        samples = [(logged, store.deserialize_cdr(raw, conn.msgtype)) for logged, conn, raw in rows]
+        return f"{display} topic {chosen[0].topic}", samples
+    except RecordingError:
+        raise
+    except Exception as exc:  # sqlite3's, the MCAP reader's and the deserializer's errors share no base class
+        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise UnindexedBag(
+            f"{display}: a rosbag2 folder with no metadata.yaml (what a killed `ros2 bag record` leaves) whose "
+            f"storage cannot be read alone ({text}); `ros2 bag reindex` rewrites the metadata"
+        ) from None
 
 
 def _pick_topic(connections, topic: str | None, display: str) -> list:
@@ -91,9 +172,11 @@ def _pick_topic(connections, topic: str | None, display: str) -> list:
 
 
 def _joint_recording(
-    path: Path, where: str, samples: list[tuple[int, Any]], known: Collection[str] | None
+    path: Path, where: str, samples: list[tuple[int, Any]], known: Collection[str] | None, units: str | None = None
 ) -> Recording:
-    """Per joint its (time, angle) samples, checked, then all joints on the union of their times."""
+    """Per joint its (time, angle) samples, checked, then all joints on the union of their times (``units``:
+    the unit the task states for its logs; None: radians)."""
+    to_rad = _UNITS[units or "rad"]
     if not samples:
         raise RecordingError(f"{where}: no messages")
     stamps = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for _, m in samples])
@@ -103,7 +186,7 @@ def _joint_recording(
     for k, (_, msg) in enumerate(samples):
         at = f"{where} message {k + 1}"
         names = list(msg.name)
-        position = np.asarray(msg.position, dtype=float)
+        position = np.asarray(msg.position, dtype=float) * to_rad
         if position.size == 0:
             continue  # velocities or efforts only: no angles in this message
         if position.size != len(names):
@@ -114,10 +197,12 @@ def _joint_recording(
             if not np.isfinite(angle):
                 raise RecordingError(f"{at}: joint {name!r} has no finite angle ({angle})")
             if abs(angle) > MAX_ABS_JOINT_RAD:
-                raise RecordingError(
-                    f"{at}: units check: joint {name!r} is {angle:.6g}, beyond two turns: looks like degrees "
-                    "(JointState positions are radians)"
+                hint = (
+                    f"looks like degrees (JointState positions are radians; {DEGREES_HINT})"
+                    if units is None
+                    else f"({angle / to_rad:.6g} {units}) more than two turns, not a joint angle"
                 )
+                raise RecordingError(f"{at}: units check: joint {name!r} is {angle:.6g}, beyond two turns: {hint}")
             t_list, q_list, k_list = series.setdefault(name, ([], [], []))
             if t_list and times[k] < t_list[-1]:
                 raise RecordingError(
@@ -135,7 +220,7 @@ def _joint_recording(
     if common.size < 2:
         raise RecordingError(f"{where}: only {common.size} distinct time; need at least 2")
     joints = {name: np.interp(common, np.asarray(t), np.asarray(q)) for name, (t, q, _) in series.items()}
-    return Recording(source=path, time=common, joints=joints)
+    return Recording(source=path, time=common, joints=joints, joint_units=dict.fromkeys(joints, units) if units else {})
 
 
 def write_joint_bag(

@@ -12,6 +12,10 @@ plain numbers from the caller, with generous generic values when it does not.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
 import numpy as np
 
 from simtune.data.recording import Recording
@@ -156,3 +160,68 @@ def duration_floor(durations: list[float], duration_s: float | None) -> tuple[fl
     if duration_s is not None and MIN_DURATION_SHARE * duration_s >= by_median:
         return MIN_DURATION_SHARE * duration_s, f"{share} of the task's {duration_s:g} s"
     return by_median, f"{share} of the median repeat's {median:.2f} s"
+
+
+#: How far [rad] a joint log's angle may stray beyond what the task commands (its start angle and targets)
+#: before the units check doubts the log: an arm following a clamped P velocity law stays between its start and
+#: its targets, give or take its overshoot, a push and an encoder's zero offset (a few degrees each).
+JOINT_MARGIN_RAD = math.radians(20.0)
+#: The same for the joint's limits, which a real joint meets at most by its encoder's error.
+LIMIT_MARGIN_RAD = math.radians(2.0)
+#: A log whose angles, read as degrees, stray less than this share of how far they stray read as radians, is in
+#: degrees (a log in degrees read as radians moves 57 times as far).
+DEGREES_FIT_SHARE = 0.1
+
+
+@dataclass(frozen=True)
+class JointRange:
+    """What one joint's logged angles [rad] should fit, from the task and the arm (passed as plain numbers:
+    data/ knows neither): the task's start angle, the range it commands (start angle and every target) and
+    the joint's limits (None: unlimited)."""
+
+    start: float
+    low: float
+    high: float
+    lower: float | None = None
+    upper: float | None = None
+
+    def stray(self, angles: np.ndarray) -> tuple[float, int, str]:
+        """How far [rad] ``angles`` stray beyond this range (0: not at all), at which frame, and what they leave."""
+        worst = (0.0, 0, "")
+        low, high = int(np.argmin(angles)), int(np.argmax(angles))
+        if self.lower is not None and self.upper is not None:
+            limits = f"outside its limits [{self.lower:.4g}, {self.upper:.4g}] rad"
+            worst = max(worst, (self.lower - LIMIT_MARGIN_RAD - angles[low], low, limits), key=lambda w: w[0])
+            worst = max(worst, (angles[high] - self.upper - LIMIT_MARGIN_RAD, high, limits), key=lambda w: w[0])
+        if worst[0] > 0:
+            return worst  # the limits first: what no joint can do says most
+        start = f"far from the task's start angle {self.start:.4g} rad"
+        worst = max(worst, (abs(angles[0] - self.start) - JOINT_MARGIN_RAD, 0, start), key=lambda w: w[0])
+        commanded = f"beyond what the task commands ({self.low:.4g} to {self.high:.4g} rad)"
+        worst = max(worst, (self.low - JOINT_MARGIN_RAD - angles[low], low, commanded), key=lambda w: w[0])
+        return max(worst, (angles[high] - self.high - JOINT_MARGIN_RAD, high, commanded), key=lambda w: w[0])
+
+
+def check_joint_units(rec: Recording, ranges: Mapping[str, JointRange], display: str) -> None:
+    """Units check of a joint log whose unit nobody declared: a log in degrees that stays within two turns
+    passes the readers as radians.  Where its angles read as radians stray beyond the joints' limits, the task's
+    start pose or what it commands, and read as degrees fit (:data:`DEGREES_FIT_SHARE`), it is in degrees: an
+    error naming the file, the joint and the key that declares the unit."""
+    names = [j for j in rec.joints if j in ranges and j not in rec.joint_units]
+    if not names:
+        return
+    as_rad = {j: ranges[j].stray(rec.joints[j]) for j in names}
+    joint = max(names, key=lambda j: as_rad[j][0])
+    stray, frame, what = as_rad[joint]
+    if stray <= 0:
+        return
+    as_deg = max(ranges[j].stray(np.radians(rec.joints[j]))[0] for j in names)
+    if as_deg > DEGREES_FIT_SHARE * stray:
+        return
+    value = float(rec.joints[joint][frame])
+    raise RecordingError(
+        f"{display} {rec.where(frame)}: units check: joint {joint!r} reads {value:.4g} rad, {what}; read as degrees "
+        f"({math.radians(value):.4g} rad) the log fits the joints' limits and the task's start pose and targets: "
+        f"it is in degrees: declare units = \"deg\" in the [recordings] table of the task file (or '{joint} [deg]' "
+        'in a CSV\'s header); units = "rad" if it is radians'
+    )

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Collection
+from collections.abc import Collection, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -12,10 +12,14 @@ import numpy as np
 
 from simtune.data._table import display_name
 from simtune.data.fingerprint import task_files
-from simtune.data.loaders import load_recording
+from simtune.data.lerobot import LeRobotReading
+from simtune.data.loaders import load_recordings
 from simtune.data.recording import Recording
+from simtune.data.rosbag import UnindexedBag
 from simtune.data.sanity import (
     GENERIC_REACH_M,
+    JointRange,
+    check_joint_units,
     check_same_units,
     check_time,
     check_units,
@@ -138,7 +142,7 @@ def _fill_gaps(time: np.ndarray, xyz: np.ndarray, max_gap_s: float) -> tuple[np.
     return filled, None
 
 
-_KINDS = "*.tsv, *.csv, *.c3d, *.mcap, rosbag2 folders"
+_KINDS = "*.tsv, *.csv, *.c3d, *.mcap, rosbag2 folders, LeRobot datasets"
 
 
 def _check_joints(rec: Recording, joints: list[str], display: str) -> None:
@@ -157,6 +161,17 @@ def _check_joints(rec: Recording, joints: list[str], display: str) -> None:
         f"{display}: its joints differ from the first repeat's ({'; '.join(parts)}): "
         "every repeat of a task must log the same joints"
     )
+
+
+def _sources(files: list[Path], unreadable: list[str], body_names, **options) -> Iterator[Recording]:
+    """Every repeat that ``files`` hold; a rosbag2 folder that lacks its metadata.yaml and cannot be read from its
+    storage alone is left out with a warning naming it (and added to ``unreadable``)."""
+    for path in files:
+        try:
+            yield from load_recordings(path, body_names, **options)
+        except UnindexedBag as exc:
+            warnings.warn(f"{exc}: left out", RecordingWarning, stacklevel=3)
+            unreadable.append(display_name(path))
 
 
 def _find_body(rec: Recording, body: str, display: str) -> np.ndarray:
@@ -179,6 +194,8 @@ def load_task_data(
     base_body: str | None = None,
     joint_names: Collection[str] | None = None,
     joint_topic: str | None = None,
+    lerobot: LeRobotReading | None = None,
+    joint_ranges: Mapping[str, JointRange] | None = None,
 ) -> TaskData:
     """Load every repeat in ``folder`` (sorted by name), check it, and put the repeats on a common clock.
 
@@ -195,7 +212,15 @@ def load_task_data(
     wrist marker, joint angles, or both) and every other repeat must hold the
     same (the same joints).  ``joint_names`` are the joints a recording may name
     (the arm's; None: any), ``joint_topic`` the JointState topic of ROS 2 logs.
-    Without marker bodies ``object_body`` is not looked for.
+    Without marker bodies ``object_body`` is not looked for.  A LeRobot dataset
+    folder (``folder`` itself, or one in it) gives one repeat per episode, read as
+    ``lerobot`` says (angle unit, names, episodes); its ``units``, the task's, is
+    the unit of every joint log whose file declares none.  Without it, the
+    angles of each joint in ``joint_ranges`` (the task's start angle, commanded
+    range and the joint's limits) tell a log in degrees from one in radians
+    (:func:`~simtune.data.sanity.check_joint_units`).  A rosbag2 folder without
+    its metadata.yaml that cannot be read from its storage alone is left out
+    with a RecordingWarning.
     """
     if not (math.isfinite(rate) and rate > 0):
         raise ConfigError(f"rate must be a positive number of samples per second, got {rate!r}")
@@ -217,9 +242,11 @@ def load_task_data(
     distances: list[tuple[str, float]] = []
     bodies: list[str] = []
     joints: list[str] = []
-    for path in files:
-        display = display_name(path)
-        rec = load_recording(path, body_names, joint_names=joint_names, joint_topic=joint_topic)
+    unreadable: list[str] = []
+    stated = None if lerobot is None else lerobot.units
+    sources = _sources(files, unreadable, body_names, joint_names=joint_names, joint_topic=joint_topic, lerobot=lerobot)
+    for rec in sources:
+        display = display_name(rec.source)
         if not recordings:
             # the first repeat sets what the task's recordings hold
             joints = list(rec.joints)
@@ -228,6 +255,8 @@ def load_task_data(
         for body in bodies:
             _find_body(rec, body, display)
         _check_joints(rec, joints, display)
+        if joint_ranges is not None and stated is None:
+            check_joint_units(rec, joint_ranges, display)
         check_time(rec, display, duration_s)
         distance = wrist_distance(rec, wrist_body, base_body) if bodies else None
         if distance is not None:  # a wrist never seen is left out by the gap rule below
@@ -277,10 +306,13 @@ def load_task_data(
         repeats = kept
     if not repeats:
         reasons = [f"{lost} with markers lost for longer than max_gap_s={max_gap_s:g} s"] if lost else []
+        if unreadable:
+            reasons.append(f"{len(unreadable)} rosbag2 folders without metadata.yaml that cannot be read")
         if short:
             reasons.append(f"{short} shorter than {reason}")
         raise RecordingError(
-            f"no usable repeats in {folder}: all {len(files)} left out ({', '.join(reasons)}; see the warnings)"
+            f"no usable repeats in {folder}: all {len(recordings) + len(unreadable)} left out "
+            f"({', '.join(reasons)}; see the warnings)"
         )
 
     shortest = min(float(t[-1]) for _, t, _ in repeats)

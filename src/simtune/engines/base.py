@@ -146,10 +146,8 @@ def _load_errors_in_one_line(init: Callable) -> Callable:
         except Exception as exc:
             robot = task.robot
             first = next((line.strip() for line in str(exc).splitlines() if line.strip()), "")
-            raise RobotError(
-                f"engine {self.name!r} cannot load robot {robot.name!r} ({robot.source}): {type(exc).__name__}: "
-                f"{first}"
-            ) from exc
+            where = f"engine {self.name!r} cannot load robot {robot.name!r} ({robot.source})"
+            raise RobotError(f"{where}: {type(exc).__name__}: {first}") from exc
 
     return build
 

@@ -88,7 +88,8 @@ class PybulletEngine(Engine):
         with _stdout_silenced():
             self.client = pybullet.connect(pybullet.DIRECT)
         robot = task.robot
-        self._urdf = robot_urdf_file(robot)
+        # PyBullet collides with a mesh's convex hull, built from every vertex at each load: give it the hull
+        self._urdf = robot_urdf_file(robot, hulls=True)
         self._generic_forces = [robot.generic_effort(i) for i in range(robot.n_joints)]
         self._timestep = DEFAULT_TIMESTEP
         self._load()

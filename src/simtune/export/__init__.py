@@ -18,6 +18,7 @@ files hold and cannot hold.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import shutil
 import warnings
@@ -25,7 +26,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from simtune.engines import make_engine
+from simtune.engines import ENGINES, make_engine
 from simtune.errors import ConfigError, SimtuneError
 from simtune.export import dart_model, drake_model, mujoco_model, ode_model, pybullet_model
 from simtune.export.common import (
@@ -79,6 +80,8 @@ def export_run(
     a non-empty ``out_dir`` unless ``force`` (which replaces a previous export
     there: the files its provenance.json lists, and same-named files).
     """
+    if engine is not None and engine not in ENGINES:
+        raise ConfigError(f"--engine: unknown engine {engine!r} (known: {', '.join(ENGINES)})")
     run = read_run(run_dir)
     if engine is not None and engine != run.engine:
         raise ConfigError(
@@ -145,12 +148,23 @@ def _remove_previous(folder: Path) -> None:
         listed = json.loads(record.read_text()).get("files", {})
     except (OSError, ValueError, AttributeError):
         return
-    for name in listed:
-        path = folder / name
-        if path.is_file() and path.parent == folder:
-            path.unlink()
-    record.unlink(missing_ok=True)
+    try:
+        for name in listed:
+            path = folder / name
+            if path.is_file() and path.parent == folder:
+                path.unlink()
+        record.unlink(missing_ok=True)
+    except OSError as exc:
+        raise _cannot_write(folder, exc) from None
     shutil.rmtree(folder / "__pycache__", ignore_errors=True)
+
+
+def _cannot_write(out: Path, exc: OSError) -> SimtuneError:
+    """One line for a folder the export cannot write in (read-only, full, not ours)."""
+    name = f" ({Path(exc.filename).name})" if exc.filename else ""
+    return SimtuneError(
+        f"cannot write the export into {out}: {exc.strerror or exc}{name}: export into a folder you can write"
+    )
 
 
 def _export(run: TunedRun, out: Path, robot: RobotDescription, ranges: dict | None) -> ExportResult:
@@ -172,9 +186,12 @@ def _export(run: TunedRun, out: Path, robot: RobotDescription, ranges: dict | No
             _write_dr(ctx, ranges)
         record = {**ctx.provenance, "files": {name: sha256(out / name) for name in ctx.files}}
         (out / PROVENANCE_FILE).write_text(json.dumps(record, indent=2) + "\n")
-    except BaseException:
+    except BaseException as exc:
         for name in ctx.files if ctx is not None else []:  # nothing half-written stays behind
-            (out / name).unlink(missing_ok=True)
+            with contextlib.suppress(OSError):
+                (out / name).unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise _cannot_write(out, exc) from None
         raise
     finally:
         for engine in engines.values():
@@ -186,12 +203,17 @@ def _samples(run: TunedRun) -> dict[str, int]:
     """How many 20 Hz samples each task's recordings span (what the fitness compared); {} without the data."""
     from simtune.objective import load_references
 
+    data = run.config["data"]
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the run warned about its recordings already
-            data = run.config["data"]
             refs = load_references(None if data is None else Path(data), run.tasks)
-    except SimtuneError:
+    except SimtuneError as exc:
+        missing = data is not None and not Path(data).is_dir()
+        why = f"its data folder {data} was not found" if missing else f"its recordings cannot be read ({exc})"
+        warnings.warn(
+            f"{run.path}: {why}: controller.yaml gives no sample counts (samples: null)", ExportWarning, stacklevel=3
+        )
         return {}
     return {name: len(ref.times) for name, ref in refs.items()}
 

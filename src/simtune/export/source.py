@@ -24,6 +24,7 @@ from simtune.engines import engine_class
 from simtune.errors import SimtuneError
 from simtune.objective import recordings_folder
 from simtune.params import validate_params
+from simtune.runlock import LOCK_FILE, RunBusy, check_free, describe_holder
 from simtune.runs import BEST_PARAMS_FILE
 from simtune.store import STORE_FILE, RunStore
 from simtune.tasks import TaskSpec, parse_tasks
@@ -85,6 +86,13 @@ def read_run(run_dir: Path | str) -> TunedRun:
     if not isinstance(config, dict) or not all(k in config for k in ("engine", "tasks", "space", "data", "seed")):
         raise SimtuneError(f"{run_dir / STORE_FILE}: no run configuration (not written by `simtune tune`?)")
     if status != "finished":
+        try:
+            check_free(run_dir)
+        except RunBusy:
+            raise SimtuneError(
+                f"{run_dir} is being tuned right now by {describe_holder(run_dir / LOCK_FILE)}: "
+                "export it when it has finished"
+            ) from None
         raise SimtuneError(
             f"{run_dir} is an unfinished run (status {status!r}): `simtune resume {run_dir}` finishes it, then export"
         )

@@ -19,6 +19,7 @@ import numpy as np
 
 from simtune.geometry import matrix_quat_wxyz, rpy_matrix
 from simtune.robot.description import Box, Cylinder, Joint, Link, Mesh, RobotDescription, Sphere
+from simtune.robot.meshes import convex_hull_file
 
 #: Gain of MuJoCo's joint velocity servos [N m s/rad].
 SERVO_KV = 50.0
@@ -26,19 +27,28 @@ SERVO_KV = 50.0
 LARGEST_COMMAND_STEP = 1.4
 #: How long a default velocity servo may lag its command [s]: the servo's time constant, inertia over gain.
 SERVO_LAG_S = 0.01
+#: A clipped servo force changes its joint's speed by up to (force limit x time step / inertia) per step of
+#: MuJoCo's generic 2 ms; above this [rad/s] the clipping sets the link spinning.
+SPIN_LIMIT = 1.0
 
 
 def servo_gain(robot: RobotDescription, index: int) -> float:
     """The gain of MuJoCo's velocity servo on driven joint ``index`` [N m s/rad]: the robot's ``servo_gain``
     where it sets one, else :data:`SERVO_KV`, raised where the joint's inertia (at the zero pose) would make
-    the servo lag its command by more than :data:`SERVO_LAG_S` (a heavy arm's shoulder), and lowered where the
-    largest command step would ask for more than the joint's generic force limit: a clipped servo force is
-    not damped by the implicit integrator and sets light links spinning (the MICO's wrist in seed-2; a
-    SO-101, whose URDF allows 10 N m, at every step with 50).  For the MICO the gain stays 50."""
+    the servo lag its command by more than :data:`SERVO_LAG_S` (a heavy arm's shoulder), and lowered to keep
+    the largest command step's force within the joint's generic force limit where a clipped force would
+    spin the link (:data:`SPIN_LIMIT`): a clipped servo force is not damped by the implicit integrator
+    (the MICO's light wrist in seed-2; a SO-101, whose URDF allows 10 N m, at every step with 50).  For the
+    MICO the gain stays 50."""
     if robot.servo_gain is not None:
         return robot.servo_gain
-    gain = max(SERVO_KV, float(robot.joint_inertias()[index]) / SERVO_LAG_S)
-    return min(gain, robot.generic_effort(index) / LARGEST_COMMAND_STEP)
+    inertia = float(robot.joint_inertias()[index])
+    effort = robot.generic_effort(index)
+    gain = max(SERVO_KV, inertia / SERVO_LAG_S)
+    clipped = gain * LARGEST_COMMAND_STEP > effort
+    if clipped and effort * 0.002 > SPIN_LIMIT * inertia:
+        gain = effort / LARGEST_COMMAND_STEP
+    return gain
 
 
 #: Name of the MuJoCo/URDF body that carries the task's object.
@@ -228,17 +238,18 @@ def _urdf_origin(shape) -> str:
     return f'<origin xyz="{_f(shape.center)}" rpy="{_f(shape.rpy)}"/>'
 
 
-def _urdf_geometry(shape) -> str:
+def _urdf_geometry(shape, hulls: bool = False) -> str:
     if isinstance(shape, Box):
         return f'<box size="{_f(2 * np.asarray(shape.half))}"/>'
     if isinstance(shape, Sphere):
         return f'<sphere radius="{shape.radius:.9g}"/>'
     if isinstance(shape, Cylinder):
         return f'<cylinder radius="{shape.radius:.9g}" length="{shape.length:.9g}"/>'
-    return f'<mesh filename={quoteattr(shape.path)} scale="{_f(shape.scale)}"/>'
+    path = str(convex_hull_file(shape.path)) if hulls else shape.path
+    return f'<mesh filename={quoteattr(path)} scale="{_f(shape.scale)}"/>'
 
 
-def _urdf_link(link: Link) -> list[str]:
+def _urdf_link(link: Link, hulls: bool = False) -> list[str]:
     lines = [f"  <link name={quoteattr(link.name)}>"]
     ixx, iyy, izz = link.inertia
     ixy, ixz, iyz = link.products
@@ -254,7 +265,7 @@ def _urdf_link(link: Link) -> list[str]:
         lines += [
             "    <collision>",
             f"      {_urdf_origin(shape)}",
-            f"      <geometry>{_urdf_geometry(shape)}</geometry>",
+            f"      <geometry>{_urdf_geometry(shape, hulls)}</geometry>",
             "    </collision>",
         ]
     lines.append("  </link>")
@@ -290,20 +301,21 @@ def _urdf_joint(joint: Joint) -> list[str]:
     return lines
 
 
-def robot_urdf(robot: RobotDescription) -> str:
-    """URDF of the robot alone (its base frame at the origin; place it at its base pose)."""
+def robot_urdf(robot: RobotDescription, hulls: bool = False) -> str:
+    """URDF of the robot alone (its base frame at the origin; place it at its base pose); ``hulls``: each mesh
+    as its convex hull (the shape an engine that collides with hulls makes of it, fewer vertices to read)."""
     lines = ['<?xml version="1.0"?>', f"<robot name={quoteattr(robot.name)}>"]
     for link in robot.links:
-        lines += _urdf_link(link)
+        lines += _urdf_link(link, hulls)
     for joint in robot.joints:
         lines += _urdf_joint(joint)
     lines.append("</robot>")
     return "\n".join(lines)
 
 
-def robot_urdf_file(robot: RobotDescription) -> str:
+def robot_urdf_file(robot: RobotDescription, hulls: bool = False) -> str:
     """Path of the generated URDF on disk, for engines whose loaders read files; written once per content."""
-    text = robot_urdf(robot)
+    text = robot_urdf(robot, hulls)
     digest = hashlib.sha1(text.encode()).hexdigest()[:12]
     path = Path(tempfile.gettempdir()) / f"simtune-{robot.name}-{digest}.urdf"
     if not path.exists():

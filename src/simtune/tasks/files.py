@@ -19,7 +19,10 @@ import yaml
 
 from simtune.errors import ProjectError
 from simtune.robot.description import RobotDescription
+from simtune.robot.mico import MICO
+from simtune.tasks.lerobot import SCHEDULE_KEYS, lerobot_schedule, recordings_key
 from simtune.tasks.spec import MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
+from simtune.tasks.yamlfile import load_yaml
 
 #: The joint control laws a task file may name (``controller.law``); simtune.controller runs them.
 CONTROL_LAWS = ("clamped-p-velocity",)
@@ -67,7 +70,7 @@ def read_document(path: Path) -> dict[str, Any]:
             raise ProjectError(f"{path}: not valid TOML: {exc}") from None
     else:
         try:
-            data = yaml.safe_load(text)
+            data = load_yaml(text)
         except yaml.YAMLError as exc:
             mark = getattr(exc, "problem_mark", None)
             where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
@@ -199,6 +202,8 @@ TASK_KEYS = (
     "recordings",
     "public_recordings",
     "start_from_recordings",
+    "schedule_lerobot",
+    "schedule_episode",
 )
 CONTROLLER_KEYS = ("law", "gain", "max_velocity_deg")
 PHASE_KEYS = ("start", "targets_deg")
@@ -245,10 +250,17 @@ def load_task_file(
             )
     per_joint = f" (one per driven joint: {', '.join(joints)})"
 
-    start_pose = keys.numbers("start_pose_deg", len(joints), per_joint) or (0.0,) * len(joints)
+    start_pose = keys.numbers("start_pose_deg", len(joints), per_joint)
+    recordings, lerobot = recordings_key(keys, project_dir or path.parent)
+    # the robot the task carries (TaskSpec's default: the bundled MICO)
+    description = MICO if robot is None or robot.description is None else robot.description
     kp, max_velocity = _controller(keys)
     offset = keys.numbers("target_offset_deg", len(joints), per_joint)
-    phases = _schedule(keys, joints, per_joint, path)
+    if keys.has("schedule_lerobot") or keys.has("schedule_episode"):
+        phases, start_pose = lerobot_schedule(keys, path, joints, lerobot, description, start_pose, duration)
+    else:
+        phases = _schedule(keys, joints, per_joint, path)
+    start_pose = start_pose or (0.0,) * len(joints)
     if offset is not None and reaimed:
         phases = tuple(Phase(p.start, tuple(t + d for t, d in zip(p.targets_deg, offset))) for p in phases)
     if robot is not None and robot.description is not None:
@@ -272,9 +284,6 @@ def load_task_file(
     start_from_recordings = keys.flag("start_from_recordings", False)
     if start_from_recordings and obj is None:
         raise keys.error("start_from_recordings", "the task has no object to start where the recordings put it")
-    recordings = keys.string("recordings")
-    if recordings is not None:
-        recordings = str(((project_dir or path.parent) / recordings).resolve())
     carried = {} if robot is None or robot.description is None else {"robot": robot.description}
     return TaskSpec(
         name=name,
@@ -292,6 +301,7 @@ def load_task_file(
         base_body=base_body,
         recordings=recordings,
         start_from_recordings=start_from_recordings,
+        lerobot=lerobot,
         **carried,
     )
 
@@ -308,7 +318,8 @@ def _check_limits(
                 continue
             lower, upper = math.degrees(joint.lower), math.degrees(joint.upper)
             if not lower - 1e-6 <= angle <= upper + 1e-6:
-                where = "schedule_csv" if key.startswith("phases") and keys.has("schedule_csv") else key
+                schedule = next((k for k in SCHEDULE_KEYS[1:] if keys.has(k)), key)
+                where = schedule if key.startswith("phases") else key
                 raise keys.error(
                     f"{where}[{i}]" if where == key else where,
                     f"{angle:g} deg is outside the limits of {name} [{lower:.4g}, {upper:.4g}] deg",
@@ -329,7 +340,9 @@ def _controller(keys: Keys) -> tuple[float, float]:
 def _schedule(keys: Keys, joints: tuple[str, ...], per_joint: str, path: Path) -> tuple[Phase, ...]:
     """The target schedule: ``[[phases]]`` or ``schedule_csv``, exactly one of them, in time order."""
     if keys.has("phases") == keys.has("schedule_csv"):
-        raise keys.error("phases", "give the schedule as [[phases]] or as schedule_csv (exactly one of them)")
+        raise keys.error(
+            "phases", "give the schedule as [[phases]], schedule_csv or schedule_lerobot (exactly one of them)"
+        )
     if keys.has("schedule_csv"):
         csv_name = keys.string("schedule_csv")
         assert csv_name is not None

@@ -12,6 +12,7 @@ from functools import cached_property
 
 import numpy as np
 
+from simtune.data.lerobot import LeRobotReading
 from simtune.errors import ConfigError
 from simtune.geometry import rpy_matrix
 from simtune.robot.description import RobotDescription
@@ -134,6 +135,8 @@ class TaskSpec:
     #: whether the object starts where the recordings put it (their first second, :func:`started_as_recorded`)
     #: instead of at its ``xy``
     start_from_recordings: bool = field(default=False, metadata={FINGERPRINT: "default"})
+    #: how the task reads LeRobot datasets (its task file's ``[recordings]`` table: angle unit, names, episodes)
+    lerobot: LeRobotReading | None = field(default=None, metadata={FINGERPRINT: "default"})
 
     def __post_init__(self) -> None:
         robot = self.robot

@@ -1,0 +1,156 @@
+"""Task files and LeRobot datasets: the ``[recordings]`` table (angle unit, names, episodes) and a target
+schedule taken from one episode's commanded actions (``schedule_lerobot``); docs/task-files.md.
+
+A LeRobot dataset names its vectors' entries (``shoulder_pan.pos``) but stores no unit, so a task that
+reads one states it: ``[recordings] units = "deg"`` (LeRobot's SO-100/SO-101) or ``"rad"``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from simtune.data.lerobot import ANGLE_UNITS, LeRobotReading, read_lerobot_actions, write_lerobot_dataset
+from simtune.data.recording import Recording
+from simtune.errors import ConfigError, ProjectError, RecordingError
+from simtune.robot.description import RobotDescription
+from simtune.tasks.spec import Phase, TaskSpec
+
+if TYPE_CHECKING:
+    from simtune.tasks.files import Keys
+
+#: keys of a task file's ``[recordings]`` table (``recordings = "folder"`` is the short form of ``folder``)
+RECORDINGS_KEYS = ("folder", "units", "joints", "episodes")
+#: the schedule keys of a task file (exactly one of the first three)
+SCHEDULE_KEYS = ("phases", "schedule_csv", "schedule_lerobot")
+
+
+def recordings_key(keys: Keys, base: Path) -> tuple[str | None, LeRobotReading | None]:
+    """The task file's ``recordings``: a folder (relative to ``base``), or a table with the folder and how
+    LeRobot datasets are read; returns the absolute folder (or None) and the reading (None: no table)."""
+    value = keys.data.get("recordings")
+    if value is None or isinstance(value, str):
+        folder = keys.string("recordings")
+        return (None if folder is None else str((base / folder).resolve())), None
+    if not isinstance(value, dict):
+        raise keys.error("recordings", "expected a folder (a string) or a [recordings] table")
+    table = keys.table("recordings", RECORDINGS_KEYS)
+    assert table is not None
+    folder = table.string("folder")
+    units = table.string("units")
+    if units is not None and units not in ANGLE_UNITS:
+        raise table.error("units", f"unknown angle unit {units!r} (known: {', '.join(ANGLE_UNITS)})")
+    joints = table.data.get("joints", {})
+    if not isinstance(joints, dict):
+        raise table.error("joints", 'expected a table of dataset names, each mapped to a robot joint (or to "")')
+    for name, joint in joints.items():
+        if not isinstance(joint, str):
+            raise table.error(f"joints.{name!r}", f'expected a joint name (or "" to leave it out), got {joint!r}')
+    episodes = table.data.get("episodes")
+    if episodes is not None and (
+        not isinstance(episodes, list)
+        or not episodes
+        or not all(isinstance(k, int) and not isinstance(k, bool) and k >= 0 for k in episodes)
+    ):
+        raise table.error("episodes", f"expected a list of episode numbers (0 or more), got {episodes!r}")
+    if episodes is not None and len(set(episodes)) != len(episodes):
+        raise table.error("episodes", f"an episode is named twice: {episodes}")
+    reading = LeRobotReading(
+        units=units,
+        joints=tuple((str(name), joint) for name, joint in joints.items()),
+        episodes=None if episodes is None else tuple(episodes),
+    )
+    return (None if folder is None else str((base / folder).resolve())), reading
+
+
+def undriven_joints(robot: RobotDescription, driven: Sequence[str]) -> tuple[str, ...]:
+    """The robot's joints that a task driving ``driven`` does not drive (a dataset's names for them are left out)."""
+    return tuple(j.name for j in robot.joints if j.name not in driven)
+
+
+def reading_for(task: TaskSpec) -> LeRobotReading:
+    """How ``task`` reads a LeRobot dataset: its task file's ``[recordings]`` table, with its robot's other joints."""
+    return replace(task.lerobot or LeRobotReading(), undriven=undriven_joints(task.robot, task.joints))
+
+
+def lerobot_schedule(
+    keys: Keys,
+    path: Path,
+    joints: tuple[str, ...],
+    reading: LeRobotReading | None,
+    robot: RobotDescription,
+    start_pose: tuple[float, ...] | None,
+    duration: float,
+) -> tuple[tuple[Phase, ...], tuple[float, ...]]:
+    """The schedule of ``schedule_lerobot`` (a dataset folder, relative to the task file): one phase per frame of
+    the episode ``schedule_episode`` (default: the first), its ``action`` as the targets, up to ``duration``.
+
+    Returns the phases and the start pose: ``start_pose`` when the file gives one, else the episode's first
+    ``observation.state``.  A driven joint that the actions do not name is held at its start angle.
+    """
+    given = [k for k in SCHEDULE_KEYS if keys.has(k)]
+    if not keys.has("schedule_lerobot"):
+        raise keys.error("schedule_episode", "names an episode of schedule_lerobot, which the file does not give")
+    if len(given) != 1:
+        raise keys.error(given[0], f"give the schedule as {', '.join(SCHEDULE_KEYS)}: exactly one of them")
+    folder = keys.string("schedule_lerobot")
+    assert folder is not None
+    episode = keys.data.get("schedule_episode")
+    if episode is not None and (not isinstance(episode, int) or isinstance(episode, bool) or episode < 0):
+        raise keys.error("schedule_episode", f"expected an episode number (0 or more), got {episode!r}")
+    reading = replace(reading or LeRobotReading(), undriven=undriven_joints(robot, joints))
+    try:
+        actions = read_lerobot_actions(path.parent / folder, episode, joints, reading)
+    except RecordingError as exc:
+        raise ProjectError(f"{path}: schedule_lerobot: {exc}") from None
+    if start_pose is None:
+        start_pose = tuple(math.degrees(actions.start.get(j, 0.0)) for j in joints)
+    held = dict(zip(joints, np.radians(start_pose)))
+    time = actions.time - actions.time[0]
+    keep = np.flatnonzero((time < duration) & np.concatenate([[True], np.diff(time) > 0]))
+    targets = np.degrees(np.column_stack([actions.targets.get(j, np.full(len(time), held[j])) for j in joints]))
+    phases = tuple(Phase(float(time[i]), tuple(float(v) for v in targets[i])) for i in keep)
+    return phases, start_pose
+
+
+#: frames per second of the LeRobot datasets ``simtune synth`` writes (LeRobot records the SO-100/SO-101 at 30)
+SYNTH_FPS = 30.0
+
+
+def stated_units(task: TaskSpec) -> str:
+    """The unit the task states for LeRobot datasets' angles; a ConfigError naming the key when it states none."""
+    if task.lerobot is None or task.lerobot.units is None:
+        raise ConfigError(
+            f"task {task.name!r}: a LeRobot dataset's angles need a stated unit: add units = \"deg\" (LeRobot's "
+            'SO-100/SO-101) or units = "rad" to the [recordings] table of its task file'
+        )
+    return task.lerobot.units
+
+
+def write_task_dataset(root: Path, task: TaskSpec, recordings: Sequence[Recording], version: str) -> Path:
+    """``recordings`` (repeats of ``task`` logging its driven joints, sampled at :data:`SYNTH_FPS`) as a LeRobot
+    dataset in ``root``: ``observation.state`` their angles, ``action`` the task's targets in force at each frame,
+    in the unit the task states, named as its ``[recordings.joints]`` maps them (else ``<joint>.pos``)."""
+    reading = task.lerobot or LeRobotReading()
+    factor = ANGLE_UNITS[stated_units(task)]
+    starts, table = task.schedule
+    episodes = []
+    for rec in recordings:
+        state = np.column_stack([rec.joints[j] for j in task.joints]) / factor
+        action = np.radians(table[np.searchsorted(starts, rec.time, side="right")]) / factor
+        episodes.append((rec.time, state, action))
+    names = [reading.dataset_name(j) for j in task.joints]
+    return write_lerobot_dataset(
+        root,
+        episodes,
+        names,
+        SYNTH_FPS,
+        version=version,
+        task=task.description or task.name,
+        robot_type=task.robot.name,
+    )
