@@ -47,6 +47,7 @@ def test_probe_finds_what_cannot_act_and_says_why(cube_probe):
         assert a.active == (a.change > activity.TOLERANCE) and bool(a.reason) != a.active
 
 
+@pytest.mark.slow  # 6 s; the probe in one process stays in the default tier
 def test_probe_on_worker_processes_finds_what_one_process_finds(cube_probe):
     space, found = cube_probe
     assert measure_activity("mujoco", get_task("cube"), space, workers=2) == found

@@ -100,17 +100,19 @@ def round_trip(tmp_path_factory, tmp_path, engine: str, monkeypatch, space: str 
     assert abs(score.fitness - best["fitness"]) <= tolerance, (score.fitness, best["fitness"])
 
 
-# every engine whose export can be driven from its files; Drake's (about 20 s: its run's evaluations) and PyBullet's
-# (5 s) in the slow tier
+# every engine whose export can be driven from its files; Drake's (about 20 s: its run's evaluations), PyBullet's
+# (5 s) and DART's (6 s) in the slow tier
 @pytest.mark.parametrize(
-    "engine", [pytest.param(e, marks=[pytest.mark.slow] if e in ("drake", "pybullet") else []) for e in REPLAYS]
+    "engine",
+    [pytest.param(e, marks=[pytest.mark.slow] if e in ("drake", "pybullet", "dart") else []) for e in REPLAYS],
 )
 def test_round_trip(tmp_path_factory, tmp_path, engine, monkeypatch):
     round_trip(tmp_path_factory, tmp_path, engine, monkeypatch)
 
 
-# PyBullet's (about 23 s) in the slow tier
-@pytest.mark.parametrize("engine", ["mujoco", pytest.param("pybullet", marks=pytest.mark.slow)])
+# in the slow tier (MuJoCo's 13 s, PyBullet's 23 s): test_round_trip[mujoco] keeps the path in the default tier
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
 def test_round_trip_of_a_calibrated_run(tmp_path_factory, tmp_path, engine, monkeypatch):
     """controller.yaml carries the encoder model: the files replay a run with encoder offsets and compliance."""
     round_trip(tmp_path_factory, tmp_path, engine, monkeypatch, space="calibrated")

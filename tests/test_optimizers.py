@@ -40,9 +40,10 @@ def simtune(*args):
 
 
 # random search and Bayesian optimisation (about 10 s each) in the slow tier: their code paths are the simplest
-# and the one shared with cmaes
+# and the one shared with cmaes; auto's (15 s) too: tests/test_pipeline.py keeps its phases in the default tier
 @pytest.mark.parametrize(
-    "optimizer", [pytest.param(o, marks=[pytest.mark.slow] if o in ("random", "bo") else []) for o in OPTIMIZERS]
+    "optimizer",
+    [pytest.param(o, marks=[pytest.mark.slow] if o in ("random", "bo", "auto") else []) for o in OPTIMIZERS],
 )
 def test_optimizer_improves_is_deterministic_and_replays_from_the_store(optimizer, tmp_path):
     first = start_run(config(optimizer=optimizer), tmp_path / "a", show_progress=False)

@@ -86,6 +86,7 @@ def test_sobol_needs_a_power_of_two():
     assert proc.returncode == 2 and "unknown sensitivity method 'fast'" in proc.stderr
 
 
+@pytest.mark.slow  # 7 s; test_sobol_command_prints_the_table keeps the command in the default tier
 def test_report_includes_the_sensitivity_found_next_to_its_runs(morris, tmp_path):
     from simtune.runs import RunConfig, start_run
 
