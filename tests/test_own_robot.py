@@ -333,7 +333,7 @@ def test_servo_gain_of_a_project_drives_mujoco_and_drake_and_brings_the_engines_
     import numpy as np
 
     from simtune.engines import make_engine
-    from simtune.robot.generate import servo_gain
+    from simtune.robot.generate import servo_gains
 
     stiff = copy_project(panda_project, tmp_path / "stiff")
     edit(stiff / "simtune.toml", "[robot]\n", "[robot]\nservo_gain = 300.0\n")
@@ -346,7 +346,7 @@ def test_servo_gain_of_a_project_drives_mujoco_and_drake_and_brings_the_engines_
     for name, spec in (("default", default), ("stiff", task)):
         engine = make_engine("mujoco", spec)
         # by default each joint's from its inertia (robot/generate.py: servo_gain), at least 50
-        expected = [servo_gain(spec.robot, i) for i in range(7)] if name == "default" else [300.0] * 7
+        expected = servo_gains(spec.robot) if name == "default" else [300.0] * 7
         assert np.allclose(engine.model.actuator_gainprm[:, 0], expected)
         rollout = engine.rollout(params, samples)
         gap[name] = float(np.linalg.norm(rollout.wrist_pos - pybullet.wrist_pos, axis=1).mean())

@@ -27,7 +27,7 @@ import numpy as np
 
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, Monitor, Rollout, unreachable_servo_limits
 from simtune.robot.description import RobotDescription
-from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf, servo_gain
+from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf, servo_gains
 from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, ObjectSpec, TaskSpec
 
 try:
@@ -65,9 +65,9 @@ def compile_scene(robot: RobotDescription, obj: ObjectSpec | None):
             body.gravcomp = 1.0  # as the generated scene: the arm's controller compensates gravity
     for geom in root.find_all(mujoco.mjtObj.mjOBJ_GEOM):
         geom.contype, geom.conaffinity, geom.condim = 2, 1, 3  # the generated scene's "arm" class
-    for i, joint in enumerate(robot.arm_joints):
+    for i, (joint, gain) in enumerate(zip(robot.arm_joints, servo_gains(robot))):
         servo = scene.add_actuator(name=joint, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        servo.set_to_velocity(kv=servo_gain(robot, i))
+        servo.set_to_velocity(kv=gain)
         limit = robot.generic_effort(i)
         servo.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
         servo.forcerange = [-limit, limit]

@@ -28,12 +28,14 @@ LARGEST_COMMAND_STEP = 1.4
 #: How long a default velocity servo may lag its command [s]: the servo's time constant, inertia over gain.
 SERVO_LAG_S = 0.01
 #: A clipped servo force changes its joint's speed by up to (force limit x time step / inertia) per step of
-#: MuJoCo's generic 2 ms; above this [rad/s] the clipping sets the link spinning.
+#: MuJoCo's generic time step (:data:`GENERIC_TIMESTEP`); above this [rad/s] the clipping sets the link spinning.
 SPIN_LIMIT = 1.0
+#: MuJoCo's own default time step [s], which the generated scene keeps as its generic value.
+GENERIC_TIMESTEP = 0.002
 
 
-def servo_gain(robot: RobotDescription, index: int) -> float:
-    """The gain of MuJoCo's velocity servo on driven joint ``index`` [N m s/rad]: the robot's ``servo_gain``
+def servo_gains(robot: RobotDescription) -> tuple[float, ...]:
+    """The gain of MuJoCo's velocity servo on each driven joint [N m s/rad]: the robot's ``servo_gain``
     where it sets one, else :data:`SERVO_KV`, raised where the joint's inertia (at the zero pose) would make
     the servo lag its command by more than :data:`SERVO_LAG_S` (a heavy arm's shoulder), and lowered to keep
     the largest command step's force within the joint's generic force limit where a clipped force would
@@ -41,14 +43,16 @@ def servo_gain(robot: RobotDescription, index: int) -> float:
     (the MICO's light wrist in seed-2; a SO-101, whose URDF allows 10 N m, at every step with 50).  For the
     MICO the gain stays 50."""
     if robot.servo_gain is not None:
-        return robot.servo_gain
-    inertia = float(robot.joint_inertias()[index])
-    effort = robot.generic_effort(index)
-    gain = max(SERVO_KV, inertia / SERVO_LAG_S)
-    clipped = gain * LARGEST_COMMAND_STEP > effort
-    if clipped and effort * 0.002 > SPIN_LIMIT * inertia:
-        gain = effort / LARGEST_COMMAND_STEP
-    return gain
+        return (robot.servo_gain,) * robot.n_joints
+    gains = []
+    for index, inertia in enumerate(robot.joint_inertias()):
+        effort = robot.generic_effort(index)
+        gain = max(SERVO_KV, float(inertia) / SERVO_LAG_S)
+        clipped = gain * LARGEST_COMMAND_STEP > effort
+        if clipped and effort * GENERIC_TIMESTEP > SPIN_LIMIT * inertia:
+            gain = effort / LARGEST_COMMAND_STEP
+        gains.append(gain)
+    return tuple(gains)
 
 
 #: Name of the MuJoCo/URDF body that carries the task's object.
@@ -196,10 +200,11 @@ def scene_mjcf(robot: RobotDescription, obj: SceneObject | None = None) -> str:
     else:
         assets = _mjcf_meshes(robot) + assets
         arm = _mjcf_link(robot, robot.links[0], None, "    ")
+    gains = servo_gains(robot) if robot.mjcf is None else ()
     actuators = [
-        # A velocity servo; its force limit (max torque) is set per evaluation.  Its gain (servo_gain) keeps
+        # A velocity servo; its force limit (max torque) is set per evaluation.  Its gain (servo_gains) keeps
         # the largest command step's force within the generic limit: for the MICO, 70 N m below 100.
-        f'    <velocity name="{j}" joint="{j}" kv="{servo_gain(robot, i):.9g}" '
+        f'    <velocity name="{j}" joint="{j}" kv="{gains[i]:.9g}" '
         f'forcerange="{-robot.generic_effort(i):.9g} {robot.generic_effort(i):.9g}"/>'
         for i, j in enumerate(robot.arm_joints)
         if robot.mjcf is None

@@ -37,7 +37,7 @@ import os
 import re
 import warnings
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -323,13 +323,16 @@ class _Tree:
     base_position: Vec3
     base_rpy: Vec3
     notes: list[str]
+    parent_joint: dict = field(init=False)  # link -> the joint whose child it is
+
+    def __post_init__(self) -> None:
+        self.parent_joint = {j.child: j for j in self.order}
 
     def chain(self, link: str) -> list:
-        parent_joint = {j.child: j for j in self.order}
         out = []
-        while link in parent_joint:
-            out.append(parent_joint[link])
-            link = parent_joint[link].parent
+        while link in self.parent_joint:
+            out.append(self.parent_joint[link])
+            link = self.parent_joint[link].parent
         return out[::-1]
 
 
@@ -384,11 +387,12 @@ def _tree(robot, path: Path, base_position: Vec3, base_rpy: Vec3) -> _Tree:
     return _Tree(root, order, below, _vec(position), _rpy(rotation), notes)
 
 
-def _tip(tree: _Tree, link: str, held: set[str]) -> str:
-    """``link`` followed on through fixed joints while they do not branch (a flange, then a hand)."""
+def _tip(tree: _Tree, link: str) -> str:
+    """``link`` followed on through fixed joints while they do not branch (a flange, then a hand; a gripper's
+    joints are movable in the URDF, so the hand is where it ends)."""
     while True:
         hanging = tree.below.get(link, [])
-        if len(hanging) != 1 or hanging[0].type != "fixed" or hanging[0].name in held:
+        if len(hanging) != 1 or hanging[0].type != "fixed":
             return link
         link = hanging[0].child
 
@@ -411,7 +415,7 @@ def _arm_choice(
     elif arm_joints is not None:
         joint_of = {j.name: j for j in tree.order}
         last = max((joint_of[n] for n in arm_joints if n in joint_of), key=tree.order.index, default=None)
-        tracked_link = tree.root if last is None else _tip(tree, last.child, set(gripper))
+        tracked_link = tree.root if last is None else _tip(tree, last.child)
         notes.append(f"tracked link {tracked_link!r}: below the last driven joint")
     else:
         ends = [j.child for j in tree.order]
@@ -421,7 +425,7 @@ def _arm_choice(
         end = ends[int(np.argmax(counts))]
         last = arm(tree.chain(end))[-1]
         start = next(j.child for j in tree.order if j.name == last)
-        tracked_link = _tip(tree, start, set(gripper))
+        tracked_link = _tip(tree, start)
         notes.append(
             f"tracked link {tracked_link!r}: the end of the longest chain of arm joints from {tree.root!r} "
             f"({max(counts)} joints)"
@@ -537,7 +541,7 @@ def load_urdf(
     )
     _check_driven(robot, path, driven, held)
     links_by_name = {link.name: link for link in robot.links}
-    if tracked_link != tree.root and tracked_link not in {j.child for j in tree.order}:
+    if tracked_link != tree.root and tracked_link not in tree.parent_joint:
         raise RobotError(f"{path}: tracked link {tracked_link!r} is not in the robot's tree from {tree.root!r}")
     if gripper_links is None:
         gripper = _gripper_links(tree, tracked_link, links_by_name, notes)
