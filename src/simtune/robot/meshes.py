@@ -36,7 +36,20 @@ def cache_folder() -> Path:
     return (Path(xdg).expanduser() if xdg else Path.home() / ".cache") / "simtune" / "meshes"
 
 
+def _stamp(path: Path) -> tuple[int, int]:
+    """A file's version as far as the caches here go: its modification time and size."""
+    stat = path.stat()
+    return stat.st_mtime_ns, stat.st_size
+
+
 def _digest(path: Path) -> str:
+    """The file's content hash, read once per version of the file in a process (every load of a robot, in
+    every worker, names the same meshes)."""
+    return _content_digest(path, _stamp(path))
+
+
+@functools.lru_cache(maxsize=1024)
+def _content_digest(path: Path, stamp: tuple[int, int]) -> str:
     digest = hashlib.sha256()
     with path.open("rb") as f:
         for block in iter(lambda: f.read(1 << 20), b""):
@@ -100,8 +113,7 @@ def engine_mesh(source: Path, where: str) -> Path:
     the one-line :class:`RobotError` of a mesh that cannot be read or converted."""
     suffix = source.suffix.lower()
     if suffix in READ_AS_IS:
-        stat = source.stat()
-        _check(source, (stat.st_mtime_ns, stat.st_size), where)
+        _check(source, _stamp(source), where)
         return source
     if suffix not in CONVERTED:
         known = ", ".join((*READ_AS_IS, *CONVERTED))
