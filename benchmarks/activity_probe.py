@@ -10,9 +10,10 @@ the two outcomes are equal are printed.
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
+
+from common import add_engines_option, make_parser
 
 from simtune.activity import measure_activity
 from simtune.engines import engine_class
@@ -21,8 +22,8 @@ from simtune.tasks import get_task
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--engines", default="mujoco,dart")
+    parser = make_parser(__doc__)
+    add_engines_option(parser, "mujoco,dart")
     parser.add_argument("--task", default="cube")
     parser.add_argument("--space", default="calibrated")
     parser.add_argument("--workers", type=int, default=2)

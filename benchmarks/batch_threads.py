@@ -10,7 +10,6 @@ warmed up first (workers started, engines built), then timed on the same batch; 
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import tempfile
@@ -18,6 +17,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from common import add_data_option, make_parser
 
 from simtune.engines import engine_class
 from simtune.objective import Objective, load_references
@@ -26,7 +26,6 @@ from simtune.params import get_space
 from simtune.store import RunStore
 from simtune.tasks import get_task
 
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"
 WAYS = {"1 process": (1, False), "2 processes": (2, False), "2 threads": (2, True)}
 
 
@@ -62,8 +61,8 @@ def stepping_share(objective: Objective, batch: np.ndarray) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    parser = make_parser(__doc__)
+    add_data_option(parser)
     parser.add_argument("--evals", type=int, default=40)
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()

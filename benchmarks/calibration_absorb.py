@@ -13,32 +13,30 @@ deflection at full load): does the data ask for more than the space allows?
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from common import add_data_option, load_best, make_parser
 from scipy.optimize import least_squares
 
 from simtune.fitness import marker_positions
 from simtune.objective import Objective, load_references
 from simtune.params import get_space
 from simtune.params.space import FULL_LOAD_DEFLECTION_DEG
-from simtune.tasks import parse_tasks
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = make_parser(__doc__.split("\n\n")[0])
     parser.add_argument("run", type=Path)
-    parser.add_argument("--data", type=Path, default=None)
+    add_data_option(parser, default=None, help="the recordings' root (default: the tasks' own)")
     parser.add_argument("--max-evaluations", type=int, default=150)
     parser.add_argument("--range-scale", type=float, default=1.0)
     args = parser.parse_args()
-    best = json.loads((args.run / "best_params.json").read_text())
+    best, task = load_best(args.run)
     base = dict(best["params"])
-    (task,) = parse_tasks(best["tasks"])
     refs = load_references(args.data, [task])
     ref = refs[task.name]
     assert ref.wrist_mean is not None, "a wrist-tracking task"

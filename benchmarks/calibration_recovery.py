@@ -14,15 +14,16 @@ The table is printed as Markdown; runs go to ``--out`` (default: a temporary fol
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import tempfile
 from pathlib import Path
 
+from common import add_search_options, make_parser, start_or_resume
+
 from simtune.objective import Objective, load_references
 from simtune.params import get_space
-from simtune.runs import RunConfig, resume_run, start_run
+from simtune.runs import RunConfig
 from simtune.synth import make_synthetic
 from simtune.tasks import parse_tasks
 
@@ -52,12 +53,9 @@ def score(data: Path, params: dict) -> float:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--optimizer", default="cmaes")
-    parser.add_argument("--budget-evals", type=int, default=400)
+    parser = make_parser(__doc__.split("\n\n")[0])
+    add_search_options(parser, budget_evals=400)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--no-refine", action="store_true", help="skip the least-squares refinement")
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="simtune-calibration-"))
@@ -76,11 +74,7 @@ def main() -> int:
         max_evaluations=args.budget_evals,
         only=TUNED,
     )
-    run_dir = out / f"run-seed-{args.seed}"
-    if (run_dir / "run.sqlite").exists():
-        result = resume_run(run_dir, show_progress=False)
-    else:
-        result = start_run(config, run_dir, show_progress=False)
+    result = start_or_resume(config, out / f"run-seed-{args.seed}")
     floor = score(data, TRUTH)
     untuned = score(data, {"command_delay": TRUTH["command_delay"]})
 

@@ -10,22 +10,19 @@ delay; "rest" is before the first command), plus the object's final error.  Prin
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
+from common import add_data_option, load_best, make_parser
 
 from simtune.fitness import marker_positions
 from simtune.objective import Objective, load_references
-from simtune.tasks import parse_tasks
 
 
 def residuals(run: Path, data: Path | None) -> tuple[str, list[tuple[str, np.ndarray, float]], float | None]:
-    best = json.loads((run / "best_params.json").read_text())  # names the run's engine, tasks and space
+    best, task = load_best(run)  # names the run's engine, tasks and space
     params = best["params"]
-    (task,) = parse_tasks(best["tasks"])
     references = load_references(data, [task])
     objective = Objective(best["engine"], [task], references)
     try:
@@ -51,9 +48,9 @@ def residuals(run: Path, data: Path | None) -> tuple[str, list[tuple[str, np.nda
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = make_parser(__doc__.split("\n\n")[0])
     parser.add_argument("runs", nargs="+", type=Path)
-    parser.add_argument("--data", type=Path, default=None, help="the recordings' root (default: the tasks' own)")
+    add_data_option(parser, default=None, help="the recordings' root (default: the tasks' own)")
     args = parser.parse_args()
     for run in args.runs:
         label, rows, obj = residuals(run, args.data)

@@ -13,12 +13,12 @@ paths, and the difference of the fitness from the run's stored fitness.
 
 from __future__ import annotations
 
-import argparse
 import json
 import tempfile
 from pathlib import Path
 
 import numpy as np
+from common import add_engines_option, make_parser
 
 from simtune.engines import make_engine
 from simtune.export import export_run
@@ -30,11 +30,11 @@ from simtune.tasks import get_task
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--engines", default="mujoco,pybullet,dart,drake")
+    parser = make_parser(__doc__)
+    add_engines_option(parser, "mujoco,pybullet,dart,drake")
+    parser.add_argument("--evaluations", type=int, default=3)
     parser.add_argument("--seeds", default="0,1,2")
     parser.add_argument("--space", default="extended")
-    parser.add_argument("--evaluations", type=int, default=3)
     args = parser.parse_args()
     task = get_task("cube")
     reference = load_references(REFERENCE_DIR, [task])["cube"]

@@ -11,19 +11,17 @@ The real cube ends about 10 cm from its start; the generic simulation pushes it 
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
+from common import add_data_option, make_parser
 
 from simtune.optimize.pipeline import aligned_generic_start
 from simtune.runs import RunConfig, build_objective
 
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"
 FRICTIONS = (1.0, 0.5, 0.2, 0.1, 0.05, 0.02, 0.005)
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    parser = make_parser(__doc__)
+    add_data_option(parser)
     args = parser.parse_args()
     config = RunConfig(engine="mujoco", tasks="cube", space="extended", data=str(args.data))
     objective = build_objective(config)

@@ -20,21 +20,19 @@ it runs only when asked, and the estimate from the measured rate is printed inst
 
 from __future__ import annotations
 
-import argparse
-import datetime
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
+from common import add_data_option, make_parser, today
 
 from simtune.engines import make_engine
-from simtune.engines.mujoco_warp_engine import MujocoWarpEngine
+from simtune.engines.mujoco_warp.engine import MujocoWarpEngine
 from simtune.params import get_space
 from simtune.tasks import get_task
 
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"
-#: evaluations the MuJoCo engine's 2-worker tune needed to pass fitness 0.03 on `cube`, estimated from the README
+#: evaluations the MuJoCo engine's 2-worker tune needed to pass fitness 0.03 on `cube`, estimated from docs/results.md
 #: (2026-11-23): it passed 0.03 after about 4 of its 15 minutes, which held 22,631 evaluations
 MUJOCO_EVALUATIONS_TO_003 = 6000
 
@@ -102,19 +100,19 @@ def search_to_target(engine: MujocoWarpEngine, data: Path, target: float, max_se
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = make_parser(__doc__)
     parser.add_argument("--sizes", default=None, help="batch sizes (default 53,530,5300; on a CPU 53,530)")
     parser.add_argument("--seconds", type=float, default=None, help="simulated seconds of `cube` per rollout")
     parser.add_argument("--mujoco-sample", type=int, default=32, help="rollouts timed on the MuJoCo engine")
     parser.add_argument("--target", type=float, default=None, help="run the search to this fitness (e.g. 0.03)")
     parser.add_argument("--max-seconds", type=float, default=900.0)
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    add_data_option(parser)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
 
     device = MujocoWarpEngine.device()
     on_gpu = device.startswith("GPU")
-    print(f"{datetime.date.today()}  mujoco-warp {MujocoWarpEngine.version()} on {device}")
+    print(f"{today()}  mujoco-warp {MujocoWarpEngine.version()} on {device}")
     if not on_gpu:
         print("NOTE: no GPU: these are CPU figures (Warp's CPU device), not GPU figures")
     sizes = [int(s) for s in (args.sizes or ("53,530,5300" if on_gpu else "53,530")).split(",")]

@@ -26,8 +26,6 @@ Writes ``panda-recovery-<date>.md`` (the table) and ``.json`` to --results; prin
 
 from __future__ import annotations
 
-import argparse
-import datetime
 import json
 import subprocess
 import sys
@@ -36,6 +34,7 @@ import time
 from pathlib import Path
 
 import pybullet_data
+from common import add_results_option, make_parser, write_json_result, write_result
 
 PANDA = Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf"
 TASKS = ("reach", "push")
@@ -138,10 +137,10 @@ def fitness_per_task(project: Path, engine: str, data: Path, params: Path) -> di
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = make_parser(__doc__)
     parser.add_argument("--max-seconds", type=float, default=120.0, help="time budget of each tune [s]")
     parser.add_argument("--out", type=Path, help="working folder (default: a temporary one)")
-    parser.add_argument("--results", type=Path, default=Path(__file__).parent / "results")
+    add_results_option(parser)
     parser.add_argument(
         "--servo-gain",
         type=float,
@@ -217,11 +216,9 @@ def main() -> None:
         lines.append(f"| {row['engine']} | {row['wall_s']:g} | " + " | ".join(shown) + " |")
     table = "\n".join(lines)
     print(table)
-    args.results.mkdir(parents=True, exist_ok=True)
-    stamp = datetime.date.today().isoformat()
-    (args.results / f"panda-recovery-{stamp}.md").write_text(table + "\n")
+    write_result(args.results, "panda-recovery", "md", table + "\n")
     summary = {"truth": TRUTH, "noise_mm": NOISE_MM, "floor": floor, "contact": contact, "engines": rows}
-    (args.results / f"panda-recovery-{stamp}.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_json_result(args.results, "panda-recovery", summary)
 
 
 def _task_values(values: dict, name: str) -> dict[str, float] | None:

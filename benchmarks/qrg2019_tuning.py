@@ -5,25 +5,26 @@
         [--out runs/qrg2019]
 
 Each run is a normal run folder (resumable); a finished one is read, not redone.
-Prints a Markdown table of generic and tuned fitness (the README's table).
+Prints a Markdown table of generic and tuned fitness (the table of docs/results.md).
 """
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
+
+from common import add_data_option, add_engines_option, make_parser
 
 from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--data", default=str(Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"))
+    ap = make_parser(__doc__, whole_doc=True)
+    add_data_option(ap)
     ap.add_argument("--max-seconds", type=float, default=300.0)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--engines", default="mujoco,pybullet")
+    add_engines_option(ap, "mujoco,pybullet")
     ap.add_argument("--tasks", default="single,cube")
     ap.add_argument("--spaces", default="shared,individual,extended")
     ap.add_argument("--seed", type=int, default=0)
@@ -45,7 +46,7 @@ def main() -> None:
                             engine=engine,
                             tasks=task,
                             space=space,
-                            data=args.data,
+                            data=str(args.data),
                             seed=args.seed,
                             workers=args.workers,
                             max_seconds=args.max_seconds,

@@ -27,7 +27,6 @@ Runs go to ``--out`` (default: a temporary folder); the tables are printed as Ma
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -35,13 +34,14 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from common import add_search_options, make_parser, start_or_resume
 from scipy.stats import spearmanr
 
 from simtune.check import check
 from simtune.objective import Objective, load_references
 from simtune.params import find_parameter
 from simtune.report.simulate import nominal_values
-from simtune.runs import RunConfig, resume_run, start_run
+from simtune.runs import RunConfig
 from simtune.store import RunStore
 from simtune.synth import make_synthetic
 from simtune.tasks import parse_tasks
@@ -84,10 +84,7 @@ def tune(data: Path, run_dir: Path, seed: int, args) -> dict:
         refine=not args.no_refine,
         max_evaluations=args.budget_evals,
     )
-    if (run_dir / "run.sqlite").exists():  # a run of an earlier call with the same --out: replay or finish it
-        result = resume_run(run_dir, show_progress=False)
-    else:
-        result = start_run(config, run_dir, show_progress=False)
+    result = start_or_resume(config, run_dir)
     store = RunStore(run_dir)
     try:
         uncertainty = store.get("uncertainty") or {"parameters": []}
@@ -157,12 +154,9 @@ def identifiability(data: Path, runs: list[dict], truth: dict, names: list[str])
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--optimizer", default="cmaes")
-    parser.add_argument("--budget-evals", type=int, default=3000)
+    parser = make_parser(__doc__.split("\n\n")[0])
+    add_search_options(parser, budget_evals=3000)
     parser.add_argument("--seeds", type=int, default=3)
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--no-refine", action="store_true", help="skip the least-squares refinement")
     parser.add_argument("--no-cross", action="store_true", help="skip the PyBullet -> MuJoCo gap")
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
@@ -180,7 +174,7 @@ def main() -> int:
     generic = score("mujoco", data, {})
     runs = [tune(data, out / f"mujoco-seed-{s}", s, args) for s in range(args.seeds)]
     names = list(runs[0]["params"])
-    generic_values = nominal_values("mujoco", [TASK])
+    generic_values = nominal_values("mujoco", parse_tasks(TASK))
     truth = {**generic_values, **TRUTH}
 
     print(f"\n### MuJoCo tuned on MuJoCo `{TASK}` data with known parameters\n")

@@ -23,21 +23,19 @@ fingers pass through the object: where the error sits, and whether a contact hol
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import json
 import sys
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+from common import add_data_option, load_best, make_parser
 from scipy.optimize import least_squares, minimize
 
 from simtune.controller import JointController
 from simtune.engines import engine_class
 from simtune.fitness import marker_positions
 from simtune.objective import Objective, load_references
-from simtune.tasks import parse_tasks
 
 #: the main axis of each joint origin of the MICO's chain that a length error would change (joint, axis)
 CHAIN_LENGTHS = (
@@ -79,13 +77,12 @@ def controller_variant(lag_periods: float, dead_band_deg_s: float):
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = make_parser(__doc__.split("\n\n")[0])
     parser.add_argument("run", type=Path)
-    parser.add_argument("--data", type=Path, default=None)
+    add_data_option(parser, default=None, help="the recordings' root (default: the tasks' own)")
     args = parser.parse_args()
-    best = json.loads((args.run / "best_params.json").read_text())
+    best, task = load_best(args.run)
     params = dict(best["params"])
-    (task,) = parse_tasks(best["tasks"])
     ref = load_references(args.data, [task])[task.name]
     assert ref.wrist_mean is not None, "a wrist-tracking task"
     objective = Objective(best["engine"], [task], {task.name: ref})

@@ -13,13 +13,13 @@ Writes ``robot-corpus-<date>.md`` (the table) and ``.json`` to --results; prints
 
 from __future__ import annotations
 
-import argparse
-import datetime
 import json
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from common import add_results_option, make_parser, today, write_json_result, write_result
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
@@ -51,10 +51,10 @@ def table(rows: list[dict]) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = make_parser(__doc__)
     parser.add_argument("--robots", default="", help="robot names joined by commas (default: the whole corpus)")
     parser.add_argument("--tune-seconds", type=float, default=60.0)
-    parser.add_argument("--results", type=Path, default=Path(__file__).parent / "results")
+    add_results_option(parser)
     args = parser.parse_args()
     chosen = [r for r in CORPUS if not args.robots or r.name in args.robots.split(",")]
     rows = []
@@ -69,15 +69,14 @@ def main() -> None:
         rows.append(row)
         print(f"{robot.name}: {row['wall_s']:.0f} s {json.dumps(row, default=str)}", flush=True)
     text = table(rows)
-    date = datetime.date.today().isoformat()
-    args.results.mkdir(parents=True, exist_ok=True)
+    date = today()
     header = (
         f"Robot corpus, {date}: `python benchmarks/robot_corpus.py --tune-seconds {args.tune_seconds:g}`; "
         f"recordings with a command delay of {TRUE_DELAY_S} s, 2 mm noise, 3 repeats: by MuJoCo for the generic "
         "columns (each engine against MuJoCo's recordings), by the engine tuned for the delay columns.\n\n"
     )
-    (args.results / f"robot-corpus-{date}.md").write_text(header + text + "\n")
-    (args.results / f"robot-corpus-{date}.json").write_text(json.dumps(rows, indent=1, default=str))
+    write_result(args.results, "robot-corpus", "md", header + text + "\n")
+    write_json_result(args.results, "robot-corpus", rows, indent=1, newline=False)
     print(text)
 
 

@@ -17,12 +17,12 @@
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import itertools
 
 import mujoco
 import numpy as np
+from common import make_parser
 
 from simtune.engines import make_engine
 from simtune.engines.contact import probe_contact, rollout_samples
@@ -134,7 +134,7 @@ def search(number: int, limit: int, verify: list[str], min_l1: int = 0) -> tuple
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = make_parser(__doc__, whole_doc=True)
     ap.add_argument("--tasks", default="3,5,7,9", help="odd seed task numbers (each schedule serves n and n+1)")
     ap.add_argument("--limit", type=int, default=30)
     ap.add_argument("--engines", default="", help="also print the contact table in these engines")

@@ -30,7 +30,6 @@ never a different measurement). The last line is the benchmark's own wall time.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import os
 import statistics
@@ -39,6 +38,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from common import add_data_option, add_engines_option, make_parser
 
 from simtune.engines import engine_class, make_engine
 from simtune.objective import Objective, load_references
@@ -48,8 +48,6 @@ from simtune.reference import REFERENCE_DIR
 from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
 from simtune.tasks import get_task
-
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"
 
 
 def stats(values: list[float]) -> str:
@@ -137,8 +135,8 @@ def throughput(objective: Objective, vectors: np.ndarray, workers: int) -> float
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--engines", default="mujoco,pybullet,ode,dart,drake")
+    ap = make_parser(__doc__, whole_doc=True)
+    add_engines_option(ap, "mujoco,pybullet,ode,dart,drake")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--evals", type=int, default=1000)
     ap.add_argument(
@@ -147,7 +145,7 @@ def main() -> None:
         default=10.0,
         help="about how long the throughput and pruning measurements take per engine",
     )
-    ap.add_argument("--data", default=str(DEFAULT_DATA))
+    add_data_option(ap)
     ap.add_argument("--target", type=float, default=0.05)
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--skip-target", action="store_true", help="skip the time-to-target runs (minutes)")
@@ -155,7 +153,7 @@ def main() -> None:
     start = time.perf_counter()
     if args.evals < 200 or args.evals % 50:
         ap.error("--evals must be a multiple of 50, at least 200")
-    data = Path(args.data) if Path(args.data).is_dir() else REFERENCE_DIR
+    data = args.data if args.data.is_dir() else REFERENCE_DIR
     task = get_task("cube")
     refs = load_references(data, [task])
     print(f"simtune speed benchmark, cube task, data {data}, {os.cpu_count()} cores, {time.strftime('%Y-%m-%d')}")

@@ -15,17 +15,17 @@ run on a busy host is slower.  With --out the lines are appended to that file as
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import tempfile
 import time
 from pathlib import Path
 
+from common import add_data_option, make_parser
+
 from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
 
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"
 #: fitness levels whose times are printed on the way to the target
 MILESTONES = (0.1, 0.05, 0.04, 0.03, 0.025)
 
@@ -44,8 +44,8 @@ def time_to_target(run_dir: Path, target: float) -> tuple[float | None, int | No
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    parser = make_parser(__doc__)
+    add_data_option(parser)
     parser.add_argument("--optimizers", default="auto,de")
     parser.add_argument("--seeds", default="0")
     parser.add_argument("--tasks", default="cube:0.03,single:0.01")

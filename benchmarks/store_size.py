@@ -33,11 +33,10 @@ import time
 from pathlib import Path
 
 import numpy as np
+from common import add_data_option, make_parser
 
 from simtune.runs import RunConfig, start_run
 from simtune.store import READABLE_VERSIONS, STORE_FILE, RunStore
-
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/datasets/qrg2019/mocap"
 
 
 def tune(data: Path, generations: int, workers: int, keep_inactive: bool, folder: Path) -> tuple[list, list, float]:
@@ -123,8 +122,8 @@ def measure(root: Path, args: argparse.Namespace, keep_inactive: bool) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    parser = make_parser(__doc__)
+    add_data_option(parser)
     parser.add_argument("--generations", type=int, default=8)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--search", choices=("both", "default", "keep-inactive"), default="both")

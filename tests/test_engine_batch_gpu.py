@@ -11,7 +11,7 @@ import pytest
 from conftest import engine_or_skip
 
 from simtune.engines import make_engine
-from simtune.engines.mujoco_warp_engine import step_counts, time_step_groups
+from simtune.engines.mujoco_warp.engine import step_counts, time_step_groups
 from simtune.params import get_space
 from simtune.tasks import get_task
 
@@ -23,7 +23,7 @@ WRIST_BOUND = {"single": 1e-3, "cube": 5e-3}
 
 def population(n_random: int, seed: int = 0) -> list[dict[str, float]]:
     """Generic parameters and ``n_random`` uniform points of the `extended` space of the MuJoCo engine."""
-    from simtune.engines.mujoco_engine import MujocoEngine
+    from simtune.engines.mujoco.engine import MujocoEngine
 
     space = get_space("extended", MujocoEngine.supported())
     rng = np.random.default_rng(seed)

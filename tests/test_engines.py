@@ -214,8 +214,9 @@ def test_inactive_parameters_are_named_and_supported(engine):
 
 
 # --- generic values, motors, blow-ups ----------------------------------------------------------------
-#: Each engine's own generic values of some parameters (a newly registered engine adds its own here).
-GENERIC = {
+#: Each engine's own generic values of some parameters, read from its library or documentation (a newly
+#: registered engine adds its own here, under its registry name).
+OWN_GENERIC = {
     "mujoco": {"timestep": 0.002, "lateral_friction_plastic": 1.0},
     "pybullet": {"timestep": 1 / 240, "lateral_friction_plastic": 0.5},
     # ODE has neither a default step nor a default surface: simtune's generic values
@@ -224,17 +225,25 @@ GENERIC = {
     "dart": {"timestep": 0.001, "lateral_friction_plastic": 1.0, "restitution_floor": 0.0},
     # MultibodyPlantConfig, the URDF parser's friction
     "drake": {"timestep": 0.001, "lateral_friction_gripper": 1.0},
-    # the MuJoCo engine's model and mapping
-    "mujoco-warp": {"timestep": 0.002, "lateral_friction_plastic": 1.0},
 }
+
+
+def generic_values(engine: str) -> dict[str, float]:
+    """``engine``'s generic values: its own, or, for an engine the registry exports as another's model (MuJoCo
+    Warp: the MuJoCo engine's model and mapping), that engine's."""
+    exporter = ENGINES[engine].exporter
+    if engine not in OWN_GENERIC:
+        model = next((name for name in OWN_GENERIC if ENGINES[name].exporter == exporter), None)
+        assert model is not None, f"add {engine}'s own generic values to OWN_GENERIC in {__file__}"
+        return OWN_GENERIC[model]
+    return OWN_GENERIC[engine]
 
 
 @pytest.mark.parametrize("engine", every_engine())
 def test_generic_defaults_are_the_engines_own(engine):
     sim = engine_or_skip(engine)(get_task("cube"))
     defaults = sim.defaults()
-    assert engine in GENERIC, f"add {engine}'s own generic values to GENERIC in {__file__}"
-    for name, value in GENERIC[engine].items():
+    for name, value in generic_values(engine).items():
         assert defaults[name] == pytest.approx(value), name
     # a generic value for every engine parameter the task uses
     used = sim.engine_parameters - set(sim.inactive_parameters(sim.task))
@@ -283,6 +292,20 @@ def test_state_check_finds_the_first_broken_sample_of_a_block():
     assert _first_bad(pos, rot, q, None, None) == (6, "wrist 3.0 m from the base")
 
 
+@pytest.mark.parametrize("engine", list(ENGINES))
+def test_every_part_the_registry_names_is_there(engine):
+    """Each entry's engine class, exporter and replay import by their module paths, with or without the
+    engine's library (which only the engine itself needs, when it builds a scene)."""
+    from simtune.engines import Engine, load_part
+    from simtune.export.replay import FromFiles
+
+    entry = ENGINES[engine]
+    assert issubclass(entry.engine_class(), Engine) and entry.engine_class().name == engine
+    assert callable(load_part(entry.exporter))
+    if entry.replay is not None:
+        assert issubclass(load_part(entry.replay), FromFiles)
+
+
 def test_unknown_engine_is_a_clear_error():
     with pytest.raises(ConfigError, match="unknown engine 'ode2'.*mujoco"):
         engine_class("ode2")
@@ -291,7 +314,7 @@ def test_unknown_engine_is_a_clear_error():
 def test_the_tests_of_a_missing_engine_skip_with_its_install_command(monkeypatch):
     """On a machine without an engine's library (ODE without Debian's libode8, say), the engine's
     tests skip, and the reason is the registry's install command."""
-    from simtune.engines import mujoco_engine
+    from simtune.engines.mujoco import engine as mujoco_engine
 
     monkeypatch.setattr(mujoco_engine, "mujoco", None)  # as on a machine without the mujoco package
     with pytest.raises(pytest.skip.Exception, match=re.escape(ENGINES["mujoco"].install)):

@@ -2,7 +2,8 @@
 
 import pytest
 
-from simtune.engines import ENGINES, engine_class, mujoco_engine
+from simtune.engines import ENGINES, engine_class
+from simtune.engines.mujoco import engine as mujoco_engine
 from simtune.errors import EngineUnavailable
 from simtune.tasks import get_task
 

@@ -3,6 +3,11 @@
 Every import is read, at module level, inside functions and under ``TYPE_CHECKING``
 alike, relative imports resolved; every module under src/simtune must be placed in
 the table, and every name in the table must be a module.
+
+The layers allow imports within a layer, so they cannot see a loop between two modules of one layer; a
+package and a module outside it importing each other (``tasks/__init__`` reading ``project`` inside a function,
+``project`` importing ``tasks.files``) is such a loop, and is checked on its own: taking each package as one
+unit, no chain of imports leads from a unit back to itself.
 """
 
 import ast
@@ -136,3 +141,58 @@ def test_an_upward_import_is_caught():
     found = imported_modules("from simtune.tasks.spec import ObjectSpec", "simtune.robot.generate", False)
     assert found == [(1, "simtune.tasks.spec")]
     assert robot is not None and tasks is not None and tasks > robot
+
+
+def unit_of(path: str) -> str:
+    """The unit a module belongs to for the loop check: the layer table's name for it, a package (``tasks/``) or the
+    module itself (``project``, ``engines/mujoco/export``)."""
+    if path in LAYERS:
+        return path
+    packages = [name for name in LAYERS if name.endswith("/") and path.startswith(name)]
+    return max(packages, key=len) if packages else path
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Unit -> the other units its modules import (wherever the import statement is)."""
+    graph: dict[str, set[str]] = {}
+    for path, file in modules():
+        module = "simtune" if path == "__init__" else "simtune." + path.removesuffix("/__init__").replace("/", ".")
+        edges = graph.setdefault(unit_of(path), set())
+        for _, dotted in imported_modules(file.read_text(), module, file.name == "__init__.py"):
+            target = module_path(dotted)
+            if target is not None and target != "__init__" and unit_of(target) != unit_of(path):
+                edges.add(unit_of(target))
+    return graph
+
+
+def loops(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Each unit's shortest import chain back to itself (breadth first), for every unit that has one."""
+    found = []
+    for start in sorted(graph):
+        paths = {start: [start]}
+        queue = [start]
+        while queue:
+            unit = queue.pop(0)
+            for target in sorted(graph.get(unit, ())):
+                if target == start:
+                    found.append([*paths[unit], start])
+                    queue = []
+                    break
+                if target not in paths:
+                    paths[target] = [*paths[unit], target]
+                    queue.append(target)
+    return found
+
+
+def test_no_package_and_module_import_each_other():
+    found = loops(import_graph())
+    assert not found, "import loops (a package counts as one unit): " + "; ".join(" -> ".join(c) for c in found)
+
+
+def test_a_loop_through_a_lazy_import_is_caught():
+    """The loop the layers missed: tasks/__init__ reading the project inside a function, the project importing a
+    task module; both in layer 4."""
+    graph = {"tasks/": {"project"}, "project": {"tasks/"}, "errors": set()}
+    assert loops(graph) == [["project", "tasks/", "project"], ["tasks/", "project", "tasks/"]]
+    lazy = "def _project():\n    from simtune.project import get_project\n"
+    assert imported_modules(lazy, "simtune.tasks", is_package=True) == [(2, "simtune.project")]

@@ -87,7 +87,7 @@ def lift_object(sim, dz):
         pos = odepy.dBodyGetPosition(sim._object)
         odepy.dBodySetPosition(sim._object, pos[0], pos[1], pos[2] + dz)
     elif sim.name == "dart":
-        from simtune.engines.dart_engine import _isometry
+        from simtune.engines.dart.engine import _isometry
 
         sim._free.setTransform(_isometry(np.add(obj.start_position, (0, 0, dz)), obj.rotation))
     elif sim.name == "drake":

@@ -1,23 +1,30 @@
 """Run stores of every version stay usable: version 1 (vectors, scores and every generation's population as JSON
 text) and version 2 (every vector as float64, one population) are read by the report, `compare` and `export`, and
-resumed in their own format; version 3 keeps the exact vector only where it is read (the best, generation 0)."""
+resumed in their own format; version 3 keeps the exact vector only where it is read (the best, generation 0).
+
+tests/fixtures/stores/ holds a small finished run of each version as the simtune of that format wrote it
+(its README says how): each opens, reports, exports and resumes."""
 
 import json
 import re
 import shutil
 import sqlite3
+from contextlib import closing
 from pathlib import Path
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
+import simtune
+from simtune.cli import app
 from simtune.compare import curve_from_store
 from simtune.export import export_run
 from simtune.fitness import PENALTY, Score, TaskScore, pruned_message
 from simtune.reference import REFERENCE_DIR
 from simtune.report.collect import load_run
 from simtune.runs import BEST_PARAMS_FILE, RunConfig, resume_run, start_run
-from simtune.store import STORE_FILE, RunStore, vector_key
+from simtune.store import STORE_FILE, RunStore, read_record, vector_key
 
 
 def config(**kw) -> RunConfig:
@@ -102,7 +109,7 @@ def runs(tmp_path_factory):
         patch.setattr(RunStore, "record_generation", spy_generation)
         patch.setattr(RunStore, "record_evaluation", spy_evaluation)
         result = start_run(config(), root / "v3", show_progress=False)
-        patch.setattr("simtune.store.SCHEMA_VERSION", 2)
+        patch.setattr("simtune.store.runstore.SCHEMA_VERSION", 2)  # a version 2 store, to compare
         result_v2 = start_run(config(), root / "v2", show_progress=False)
     assert result_v2.fitness == result.fitness and result_v2.evaluations == result.evaluations
     shutil.copytree(root / "v2", root / "v1")
@@ -308,3 +315,69 @@ def test_scores_come_back_from_the_store_exactly(tmp_path, version):
     if version == 3:  # a one-task score of the store's task that holds its steps alone: that integer
         assert store.db.execute("SELECT score FROM evaluations ORDER BY id LIMIT 1").fetchone() == (5000,)
     store.close()
+
+
+FIXTURES = Path(__file__).parent / "fixtures" / "stores"
+
+
+def fixture_run(version: int, root: Path, running: bool = False, **config) -> Path:
+    """A copy of the fixture run of store ``version``, its data folder this checkout's reference recordings (the
+    store names the absolute folder it was tuned on) and its stored configuration updated by ``config``; with
+    ``running``, as a run killed before its end leaves it (status "running")."""
+    run_dir = root / f"v{version}"
+    shutil.copytree(FIXTURES / f"v{version}", run_dir)
+    with closing(sqlite3.connect(run_dir / STORE_FILE)) as db, db:
+        stored = json.loads(db.execute("SELECT value FROM meta WHERE key = 'config'").fetchone()[0])
+        stored.update(data=str(REFERENCE_DIR), **config)
+        db.execute("UPDATE meta SET value = ? WHERE key = 'config'", (json.dumps(stored),))
+        if running:
+            db.execute("UPDATE meta SET value = '\"running\"' WHERE key = 'status'")
+            db.execute("DELETE FROM meta WHERE key LIKE 'search%'")  # written when the search ends
+    return run_dir
+
+
+def as_made_by_this_simtune(run_dir: Path) -> None:
+    """Export refuses a run another simtune version tuned: the fixtures name the version that made them."""
+    with closing(sqlite3.connect(run_dir / STORE_FILE)) as db, db:
+        versions = json.loads(db.execute("SELECT value FROM meta WHERE key = 'versions'").fetchone()[0])
+        versions["simtune"] = simtune.__version__
+        db.execute("UPDATE meta SET value = ? WHERE key = 'versions'", (json.dumps(versions),))
+
+
+@pytest.mark.parametrize("version", [1, 2, 3])
+def test_each_fixture_store_reads_as_the_same_record(version):
+    record = read_record(FIXTURES / f"v{version}")
+    assert record.version == version and record.status == "finished"
+    assert (record.engine, record.tasks, record.space, record.optimizer) == ("mujoco", "cube", "extended", "de")
+    assert record.parameters == ["max_velocity_joint_2", "command_delay"] and record.active == [True, True]
+    assert record.evaluations == 15 and len(record.initial_population) == len(record.initial_fitness) == 5
+    assert [g["generation"] for g in record.generations] == [1, 2]
+    assert set(record.data_fingerprint or {}) == {"cube"} and record.finished_at is not None
+    best = json.loads((FIXTURES / f"v{version}" / BEST_PARAMS_FILE).read_text())
+    assert record.best is not None and record.best["score"]["fitness"] == best["fitness"]
+    assert dict(zip(record.parameters, record.best["x"])) == best["params"]
+    reference = read_record(FIXTURES / "v3")
+    for name in ("best", "generic", "initial_population", "initial_fitness", "outcomes", "inactive", "uncertainty"):
+        assert getattr(record, name) == getattr(reference, name), name
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("version", [1, 2, 3])
+def test_each_fixture_store_reports_exports_and_resumes(version, tmp_path):
+    run_dir = fixture_run(version, tmp_path / "runs")
+    runner = CliRunner()
+    reported = runner.invoke(app, ["report", str(run_dir), "--out", str(tmp_path / "report"), "-q"])
+    assert reported.exit_code == 0, reported.output
+    assert (tmp_path / "report" / "index.html").is_file()
+    as_made_by_this_simtune(run_dir)
+    exported = runner.invoke(app, ["export", str(run_dir), "--out", str(tmp_path / "export"), "--engine", "mujoco"])
+    assert exported.exit_code == 0, exported.output
+    assert (tmp_path / "export" / "scene_cube.xml").is_file()
+    # killed with one generation more to go: its two are replayed from the store, the third is new
+    resumable = fixture_run(version, tmp_path / "resumed", running=True, max_generations=3)
+    resumed = runner.invoke(app, ["resume", str(resumable), "-q", "--json"])
+    assert resumed.exit_code == 0, resumed.output
+    record = read_record(resumable)
+    assert record.version == version and record.status == "finished"
+    assert record.evaluations == 20 and [g["generation"] for g in record.generations] == [1, 2, 3]
+    assert record.best is not None and record.best["score"]["fitness"] <= read_record(run_dir).best["score"]["fitness"]

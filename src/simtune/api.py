@@ -20,21 +20,34 @@ from __future__ import annotations
 import os
 import sqlite3
 import time
-from collections.abc import Collection, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from simtune.alignment import DelayEstimate, aligned, estimate_delay
+from simtune.check import check as run_check
+from simtune.compare import run_compare
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, SimtuneError
+from simtune.export import ExportResult, export_run, export_runs
 from simtune.fitness import FitnessWeights, Score, TaskScore
+from simtune.grid import GridIndex, GridSpec, run_grid
+from simtune.grid import plan_grid as _plan_grid
 from simtune.objective import Objective, load_references
-from simtune.params import read_params_file, validate_params
+from simtune.optimize import TuneResult
+from simtune.params import get_space, read_params_file, validate_params
 from simtune.project import Project, get_project
 from simtune.project import load_project as _load_project
-from simtune.runs import RunConfig, start_run
-from simtune.store import STORE_FILE, RunStore
+from simtune.project_check import check_project
+from simtune.project_init import init_project
+from simtune.reference import REFERENCE_DIR, run_demo
+from simtune.run_plan import RunConfig, new_run_config
+from simtune.runs import resume_run, run_uncertainty, start_run
+from simtune.sensitivity import evaluation_count, run_sensitivity
+from simtune.store import STORE_FILE, read_record
+from simtune.synth import SynthResult, load_truth, make_synthetic
 from simtune.tasks.spec import common_robot
+from simtune.transfer import run_transfer
 
 
 @dataclass(frozen=True)
@@ -153,6 +166,12 @@ def _root(data: object, project: Project) -> Path | None:
     return Path(os.path.abspath(_path("data", data))) if data is not None else project.data_root()
 
 
+def _study_root(data: object) -> Path:
+    """The data root of a study (compare, transfer, sensitivity, a grid): ``data`` made absolute, else the
+    recordings shipped with simtune."""
+    return Path(os.path.abspath(_path("data", data))) if data is not None else REFERENCE_DIR
+
+
 def _aligned(align_clock: object, specs) -> set[str]:
     """The tasks whose clocks ``align_clock`` names: True (all), False (none) or task names of ``specs``."""
     if align_clock is None or isinstance(align_clock, bool):
@@ -232,15 +251,22 @@ def evaluate(
     return Result.from_score(engine, values, score, generic, evaluations=evaluations, wall_s=wall, **more)
 
 
-def tune(
+def _task_spec(tasks: object) -> str:
+    """Tasks as a run stores them: a string as given (the project reads names, groups and commas in it), a list
+    of names joined by commas."""
+    if isinstance(tasks, str):
+        return tasks
+    return ",".join(_names("tasks", tasks, "single,cube"))
+
+
+def run_config(
     engine: str = "mujoco",
     tasks: str | Collection[str] = "cube",
     *,
-    out: Path | str,
     project: Project | Path | str | None = None,
     data: Path | str | None = None,
     space: str = "extended",
-    optimizer: str = "auto",
+    optimizer: str | None = None,
     refine: bool = False,
     seed: int = 0,
     workers: int = 1,
@@ -252,22 +278,25 @@ def tune(
     eval_timeout: float = 600.0,
     weights: FitnessWeights | Mapping[str, float] | str | None = None,
     joint_topic: str | None = None,
-    show_progress: bool = False,
-) -> Result:
-    """Tune ``engine`` on ``tasks`` of ``project`` into the new run folder ``out`` (``simtune tune``).
+    prune: bool = True,
+    paper_exact: bool = False,
+    keep_inactive: bool = False,
+    threads: bool = False,
+) -> RunConfig:
+    """The configuration ``tune`` runs and stores, from the same arguments (``simtune tune``'s options).
 
-    The run is an ordinary one: ``simtune resume OUT`` continues it, ``read_run(OUT)`` reads it.
-    The run stores the project by its project file (the bundled MICO project: not at all).  ``only``: the
-    parameters to tune (a comma-separated string or a list; None: the whole space).
+    ``optimizer``: None for the default (auto; de with ``paper_exact``).  The project is stored by its project
+    file (the bundled MICO project: not at all), ``data`` absolute.
     """
-    out_dir = _path("out", out)
     proj = _project(project)
     fitness_weights = _weights(weights)
-    config = RunConfig(
-        engine=engine,
-        tasks=",".join(_names("tasks", tasks, "single,cube")),
-        space=space,
-        data=None if (root := _root(data, proj)) is None else str(root),
+    return new_run_config(
+        engine,
+        _task_spec(tasks),
+        space,
+        data=_root(data, proj),
+        project=proj,
+        weights=fitness_weights,
         seed=seed,
         workers=workers,
         max_seconds=max_seconds,
@@ -275,15 +304,264 @@ def tune(
         only=None if only is None else _names("only", only, "command_delay"),
         eval_timeout=eval_timeout,
         target_fitness=target_fitness,
-        optimizer=optimizer,
+        prune=prune,
+        optimizer=optimizer or ("de" if paper_exact else "auto"),
         refine=refine,
         max_evaluations=max_evaluations,
-        project=None if proj is get_project(None) else str(proj.file.resolve()),
-        weights=None if fitness_weights is None else fitness_weights.as_dict(),
+        paper_exact=paper_exact,
         joint_topic=joint_topic,
+        keep_inactive=keep_inactive,
+        threads=threads,
     )
-    start_run(config, out_dir, show_progress=show_progress)
+
+
+def tune(
+    engine: str = "mujoco",
+    tasks: str | Collection[str] = "cube",
+    *,
+    out: Path | str,
+    show_progress: bool = False,
+    **settings,
+) -> Result:
+    """Tune ``engine`` on ``tasks`` into the new run folder ``out`` (``simtune tune``); ``settings`` are
+    :func:`run_config`'s (project, data, space, optimizer, max_evaluations ...).
+
+    The run is an ordinary one: ``simtune resume OUT`` continues it, ``read_run(OUT)`` reads it.
+    ``only``: the parameters to tune (a comma-separated string or a list; None: the whole space).
+    """
+    out_dir = _path("out", out)
+    start_run(run_config(engine, tasks, **settings), out_dir, show_progress=show_progress)
     return read_run(out_dir)
+
+
+def start(config: RunConfig, out: Path | str, *, show_progress: bool = False) -> TuneResult:
+    """Run ``config`` (see :func:`run_config`) in the new run folder ``out``; the optimiser's result."""
+    return start_run(config, _path("out", out), show_progress=show_progress)
+
+
+def resume(run_dir: Path | str, *, rescore: bool = False, show_progress: bool = False) -> TuneResult:
+    """Continue the run in ``run_dir`` (``simtune resume``); ``rescore``: anew on the data as it is now."""
+    return resume_run(_path("run_dir", run_dir), show_progress=show_progress, rescore=rescore)
+
+
+def uncertainty(run_dir: Path | str, workers: int = 1) -> dict:
+    """How well the recordings pin each parameter at a finished run's best point (``simtune uncertainty``)."""
+    return run_uncertainty(_path("run_dir", run_dir), workers)
+
+
+def compare(
+    engine: str = "mujoco",
+    tasks: str | Collection[str] = "cube",
+    *,
+    out: Path | str,
+    optimizers: str | Collection[str] = "de,cmaes,bo,random",
+    seeds: int = 3,
+    budget: int = 300,
+    target: float | None = None,
+    data: Path | str | None = None,
+    space: str = "extended",
+    workers: int = 1,
+    only: str | Collection[str] | None = None,
+    eval_timeout: float = 600.0,
+    on_run: Callable[[str, int, str], None] | None = None,
+) -> dict:
+    """Optimisers head to head on ``budget`` evaluations, ``seeds`` runs each, in ``out`` (``simtune compare``);
+    ``on_run(optimizer, seed, "running" or "resuming")`` before each run that is not reused."""
+    # each run's optimiser, seed and budget are the comparison's
+    base = run_config(engine, tasks, data=data, space=space, workers=workers, only=only, eval_timeout=eval_timeout)
+    # none named: run_compare says to name at least one
+    return run_compare(base, _listed(optimizers), seeds, budget, _path("out", out), target, on_run=on_run)
+
+
+def transfer(
+    engine: str = "mujoco",
+    train: str | Collection[str] = "single,cube",
+    test: str | Collection[str] = "double",
+    *,
+    out: Path | str,
+    data: Path | str | None = None,
+    test_data: Path | str | None = None,
+    space: str = "extended",
+    optimizer: str = "de",
+    refine: bool = False,
+    seed: int = 0,
+    workers: int = 1,
+    max_seconds: float | None = None,
+    max_generations: int = 1000,
+    max_evaluations: int | None = None,
+    only: str | Collection[str] | None = None,
+    eval_timeout: float = 600.0,
+    align_clock: bool = True,
+    show_progress: bool = False,
+) -> dict:
+    """Tune on ``train``, then score the tuned and the generic parameters on ``train`` and the unseen ``test``
+    tasks (``simtune transfer``); the result as OUT/transfer.json holds it."""
+    config = run_config(
+        engine,
+        train,
+        data=data,
+        space=space,
+        optimizer=optimizer,
+        refine=refine,
+        seed=seed,
+        workers=workers,
+        max_seconds=max_seconds,
+        max_generations=max_generations,
+        max_evaluations=max_evaluations,
+        only=only,
+        eval_timeout=eval_timeout,
+    )
+    test_root = None if test_data is None else _path("test_data", test_data)
+    return run_transfer(
+        config, _task_spec(test), _path("out", out), test_root, show_progress=show_progress, align_clock=align_clock
+    )
+
+
+def sensitivity(
+    engine: str = "mujoco",
+    tasks: str | Collection[str] = "cube",
+    *,
+    out: Path | str,
+    data: Path | str | None = None,
+    space: str = "extended",
+    samples: int = 10,
+    method: str = "morris",
+    only: str | Collection[str] | None = None,
+    seed: int = 0,
+    workers: int = 1,
+    eval_timeout: float | None = 600.0,
+    on_evaluation: Callable[[Score, bool], None] | None = None,
+) -> dict:
+    """Global sensitivity of the fitness to each parameter (``simtune sensitivity``): SALib's Morris or Sobol,
+    the evaluations cached in OUT/sensitivity.sqlite; ``on_evaluation(score, reused)`` after each."""
+    return run_sensitivity(
+        engine,
+        _task_spec(tasks),
+        _study_root(data),
+        space,
+        _path("out", out),
+        samples=samples,
+        method=method,
+        only=None if only is None else _names("only", only, "command_delay"),
+        seed=seed,
+        workers=workers,
+        eval_timeout=eval_timeout,
+        on_evaluation=on_evaluation,
+    )
+
+
+def sensitivity_evaluations(
+    engine: str, space: str, method: str, samples: int, only: str | Collection[str] | None = None
+) -> int:
+    """The evaluations :func:`sensitivity` runs with these arguments (its progress bar's total)."""
+    names = None if only is None else _names("only", only, "command_delay")
+    return evaluation_count(method, samples, len(get_space(space, engine_class(engine).supported(), names)))
+
+
+def demo(out: Path | str = "runs/demo", workers: int = 2, max_seconds: float = 120.0, console=None) -> dict:
+    """``simtune demo``: tune MuJoCo to the shipped reference recording, printing generic vs tuned on ``console``
+    (a rich Console; None: standard output); the two fitness values."""
+    return run_demo(_path("out", out), workers=workers, max_seconds=max_seconds, console=console)
+
+
+def grid_spec(
+    engines: str | Collection[str] = "mujoco,pybullet",
+    tasks: str | Collection[str] = "single,cube",
+    spaces: str | Collection[str] = "shared,individual",
+    *,
+    repeats: int = 10,
+    data: Path | str | None = None,
+    max_seconds_per_run: float | None = None,
+    max_generations: int = 1000,
+    only: str | Collection[str] | None = None,
+    keep_inactive: bool = False,
+) -> GridSpec:
+    """An experiment grid (``simtune grid``'s options): engines x experiments x spaces x ``repeats`` seeds; an
+    experiment joins tasks tuned together with '+' (``single+cube``)."""
+    return GridSpec(
+        engines=_listed(engines),
+        tasks=_listed(tasks),
+        spaces=_listed(spaces),
+        repeats=repeats,
+        data=str(_study_root(data)),
+        max_seconds_per_run=max_seconds_per_run,
+        max_generations=max_generations,
+        only=None if only is None else _names("only", only, "command_delay"),
+        keep_inactive=keep_inactive,
+    )
+
+
+def grid(spec: GridSpec, out: Path | str, **execution) -> GridIndex:
+    """Run every unfinished optimisation of ``spec`` in the grid folder ``out`` (``simtune grid``); its index.
+    ``execution``: :func:`simtune.grid.run_grid`'s executor, workers, scheduler, index_url and on_event."""
+    return run_grid(spec, _path("out", out), **execution)
+
+
+def plan_grid(spec: GridSpec) -> list[dict]:
+    """Size and estimated cost of ``spec`` per engine x experiment x space (``simtune grid --plan``)."""
+    return _plan_grid(spec)
+
+
+def check(
+    engine: str = "mujoco",
+    tasks: str | Collection[str] = "cube",
+    *,
+    project: Project | Path | str | None = None,
+    data: Path | str | None = None,
+    space: str = "extended",
+    workers: int = 1,
+) -> dict:
+    """Before tuning (``simtune check --task``): the recordings' quality per task and which active parameters
+    the recordings can inform (the Jacobian at the generic point)."""
+    proj = _project(project)
+    root = _root(data, proj)
+    if root is None:
+        raise SimtuneError(f"check: the project {project} names no data root: give the recordings with --data")
+    return run_check(engine, proj.parse_tasks(_task_spec(tasks)), root, space, workers)
+
+
+def synth(
+    engine: str = "mujoco",
+    tasks: str | Collection[str] = "cube",
+    *,
+    out: Path | str,
+    truth: Path | str | None = None,
+    delay_s: float | None = None,
+    project: Project | Path | str | None = None,
+    **recording,
+) -> SynthResult:
+    """Recordings with a known ground truth in the data root ``out`` (``simtune synth``): ``truth`` a params
+    file (default: the engine's generic values), ``delay_s`` the true command delay; ``recording`` are
+    :func:`simtune.synth.make_synthetic`'s noise_m, repeats, seed, jitter_s, fmt, joint_noise_rad and force."""
+    values = load_truth(None if truth is None else _path("truth", truth), engine, delay_s)
+    return make_synthetic(engine, _task_spec(tasks), _path("out", out), truth=values, project=project, **recording)
+
+
+def export(
+    run_dirs: Path | str | Collection[Path | str],
+    out: Path | str,
+    *,
+    engine: str | None = None,
+    all_engines: bool = False,
+    dr: bool = False,
+    force: bool = False,
+) -> tuple[list[ExportResult], list[tuple[Path, str]]]:
+    """A tuned run as the engine's own model files in ``out`` (``simtune export``); with ``all_engines`` every
+    finished run under ``run_dirs``, each as its own engine's.  The exports, and the folders skipped and why."""
+    runs = [run_dirs] if isinstance(run_dirs, str | os.PathLike) else list(run_dirs)
+    if all_engines and engine is not None:
+        raise SimtuneError("--all-engines exports each run with its own engine: leave out --engine")
+    if all_engines:
+        return export_runs(runs, out, dr=dr, force=force)
+    if len(runs) != 1:
+        raise SimtuneError(f"give one run folder (got {len(runs)}), or --all-engines for several")
+    return [export_run(runs[0], out, engine=engine, dr=dr, force=force)], []
+
+
+def _listed(value: str | Collection[str]) -> list[str]:
+    """Names given comma-separated or as a list (blank ones dropped)."""
+    parts = value.split(",") if isinstance(value, str) else value
+    return [part.strip() for part in parts if part.strip()]
 
 
 def read_run(run_dir: Path | str) -> Result:
@@ -298,25 +576,44 @@ def read_run(run_dir: Path | str) -> Result:
 
 
 def _read_run(run_dir: Path) -> Result:
-    store = RunStore.open_read_only(run_dir)
-    try:
-        config = store.get("config")
-        best = store.best_evaluation()
-        if config is None or best is None:
-            raise SimtuneError(f"{run_dir}: the run has no evaluation yet")
-        names = store.get("parameters")
-        return Result.from_score(
-            str(config["engine"]),
-            dict(zip(names, (float(v) for v in best["x"]), strict=True)),
-            Score.from_dict(best["score"]),
-            store.get("generic"),
-            evaluations=store.count_evaluations(),
-            run_dir=run_dir,
-            message=str(store.get("message", store.get("status", ""))),
-            wall_s=float(store.get("elapsed_s", 0.0) or 0.0),
-        )
-    finally:
-        store.close()
+    record = read_record(run_dir)
+    best, generic = record.best, record.generic
+    if record.config is None or best is None or generic is None:  # a run stores its generic score as it starts
+        raise SimtuneError(f"{run_dir}: the run has no evaluation yet")
+    return Result.from_score(
+        record.engine,
+        dict(zip(record.parameters or [], (float(v) for v in best["x"]), strict=True)),
+        Score.from_dict(best["score"]),
+        generic,
+        evaluations=record.evaluations,
+        run_dir=run_dir,
+        message=str(record.message if record.message is not None else (record.status or "")),
+        wall_s=record.elapsed_s,
+    )
 
 
-__all__ = ["Project", "Result", "evaluate", "load_project", "read_run", "tune"]
+__all__ = [
+    "Project",
+    "Result",
+    "check",
+    "check_project",
+    "compare",
+    "demo",
+    "evaluate",
+    "export",
+    "grid",
+    "grid_spec",
+    "init_project",
+    "load_project",
+    "plan_grid",
+    "read_run",
+    "resume",
+    "run_config",
+    "sensitivity",
+    "sensitivity_evaluations",
+    "start",
+    "synth",
+    "transfer",
+    "tune",
+    "uncertainty",
+]

@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -60,7 +60,7 @@ class OptimizerSummary:
 
 def curve_from_store(run_dir: Path, budget: int) -> tuple[list[float], float]:
     """Best fitness so far over the first ``budget`` stored evaluations of a run, and its wall time."""
-    store = RunStore(run_dir)
+    store = RunStore.open_read_only(run_dir)
     try:
         fitness = [row["fitness"] for row in store.evaluations()[:budget]]
         wall = float(store.get("elapsed_s", 0.0) or 0.0)
@@ -122,16 +122,14 @@ def run_compare(
     for name in optimizers:
         for seed in range(seeds):
             run_dir = out / name / f"seed-{seed}"
-            config = RunConfig(
-                **{
-                    **asdict(base),
-                    "optimizer": name,
-                    "seed": seed,
-                    "max_evaluations": budget,
-                    "max_seconds": None,
-                    "target_fitness": None,
-                    "refine": False,
-                }
+            config = replace(
+                base,
+                optimizer=name,
+                seed=seed,
+                max_evaluations=budget,
+                max_seconds=None,
+                target_fitness=None,
+                refine=False,
             )
             if (run_dir / STORE_FILE).exists():
                 stored = RunStore(run_dir)

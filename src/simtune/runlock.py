@@ -51,7 +51,7 @@ def _key(run_dir: Path) -> str:
 def _command_line() -> str:
     """This process's command as the user typed it (``python -m simtune.cli`` shown as ``simtune``)."""
     argv = list(sys.argv)
-    if argv and (argv[0].endswith(("simtune/cli.py", "simtune")) or argv[0] == "-m"):
+    if argv and (argv[0].endswith(("simtune/cli/__main__.py", "simtune")) or argv[0] == "-m"):
         argv[0] = "simtune"
     return " ".join(argv)
 

@@ -31,34 +31,31 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
 import platform
 import sqlite3
 import sys
 import tempfile
 import time
-from dataclasses import MISSING, asdict, dataclass, fields, replace
+from dataclasses import asdict, fields, replace
 from pathlib import Path
 
 import numpy as np
 
 import simtune
-from simtune.activity import active_space, declared_inactive, inactive_parameters
 from simtune.data.fingerprint import fingerprint_changes, folders_fingerprint
-from simtune.engines import engine_class
-from simtune.errors import ConfigError, RunInterrupted, SimtuneError
-from simtune.fitness import FitnessWeights
-from simtune.objective import Objective, load_references, recordings_folder
+from simtune.errors import RunInterrupted, SimtuneError
+from simtune.objective import Objective, recordings_folder
 from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squares_refine
 from simtune.optimize.evaluator import timed_out
-from simtune.params import ParameterSpace, get_space
+from simtune.params import ParameterSpace
 from simtune.params.space import is_supported
 from simtune.progress import TuneProgress
+from simtune.run_plan import RunConfig, RunPlan, plan_run
 from simtune.runlock import LOCK_FILE, check_free, run_lock
 from simtune.store import STORE_FILE, RunStore, check_store_file
-from simtune.tasks import TaskSpec, parse_tasks
-from simtune.tasks.spec import FINGERPRINT, common_robot
+from simtune.tasks import TaskSpec
+from simtune.tasks.spec import FINGERPRINT
 from simtune.uncertainty import uncertainty
 
 BEST_PARAMS_FILE = "best_params.json"
@@ -67,149 +64,14 @@ SUPERSEDED_DIR = "superseded"
 STORE_FILES = (STORE_FILE, STORE_FILE + "-wal", STORE_FILE + "-shm")
 #: what simtune leaves in a run folder besides the run itself
 _OWN_ENTRIES = frozenset({LOCK_FILE, SUPERSEDED_DIR, *STORE_FILES})
-#: seeds must fit every random generator the optimisers use (NumPy's legacy seeding takes 32 bits)
-MAX_SEED = 2**32 - 1
 
 
-def _is_int(value) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-
-
-@dataclass
-class RunConfig:
-    engine: str
-    tasks: str  # as given: "cube" or "single,cube"
-    space: str
-    data: str | None  # folder with one sub-folder of recordings per task; None: each task's own (its project's)
-    seed: int = 0
-    workers: int = 1
-    max_seconds: float | None = None
-    max_generations: int = 1000
-    only: list[str] | None = None  # tune just these parameters of the space
-    eval_timeout: float | None = None  # seconds before a worker's evaluation is abandoned
-    prune: bool = True  # stop trials that can no longer beat their parent (same search, less simulation)
-    target_fitness: float | None = None  # stop once the best fitness reaches this
-    optimizer: str = "de"  # a key of simtune.optimize.OPTIMIZERS
-    refine: bool = False  # polish the best point with least squares on the residuals afterwards
-    max_evaluations: int | None = None  # stop once this many evaluations were used (checked per batch)
-    #: the seed paper's exact search: SciPy's DE with immediate updating and polish, one worker, no
-    #: pruning, and the paper's whole parameter list (parameters the engine lacks kept, without effect)
-    paper_exact: bool = False
-    #: weights of the fitness's parts (simtune.fitness.FitnessWeights keys); None: the defaults
-    weights: dict[str, float] | None = None
-    #: the JointState topic of ROS 2 joint logs; None: each log's only one
-    joint_topic: str | None = None
-    #: the project file the tasks are read from (absolute); None: the bundled MICO project
-    project: str | None = None
-    #: keep parameters that change no rollout of the tasks in the search (the paper's full D); implied by
-    #: paper_exact.  Runs stored before this setting existed kept them all.
-    keep_inactive: bool = False
-    #: with several tasks, one command delay per task (``command_delay_<task>``) instead of one shared
-    #: delay; runs stored before this setting existed shared one
-    task_delays: bool = True
-    #: evaluate each batch in the coordinating process on --workers threads (the engine's batch path; the same
-    #: results as worker processes, without their crash isolation and time-outs)
-    threads: bool = False
-
-    def record(self) -> dict:
-        """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
-        ``weights`` and ``joint_topic`` at their defaults (None) and ``threads`` when off, so that the stores of
-        runs made before projects, joint logs and the batch path and of new MICO runs compare equal."""
-        values = asdict(self)
-        for key in ("project", "weights", "joint_topic"):
-            if values[key] is None:
-                del values[key]
-        if not values["threads"]:
-            del values["threads"]
-        return values
-
-    @classmethod
-    def from_stored(cls, values, where: str) -> RunConfig:
-        """The configuration a run store holds; one line naming ``where`` and the key for anything unknown or bad."""
-        if not isinstance(values, dict):
-            raise ConfigError(f"{where}: the stored configuration is not a JSON object")
-        known = {f.name for f in fields(cls)}
-        for key in values:
-            if key not in known:
-                raise ConfigError(
-                    f"{where}: unknown key {key!r} in the stored configuration (written by another simtune version?)"
-                )
-        # a run from before these settings searched every parameter, with one shared command delay
-        values = {"keep_inactive": True, "task_delays": False, **values}
-        for f in fields(cls):
-            if f.default is MISSING and f.name not in values:
-                raise ConfigError(f"{where}: the stored configuration has no {f.name!r}")
-        config = cls(**values)
-        config.check(where)
-        return config
-
-    def check(self, where: str = "") -> None:
-        """One-line ConfigError for settings no optimiser can run with (each value's type and range)."""
-        at = f"{where}: " if where else ""
-
-        def bad(key: str, what: str) -> ConfigError:
-            return ConfigError(f"{at}{key} must be {what}, got {getattr(self, key)!r}")
-
-        for key in ("engine", "tasks", "space", "optimizer"):
-            if not isinstance(getattr(self, key), str):
-                raise bad(key, "a string")
-        for key in ("data", "project"):
-            if getattr(self, key) is not None and not isinstance(getattr(self, key), str):
-                raise bad(key, "a string or null")
-        if not _is_int(self.seed) or not 0 <= self.seed <= MAX_SEED:
-            raise bad("seed", f"an integer from 0 to {MAX_SEED}")
-        for key in ("workers", "max_generations"):
-            if not _is_int(getattr(self, key)) or getattr(self, key) < 1:
-                raise bad(key, "an integer of at least 1")
-        if self.max_evaluations is not None and (not _is_int(self.max_evaluations) or self.max_evaluations < 1):
-            raise bad("max_evaluations", "an integer of at least 1")
-        for key in ("max_seconds", "eval_timeout"):
-            value = getattr(self, key)
-            if value is not None and (not _is_number(value) or value <= 0):
-                raise bad(key, "a finite number of seconds above 0")
-        if self.target_fitness is not None and (not _is_number(self.target_fitness) or self.target_fitness < 0):
-            raise bad("target_fitness", "a finite number of at least 0")
-        for key in ("prune", "refine", "paper_exact", "keep_inactive", "task_delays", "threads"):
-            if not isinstance(getattr(self, key), bool):
-                raise bad(key, "true or false")
-        if self.only is not None and (
-            not isinstance(self.only, list) or not all(isinstance(n, str) for n in self.only)
-        ):
-            raise bad("only", "a list of parameter names")
-        if self.weights is not None:
-            if not isinstance(self.weights, dict):
-                raise bad("weights", "a mapping of weight names to numbers")
-            FitnessWeights.from_mapping(self.weights, f"{at}weights")
-        if self.joint_topic is not None and not isinstance(self.joint_topic, str):
-            raise bad("joint_topic", "a topic name")
-        get_optimizer(self.optimizer)
-        if self.paper_exact:
-            if self.optimizer != "de":
-                raise ConfigError(f"{at}--paper-exact runs differential evolution, not --optimizer {self.optimizer}")
-            if self.space not in ("shared", "individual"):
-                raise ConfigError(
-                    f"{at}--paper-exact needs one of the paper's spaces (shared, individual), not {self.space!r}"
-                )
-            if self.only:
-                raise ConfigError(f"{at}--paper-exact tunes the paper's whole parameter list: drop --only")
-            if self.workers != 1:
-                raise ConfigError(
-                    f"{at}--paper-exact evaluates one trial at a time (SciPy's immediate updating): drop --workers"
-                )
-            if self.refine:
-                raise ConfigError(f"{at}--paper-exact ends with SciPy's own polish: drop --refine")
-
-
-def versions(engine: str) -> dict[str, str]:
+def versions(plan: RunPlan) -> dict[str, str]:
     import scipy
 
     return {
         "simtune": simtune.__version__,
-        engine: engine_class(engine).version(),
+        plan.config.engine: plan.engine.version(),
         "numpy": np.__version__,
         "scipy": scipy.__version__,
         "python": platform.python_version(),
@@ -230,13 +92,12 @@ def task_fingerprint(task: TaskSpec) -> str:
     return hashlib.sha256(json.dumps(spec, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def run_fingerprint(config: RunConfig) -> dict:
+def run_fingerprint(plan: RunPlan) -> dict:
     """What the fitness of a run depends on besides its parameters: data files, task definitions, engine version."""
-    tasks = parse_tasks(config.tasks, config.project)
     return {
-        "data": folders_fingerprint({t.name: recordings_folder(config.data, t) for t in tasks}),
-        "tasks": {t.name: task_fingerprint(t) for t in tasks},
-        "engine": f"{config.engine} {engine_class(config.engine).version()}",
+        "data": folders_fingerprint({t.name: recordings_folder(plan.config.data, t) for t in plan.tasks}),
+        "tasks": {t.name: task_fingerprint(t) for t in plan.tasks},
+        "engine": f"{plan.config.engine} {plan.engine.version()}",
     }
 
 
@@ -274,39 +135,18 @@ def _summary(changes: list[str], shown: int = 3) -> str:
 
 
 def full_space(config: RunConfig) -> ParameterSpace:
-    """The run's space before inactive parameters are left out: the engine's (or the paper's whole list)."""
-    tasks = parse_tasks(config.tasks, config.project)
-    robot = common_robot(tasks)
-    # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
-    supported = None if config.paper_exact else engine_class(config.engine).supported(robot)
-    names = [t.name for t in tasks] if config.task_delays else None
-    return get_space(config.space, supported, config.only, robot=robot, tasks=names)
+    """The run's space before inactive parameters are left out (:attr:`RunPlan.full_space`)."""
+    return plan_run(config).full_space
 
 
 def run_inactive(config: RunConfig) -> dict[str, str]:
-    """Parameters of the run's full space that change no rollout of its tasks: name -> why (measured, cached).
-
-    A run that keeps them all (``keep_inactive``, ``paper_exact``) records what the engine and the schedules
-    declare instead: it searches every parameter either way, and the probe would only cost it rollouts."""
-    tasks = parse_tasks(config.tasks, config.project)
-    if config.keep_inactive or config.paper_exact:
-        return declared_inactive(config.engine, tasks, full_space(config))
-    return inactive_parameters(config.engine, tasks, full_space(config), workers=config.workers)
+    """Parameters of the run's full space that change no rollout of its tasks (:attr:`RunPlan.inactive`)."""
+    return plan_run(config).inactive
 
 
 def build_objective(config: RunConfig, inactive: dict[str, str] | None = None) -> Objective:
-    """The run's objective; its space leaves out ``inactive`` (measured when not given) unless the run keeps them.
-
-    Parameters named by ``--only`` stay whether active or not: the user asked for them.
-    """
-    tasks = parse_tasks(config.tasks, config.project)
-    space = full_space(config)
-    if not (config.keep_inactive or config.paper_exact):
-        space = active_space(space, run_inactive(config) if inactive is None else inactive, config.only)
-    data = None if config.data is None else Path(config.data)
-    references = load_references(data, tasks, config.joint_topic)
-    weights = None if config.weights is None else FitnessWeights.from_mapping(config.weights, "weights")
-    return Objective(config.engine, tasks, references, space, weights)
+    """The run's objective; its space leaves out ``inactive`` (measured when not given) unless the run keeps them."""
+    return plan_run(config).objective(inactive)
 
 
 def write_json_atomic(path: Path, data: dict) -> None:
@@ -378,29 +218,26 @@ def _make_folder(run_dir: Path) -> None:
         raise SimtuneError(f"cannot create run folder {run_dir}: {exc.strerror}") from None
 
 
-def _create_store(run_dir: Path, config: RunConfig, objective: Objective, generic, **meta) -> RunStore:
+def _create_store(run_dir: Path, plan: RunPlan, objective: Objective, generic, **meta) -> RunStore:
     store = RunStore(run_dir, create=True)
+    supported = plan.engine.supported(plan.robot)
     store.set(
-        versions=versions(config.engine),
+        versions=versions(plan),
         command=sys.argv,
         parameters=objective.vector_space().names,
         bounds=objective.vector_space().bounds,
         # in the search vector without effect in this engine (only --paper-exact keeps such parameters)
-        unmapped_parameters=[
-            n
-            for n in objective.vector_space().names
-            if not is_supported(n, engine_class(config.engine).supported(common_robot(objective.tasks)))
-        ],
+        unmapped_parameters=[n for n in objective.vector_space().names if not is_supported(n, supported)],
         generic=generic.to_dict(),
         # every parameter of the full space that changes no rollout of the tasks, and why (left out of the
         # search unless keep_inactive; the report and export never pool them)
-        inactive_parameters=run_inactive(config),
-        fingerprint=run_fingerprint(config),
+        inactive_parameters=plan.inactive,
+        fingerprint=run_fingerprint(plan),
         status="running",
         elapsed_s=0.0,
         **meta,
     )
-    store.set(config=config.record())  # last: a store with a configuration is a run that was fully set up
+    store.set(config=plan.config.record())  # last: a store with a configuration is a run that was fully set up
     return store
 
 
@@ -410,13 +247,14 @@ def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> T
     config.check()
     check_free(run_dir)  # a run in progress there: say who runs it, at once
     _check_vacant(run_dir, locked=False)
-    objective = build_objective(config)  # checks engine, tasks, space and data before any folder is made
+    plan = plan_run(config)
+    objective = plan.objective()  # checks engine, tasks, space and data before any folder is made
     generic = objective.score({})
     _make_folder(run_dir)
     with run_lock(run_dir):
         _check_vacant(run_dir, locked=True)  # again: another process may have started a run meanwhile
-        store = _create_store(run_dir, config, objective, generic)
-        return _run_interruptible(objective, config, store, show_progress)
+        store = _create_store(run_dir, plan, objective, generic)
+        return _run_interruptible(objective, plan, store, show_progress)
 
 
 def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False) -> TuneResult:
@@ -434,34 +272,35 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
             if stored is None:
                 raise never_set_up(run_dir)
             config = RunConfig.from_stored(stored, f"{path}")
-            check_data_found(run_dir, config)
+            plan = plan_run(config)
+            check_data_found(run_dir, plan)
             stored_fingerprint = store.get("fingerprint")
             changes = []  # a run from before fingerprints has nothing to compare with
             if stored_fingerprint is not None:
-                changes = fingerprint_differences(stored_fingerprint, run_fingerprint(config))
+                changes = fingerprint_differences(stored_fingerprint, run_fingerprint(plan))
             if rescore:
-                return _rescore(run_dir, store, config, changes, show_progress)
+                return _rescore(run_dir, store, plan, changes, show_progress)
             if changes:
                 raise SimtuneError(
                     f"{run_dir}: {_summary(changes)} since the run started, so its stored fitness values are stale: "
                     f"`simtune resume {run_dir} --rescore` starts a new run from its last population on the data "
                     "as it is now"
                 )
-            objective = build_objective(config, store.get("inactive_parameters"))
+            objective = plan.objective(store.get("inactive_parameters"))
             _check_parameters(run_dir, objective, store, config)
             store.release_failures(timed_out)  # each evaluation that timed out gets one more try
-            return _run_interruptible(objective, config, store, show_progress)
+            return _run_interruptible(objective, plan, store, show_progress)
         except sqlite3.DatabaseError as exc:
             raise SimtuneError(f"{path} is damaged ({exc})") from None
         finally:
             store.close()
 
 
-def check_data_found(run_dir: Path, config: RunConfig) -> None:
+def check_data_found(run_dir: Path, plan: RunPlan) -> None:
     """A run reads its recordings from where it was tuned on them: a data folder that has gone is one line saying
     so (rather than every recording in it "removed")."""
-    tasks = parse_tasks(config.tasks, config.project)
-    folders = [Path(config.data)] if config.data is not None else [recordings_folder(None, t) for t in tasks]
+    data = plan.config.data
+    folders = [Path(data)] if data is not None else [recordings_folder(None, t) for t in plan.tasks]
     for folder in folders:
         if not folder.is_dir():
             relative = "" if folder.is_absolute() else " (stored relative to the folder the run started in)"
@@ -511,19 +350,19 @@ def _check_parameters(run_dir: Path, objective: Objective, store: RunStore, conf
         raise SimtuneError(f"{run_dir}: the stored parameter list differs from this simtune's {config.space!r} space")
 
 
-def _rescore(run_dir: Path, store: RunStore, config: RunConfig, changes: list[str], show_progress: bool) -> TuneResult:
+def _rescore(run_dir: Path, store: RunStore, plan: RunPlan, changes: list[str], show_progress: bool) -> TuneResult:
     """A new run in ``run_dir`` from the old run's last search population, on the data as it is now."""
     checkpoint = store.last_checkpoint(up_to=store.get("search_generations"))
     # the new data must load before the old run is moved aside
-    objective = build_objective(config, store.get("inactive_parameters"))
-    _check_parameters(run_dir, objective, store, config)
+    objective = plan.objective(store.get("inactive_parameters"))
+    _check_parameters(run_dir, objective, store, plan.config)
     generic = objective.score({})
     store.close()
     kept = _supersede(run_dir)
     population = None if checkpoint is None else np.atleast_2d(checkpoint["population"])
     new = _create_store(
         run_dir,
-        config,
+        plan,
         objective,
         generic,
         initial_population=None if population is None else population.tolist(),
@@ -534,7 +373,7 @@ def _rescore(run_dir: Path, store: RunStore, config: RunConfig, changes: list[st
             "changes": changes,
         },
     )
-    return _run_interruptible(objective, config, new, show_progress)
+    return _run_interruptible(objective, plan, new, show_progress)
 
 
 def _supersede(run_dir: Path) -> Path:
@@ -557,15 +396,16 @@ def _supersede(run_dir: Path) -> Path:
     return target
 
 
-def _run_interruptible(objective: Objective, config: RunConfig, store: RunStore, show_progress: bool) -> TuneResult:
+def _run_interruptible(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bool) -> TuneResult:
     """:func:`_run`; Ctrl-C becomes :class:`RunInterrupted`, naming the folder to resume."""
     try:
-        return _run(objective, config, store, show_progress)
+        return _run(objective, plan, store, show_progress)
     except KeyboardInterrupt:
         raise RunInterrupted(store.run_dir) from None
 
 
-def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress: bool) -> TuneResult:
+def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bool) -> TuneResult:
+    config = plan.config
     tune = get_optimizer(config.optimizer)
     max_seconds, target, max_evaluations = config.max_seconds, config.target_fitness, config.max_evaluations
     searched = store.get("search_evaluations")
@@ -631,15 +471,16 @@ def _run(objective: Objective, config: RunConfig, store: RunStore, show_progress
     )
     store.set(status="finished", message=result.message, best_fitness=result.score.fitness)
     # after the run is finished: a kill meanwhile loses only this summary (`simtune uncertainty RUN` redoes it)
-    store.set(uncertainty=_uncertainty_or_reason(objective, config, store, result.x))
+    store.set(uncertainty=_uncertainty_or_reason(objective, plan, store, result.x))
     store.close()
     return result
 
 
-def _uncertainty_or_reason(objective: Objective, config: RunConfig, store: RunStore, x) -> dict:
+def _uncertainty_or_reason(objective: Objective, plan: RunPlan, store: RunStore, x) -> dict:
     """The Gauss-Newton uncertainty at the best point, or why it could not be computed (the run stands either way)."""
     try:
-        return uncertainty(objective, x, full_space(config), store.get("inactive_parameters") or {}, config.workers)
+        inactive = store.get("inactive_parameters") or {}
+        return uncertainty(objective, x, plan.full_space, inactive, plan.config.workers)
     except (SimtuneError, ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
         return {"error": f"{type(exc).__name__}: {exc}", "parameters": []}
 
@@ -655,16 +496,17 @@ def run_uncertainty(run_dir: Path, workers: int = 1) -> dict:
             if stored is None:
                 raise never_set_up(run_dir)
             config = RunConfig.from_stored(stored, str(path))
-            check_data_found(run_dir, config)
+            plan = plan_run(config)
+            check_data_found(run_dir, plan)
             if store.get("status") != "finished":
                 raise SimtuneError(f"{run_dir}: the run is not finished: `simtune resume {run_dir}` finishes it")
-            objective = build_objective(config, store.get("inactive_parameters"))
+            objective = plan.objective(store.get("inactive_parameters"))
             _check_parameters(run_dir, objective, store, config)
             best = store.best_evaluation()
             if best is None:
                 raise SimtuneError(f"{run_dir}: no evaluations in the run")
             summary = uncertainty(
-                objective, np.asarray(best["x"]), full_space(config), store.get("inactive_parameters") or {}, workers
+                objective, np.asarray(best["x"]), plan.full_space, store.get("inactive_parameters") or {}, workers
             )
             store.set(uncertainty=summary)
             return summary

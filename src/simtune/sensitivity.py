@@ -80,13 +80,8 @@ def run_sensitivity(
     on_evaluation: Callable[[Score, bool], None] | None = None,
 ) -> dict:
     """Sample, score and analyse; write the result files into ``out``; return the result dict."""
-    if method not in METHODS:
-        raise ConfigError(f"unknown sensitivity method {method!r} (known: {', '.join(METHODS)})")
-    if samples < 2:
-        raise ConfigError(f"--samples must be at least 2, got {samples}")
-    if method == "sobol" and samples & (samples - 1):
-        raise ConfigError(f"--samples {samples}: Sobol sampling needs a power of two (e.g. 64, 128, 256)")
-    morris_sample, morris_analyze, sobol_sample, sobol_analyze = _salib()
+    _check_sampling(method, samples)
+    _salib()  # SALib missing: its install hint before anything is read
     task_specs = parse_tasks(tasks)
     robot = common_robot(task_specs)
     sp = get_space(space, engine_class(engine).supported(robot), only, robot=robot)
@@ -94,31 +89,15 @@ def run_sensitivity(
         raise ConfigError(f"--only: a sensitivity analysis needs at least two parameters, got {len(sp)}")
     objective = Objective(engine, task_specs, load_references(Path(data), task_specs), sp)
     problem = {"num_vars": len(sp), "names": sp.names, "bounds": [list(b) for b in sp.bounds]}
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # SALib's notes on sample sizes: the checks above cover them
-        if method == "morris":
-            X = morris_sample.sample(problem, samples, num_levels=MORRIS_LEVELS, seed=seed)
-        else:
-            X = sobol_sample.sample(problem, samples, calc_second_order=False, seed=seed)
-
+    X = _sample(problem, method, samples, seed)
     out = Path(out)
-    store = RunStore(out, create=True, filename=STORE_NAME)
     identity = {
         "engine": engine,
         "tasks": [t.name for t in task_specs],
         "data": str(Path(data).resolve()),
         "parameters": sp.names,
     }
-    stored = store.get("identity")
-    if stored is None:
-        store.set(identity=identity)
-    elif stored != identity:
-        store.close()
-        raise SimtuneError(
-            f"{out / STORE_NAME} holds evaluations of another engine, task, data or parameter "
-            "list: choose another --out"
-        )
+    store = _open_cache(out, identity)
     evaluator = Evaluator(objective, store, workers, on_evaluation, eval_timeout, prune=False)
     try:
         with evaluator:
@@ -127,36 +106,7 @@ def run_sensitivity(
         new = evaluator.new_evaluations
     finally:
         store.close()
-
-    rows: list[dict[str, Any]]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        if method == "morris":
-            res = morris_analyze.analyze(problem, X, Y, num_levels=MORRIS_LEVELS, seed=seed)
-            rows = [
-                {
-                    "parameter": name,
-                    "mu_star": float(res["mu_star"][i]),
-                    "mu_star_conf": float(res["mu_star_conf"][i]),
-                    "mu": float(res["mu"][i]),
-                    "sigma": float(res["sigma"][i]),
-                }
-                for i, name in enumerate(sp.names)
-            ]
-            rows.sort(key=lambda r: (-r["mu_star"], r["parameter"]))
-        else:
-            res = sobol_analyze.analyze(problem, Y, calc_second_order=False, seed=seed)
-            rows = [
-                {
-                    "parameter": name,
-                    "ST": float(res["ST"][i]),
-                    "ST_conf": float(res["ST_conf"][i]),
-                    "S1": float(res["S1"][i]),
-                    "S1_conf": float(res["S1_conf"][i]),
-                }
-                for i, name in enumerate(sp.names)
-            ]
-            rows.sort(key=lambda r: (-np.nan_to_num(r["ST"], nan=-np.inf), r["parameter"]))
+    rows = _analyse(problem, X, Y, method, seed)
     for rank, row in enumerate(rows, start=1):
         row["rank"] = rank
         lo, hi = sp.bounds[sp.names.index(row["parameter"])]
@@ -179,6 +129,64 @@ def run_sensitivity(
     }
     write_outputs(result, out)
     return result
+
+
+def _check_sampling(method: str, samples: int) -> None:
+    if method not in METHODS:
+        raise ConfigError(f"unknown sensitivity method {method!r} (known: {', '.join(METHODS)})")
+    if samples < 2:
+        raise ConfigError(f"--samples must be at least 2, got {samples}")
+    if method == "sobol" and samples & (samples - 1):
+        raise ConfigError(f"--samples {samples}: Sobol sampling needs a power of two (e.g. 64, 128, 256)")
+
+
+def _sample(problem: dict, method: str, samples: int, seed: int) -> np.ndarray:
+    """SALib's sample of the space: Morris trajectories or Sobol (Saltelli) points."""
+    morris_sample, _, sobol_sample, _ = _salib()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # SALib's notes on sample sizes: _check_sampling covers them
+        if method == "morris":
+            return morris_sample.sample(problem, samples, num_levels=MORRIS_LEVELS, seed=seed)
+        return sobol_sample.sample(problem, samples, calc_second_order=False, seed=seed)
+
+
+def _open_cache(out: Path, identity: dict) -> RunStore:
+    """The evaluation cache in ``out``; refused when it holds another engine's, task's, data's or space's."""
+    store = RunStore(out, create=True, filename=STORE_NAME)
+    stored = store.get("identity")
+    if stored is None:
+        store.set(identity=identity)
+    elif stored != identity:
+        store.close()
+        raise SimtuneError(
+            f"{out / STORE_NAME} holds evaluations of another engine, task, data or parameter "
+            "list: choose another --out"
+        )
+    return store
+
+
+#: what each method's analysis gives per parameter, the first its ranking
+INDICES = {"morris": ("mu_star", "mu_star_conf", "mu", "sigma"), "sobol": ("ST", "ST_conf", "S1", "S1_conf")}
+
+
+def _analyse(problem: dict, X: np.ndarray, Y: np.ndarray, method: str, seed: int) -> list[dict[str, Any]]:
+    """One row per parameter, most influential first: Morris's mu* (and mu, sigma) or Sobol's ST (and S1)."""
+    _, morris_analyze, _, sobol_analyze = _salib()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if method == "morris":
+            res = morris_analyze.analyze(problem, X, Y, num_levels=MORRIS_LEVELS, seed=seed)
+        else:
+            res = sobol_analyze.analyze(problem, Y, calc_second_order=False, seed=seed)
+    rows = [
+        {"parameter": name, **{index: float(res[index][i]) for index in INDICES[method]}}
+        for i, name in enumerate(problem["names"])
+    ]
+    if method == "morris":
+        rows.sort(key=lambda r: (-r["mu_star"], r["parameter"]))
+    else:  # an ST SALib could not estimate (NaN) last
+        rows.sort(key=lambda r: (-np.nan_to_num(r["ST"], nan=-np.inf), r["parameter"]))
+    return rows
 
 
 # --- presentation (also used by `simtune report`) -------------------------------------------------------

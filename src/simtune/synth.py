@@ -111,17 +111,7 @@ def make_synthetic(
     ``joint_noise_rad`` per sample.  ``OUT/truth.json`` holding another truth is refused unless ``force``.
     """
     specs = parse_tasks(tasks, project)
-    if fmt not in FORMATS:
-        raise ConfigError(f"--format: unknown format {fmt!r} (known: {', '.join(FORMATS)})")
-    if not joint_noise_rad >= 0:
-        raise ConfigError(f"--joint-noise-deg must be zero or more, got {joint_noise_rad:g} rad")
-    if repeats < 1:
-        raise ConfigError(f"--repeats must be at least 1, got {repeats}")
-    if not noise_m >= 0:
-        raise ConfigError(f"--noise-mm must be zero or more, got {noise_m * 1000:g}")
-    if not jitter_s >= 0:
-        raise ConfigError(f"--jitter-s must be zero or more, got {jitter_s:g}")
-    _check_noise(noise_m, joint_noise_rad)
+    _check_settings(fmt, joint_noise_rad, repeats, noise_m, jitter_s)
     for spec in specs:
         _check_delay(spec.name, spec.duration, truth.get("command_delay", 0.0), jitter_s)
     out = Path(out)
@@ -174,6 +164,21 @@ def make_synthetic(
             files[spec.name] = [write_recording(folder / rec.source.name, rec, fmt) for rec in recordings]
     _write_truths(out, meta, force)
     return SynthResult(out, truth, files, joint_noise_rad)
+
+
+def _check_settings(fmt: str, joint_noise_rad: float, repeats: int, noise_m: float, jitter_s: float) -> None:
+    """One line naming the option for a format, noise, jitter or repeat count no recording can hold."""
+    if fmt not in FORMATS:
+        raise ConfigError(f"--format: unknown format {fmt!r} (known: {', '.join(FORMATS)})")
+    if not joint_noise_rad >= 0:
+        raise ConfigError(f"--joint-noise-deg must be zero or more, got {joint_noise_rad:g} rad")
+    if repeats < 1:
+        raise ConfigError(f"--repeats must be at least 1, got {repeats}")
+    if not noise_m >= 0:
+        raise ConfigError(f"--noise-mm must be zero or more, got {noise_m * 1000:g}")
+    if not jitter_s >= 0:
+        raise ConfigError(f"--jitter-s must be zero or more, got {jitter_s:g}")
+    _check_noise(noise_m, joint_noise_rad)
 
 
 def truth_file(task: str) -> str:

@@ -19,11 +19,14 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from simtune.alignment import estimate_delay
+from simtune.data import TaskData
 from simtune.errors import ConfigError, SimtuneError
+from simtune.fitness import FitnessWeights
 from simtune.objective import Objective, load_references
+from simtune.optimize import TuneResult
 from simtune.runs import RunConfig, resume_run, start_run
 from simtune.store import STORE_FILE, RunStore
-from simtune.tasks import parse_tasks
+from simtune.tasks import TaskSpec, parse_tasks
 
 RUN_FOLDER = "run"
 RESULT_FILE = "transfer.json"
@@ -63,44 +66,85 @@ def run_transfer(
     if overlap:
         raise ConfigError(f"--test: {', '.join(sorted(overlap))} also in --train: a transfer test needs unseen tasks")
     test_root = Path(test_data) if test_data is not None else _root(config.data)
-    test_refs = load_references(test_root, test_tasks)  # fail on missing test data before tuning
+    # fail on missing test data before tuning
+    test_refs = load_references(test_root, test_tasks, config.joint_topic)
     out = Path(out)
     run_dir = out / RUN_FOLDER
-    if (run_dir / STORE_FILE).exists():
-        store = RunStore(run_dir)
-        try:
-            same = store.get("config") == config.record()
-        finally:
-            store.close()
-        if not same:
-            raise SimtuneError(f"{run_dir} holds a tuning run with other settings: choose another --out")
-        tuned = resume_run(run_dir, show_progress=show_progress)
-    else:
-        tuned = start_run(config, run_dir, show_progress=show_progress)
-    train_refs = load_references(_root(config.data), train_tasks)
-    rows: list[TaskResult] = []
-    for role, tasks, refs in (("train", train_tasks, train_refs), ("test", test_tasks, test_refs)):
-        for task in tasks:
-            objective = Objective(config.engine, [task], {task.name: refs[task.name]})
-            try:
-                generic = objective.score({})
-                score = objective.score(tuned.params)
-                estimate = estimate_delay(objective, task, tuned.params) if role == "test" and align_clock else None
-            finally:
-                objective.close()
-            rows.append(
-                TaskResult(
-                    task.name,
-                    role,
-                    generic.fitness,
-                    score.fitness,
-                    score.wrist_error,
-                    score.object_error,
-                    score.stable,
-                    None if estimate is None else estimate.fitness,
-                    None if estimate is None else estimate.delay_s,
-                )
-            )
+    tuned = _tune(config, run_dir, show_progress)
+    train_refs = load_references(_root(config.data), train_tasks, config.joint_topic)
+    weights = None if config.weights is None else FitnessWeights.from_mapping(config.weights, "weights")
+    rows = [
+        _score(config.engine, task, role, refs[task.name], tuned.params, weights, role == "test" and align_clock)
+        for role, tasks, refs in (("train", train_tasks, train_refs), ("test", test_tasks, test_refs))
+        for task in tasks
+    ]
+    result = {
+        "engine": config.engine,
+        "train": config.tasks,
+        "test": test,
+        "space": config.space,
+        "data": config.data,
+        "test_data": str(test_root),
+        "optimizer": config.optimizer,
+        "run": str(run_dir),
+        "best_params_file": str(run_dir / "best_params.json"),
+        "evaluations": tuned.evaluations,
+        "tasks": [{**asdict(r), "change": r.change} for r in rows],
+        "totals": _totals(rows),
+        "clock_aligned": align_clock,
+        "params": tuned.params,
+    }
+    (out / RESULT_FILE).write_text(json.dumps(result, indent=1) + "\n")
+    return result
+
+
+def _tune(config: RunConfig, run_dir: Path, show_progress: bool) -> TuneResult:
+    """The tuning run in ``run_dir``: resumed (or reused) when it holds one of these settings, else started."""
+    if not (run_dir / STORE_FILE).exists():
+        return start_run(config, run_dir, show_progress=show_progress)
+    store = RunStore(run_dir)
+    try:
+        same = store.get("config") == config.record()
+    finally:
+        store.close()
+    if not same:
+        raise SimtuneError(f"{run_dir} holds a tuning run with other settings: choose another --out")
+    return resume_run(run_dir, show_progress=show_progress)
+
+
+def _score(
+    engine: str,
+    task: TaskSpec,
+    role: str,
+    reference: TaskData,
+    params: dict[str, float],
+    weights: FitnessWeights | None,
+    align_clock: bool,
+) -> TaskResult:
+    """One task scored with the generic and the tuned parameters (and, ``align_clock``, its own clock aligned)."""
+    objective = Objective(engine, [task], {task.name: reference}, weights=weights)
+    try:
+        generic = objective.score({})
+        score = objective.score(params)
+        estimate = estimate_delay(objective, task, params) if align_clock else None
+    finally:
+        objective.close()
+    return TaskResult(
+        task.name,
+        role,
+        generic.fitness,
+        score.fitness,
+        score.wrist_error,
+        score.object_error,
+        score.stable,
+        None if estimate is None else estimate.fitness,
+        None if estimate is None else estimate.delay_s,
+    )
+
+
+def _totals(rows: list[TaskResult]) -> dict[str, dict[str, float]]:
+    """Per role (train, test): the summed generic and tuned fitness, their relative change, and with every task's
+    clock aligned the same for the aligned fitness."""
     totals = {}
     for role in ("train", "test"):
         mine = [r for r in rows if r.role == role]
@@ -114,24 +158,7 @@ def run_transfer(
             aligned_sum = sum(r.tuned_aligned or 0.0 for r in mine)
             totals[role]["tuned_aligned"] = aligned_sum
             totals[role]["change_aligned"] = (aligned_sum - generic_sum) / generic_sum if generic_sum else 0.0
-    result = {
-        "engine": config.engine,
-        "train": config.tasks,
-        "test": test,
-        "space": config.space,
-        "data": config.data,
-        "test_data": str(test_root),
-        "optimizer": config.optimizer,
-        "run": str(run_dir),
-        "best_params_file": str(run_dir / "best_params.json"),
-        "evaluations": tuned.evaluations,
-        "tasks": [{**asdict(r), "change": r.change} for r in rows],
-        "totals": totals,
-        "clock_aligned": align_clock,
-        "params": tuned.params,
-    }
-    (out / RESULT_FILE).write_text(json.dumps(result, indent=1) + "\n")
-    return result
+    return totals
 
 
 def _root(data: str | None) -> Path | None:

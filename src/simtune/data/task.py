@@ -7,6 +7,7 @@ import warnings
 from collections.abc import Collection, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
@@ -170,7 +171,7 @@ def _sources(files: list[Path], unreadable: list[str], body_names, **options) ->
         try:
             yield from load_recordings(path, body_names, **options)
         except UnindexedBag as exc:
-            warnings.warn(f"{exc}: left out", RecordingWarning, stacklevel=3)
+            warnings.warn(f"{exc}: left out", RecordingWarning, stacklevel=4)  # at load_task_data's caller
             unreadable.append(display_name(path))
 
 
@@ -178,6 +179,183 @@ def _find_body(rec: Recording, body: str, display: str) -> np.ndarray:
     if body not in rec.positions:
         raise RecordingError(f"{display}: no body {body!r} (bodies: {', '.join(rec.positions) or 'none'})")
     return rec.positions[body]
+
+
+def _check_numbers(rate: float, max_gap_s: float, duration_s: float | None, reach_m: float) -> None:
+    if not (math.isfinite(rate) and rate > 0):
+        raise ConfigError(f"rate must be a positive number of samples per second, got {rate!r}")
+    if not (math.isfinite(max_gap_s) and max_gap_s >= 0):
+        raise ConfigError(f"max_gap_s must be a non-negative number of seconds, got {max_gap_s!r}")
+    if duration_s is not None and not (math.isfinite(duration_s) and duration_s > 0):
+        raise ConfigError(f"duration_s must be a positive number of seconds, got {duration_s!r}")
+    if not (math.isfinite(reach_m) and reach_m > 0):
+        raise ConfigError(f"reach_m must be a positive number of metres, got {reach_m!r}")
+
+
+def _files_in(folder: Path) -> list[Path]:
+    """The recordings in ``folder``, sorted by name; an error when there are none."""
+    if not folder.is_dir():
+        raise RecordingError(f"no recordings ({_KINDS}) in {folder}: no such folder")
+    files = task_files(folder)
+    if not files:
+        raise RecordingError(f"no recordings ({_KINDS}) in {folder}")
+    return files
+
+
+def _sane_recordings(
+    sources: Iterator[Recording],
+    wrist_body: str,
+    object_body: str | None,
+    base_body: str | None,
+    duration_s: float | None,
+    reach_m: float,
+    joint_ranges: Mapping[str, JointRange] | None,
+) -> tuple[list[Recording], list[str], list[str]]:
+    """The sanity stage, per file: bodies or joints present, times, units; then units across the folder.
+
+    Returns the recordings, the marker bodies and the joints they hold (as the first repeat decides).
+    ``joint_ranges`` (None: the units are stated) tell joint logs in degrees from ones in radians.
+    """
+    recordings: list[Recording] = []
+    distances: list[tuple[str, float]] = []
+    bodies: list[str] = []
+    joints: list[str] = []
+    for rec in sources:
+        display = display_name(rec.source)
+        if not recordings:
+            # the first repeat sets what the task's recordings hold
+            joints = list(rec.joints)
+            if wrist_body in rec.positions or not joints:
+                bodies = [wrist_body] + ([object_body] if object_body is not None else [])
+        for body in bodies:
+            _find_body(rec, body, display)
+        _check_joints(rec, joints, display)
+        if joint_ranges is not None:
+            check_joint_units(rec, joint_ranges, display)
+        check_time(rec, display, duration_s)
+        distance = wrist_distance(rec, wrist_body, base_body) if bodies else None
+        if distance is not None:  # a wrist never seen is left out by the gap rule below
+            check_units(distance, display, wrist_body, reach_m)
+            distances.append((display, distance))
+        recordings.append(rec)
+    check_same_units(distances)
+    return recordings, bodies, joints
+
+
+#: a repeat kept: its recording, its clock (from its own first frame) and its bodies' gap-free tracks
+_Repeat = tuple[Recording, np.ndarray, dict[str, np.ndarray]]
+
+
+def _bridge_gaps(recordings: list[Recording], bodies: list[str], max_gap_s: float) -> list[_Repeat]:
+    """Marker drop-outs: short ones bridged, a repeat with a long one left out with a warning."""
+    repeats: list[_Repeat] = []
+    for rec in recordings:
+        display = display_name(rec.source)
+        # The common clock starts at each recording's own first frame.
+        t = rec.time - rec.time[0]
+        filled: dict[str, np.ndarray] = {}
+        for body in bodies:
+            result, gap = _fill_gaps(t, rec.positions[body], max_gap_s)
+            if gap is not None:
+                start, stop, length = gap
+                warnings.warn(
+                    f"{display}: gap check: left out: {body!r} lost for {length:.2f} s "
+                    f"(frames {start + 1}-{stop}, {t[start]:.2f}-{t[stop - 1]:.2f} s), "
+                    f"longer than max_gap_s={max_gap_s:g}",
+                    RecordingWarning,
+                    stacklevel=3,  # at load_task_data's caller
+                )
+                break
+            filled[body] = result
+        else:
+            repeats.append((rec, t, filled))
+    return repeats
+
+
+def _drop_short(repeats: list[_Repeat], duration_s: float | None) -> tuple[list[_Repeat], int, str]:
+    """Duration check: a repeat cut off early would cut every repeat's reference to its length.
+
+    Returns the repeats kept, how many were left out (each with a warning) and the floor's reason.
+    """
+    if not repeats:
+        return repeats, 0, ""
+    floor, reason = duration_floor([float(t[-1]) for _, t, _ in repeats], duration_s)
+    for rec, t, _ in repeats:
+        if t[-1] < floor:
+            warnings.warn(
+                f"{display_name(rec.source)}: duration check: left out: lasts {t[-1]:.2f} s "
+                f"({len(t)} frames), less than {reason}",
+                RecordingWarning,
+                stacklevel=3,  # at load_task_data's caller
+            )
+    kept = [r for r in repeats if r[1][-1] >= floor]
+    return kept, len(repeats) - len(kept), reason
+
+
+def _none_usable(
+    folder: Path, read: int, lost: int, unreadable: list[str], short: int, reason: str, max_gap_s: float
+) -> NoReturn:
+    """The error when every repeat was left out, with how many for each reason."""
+    reasons = [f"{lost} with markers lost for longer than max_gap_s={max_gap_s:g} s"] if lost else []
+    if unreadable:
+        reasons.append(f"{len(unreadable)} rosbag2 folders without metadata.yaml that cannot be read")
+    if short:
+        reasons.append(f"{short} shorter than {reason}")
+    raise RecordingError(
+        f"no usable repeats in {folder}: all {read + len(unreadable)} left out ({', '.join(reasons)}; see the warnings)"
+    )
+
+
+def _object_positions(repeats: list[_Repeat], object_body: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per repeat, the object's first and last tracked positions (never a NaN of a lost first or last frame)
+    and its position at rest: the mean of its tracked frames of the first REST_S seconds (the first one if none)."""
+    seen = [np.flatnonzero(np.isfinite(rec.positions[object_body]).all(axis=1)) for rec, _, _ in repeats]
+    starts = np.stack([rec.positions[object_body][s[0]] for (rec, _, _), s in zip(repeats, seen)])
+    finals = np.stack([rec.positions[object_body][s[-1]] for (rec, _, _), s in zip(repeats, seen)])
+    rests = np.stack(
+        [rec.positions[object_body][s[t[s] < t[s[0]] + REST_S]].mean(axis=0) for (rec, t, _), s in zip(repeats, seen)]
+    )
+    return starts, finals, rests
+
+
+def _on_common_clock(
+    task: str,
+    rate: float,
+    repeats: list[_Repeat],
+    bodies: list[str],
+    joints: list[str],
+    wrist_body: str,
+    object_body: str | None,
+) -> TaskData:
+    """The repeats resampled to ``rate`` over the shortest one's length, and their means."""
+    shortest = min(float(t[-1]) for _, t, _ in repeats)
+    # floor(duration * rate) + 1 samples: every repeat covers the last one.
+    n = int(math.floor(shortest * rate + 1e-9)) + 1
+    wrists = None
+    if bodies:
+        wrists = np.stack([resample(t, filled[wrist_body], rate, n) for _, t, filled in repeats])
+    angles = None
+    if joints:
+        angles = np.stack(
+            [resample(t, np.stack([rec.joints[j] for j in joints], axis=1), rate, n) for rec, t, _ in repeats]
+        )
+    starts = finals = rests = None
+    if object_body is not None and object_body in bodies:
+        starts, finals, rests = _object_positions(repeats, object_body)
+    return TaskData(
+        task=task,
+        rate=float(rate),
+        times=np.arange(n) / rate,
+        wrist_mean=None if wrists is None else wrists.mean(axis=0),
+        wrist_repeats=wrists,
+        object_final=finals,
+        object_start=starts,
+        sources=[rec.source for rec, _, _ in repeats],
+        joint_names=joints,
+        joint_mean=None if angles is None else angles.mean(axis=0),
+        joint_repeats=angles,
+        object_rest=rests,
+    )
 
 
 def load_task_data(
@@ -222,134 +400,19 @@ def load_task_data(
     its metadata.yaml that cannot be read from its storage alone is left out
     with a RecordingWarning.
     """
-    if not (math.isfinite(rate) and rate > 0):
-        raise ConfigError(f"rate must be a positive number of samples per second, got {rate!r}")
-    if not (math.isfinite(max_gap_s) and max_gap_s >= 0):
-        raise ConfigError(f"max_gap_s must be a non-negative number of seconds, got {max_gap_s!r}")
-    if duration_s is not None and not (math.isfinite(duration_s) and duration_s > 0):
-        raise ConfigError(f"duration_s must be a positive number of seconds, got {duration_s!r}")
-    if not (math.isfinite(reach_m) and reach_m > 0):
-        raise ConfigError(f"reach_m must be a positive number of metres, got {reach_m!r}")
+    _check_numbers(rate, max_gap_s, duration_s, reach_m)
     folder = Path(folder)
-    if not folder.is_dir():
-        raise RecordingError(f"no recordings ({_KINDS}) in {folder}: no such folder")
-    files = task_files(folder)
-    if not files:
-        raise RecordingError(f"no recordings ({_KINDS}) in {folder}")
-
-    # Sanity stage, per file: bodies or joints present, times, units; then units across the folder.
-    recordings: list[Recording] = []
-    distances: list[tuple[str, float]] = []
-    bodies: list[str] = []
-    joints: list[str] = []
+    files = _files_in(folder)
     unreadable: list[str] = []
-    stated = None if lerobot is None else lerobot.units
     sources = _sources(files, unreadable, body_names, joint_names=joint_names, joint_topic=joint_topic, lerobot=lerobot)
-    for rec in sources:
-        display = display_name(rec.source)
-        if not recordings:
-            # the first repeat sets what the task's recordings hold
-            joints = list(rec.joints)
-            if wrist_body in rec.positions or not joints:
-                bodies = [wrist_body] + ([object_body] if object_body is not None else [])
-        for body in bodies:
-            _find_body(rec, body, display)
-        _check_joints(rec, joints, display)
-        if joint_ranges is not None and stated is None:
-            check_joint_units(rec, joint_ranges, display)
-        check_time(rec, display, duration_s)
-        distance = wrist_distance(rec, wrist_body, base_body) if bodies else None
-        if distance is not None:  # a wrist never seen is left out by the gap rule below
-            check_units(distance, display, wrist_body, reach_m)
-            distances.append((display, distance))
-        recordings.append(rec)
-    check_same_units(distances)
-
-    # Marker drop-outs: short ones bridged, a repeat with a long one left out.
-    repeats: list[tuple[Recording, np.ndarray, dict[str, np.ndarray]]] = []
-    for rec in recordings:
-        display = display_name(rec.source)
-        # The common clock starts at each recording's own first frame.
-        t = rec.time - rec.time[0]
-        filled: dict[str, np.ndarray] = {}
-        for body in bodies:
-            result, gap = _fill_gaps(t, rec.positions[body], max_gap_s)
-            if gap is not None:
-                start, stop, length = gap
-                warnings.warn(
-                    f"{display}: gap check: left out: {body!r} lost for {length:.2f} s "
-                    f"(frames {start + 1}-{stop}, {t[start]:.2f}-{t[stop - 1]:.2f} s), "
-                    f"longer than max_gap_s={max_gap_s:g}",
-                    RecordingWarning,
-                    stacklevel=2,
-                )
-                break
-            filled[body] = result
-        else:
-            repeats.append((rec, t, filled))
-    lost = len(recordings) - len(repeats)
-
-    # Duration check: a repeat cut off early would cut every repeat's reference to its length.
-    short, reason = 0, ""
-    if repeats:
-        floor, reason = duration_floor([float(t[-1]) for _, t, _ in repeats], duration_s)
-        for rec, t, _ in repeats:
-            if t[-1] < floor:
-                warnings.warn(
-                    f"{display_name(rec.source)}: duration check: left out: lasts {t[-1]:.2f} s "
-                    f"({len(t)} frames), less than {reason}",
-                    RecordingWarning,
-                    stacklevel=2,
-                )
-        kept = [r for r in repeats if r[1][-1] >= floor]
-        short = len(repeats) - len(kept)
-        repeats = kept
-    if not repeats:
-        reasons = [f"{lost} with markers lost for longer than max_gap_s={max_gap_s:g} s"] if lost else []
-        if unreadable:
-            reasons.append(f"{len(unreadable)} rosbag2 folders without metadata.yaml that cannot be read")
-        if short:
-            reasons.append(f"{short} shorter than {reason}")
-        raise RecordingError(
-            f"no usable repeats in {folder}: all {len(recordings) + len(unreadable)} left out "
-            f"({', '.join(reasons)}; see the warnings)"
-        )
-
-    shortest = min(float(t[-1]) for _, t, _ in repeats)
-    # floor(duration * rate) + 1 samples: every repeat covers the last one.
-    n = int(math.floor(shortest * rate + 1e-9)) + 1
-    wrists = None
-    if bodies:
-        wrists = np.stack([resample(t, filled[wrist_body], rate, n) for _, t, filled in repeats])
-    angles = None
-    if joints:
-        angles = np.stack(
-            [resample(t, np.stack([rec.joints[j] for j in joints], axis=1), rate, n) for rec, t, _ in repeats]
-        )
-    starts = finals = rests = None
-    if object_body is not None and object_body in bodies:
-        # The object's first and last tracked positions (never a NaN of a lost first or last frame).
-        seen = [np.flatnonzero(np.isfinite(rec.positions[object_body]).all(axis=1)) for rec, _, _ in repeats]
-        starts = np.stack([rec.positions[object_body][s[0]] for (rec, _, _), s in zip(repeats, seen)])
-        finals = np.stack([rec.positions[object_body][s[-1]] for (rec, _, _), s in zip(repeats, seen)])
-        # the object at rest: its tracked frames of the first REST_S seconds (the first one if none)
-        rests = np.stack(
-            [
-                rec.positions[object_body][s[t[s] < t[s[0]] + REST_S]].mean(axis=0)
-                for (rec, t, _), s in zip(repeats, seen)
-            ]
-        )
-    return TaskData(
-        task=task,
-        rate=float(rate),
-        times=np.arange(n) / rate,
-        wrist_mean=None if wrists is None else wrists.mean(axis=0),
-        wrist_repeats=wrists,
-        object_final=finals,
-        object_start=starts,
-        sources=[rec.source for rec, _, _ in repeats],
-        joint_names=joints,
-        joint_mean=None if angles is None else angles.mean(axis=0),
-        joint_repeats=angles,
-        object_rest=rests,
+    stated = None if lerobot is None else lerobot.units
+    ranges = joint_ranges if stated is None else None
+    recordings, bodies, joints = _sane_recordings(
+        sources, wrist_body, object_body, base_body, duration_s, reach_m, ranges
     )
+    repeats = _bridge_gaps(recordings, bodies, max_gap_s)
+    lost = len(recordings) - len(repeats)
+    repeats, short, reason = _drop_short(repeats, duration_s)
+    if not repeats:
+        _none_usable(folder, len(recordings), lost, unreadable, short, reason, max_gap_s)
+    return _on_common_clock(task, rate, repeats, bodies, joints, wrist_body, object_body)

@@ -20,25 +20,30 @@ import numpy as np
 
 from simtune.controller import CONTROL_PERIOD, CONTROLLER_PARAMETERS, JointController, encoder_parameters
 from simtune.errors import ConfigError, RobotError, SimtuneError
+from simtune.robot import DEFAULT_ROBOT
 from simtune.robot.description import RobotDescription
-from simtune.robot.mico import MICO
 from simtune.tasks.spec import MATERIALS, SHAPES, TaskSpec
 
+#: The driven joints the engines name their per-joint parameters for: the default robot's
+#: (:meth:`Engine.supported` renames them for another robot).
+NAMED_JOINTS = range(1, DEFAULT_ROBOT.n_joints + 1)
+
 #: Parameters applied outside the engine (controller, its encoders and the marker model): every engine has them.
-COMMON_PARAMETERS = CONTROLLER_PARAMETERS | encoder_parameters(6) | {f"marker_offset_{a}" for a in "xyz"}
+COMMON_PARAMETERS = (
+    CONTROLLER_PARAMETERS | encoder_parameters(len(NAMED_JOINTS)) | {f"marker_offset_{a}" for a in "xyz"}
+)
 
 #: Rigid-body parameters any engine with masses, motors and joint damping maps;
 #: engines add their contact and damping parameters to these.
 RIGID_BODY_PARAMETERS = frozenset(
     {"timestep"}
-    | {f"mass_link_{i}" for i in range(1, 7)}
+    | {f"mass_link_{i}" for i in NAMED_JOINTS}
     | {f"mass_{shape}_{material}" for shape in SHAPES for material in MATERIALS}
-    | {f"max_torque_joint_{i}" for i in range(1, 7)}
-    | {f"joint_damping_{i}" for i in range(1, 7)}
+    | {f"max_torque_joint_{i}" for i in NAMED_JOINTS}
+    | {f"joint_damping_{i}" for i in NAMED_JOINTS}
 )
 
-#: Parameters that come once per driven joint (``<kind>_<n>``, n = 1 for the first driven joint): the
-#: engines' names above are the six-joint MICO's; :meth:`Engine.supported` renames them for another robot.
+#: Parameters that come once per driven joint (``<kind>_<n>``, n = 1 for the first driven joint).
 PER_JOINT = re.compile(
     r"^(mass_link|max_torque_joint|joint_damping|max_velocity_joint|joint_offset|compliance_joint)_(\d+)$"
 )
@@ -69,31 +74,35 @@ CONTACT_KINDS = GROUP_KINDS[:4]
 LOWEST_TORQUE_LIMIT = 100.0
 
 
-def unreachable_servo_limits(gain: float, task: TaskSpec) -> dict[str, str]:
-    """The torque limits of velocity servos with gain ``gain`` [N m s/rad]: parameter -> why they never act.
+def unreachable_servo_limits(task: TaskSpec, engine_gain: float, measured_on: RobotDescription) -> dict[str, str]:
+    """The torque limits of velocity servos: parameter -> why they never act.  Their gain [N m s/rad] is the
+    robot's ``servo_gain``, else the engine's own ``engine_gain``.
 
     Such a servo's force is the gain times the velocity error, and the error stays under
     1 rad/s (the commanded speeds are at most 40 deg/s, 0.7 rad/s): below the lowest limit.
+    That holds for the robot the engine measured it on, ``measured_on``; for another
+    robot (whose generic limits, its URDF's efforts, may well be reached) nothing is ruled out.
     """
+    gain = task.robot.servo_gain or engine_gain
     why = (
         f"the velocity servo's force ({gain:g} N m s/rad times the velocity error, under 1 rad/s) "
         f"never reaches {LOWEST_TORQUE_LIMIT:g} N m, the lowest tunable limit"
     )
-    if task.robot != MICO:  # another robot's generic limits (its URDF's efforts) may well be reached
+    if task.robot != measured_on:
         return {}
     return {f"max_torque_joint_{i}": why for i in range(1, task.robot.n_joints + 1)}
 
 
 def unloaded_hard_motors(
-    engine: str, task: TaskSpec, joints: tuple[int, ...], damping: tuple[int, ...]
+    engine: str, task: TaskSpec, measured_on: RobotDescription, joints: tuple[int, ...], damping: tuple[int, ...]
 ) -> dict[str, str]:
     """Parameters that never act where a hard velocity motor (a constraint up to its force limit)
     never reaches the lowest tunable limit: that joint's force limit, and its damping, whose torque
     the motor overrides.  ``joints`` and ``damping`` list those joints (measured on every task and
     probe of tests/test_engines.py: only a joint that drives the hand into the floor or an object,
     or takes the 20 Hz velocity steps with the whole arm's inertia, reaches the limit).  Measured on the
-    MICO: for another robot nothing is ruled out."""
-    if task.robot != MICO:
+    robot ``measured_on``: for another robot nothing is ruled out."""
+    if task.robot != measured_on:
         return {}
     limit = (
         f"{engine}'s hard velocity motor of this joint never needs {LOWEST_TORQUE_LIMIT:g} N m, "
@@ -101,6 +110,16 @@ def unloaded_hard_motors(
     )
     held = f"{engine}'s hard velocity motor holds this joint's commanded velocity against its damping torque"
     return {f"max_torque_joint_{i}": limit for i in joints} | {f"joint_damping_{i}": held for i in damping}
+
+
+def library_version(library: object | None, distribution: str) -> str:
+    """The version of an engine's library, installed as ``distribution``; "not installed" where ``library``, its
+    module, could not be imported."""
+    if library is None:
+        return "not installed"
+    from importlib.metadata import version
+
+    return version(distribution)
 
 
 #: A simulation whose wrist leaves this radius [m] around the base, or whose object flies
@@ -120,7 +139,7 @@ class Rollout:
     """What one simulated run of a task produced, sampled at the control rate."""
 
     times: np.ndarray  # (n,) seconds
-    wrist_pos: np.ndarray  # (n, 3) world position of the tracked link's origin (the MICO's link_6) [m]
+    wrist_pos: np.ndarray  # (n, 3) world position of the robot's tracked link's origin [m]
     wrist_rot: np.ndarray  # (n, 3, 3) world rotation of the wrist frame
     joint_angles: np.ndarray  # (n, driven joints) [rad], as the encoders read them (true angles when uncalibrated)
     object_pos: np.ndarray | None  # (n, 3) or None for tasks without an object
@@ -180,7 +199,7 @@ class Engine(ABC):
 
     @classmethod
     def supported(cls, robot: RobotDescription | None = None) -> frozenset[str]:
-        """The parameters this engine maps, for ``robot``'s driven joints (default: the MICO's six)."""
+        """The parameters this engine maps, for ``robot``'s driven joints (default: the default robot's)."""
         names = cls.engine_parameters | COMMON_PARAMETERS
         return names if robot is None else per_joint(names, robot.n_joints)
 
@@ -258,7 +277,7 @@ class Engine(ABC):
 
     @abstractmethod
     def wrist_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        """World position and 3x3 rotation of the tracked link's frame (the MICO's link_6)."""
+        """World position and 3x3 rotation of the robot's tracked link's frame."""
 
     @abstractmethod
     def object_position(self) -> np.ndarray | None:

@@ -1,6 +1,7 @@
 """Export a tuned run as the engine's own model files, with provenance: the tuned simulator, taken home.
 
-``export_run(run_dir, out_dir)`` writes, for the run's engine:
+``export_run(run_dir, out_dir)`` writes, for the run's engine (with the exporter its registry
+entry names: ``simtune/engines/<engine>/export.py``):
 
 - MuJoCo: ``scene_<task>.xml`` (MJCF), one per task;
 - PyBullet: ``robot.urdf``, ``floor.urdf``, ``object_<task>.urdf``, ``pybullet.json``
@@ -22,13 +23,12 @@ import contextlib
 import json
 import shutil
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from simtune.engines import ENGINES, make_engine
+from simtune.engines import ENGINES, load_part, make_engine
 from simtune.errors import ConfigError, SimtuneError
-from simtune.export import dart_model, drake_model, mujoco_model, ode_model, pybullet_model
 from simtune.export.common import (
     CONTROLLER_FILE,
     PROVENANCE_FILE,
@@ -44,17 +44,6 @@ from simtune.export.source import ExportWarning, TunedRun, read_run
 from simtune.tasks import TaskSpec
 
 DR_FILE = "dr_ranges.yaml"
-
-#: engine -> the function that writes its model files into an export folder
-WRITERS: dict[str, Callable[[ExportContext], list[str]]] = {
-    "mujoco": mujoco_model.write,
-    # the same parameters mapped onto the same MuJoCo model: a MuJoCo Warp run exports as MJCF
-    "mujoco-warp": mujoco_model.write,
-    "pybullet": pybullet_model.write,
-    "ode": ode_model.write,
-    "dart": dart_model.write,
-    "drake": drake_model.write,
-}
 
 
 @dataclass
@@ -180,7 +169,8 @@ def _export(run: TunedRun, out: Path, robot: RobotDescription, ranges: dict | No
             engine.reset(run.params)
             values.update({**engine.defaults(), **run.params})
         ctx = ExportContext(run, run.engine, robot, out, engines, values, provenance(run, run.engine, now_utc()))
-        WRITERS[run.engine](ctx)
+        write_model = load_part(ENGINES[run.engine].exporter)  # the engine's own exporter, in its folder
+        write_model(ctx)
         ctx.write(CONTROLLER_FILE, controller_yaml(ctx, _samples(run)))
         if ranges is not None:
             _write_dr(ctx, ranges)
@@ -254,4 +244,4 @@ def _write_dr(ctx: ExportContext, ranges: dict) -> None:
     ctx.write(DR_FILE, hash_comment(lines) + body)
 
 
-__all__ = ["DR_FILE", "WRITERS", "ExportResult", "ExportWarning", "RobotDescription", "export_run", "export_runs"]
+__all__ = ["DR_FILE", "ExportResult", "ExportWarning", "RobotDescription", "export_run", "export_runs"]

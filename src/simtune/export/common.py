@@ -21,7 +21,7 @@ from simtune.controller import CONTROL_PERIOD, JointController
 from simtune.engines import Engine, engine_class
 from simtune.export.source import TunedRun
 from simtune.robot import description, generate
-from simtune.tasks.spec import ObjectSpec
+from simtune.tasks.spec import ObjectSpec, TaskSpec
 
 PROVENANCE_FILE = "provenance.json"
 CONTROLLER_FILE = "controller.yaml"
@@ -195,39 +195,7 @@ def write_cone_mesh(ctx: ExportContext, obj, task: str) -> str:
 def controller_yaml(ctx: ExportContext, samples: dict[str, int]) -> str:
     """controller.yaml: everything needed to drive the exported model as the run did, without simtune."""
     params = ctx.run.params
-    tasks = {}
-    for task in ctx.run.tasks:
-        ctl = JointController(task, params)
-        starts, table = task.schedule
-        tasks[task.name] = {
-            "description": task.description,
-            "duration_s": float(task.duration),
-            "samples": samples.get(task.name),
-            "kp_per_s": ctl.kp,
-            # the task's own recording clock (its command_delay_<task> when tasks were tuned together)
-            "command_delay_s": ctl.delay,
-            "update_phase_s": ctl.phase,
-            "max_velocity_deg_s": [  # as the controller takes them (in degrees, converted once)
-                float(params.get(f"max_velocity_joint_{i}", task.max_velocity_deg))
-                for i in range(1, len(ctx.robot.driven_joints) + 1)
-            ],
-            "start_pose_deg": [float(v) for v in task.start_pose_deg],
-            # the true angles the arm starts at: where its encoders (control.encoders) read the start pose
-            "start_angles_deg": [float(v) for v in np.degrees(ctl.start_angles())],
-            "schedule": [
-                {"start_s": float(s), "targets_deg": [float(v) for v in row]} for s, row in zip(starts, table[1:])
-            ],
-            "object": None
-            if task.object is None
-            else {
-                "body": ctx.robot.object,
-                "shape": task.object.shape,
-                "material": task.object.material,
-                "size_m": [float(v) for v in task.object.size],
-                "start_position_m": [float(v) for v in task.object.start_position],
-                "start_rpy_rad": [float(v) for v in task.object.rpy],
-            },
-        }
+    tasks = {task.name: _task_control(ctx, task, samples.get(task.name)) for task in ctx.run.tasks}
     delay = float(params.get("command_delay", 0.0))
     values = ctx.values
     joints = range(1, len(ctx.robot.driven_joints) + 1)
@@ -252,31 +220,70 @@ def controller_yaml(ctx: ExportContext, samples: dict[str, int]) -> str:
         },
         "tasks": tasks,
     }
-    notes = [
-        "",
-        "How the run drove the model (simtune's controller, written out so that any program can do the same):",
-        "- control.joints are driven by velocity motors whose force is limited to control.max_torque_n_m",
-        "  (the model files hold the same limits).  At control.rate_hz, for each joint:",
-        "    velocity [deg/s] = clamp(kp_per_s * (target - angle), -max_velocity_deg_s, +max_velocity_deg_s)",
-        "  sent as the motor's velocity target and held until the next update.",
-        "- The controller reads each joint through its encoder (control.encoders; all zero: the true angle):",
-        "    encoder = angle + zero_offset_deg - compliance_rad_per_n_m * gravity torque about the joint",
-        "  (the static gravity torque [N m] at the present angles, of the model's links with",
-        "  gravity_link_masses_kg: the masses of the driven joints' child links, as the model files hold).",
-        "- The arm starts at rest at the task's start_angles_deg, where the encoders read start_pose_deg",
-        "  (the same angles without an encoder model).  Phase i of the schedule is in force from",
-        "  the task's command_delay_s + start_s on; before the first phase the target is the start pose.",
-        "- Samples are taken at k * period_s (k = 0 .. samples - 1); update k happens update_phase_s later,",
-        "  at k * period_s + update_phase_s, from the joint angles at that instant, with the targets in force",
-        "  then.  Physics steps are counted so that simulated time stays within half a step of both clocks.",
-        "- The fitness compares tracking.link's origin moved by marker_offset_m (in that link's frame) with",
-        "  the mean recorded wrist at each sample, plus the object's final position (tasks with an object).",
-        "- samples: how many 20 Hz samples the run's recordings of the task span (null if its data is gone).",
-        "",
-    ]
     lines = ctx.header(f"controller.yaml: the controller that drove the {ctx.engine} model of this export")
     text = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=110)
-    return hash_comment(lines + notes) + text
+    return hash_comment(lines + _CONTROLLER_NOTES) + text
+
+
+def _task_control(ctx: ExportContext, task: TaskSpec, samples: int | None) -> dict:
+    """controller.yaml's entry of ``task``: its schedule, gain, delay, velocity clamps, start pose and object."""
+    params = ctx.run.params
+    ctl = JointController(task, params)
+    starts, table = task.schedule
+    return {
+        "description": task.description,
+        "duration_s": float(task.duration),
+        "samples": samples,
+        "kp_per_s": ctl.kp,
+        # the task's own recording clock (its command_delay_<task> when tasks were tuned together)
+        "command_delay_s": ctl.delay,
+        "update_phase_s": ctl.phase,
+        "max_velocity_deg_s": [  # as the controller takes them (in degrees, converted once)
+            float(params.get(f"max_velocity_joint_{i}", task.max_velocity_deg))
+            for i in range(1, len(ctx.robot.driven_joints) + 1)
+        ],
+        "start_pose_deg": [float(v) for v in task.start_pose_deg],
+        # the true angles the arm starts at: where its encoders (control.encoders) read the start pose
+        "start_angles_deg": [float(v) for v in np.degrees(ctl.start_angles())],
+        "schedule": [
+            {"start_s": float(s), "targets_deg": [float(v) for v in row]} for s, row in zip(starts, table[1:])
+        ],
+        "object": None
+        if task.object is None
+        else {
+            "body": ctx.robot.object,
+            "shape": task.object.shape,
+            "material": task.object.material,
+            "size_m": [float(v) for v in task.object.size],
+            "start_position_m": [float(v) for v in task.object.start_position],
+            "start_rpy_rad": [float(v) for v in task.object.rpy],
+        },
+    }
+
+
+#: controller.yaml's comment on how the run drove the model
+_CONTROLLER_NOTES = [
+    "",
+    "How the run drove the model (simtune's controller, written out so that any program can do the same):",
+    "- control.joints are driven by velocity motors whose force is limited to control.max_torque_n_m",
+    "  (the model files hold the same limits).  At control.rate_hz, for each joint:",
+    "    velocity [deg/s] = clamp(kp_per_s * (target - angle), -max_velocity_deg_s, +max_velocity_deg_s)",
+    "  sent as the motor's velocity target and held until the next update.",
+    "- The controller reads each joint through its encoder (control.encoders; all zero: the true angle):",
+    "    encoder = angle + zero_offset_deg - compliance_rad_per_n_m * gravity torque about the joint",
+    "  (the static gravity torque [N m] at the present angles, of the model's links with",
+    "  gravity_link_masses_kg: the masses of the driven joints' child links, as the model files hold).",
+    "- The arm starts at rest at the task's start_angles_deg, where the encoders read start_pose_deg",
+    "  (the same angles without an encoder model).  Phase i of the schedule is in force from",
+    "  the task's command_delay_s + start_s on; before the first phase the target is the start pose.",
+    "- Samples are taken at k * period_s (k = 0 .. samples - 1); update k happens update_phase_s later,",
+    "  at k * period_s + update_phase_s, from the joint angles at that instant, with the targets in force",
+    "  then.  Physics steps are counted so that simulated time stays within half a step of both clocks.",
+    "- The fitness compares tracking.link's origin moved by marker_offset_m (in that link's frame) with",
+    "  the mean recorded wrist at each sample, plus the object's final position (tasks with an object).",
+    "- samples: how many 20 Hz samples the run's recordings of the task span (null if its data is gone).",
+    "",
+]
 
 
 def now_utc() -> dt.datetime:

@@ -11,13 +11,12 @@ Used by the round-trip tests and ``benchmarks/export_round_trip.py``.
 from __future__ import annotations
 
 import importlib.util
-import json
 from pathlib import Path
 
-import numpy as np
 import yaml
 
 from simtune.data import TaskData
+from simtune.engines import ENGINES, load_part
 from simtune.engines.base import Engine, Rollout
 from simtune.errors import SimtuneError
 from simtune.fitness import TaskScore, rollout_joint_names, score_rollout
@@ -72,7 +71,9 @@ def load_script(folder: Path, name: str):
     return module
 
 
-class _FromFiles(Engine):
+class FromFiles(Engine):
+    """An engine that loads nothing but an export folder's files (each engine's ``replay.py`` has one)."""
+
     engine_parameters = frozenset()
 
     def __init__(self, task: TaskSpec, folder: Path):
@@ -87,212 +88,8 @@ class _FromFiles(Engine):
         return {}
 
 
-class MujocoFiles(_FromFiles):
-    name = "mujoco (exported MJCF)"
-
-    def __init__(self, task, folder):
-        import mujoco
-
-        super().__init__(task, folder)
-        self.mj = mujoco
-        self.model = mujoco.MjModel.from_xml_path(str(folder / f"scene_{task.name}.xml"))
-        self.data = mujoco.MjData(self.model)
-        m = self.model
-        self.qpos = [m.jnt_qposadr[m.joint(j).id] for j in self.joints]
-        self.ctrl = [m.actuator(j).id for j in self.joints]
-
-    @property
-    def timestep(self):
-        return float(self.model.opt.timestep)
-
-    def reset(self, params):
-        self.mj.mj_resetData(self.model, self.data)
-        self.data.qpos[self.qpos] = self.start_angles(params)
-        self.mj.mj_forward(self.model, self.data)
-
-    def set_joint_velocities(self, velocities):
-        self.data.ctrl[self.ctrl] = velocities
-
-    def step(self, n):
-        self.mj.mj_step(self.model, self.data, nstep=n)
-
-    def joint_angles(self):
-        return self.data.qpos[self.qpos].copy()
-
-    def wrist_pose(self):
-        b = self.model.body(self.wrist).id
-        return self.data.xpos[b].copy(), self.data.xmat[b].reshape(3, 3).copy()
-
-    def object_position(self):
-        return self.data.xpos[self.model.body("object").id].copy() if self.has_object else None
-
-
-class PybulletFiles(_FromFiles):
-    name = "pybullet (exported URDF + pybullet.json, through load_pybullet.py)"
-
-    def __init__(self, task, folder):
-        import pybullet
-
-        super().__init__(task, folder)
-        self.p = pybullet
-        self.script = load_script(folder, "load_pybullet.py")
-        self.client = None
-        self.reset({})
-
-    @property
-    def timestep(self):
-        return float(self.p.getPhysicsEngineParameters(physicsClientId=self.client)["fixedTimeStep"])
-
-    def reset(self, params):
-        p = self.p
-        self.client, self.ids = self.script.load(self.task.name, self.client)
-        robot = self.ids["robot"]
-        infos = [
-            p.getJointInfo(robot, j, physicsClientId=self.client)
-            for j in range(p.getNumJoints(robot, physicsClientId=self.client))
-        ]
-        joints = {i[1].decode(): i[0] for i in infos}
-        self.arm = [joints[j] for j in self.joints]
-        self.wrist_index = next(i[0] for i in infos if i[12].decode() == self.wrist)
-        self.forces = json.loads((self.folder / "pybullet.json").read_text())["motors"]["forces"]
-        for j, angle in zip(self.arm, self.start_angles(params)):
-            p.resetJointState(robot, j, angle, 0.0, physicsClientId=self.client)
-
-    def set_joint_velocities(self, velocities):
-        self.p.setJointMotorControlArray(
-            self.ids["robot"],
-            self.arm,
-            self.p.VELOCITY_CONTROL,
-            targetVelocities=list(velocities),
-            forces=self.forces,
-            physicsClientId=self.client,
-        )
-
-    def step(self, n):
-        for _ in range(n):
-            self.p.stepSimulation(physicsClientId=self.client)
-
-    def joint_angles(self):
-        return np.array([s[0] for s in self.p.getJointStates(self.ids["robot"], self.arm, physicsClientId=self.client)])
-
-    def wrist_pose(self):
-        s = self.p.getLinkState(
-            self.ids["robot"], self.wrist_index, computeForwardKinematics=True, physicsClientId=self.client
-        )
-        return np.array(s[4]), np.array(self.p.getMatrixFromQuaternion(s[5])).reshape(3, 3)
-
-    def object_position(self):
-        if not self.has_object:
-            return None
-        return np.array(self.p.getBasePositionAndOrientation(self.ids["object"], physicsClientId=self.client)[0])
-
-    def close(self):
-        if self.client is not None:
-            self.p.disconnect(self.client)
-            self.client = None
-
-
-class DartFiles(_FromFiles):
-    name = "dart (exported URDF + dart.json, through load_dart.py)"
-
-    def __init__(self, task, folder):
-        super().__init__(task, folder)
-        self.script = load_script(folder, "load_dart.py")
-        self.reset({})
-
-    @property
-    def timestep(self):
-        return float(self.world.getTimeStep())
-
-    def reset(self, params):
-        self.world, self.robot, self.body = self.script.load(self.task.name)
-        self.dofs = [self.robot.getJoint(j).getIndexInSkeleton(0) for j in self.joints]
-        positions = np.zeros(self.robot.getNumDofs())
-        positions[self.dofs] = self.start_angles(params)
-        self.robot.setPositions(positions)
-
-    def set_joint_velocities(self, velocities):
-        commands = np.zeros(self.robot.getNumDofs())
-        commands[self.dofs] = velocities
-        self.robot.setCommands(commands)
-
-    def step(self, n):
-        for _ in range(n):
-            self.world.step(False)
-
-    def joint_angles(self):
-        return np.asarray(self.robot.getPositions())[self.dofs]
-
-    def wrist_pose(self):
-        t = self.robot.getBodyNode(self.wrist).getWorldTransform()
-        return np.array(t.translation()), np.array(t.rotation())
-
-    def object_position(self):
-        return np.array(self.body.getWorldTransform().translation()) if self.has_object else None
-
-
-class DrakeFiles(_FromFiles):
-    name = "drake (exported URDF + SDFormat + drake.json, through load_drake.py)"
-
-    def __init__(self, task, folder):
-        super().__init__(task, folder)
-        self.script = load_script(folder, "load_drake.py")
-        self.simulator, self.plant, self.robot = self.script.load(task.name)
-        self.context = self.simulator.get_mutable_context()
-        self.plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
-        self.arm = [self.plant.GetJointByName(j, self.robot) for j in self.joints]
-        self.dt = json.loads((folder / "drake.json").read_text())["plant"]["time_step"]
-        self.failed = ""
-
-    @property
-    def timestep(self):
-        return self.dt
-
-    def reset(self, params):
-        self.simulator.get_system().SetDefaultContext(self.context)
-        for joint, angle in zip(self.arm, self.start_angles(params)):
-            joint.set_angle(self.plant_context, float(angle))
-            joint.set_angular_rate(self.plant_context, 0.0)
-        self.context.SetTime(0.0)
-        self.steps = 0
-        self.set_joint_velocities(np.zeros(len(self.arm)))
-        self.simulator.Initialize()
-
-    def set_joint_velocities(self, velocities):
-        self.script.command(self.plant, self.robot, self.plant_context, np.asarray(velocities, dtype=float))
-
-    def step(self, n):
-        if not self.failed:
-            self.steps += n
-            try:
-                self.simulator.AdvanceTo(self.steps * self.dt)
-            except RuntimeError as exc:
-                self.failed = str(exc)
-
-    def diverged(self):
-        return self.failed
-
-    def joint_angles(self):
-        return np.array([j.get_angle(self.plant_context) for j in self.arm])
-
-    def wrist_pose(self):
-        pose = self.plant.EvalBodyPoseInWorld(self.plant_context, self.plant.GetBodyByName(self.wrist, self.robot))
-        return np.array(pose.translation()), np.array(pose.rotation().matrix())
-
-    def object_position(self):
-        if not self.has_object:
-            return None
-        body = self.plant.GetBodyByName("object")
-        return np.array(self.plant.EvalBodyPoseInWorld(self.plant_context, body).translation())
-
-
-#: engine -> the class that drives its exported files (ODE has none: it has no model file)
-REPLAYS: dict[str, type[_FromFiles]] = {
-    "mujoco": MujocoFiles,
-    "pybullet": PybulletFiles,
-    "dart": DartFiles,
-    "drake": DrakeFiles,
-}
+#: engines whose exported files can be driven again (the registry's; ODE has no model file)
+REPLAYS: tuple[str, ...] = tuple(name for name, entry in ENGINES.items() if entry.replay is not None)
 
 
 def replay_task(engine: str, folder: Path, task: TaskSpec, reference: TaskData) -> tuple[Rollout, TaskScore]:
@@ -303,7 +100,10 @@ def replay_task(engine: str, folder: Path, task: TaskSpec, reference: TaskData) 
     """
     exported = task_from_controller(folder, task.name, task)
     params = controller_params(folder, task.name)
-    sim = REPLAYS[engine](exported, folder)
+    replay = ENGINES[engine].replay
+    if replay is None:
+        raise SimtuneError(f"engine {engine!r} has no model files to replay")
+    sim = load_part(replay)(exported, folder)
     try:
         rollout = sim.rollout(params, len(reference.times))
     finally:

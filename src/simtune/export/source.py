@@ -26,7 +26,7 @@ from simtune.objective import recordings_folder
 from simtune.params import validate_params
 from simtune.runlock import LOCK_FILE, RunBusy, check_free, describe_holder
 from simtune.runs import BEST_PARAMS_FILE
-from simtune.store import STORE_FILE, RunStore
+from simtune.store import STORE_FILE, RunRecord, read_record
 from simtune.tasks import TaskSpec, parse_tasks
 from simtune.tasks.spec import common_robot
 
@@ -60,62 +60,25 @@ class TunedRun:
 def read_run(run_dir: Path | str) -> TunedRun:
     """The finished run in ``run_dir``, checked; a one-line SimtuneError if it cannot be exported."""
     run_dir = Path(run_dir)
-    if not run_dir.is_dir():
-        raise SimtuneError(f"{run_dir}: no such run folder")
-    if not (run_dir / STORE_FILE).is_file():
-        raise SimtuneError(f"{run_dir} is not a run folder: its store {STORE_FILE} is missing")
-    try:
-        store = RunStore.open_read_only(run_dir)
-    except sqlite3.Error as exc:
-        raise SimtuneError(f"{run_dir / STORE_FILE}: cannot read the run store ({exc})") from None
-    except SimtuneError as exc:
-        raise SimtuneError(f"{run_dir / STORE_FILE}: {exc}") from None
-    try:
-        config = store.get("config")
-        status = store.get("status")
-        versions = store.get("versions") or {}
-        command = store.get("command") or []
-        stored_fingerprint = (store.get("fingerprint") or {}).get("data")  # written by runs.run_fingerprint
-        evaluations = store.count_evaluations()
-        row = store.db.execute("SELECT MAX(finished_at) FROM evaluations").fetchone()
-        finished_at = float(row[0]) if row and row[0] is not None else None
-    except sqlite3.Error as exc:
-        raise SimtuneError(f"{run_dir / STORE_FILE}: cannot read the run store ({exc})") from None
-    finally:
-        store.db.close()
+    record = _read_record(run_dir)
+    config, versions = record.config, record.versions
     if not isinstance(config, dict) or not all(k in config for k in ("engine", "tasks", "space", "data", "seed")):
         raise SimtuneError(f"{run_dir / STORE_FILE}: no run configuration (not written by `simtune tune`?)")
-    if status != "finished":
-        try:
-            check_free(run_dir)
-        except RunBusy:
-            raise SimtuneError(
-                f"{run_dir} is being tuned right now by {describe_holder(run_dir / LOCK_FILE)}: "
-                "export it when it has finished"
-            ) from None
-        raise SimtuneError(
-            f"{run_dir} is an unfinished run (status {status!r}): `simtune resume {run_dir}` finishes it, then export"
-        )
+    if record.status != "finished":
+        _refuse_unfinished(run_dir, record.status)
     best_file = run_dir / BEST_PARAMS_FILE
-    if not best_file.is_file():
-        raise SimtuneError(f"{run_dir} is an unfinished run: no {BEST_PARAMS_FILE}")
-    try:
-        best = json.loads(best_file.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise SimtuneError(f"{best_file}: cannot read ({exc})") from None
-    if not isinstance(best, dict) or not isinstance(best.get("params"), dict) or "fitness" not in best:
-        raise SimtuneError(f"{best_file}: not a run's best parameters (no 'params' and 'fitness')")
+    best = _read_best(best_file, run_dir)
     made_by = versions.get("simtune")
     if made_by != simtune.__version__:
         raise SimtuneError(
             f"{run_dir} was tuned by simtune {made_by}, this is simtune {simtune.__version__}: "
             f"its engine mapping may differ, export it with simtune {made_by}"
         )
-    engine = str(config["engine"])
+    engine = record.engine
     if best.get("engine", engine) != engine:
         raise SimtuneError(f"{best_file}: engine {best.get('engine')!r} differs from the run's {engine!r}")
     cls = engine_class(engine)
-    tasks = parse_tasks(str(config["tasks"]), config.get("project"))
+    tasks = parse_tasks(record.tasks, config.get("project"))
     robot = common_robot(tasks)
     params = validate_params(best["params"], cls.supported(robot), engine, where=str(best_file), robot=robot)
     installed = cls.version()
@@ -126,6 +89,7 @@ def read_run(run_dir: Path | str) -> TunedRun:
             ExportWarning,
             stacklevel=2,
         )
+    stored_fingerprint = record.data_fingerprint  # written by runs.run_fingerprint
     data_files, note = _data_files(config["data"], tasks, stored_fingerprint, run_dir)
     return TunedRun(
         path=run_dir.resolve(),
@@ -135,12 +99,53 @@ def read_run(run_dir: Path | str) -> TunedRun:
         params=params,
         best=best,
         versions={str(k): str(v) for k, v in versions.items()},
-        command=[str(c) for c in command],
-        finished_at=finished_at,
-        evaluations=int(evaluations),
+        command=[str(c) for c in record.command],
+        finished_at=record.finished_at,
+        evaluations=int(record.evaluations),
         data_files=data_files,
         data_note=note,
     )
+
+
+def _read_record(run_dir: Path) -> RunRecord:
+    """The run's record; a folder that is no run, or a store that cannot be read, is one line naming it."""
+    if not run_dir.is_dir():
+        raise SimtuneError(f"{run_dir}: no such run folder")
+    if not (run_dir / STORE_FILE).is_file():
+        raise SimtuneError(f"{run_dir} is not a run folder: its store {STORE_FILE} is missing")
+    try:
+        return read_record(run_dir)
+    except sqlite3.Error as exc:
+        raise SimtuneError(f"{run_dir / STORE_FILE}: cannot read the run store ({exc})") from None
+    except SimtuneError as exc:
+        raise SimtuneError(f"{run_dir / STORE_FILE}: {exc}") from None
+
+
+def _refuse_unfinished(run_dir: Path, status) -> None:
+    """Why a run that has not finished cannot be exported: it is being tuned now, or it stopped before its end."""
+    try:
+        check_free(run_dir)
+    except RunBusy:
+        raise SimtuneError(
+            f"{run_dir} is being tuned right now by {describe_holder(run_dir / LOCK_FILE)}: "
+            "export it when it has finished"
+        ) from None
+    raise SimtuneError(
+        f"{run_dir} is an unfinished run (status {status!r}): `simtune resume {run_dir}` finishes it, then export"
+    )
+
+
+def _read_best(best_file: Path, run_dir: Path) -> dict:
+    """The run's ``best_params.json``: the tuned values and fitness the exported files reproduce."""
+    if not best_file.is_file():
+        raise SimtuneError(f"{run_dir} is an unfinished run: no {BEST_PARAMS_FILE}")
+    try:
+        best = json.loads(best_file.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise SimtuneError(f"{best_file}: cannot read ({exc})") from None
+    if not isinstance(best, dict) or not isinstance(best.get("params"), dict) or "fitness" not in best:
+        raise SimtuneError(f"{best_file}: not a run's best parameters (no 'params' and 'fitness')")
+    return best
 
 
 def _data_files(

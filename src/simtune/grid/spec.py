@@ -61,15 +61,16 @@ class GridSpec:
 
 def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
     """Run or resume one optimisation; returns its summary.  Safe to run again after a crash."""
+    from simtune.run_plan import new_run_config
     from simtune.runlock import run_lock
-    from simtune.runs import RunConfig, has_run, resume_run, start_run
-    from simtune.store import RunStore
+    from simtune.runs import has_run, resume_run, start_run
+    from simtune.store import read_record
 
     path = Path(run_dir)
-    config = RunConfig(
-        engine=unit.engine,
-        tasks=unit.tasks,
-        space=unit.space,
+    config = new_run_config(
+        unit.engine,
+        unit.tasks,
+        unit.space,
         data=spec.data,
         seed=unit.seed,
         workers=1,
@@ -87,13 +88,11 @@ def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
             result = resume_run(path, show_progress=False)
         else:  # new, or died before the run was set up: start_run clears such a store
             result = start_run(config, path, show_progress=False)
-    store = RunStore(path)
-    summary = dict(
+    generic = read_record(path).generic or {}  # stored as the run started
+    return dict(
         fitness=result.score.fitness,
-        generic_fitness=store.get("generic")["fitness"],
+        generic_fitness=generic["fitness"],
         evaluations=result.evaluations,
         generations=result.generations,
         wall_s=result.wall_s,
     )
-    store.close()
-    return summary

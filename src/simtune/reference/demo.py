@@ -9,8 +9,9 @@ from rich.console import Console
 
 from simtune.console import text_table
 from simtune.reference import REFERENCE_DIR
+from simtune.run_plan import new_run_config
 from simtune.runlock import run_lock
-from simtune.runs import RunConfig, discard_run, has_run, start_run
+from simtune.runs import discard_run, has_run, start_run
 from simtune.store import RunStore
 
 #: What the demo tunes: the parameters the reference recording hides, in the extended space's ranges.
@@ -38,11 +39,11 @@ def run_demo(out_dir: Path, workers: int = 2, max_seconds: float = 120.0, consol
     if has_run(out_dir):
         with run_lock(out_dir):  # the demo always starts afresh, but never under a run in progress
             discard_run(out_dir)
-    config = RunConfig(
-        engine="mujoco",
-        tasks=truth["task"],
-        space="extended",
-        data=str(REFERENCE_DIR),
+    config = new_run_config(
+        "mujoco",
+        truth["task"],
+        "extended",
+        data=REFERENCE_DIR,
         workers=workers,
         max_seconds=max_seconds,
         only=list(DEMO_PARAMETERS),

@@ -120,23 +120,7 @@ def make_report(
         progress.stage("scoring published simulations", 1 + len(engines) + len(groups) + figures + 1)
 
         references = References()
-        entries, notes = T.generic_entries(groups)
-        for note in notes:
-            warn(note)
-        published = _score_published(published_folder, groups, references, warn) if published_folder else []
-        entries += [
-            T.GenericEntry(
-                sim.engine,
-                "published",
-                "",
-                sim.task,
-                score.fitness,
-                score.wrist_error,
-                score.object_error,
-                score.stable,
-            )
-            for sim, score, _ in published
-        ]
+        entries, published = _generic_entries(groups, published_folder, references, warn)
         progress.step()
         progress.describe("nominal parameter values")
         nominal, tasks_by_engine = _nominal_values(groups, warn, progress.step)
@@ -160,6 +144,24 @@ def make_report(
         index.write_text(render("simtune report: simulator tuning results", _meta(data), problems, sections))
         progress.finish()
     return index
+
+
+def _generic_entries(
+    groups: list[Group], published_folder: Path | None, references: References, warn: Warn
+) -> tuple[list[T.GenericEntry], list[tuple]]:
+    """The generic fitness of each engine and task, with the published simulations' (scored here, as
+    :func:`_score_published` returns them) as entries of their own."""
+    entries, notes = T.generic_entries(groups)
+    for note in notes:
+        warn(note)
+    published = _score_published(published_folder, groups, references, warn) if published_folder else []
+    entries += [
+        T.GenericEntry(
+            sim.engine, "published", "", sim.task, score.fitness, score.wrist_error, score.object_error, score.stable
+        )
+        for sim, score, _ in published
+    ]
+    return entries, published
 
 
 def _read_runs(run_dirs: list[Path], warn: Warn, step: Callable[[], None], project: str | None) -> list[Group]:

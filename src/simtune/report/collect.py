@@ -1,8 +1,9 @@
 """Load finished tuning runs into plain records, and group them into repeats.
 
 A *run dir* holds ``run.sqlite`` (made by ``simtune tune``); a *grid dir* is
-any folder with run dirs somewhere below it.  Stores are opened read-only, so
-a report never changes a run, not even a broken one.  A run that is not
+any folder with run dirs somewhere below it.  Each run is read through
+:func:`simtune.store.read_record` (read-only), so a report never changes a run,
+not even a broken one; :class:`RunRecord` is the report's checked view of it.  A run that is not
 finished, or whose store cannot be read, is returned as a :class:`Skipped`
 entry naming the folder and the reason: the report warns about it and leaves
 it out, it never merges it silently.
@@ -17,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from simtune.errors import SimtuneError
-from simtune.store import STORE_FILE, RunStore
+from simtune.store import STORE_FILE, read_record
 from simtune.tasks import TaskSpec, get_task, parse_tasks
 
 
@@ -188,8 +189,7 @@ def find_run_dirs(paths: list[Path]) -> list[Path]:
     return found
 
 
-def _require(store: RunStore, key: str):
-    value = store.get(key)
+def _require(key: str, value):
     if value is None:
         raise SimtuneError(f"store has no {key!r} (not written by `simtune tune`?)")
     return value
@@ -202,28 +202,26 @@ def load_run(run_dir: Path, label: str | None = None, project: str | None = None
     """
     run_dir = Path(run_dir)
     label = label or str(run_dir)
-    store = None
     try:
-        store = RunStore.open_read_only(run_dir)
-        config = _require(store, "config")
+        stored = read_record(run_dir)
+        config = _require("config", stored.config)
         if not isinstance(config, dict):
             raise SimtuneError("stored config is not a mapping")
         missing = [k for k in ("engine", "tasks", "space", "data", "seed") if k not in config]
         if missing:
             raise SimtuneError(f"stored config lacks {', '.join(missing)}")
-        status = store.get("status")
-        if status != "finished":
+        if stored.status != "finished":
             return Skipped(
                 run_dir,
                 label,
-                f"incomplete run (status {status!r}, not 'finished'): `simtune resume {run_dir}` finishes it",
+                f"incomplete run (status {stored.status!r}, not 'finished'): `simtune resume {run_dir}` finishes it",
             )
-        parameters = list(_require(store, "parameters"))
-        bounds = [(float(lo), float(hi)) for lo, hi in _require(store, "bounds")]
+        parameters = list(_require("parameters", stored.parameters))
+        bounds = [(float(lo), float(hi)) for lo, hi in _require("bounds", stored.bounds)]
         if len(bounds) != len(parameters):
             raise SimtuneError(f"{len(parameters)} parameter names but {len(bounds)} bounds")
-        generic = _require(store, "generic")
-        best = store.best_evaluation()
+        generic = _require("generic", stored.generic)
+        best = stored.best
         if best is None:
             raise SimtuneError("no evaluations in the store")
         if len(best["x"]) != len(parameters):
@@ -233,10 +231,10 @@ def load_run(run_dir: Path, label: str | None = None, project: str | None = None
         return RunRecord(
             path=run_dir,
             label=label,
-            engine=str(config["engine"]),
-            tasks=str(config["tasks"]),
+            engine=stored.engine,
+            tasks=stored.tasks,
             task_names=task_names,
-            space=str(config["space"]),
+            space=stored.space,
             data=None if config["data"] is None else str(config["data"]),
             project=project,
             seed=int(config["seed"]),
@@ -246,18 +244,18 @@ def load_run(run_dir: Path, label: str | None = None, project: str | None = None
             generic=generic,
             best_x=[float(v) for v in best["x"]],
             best_score=best["score"],
-            generations=store.generations(),
-            initial_fitness=store.initial_fitness(),
-            evaluations=store.count_evaluations(),
-            elapsed_s=float(store.get("elapsed_s", 0.0) or 0.0),
-            message=str(store.get("message", "")),
-            versions=store.get("versions", {}) or {},
-            outcomes=store.count_outcomes(),
-            initial_population=store.initial_population(),
-            de_settings=store.get("de_settings"),
-            converged=bool(store.get("search_converged", False)),
-            inactive=dict(store.get("inactive_parameters") or {}),
-            uncertainty=store.get("uncertainty"),
+            generations=stored.generations,
+            initial_fitness=stored.initial_fitness,
+            evaluations=stored.evaluations,
+            elapsed_s=stored.elapsed_s,
+            message=str(stored.message or ""),
+            versions=stored.versions,
+            outcomes=stored.outcomes,
+            initial_population=stored.initial_population,
+            de_settings=stored.de_settings,
+            converged=stored.converged,
+            inactive=stored.inactive,
+            uncertainty=stored.uncertainty,
         )
     except sqlite3.Error as exc:
         return Skipped(run_dir, label, f"corrupt run store ({exc})")
@@ -265,9 +263,6 @@ def load_run(run_dir: Path, label: str | None = None, project: str | None = None
         return Skipped(run_dir, label, f"unusable run store: {exc}")
     except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
         return Skipped(run_dir, label, f"unusable run store: {type(exc).__name__}: {exc}")
-    finally:
-        if store is not None:
-            store.close()
 
 
 def group_runs(runs: list[RunRecord]) -> tuple[list[Group], list[Skipped]]:

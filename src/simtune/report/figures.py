@@ -308,24 +308,11 @@ def parameters_figure(groups: list[Group], nominal: dict[str, dict[str, float]])
 
 
 # --- 6. trajectories (the paper's Figure 1) -----------------------------------------------------------------
-def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
-    import mpl_toolkits.mplot3d  # noqa: F401  (registers the 3-D projection on old matplotlib)
-
-    traj = sim.tasks[task]
-    ref = traj.reference
-    wrist_mean, wrist_repeats = ref.wrist_mean, ref.wrist_repeats
-    if wrist_mean is None or wrist_repeats is None:
-        raise ValueError(f"task {task}: the recordings track no wrist marker to draw")
-    finals, untuned_object, tuned_object = ref.object_final, traj.untuned_object, traj.tuned_object
-    has_object = finals is not None and untuned_object is not None and tuned_object is not None
-    ncols = 3 if has_object else 2
-    fig = new_figure(5.2 * ncols, 6.4)
-    gs = fig.add_gridspec(3, ncols, width_ratios=[1.25, 1.0, 1.0][:ncols])
-    t = ref.times
-    n = len(t)
-    lines = (("untuned", traj.untuned_marker, UNTUNED, "--"), ("tuned", traj.tuned_marker, TUNED, "-"))
-
-    ax3 = fig.add_subplot(gs[:, 0], projection="3d")
+def _path_panel(fig: Figure, cell, traj, wrist: tuple[np.ndarray, np.ndarray], lines: tuple, ncols: int) -> None:
+    """The end effector's path in 3-D: the recorded repeats and mean (``wrist``), untuned and tuned."""
+    wrist_mean, wrist_repeats = wrist
+    n = len(traj.reference.times)
+    ax3 = fig.add_subplot(cell, projection="3d")
     for k, rep in enumerate(wrist_repeats):
         ax3.plot(*rep.T, color="#999999", linewidth=0.5, alpha=0.5, label="recorded repeats" if k == 0 else None)
     ax3.plot(*wrist_mean.T, color=RECORDED, linewidth=2.0, label="recorded mean")
@@ -345,6 +332,12 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
     panel_title(ax3, "end-effector path", ncols)
     ax3.legend(fontsize="small", loc="upper left")
 
+
+def _time_panels(fig: Figure, gs, traj, wrist: tuple[np.ndarray, np.ndarray], lines: tuple, ncols: int) -> None:
+    """The end effector's x, y and z against time, one panel each: recorded min-max and mean, untuned, tuned."""
+    wrist_mean, wrist_repeats = wrist
+    t = traj.reference.times
+    n = len(t)
     lo, hi = wrist_repeats.min(axis=0), wrist_repeats.max(axis=0)
     for i, axis in enumerate("xyz"):
         ax = fig.add_subplot(gs[i, 1])
@@ -360,37 +353,62 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
         if i == 2:
             ax.set_xlabel("time [s]")
 
+
+def _object_panel(fig: Figure, cell, traj, finals: np.ndarray, objects: tuple[np.ndarray, np.ndarray], ncols: int):
+    """The object seen from above: the recorded final positions and start, the untuned and tuned paths."""
+    ref = traj.reference
+    untuned_object, tuned_object = objects
+    n = len(ref.times)
+    ax = fig.add_subplot(cell)
+    ax.scatter(finals[:, 0], finals[:, 1], s=14, color="#999999", label=f"recorded repeats ({len(finals)})")
+    mean = finals.mean(axis=0)
+    ax.scatter([mean[0]], [mean[1]], s=60, color=RECORDED, marker="x", label="recorded mean")
+    if ref.object_start is not None:
+        start = ref.object_start.mean(axis=0)
+        ax.scatter(
+            [start[0]], [start[1]], s=40, facecolor="none", edgecolor=RECORDED, marker="s", label="recorded start"
+        )
+    for label, obj, color, symbol in (
+        ("untuned", untuned_object, UNTUNED, "v"),
+        ("tuned", tuned_object, TUNED, "^"),
+    ):
+        ax.plot(obj[:n, 0], obj[:n, 1], color=color, linewidth=0.8, alpha=0.7)
+        ax.scatter(
+            [obj[n - 1, 0]],
+            [obj[n - 1, 1]],
+            s=50,
+            color=color,
+            marker=symbol,
+            label=f"{label} final ({np.linalg.norm(obj[n - 1] - mean) * 1000:.1f} mm off)",
+        )
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.xaxis.set_major_locator(MaxNLocator(4))
+    ax.yaxis.set_major_locator(MaxNLocator(6))
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    panel_title(ax, "object, seen from above", ncols)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="x-small", loc="best")
+
+
+def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
+    import mpl_toolkits.mplot3d  # noqa: F401  (registers the 3-D projection on old matplotlib)
+
+    traj = sim.tasks[task]
+    ref = traj.reference
+    wrist_mean, wrist_repeats = ref.wrist_mean, ref.wrist_repeats
+    if wrist_mean is None or wrist_repeats is None:
+        raise ValueError(f"task {task}: the recordings track no wrist marker to draw")
+    finals, untuned_object, tuned_object = ref.object_final, traj.untuned_object, traj.tuned_object
+    has_object = finals is not None and untuned_object is not None and tuned_object is not None
+    ncols = 3 if has_object else 2
+    fig = new_figure(5.2 * ncols, 6.4)
+    gs = fig.add_gridspec(3, ncols, width_ratios=[1.25, 1.0, 1.0][:ncols])
+    lines = (("untuned", traj.untuned_marker, UNTUNED, "--"), ("tuned", traj.tuned_marker, TUNED, "-"))
+    _path_panel(fig, gs[:, 0], traj, (wrist_mean, wrist_repeats), lines, ncols)
+    _time_panels(fig, gs, traj, (wrist_mean, wrist_repeats), lines, ncols)
     if finals is not None and untuned_object is not None and tuned_object is not None:
-        ax = fig.add_subplot(gs[:, 2])
-        ax.scatter(finals[:, 0], finals[:, 1], s=14, color="#999999", label=f"recorded repeats ({len(finals)})")
-        mean = finals.mean(axis=0)
-        ax.scatter([mean[0]], [mean[1]], s=60, color=RECORDED, marker="x", label="recorded mean")
-        if ref.object_start is not None:
-            start = ref.object_start.mean(axis=0)
-            ax.scatter(
-                [start[0]], [start[1]], s=40, facecolor="none", edgecolor=RECORDED, marker="s", label="recorded start"
-            )
-        for label, obj, color, symbol in (
-            ("untuned", untuned_object, UNTUNED, "v"),
-            ("tuned", tuned_object, TUNED, "^"),
-        ):
-            ax.plot(obj[:n, 0], obj[:n, 1], color=color, linewidth=0.8, alpha=0.7)
-            ax.scatter(
-                [obj[n - 1, 0]],
-                [obj[n - 1, 1]],
-                s=50,
-                color=color,
-                marker=symbol,
-                label=f"{label} final ({np.linalg.norm(obj[n - 1] - mean) * 1000:.1f} mm off)",
-            )
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.xaxis.set_major_locator(MaxNLocator(4))
-        ax.yaxis.set_major_locator(MaxNLocator(6))
-        ax.set_xlabel("x [m]")
-        ax.set_ylabel("y [m]")
-        panel_title(ax, "object, seen from above", ncols)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize="x-small", loc="best")
+        _object_panel(fig, gs[:, 2], traj, finals, (untuned_object, tuned_object), ncols)
 
     g = sim.group
     suptitle(

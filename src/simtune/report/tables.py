@@ -394,84 +394,84 @@ def _initial_values(group: Group, name: str) -> np.ndarray:
     return np.asarray(values, dtype=float)
 
 
-def importance_table(groups: list[Group]) -> Table:
+_IMPORTANCE_COLUMNS = [
+    Column("engine"),
+    Column("tasks"),
+    Column("space"),
+    Column("rank", "d"),
+    Column("parameter"),
+    Column("repeats", "d"),
+    Column("std / range", ".3f"),
+    Column("(max - min) / range", ".3f"),
+    Column("initial std / range", ".3f"),
+    Column("p (Brown-Forsythe)", ".3g"),
+    Column("q (BH)", ".3g"),
+    Column("significant", ""),
+    Column("mean (normalised)", ".3f"),
+    Column("mean", ".4g"),
+    Column("unit"),
+    Column("best repeat", ".4g"),
+    Column("95 % interval (best repeat)"),
+    Column("active"),
+]
+
+
+def _spread_entries(g: Group) -> list[list]:
+    """Per parameter of ``g`` that can act: name, repeats, std and spread of its tuned values and std of its
+    initial values (each over its range), the Brown-Forsythe p, its normalised mean and its mean."""
+    entries = []
+    for name in g.parameters:
+        values = np.asarray(g.values(name))
+        initial = _initial_values(g, name)
+        low, high = g.bounds(name)
+        width = high - low if high > low else 1.0
+        std = float(values.std(ddof=1)) / width if values.size > 1 else None
+        spread = float(values.max() - values.min()) / width
+        initial_std = float(initial.std(ddof=1)) / width if initial.size > 1 else None
+        p = spread_test(values, initial)
+        entries.append(
+            [name, values.size, std, spread, initial_std, p, float((values.mean() - low) / width), values.mean()]
+        )
+    return entries
+
+
+def _importance_rows(g: Group) -> list[list]:
+    """The rows of one engine, tasks and space: its parameters that can act, ranked; then the inactive ones."""
     from scipy.stats import false_discovery_control
 
-    columns = [
-        Column("engine"),
-        Column("tasks"),
-        Column("space"),
-        Column("rank", "d"),
-        Column("parameter"),
-        Column("repeats", "d"),
-        Column("std / range", ".3f"),
-        Column("(max - min) / range", ".3f"),
-        Column("initial std / range", ".3f"),
-        Column("p (Brown-Forsythe)", ".3g"),
-        Column("q (BH)", ".3g"),
-        Column("significant", ""),
-        Column("mean (normalised)", ".3f"),
-        Column("mean", ".4g"),
-        Column("unit"),
-        Column("best repeat", ".4g"),
-        Column("95 % interval (best repeat)"),
-        Column("active"),
-    ]
+    best = g.best_run.best_params
+    intervals = interval_texts(g.best_run.uncertainty)
+    entries = _spread_entries(g)
+    tested = [i for i, e in enumerate(entries) if e[5] is not None]
+    q: dict[int, float] = {}
+    if tested:  # Benjamini-Hochberg over the parameters of this engine, tasks and space
+        adjusted = false_discovery_control([entries[i][5] for i in tested], method="bh")
+        q = {i: float(v) for i, v in zip(tested, np.atleast_1d(adjusted))}
+    order = sorted(
+        range(len(entries)),
+        key=lambda i: (math.inf if entries[i][2] is None else entries[i][2], entries[i][3], entries[i][0]),
+    )
     rows = []
-    for g in groups:
-        best = g.best_run.best_params
-        intervals = interval_texts(g.best_run.uncertainty)
-        entries = []
-        for name in g.parameters:
-            values = np.asarray(g.values(name))
-            initial = _initial_values(g, name)
-            low, high = g.bounds(name)
-            width = high - low if high > low else 1.0
-            std = float(values.std(ddof=1)) / width if values.size > 1 else None
-            spread = float(values.max() - values.min()) / width
-            initial_std = float(initial.std(ddof=1)) / width if initial.size > 1 else None
-            p = spread_test(values, initial)
-            entries.append(
-                [name, values.size, std, spread, initial_std, p, float((values.mean() - low) / width), values.mean()]
-            )
-        tested = [i for i, e in enumerate(entries) if e[5] is not None]
-        q: dict[int, float] = {}
-        if tested:  # Benjamini-Hochberg over the parameters of this engine, tasks and space
-            adjusted = false_discovery_control([entries[i][5] for i in tested], method="bh")
-            q = {i: float(v) for i, v in zip(tested, np.atleast_1d(adjusted))}
-        order = sorted(
-            range(len(entries)),
-            key=lambda i: (math.inf if entries[i][2] is None else entries[i][2], entries[i][3], entries[i][0]),
+    for rank, i in enumerate(order, start=1):
+        name, n, std, spread, initial_std, p, mean_norm, mean = entries[i]
+        unit = PARAMETERS[name].unit if name in PARAMETERS else ""
+        significant = None if i not in q else ("yes" if q[i] < SIGNIFICANCE else "no")
+        rows.append(
+            [
+                *(g.engine, g.tasks, g.space, rank if std is not None else None, name, n, std, spread, initial_std),
+                *(p, q.get(i), significant, mean_norm, float(mean), unit, best.get(name)),
+                *(intervals.get(name, "-"), "yes"),
+            ]
         )
-        for rank, i in enumerate(order, start=1):
-            name, n, std, spread, initial_std, p, mean_norm, mean = entries[i]
-            unit = PARAMETERS[name].unit if name in PARAMETERS else ""
-            significant = None if i not in q else ("yes" if q[i] < SIGNIFICANCE else "no")
-            rows.append(
-                [
-                    g.engine,
-                    g.tasks,
-                    g.space,
-                    rank if std is not None else None,
-                    name,
-                    n,
-                    std,
-                    spread,
-                    initial_std,
-                    p,
-                    q.get(i),
-                    significant,
-                    mean_norm,
-                    float(mean),
-                    unit,
-                    best.get(name),
-                    intervals.get(name, "-"),
-                    "yes",
-                ]
-            )
-        for name, why in g.inactive.items():  # marked, never ranked: their spread is the search's wandering
-            unit = PARAMETERS[name].unit if name in PARAMETERS else ""
-            rows.append([g.engine, g.tasks, g.space, None, name, 0, *[None] * 8, unit, None, "-", f"no: {why}"])
+    for name, why in g.inactive.items():  # marked, never ranked: their spread is the search's wandering
+        unit = PARAMETERS[name].unit if name in PARAMETERS else ""
+        rows.append([g.engine, g.tasks, g.space, None, name, 0, *[None] * 8, unit, None, "-", f"no: {why}"])
+    return rows
+
+
+def importance_table(groups: list[Group]) -> Table:
+    columns = _IMPORTANCE_COLUMNS
+    rows = [row for g in groups for row in _importance_rows(g)]
     return Table(
         "parameter_importance",
         "Table 4. Parameter importance: spread of tuned values across repeats, and its significance",

@@ -1,6 +1,7 @@
 """Task registry: look tasks up by name in a project; ``a,b`` or ``seed-11`` name several at once.
 
-Tasks are files (docs/task-files.md) gathered by a project (:mod:`simtune.project`); without a project
+Tasks are files (docs/task-files.md) gathered by a project (:mod:`simtune.tasks.project`, also
+:mod:`simtune.project`); without a project
 the bundled Kinova MICO project is meant.  ``TASKS`` and ``GROUPS`` are that project's tasks and groups.
 """
 
@@ -12,11 +13,12 @@ from typing import TYPE_CHECKING, Any
 from simtune.tasks.spec import MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
 
 if TYPE_CHECKING:
-    from simtune.project import Project
+    from simtune.tasks.project import Project
 
 
 def _project(project: Project | Path | str | None) -> Project:
-    from simtune.project import get_project
+    # on first use: importing simtune.tasks (for TaskSpec) reads no project file
+    from simtune.tasks.project import get_project
 
     return get_project(project)
 

@@ -229,25 +229,7 @@ def load_task_file(
     duration = keys.number("duration", required=True)
     if duration <= 0:
         raise keys.error("duration", f"must be above 0 seconds, got {duration:g}")
-
-    joints = keys.strings("joints")
-    if joints is None:
-        if robot is None:
-            raise keys.error("joints", "missing: name the driven joints (required when no robot is known)")
-        joints = robot.joints
-    if not joints:
-        raise keys.error("joints", "name at least one driven joint")
-    if len(set(joints)) != len(joints):
-        raise keys.error("joints", f"a joint is named twice: {list(joints)}")
-    if robot is not None:
-        for i, joint in enumerate(joints):
-            if joint not in robot.joints:
-                raise keys.error(f"joints[{i}]", f"robot {robot.name} has no movable joint {joint!r}")
-        if joints != robot.joints:
-            # the engines command every movable joint of the arm they build, in the robot's order
-            raise keys.error(
-                "joints", f"the engines drive every arm joint of {robot.name} in order: {', '.join(robot.joints)}"
-            )
+    joints = _driven_joints(keys, robot)
     per_joint = f" (one per driven joint: {', '.join(joints)})"
 
     start_pose = keys.numbers("start_pose_deg", len(joints), per_joint)
@@ -269,17 +251,7 @@ def load_task_file(
         key = "schedule_csv" if keys.has("schedule_csv") else f"phases[{len(phases) - 1}].start"
         raise keys.error(key, f"starts at {phases[-1].start:g} s, not before the task's end (duration {duration:g} s)")
 
-    mocap = keys.table("mocap", MOCAP_KEYS, required=True)
-    assert mocap is not None
-    link = mocap.string("link", default=robot.wrist_link if robot else None, required=robot is None)
-    assert link is not None
-    if robot is not None:
-        if link not in robot.links:
-            raise mocap.error("link", f"robot {robot.name} has no link {link!r}")
-        if link != robot.wrist_link:
-            raise mocap.error("link", f"the engines report the pose of {robot.wrist_link} only: track that link")
-    body = mocap.string("body", required=True)
-    base_body = mocap.string("base_body")
+    link, body, base_body = _mocap(keys, robot)
     obj = _object(keys)
     start_from_recordings = keys.flag("start_from_recordings", False)
     if start_from_recordings and obj is None:
@@ -304,6 +276,43 @@ def load_task_file(
         lerobot=lerobot,
         **carried,
     )
+
+
+def _driven_joints(keys: Keys, robot: RobotNames | None) -> tuple[str, ...]:
+    """The ``joints`` the task drives (default: the robot's), checked against the robot."""
+    joints = keys.strings("joints")
+    if joints is None:
+        if robot is None:
+            raise keys.error("joints", "missing: name the driven joints (required when no robot is known)")
+        joints = robot.joints
+    if not joints:
+        raise keys.error("joints", "name at least one driven joint")
+    if len(set(joints)) != len(joints):
+        raise keys.error("joints", f"a joint is named twice: {list(joints)}")
+    if robot is not None:
+        for i, joint in enumerate(joints):
+            if joint not in robot.joints:
+                raise keys.error(f"joints[{i}]", f"robot {robot.name} has no movable joint {joint!r}")
+        if joints != robot.joints:
+            # the engines command every movable joint of the arm they build, in the robot's order
+            raise keys.error(
+                "joints", f"the engines drive every arm joint of {robot.name} in order: {', '.join(robot.joints)}"
+            )
+    return joints
+
+
+def _mocap(keys: Keys, robot: RobotNames | None) -> tuple[str, str | None, str | None]:
+    """The ``[mocap]`` table: the tracked link (checked against the robot), the wrist body and the base body."""
+    mocap = keys.table("mocap", MOCAP_KEYS, required=True)
+    assert mocap is not None
+    link = mocap.string("link", default=robot.wrist_link if robot else None, required=robot is None)
+    assert link is not None
+    if robot is not None:
+        if link not in robot.links:
+            raise mocap.error("link", f"robot {robot.name} has no link {link!r}")
+        if link != robot.wrist_link:
+            raise mocap.error("link", f"the engines report the pose of {robot.wrist_link} only: track that link")
+    return link, mocap.string("body", required=True), mocap.string("base_body")
 
 
 def _check_limits(

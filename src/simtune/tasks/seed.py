@@ -30,7 +30,7 @@ def offset_schedule(phases: tuple[Phase, ...], joint_2: float, joint_3: float) -
 
 def published_task(number: int) -> TaskSpec:
     """Seed task ``number`` with the authors' schedule: its task file without ``target_offset_deg``."""
-    from simtune.project import bundled_project
+    from simtune.tasks.project import bundled_project
 
     project = bundled_project()
     name = f"seed-{number}"

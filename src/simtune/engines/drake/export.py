@@ -28,9 +28,10 @@ from typing import cast
 
 import numpy as np
 
+from simtune.engines.drake.engine import RESOLUTION_HINT
 from simtune.export import urdf
 from simtune.export.common import ExportContext, hash_comment, num, nums, write_cone_mesh, xml_comment
-from simtune.tasks.spec import ObjectSpec
+from simtune.tasks.spec import ObjectSpec, TaskSpec
 
 SIDECAR = "drake.json"
 SCRIPT = "load_drake.py"
@@ -53,16 +54,26 @@ def _friction(parent: ET.Element, mu: float, tag: str = "drake:proximity_propert
 
 def write(ctx: ExportContext) -> list[str]:
     from pydrake.geometry import SceneGraphConfig
-    from pydrake.multibody.plant import MultibodyPlantConfig
 
-    from simtune.engines import drake_engine
-
-    robot = ctx.robot
     first = ctx.engines[ctx.run.tasks[0].name]
     s = first._sys  # type: ignore[attr-defined]
-    plant, pctx = s.plant, s.plant_context
     generic_mu = first.defaults()["lateral_friction_gripper"]  # the parser's friction: what the other boxes keep
+    root, actuators = _write_robot(ctx, s, generic_mu)
+    _write_floor(ctx)
+    modulus = cast(float, SceneGraphConfig().default_proximity_properties.hydroelastic_modulus)  # Drake's default
+    objects = {
+        task.name: _write_object(ctx, task, task.object, modulus) for task in ctx.run.tasks if task.object is not None
+    }
+    _write_sidecar(ctx, s.timestep, ["robot.urdf", "floor.sdf"], root.get("name"), actuators, objects)
+    ctx.write(SCRIPT, hash_comment(ctx.header("load_drake.py: load this export in Drake (pydrake)")) + _SCRIPT)
+    return ctx.files
 
+
+def _write_robot(ctx: ExportContext, s, generic_mu: float) -> tuple[ET.Element, list[dict]]:
+    """robot.urdf from the engine's plant ``s`` (its _System): inertias, damping, servos, friction, the weld;
+    the document's root and the actuators' sidecar entries."""
+    robot = ctx.robot
+    plant, pctx = s.plant, s.plant_context
     root = urdf.parse(robot.urdf)
     root.set("xmlns:drake", DRAKE_NS)
     for name, link in urdf.links(root).items():
@@ -103,7 +114,12 @@ def write(ctx: ExportContext) -> list[str]:
     what = "URDF of the tuned robot for Drake (pydrake Parser): load it as load_drake.py does"
     ctx.write("robot.urdf", urdf.document(root, ctx.header(what)))
 
-    modulus = cast(float, SceneGraphConfig().default_proximity_properties.hydroelastic_modulus)  # Drake's default
+    return root, actuators
+
+
+def _write_floor(ctx: ExportContext) -> None:
+    """floor.sdf: a static rigid hydroelastic half space with the floor's friction."""
+    robot = ctx.robot
     floor = _sdf_model(robot.floor, static=True)
     link = ET.SubElement(floor, "link", name=robot.floor)
     collision = ET.SubElement(link, "collision", name=robot.floor)
@@ -116,50 +132,54 @@ def write(ctx: ExportContext) -> list[str]:
         ET.SubElement(props, tag).text = num(ctx.values["lateral_friction_floor"])
     ctx.write("floor.sdf", _sdf_document(floor, ctx.header("SDFormat floor for Drake: a rigid half space z <= 0")))
 
-    files = ["robot.urdf", "floor.sdf"]
-    objects = {}
-    for task in ctx.run.tasks:
-        obj = task.object
-        if obj is None:
-            continue
-        engine = ctx.engines[task.name]
-        sys_ = engine._sys  # type: ignore[attr-defined]
-        name = f"object_{task.name}.sdf"
-        model = _sdf_model(robot.object, static=False)
-        ET.SubElement(model, "pose").text = " ".join(num(v) for v in (*obj.start_position, *obj.rpy))
-        link = ET.SubElement(model, "link", name=robot.object)
-        inertial = _mass_properties(sys_.object_body, sys_.plant_context)
-        inertial_element = ET.SubElement(link, "inertial")
-        ET.SubElement(inertial_element, "pose").text = f"{nums(inertial.xyz)} 0 0 0"
-        ET.SubElement(inertial_element, "mass").text = num(inertial.mass)
-        tensor = ET.SubElement(inertial_element, "inertia")
-        for tag, (r, c) in {
-            "ixx": (0, 0),
-            "ixy": (0, 1),
-            "ixz": (0, 2),
-            "iyy": (1, 1),
-            "iyz": (1, 2),
-            "izz": (2, 2),
-        }.items():
-            ET.SubElement(tensor, tag).text = num(inertial.inertia[r, c])
-        collision = ET.SubElement(link, "collision", name=robot.object)
-        ET.SubElement(collision, "geometry").append(_geometry(ctx, obj, task.name))
-        props = ET.SubElement(collision, "drake:proximity_properties")
-        ET.SubElement(props, "drake:compliant_hydroelastic")
-        ET.SubElement(props, "drake:mesh_resolution_hint").text = num(drake_engine.RESOLUTION_HINT)
-        ET.SubElement(props, "drake:hydroelastic_modulus").text = num(modulus)
-        mu = ctx.values[f"lateral_friction_{obj.material}"]
-        for tag in ("drake:mu_dynamic", "drake:mu_static"):
-            ET.SubElement(props, tag).text = num(mu)
-        what = f"SDFormat of task {task.name!r}'s {obj.material} {obj.shape} for Drake (its start pose: <pose>)"
-        ctx.write(name, _sdf_document(model, ctx.header(what)))
-        objects[task.name] = {
-            "file": name,
-            "start_position_m": [float(v) for v in obj.start_position],
-            "start_rotation": np.asarray(obj.rotation, dtype=float).tolist(),
-        }
 
-    config = MultibodyPlantConfig(time_step=s.timestep)
+def _write_object(ctx: ExportContext, task: TaskSpec, obj: ObjectSpec, modulus: float) -> dict:
+    """object_<task>.sdf: the task's object, compliant hydroelastic with the run's modulus; its sidecar entry."""
+    robot = ctx.robot
+    engine = ctx.engines[task.name]
+    sys_ = engine._sys  # type: ignore[attr-defined]
+    name = f"object_{task.name}.sdf"
+    model = _sdf_model(robot.object, static=False)
+    ET.SubElement(model, "pose").text = " ".join(num(v) for v in (*obj.start_position, *obj.rpy))
+    link = ET.SubElement(model, "link", name=robot.object)
+    inertial = _mass_properties(sys_.object_body, sys_.plant_context)
+    inertial_element = ET.SubElement(link, "inertial")
+    ET.SubElement(inertial_element, "pose").text = f"{nums(inertial.xyz)} 0 0 0"
+    ET.SubElement(inertial_element, "mass").text = num(inertial.mass)
+    tensor = ET.SubElement(inertial_element, "inertia")
+    for tag, (r, c) in {
+        "ixx": (0, 0),
+        "ixy": (0, 1),
+        "ixz": (0, 2),
+        "iyy": (1, 1),
+        "iyz": (1, 2),
+        "izz": (2, 2),
+    }.items():
+        ET.SubElement(tensor, tag).text = num(inertial.inertia[r, c])
+    collision = ET.SubElement(link, "collision", name=robot.object)
+    ET.SubElement(collision, "geometry").append(_geometry(ctx, obj, task.name))
+    props = ET.SubElement(collision, "drake:proximity_properties")
+    ET.SubElement(props, "drake:compliant_hydroelastic")
+    ET.SubElement(props, "drake:mesh_resolution_hint").text = num(RESOLUTION_HINT)
+    ET.SubElement(props, "drake:hydroelastic_modulus").text = num(modulus)
+    mu = ctx.values[f"lateral_friction_{obj.material}"]
+    for tag in ("drake:mu_dynamic", "drake:mu_static"):
+        ET.SubElement(props, tag).text = num(mu)
+    what = f"SDFormat of task {task.name!r}'s {obj.material} {obj.shape} for Drake (its start pose: <pose>)"
+    ctx.write(name, _sdf_document(model, ctx.header(what)))
+    return {
+        "file": name,
+        "start_position_m": [float(v) for v in obj.start_position],
+        "start_rotation": np.asarray(obj.rotation, dtype=float).tolist(),
+    }
+
+
+def _write_sidecar(
+    ctx: ExportContext, time_step: float, files: list[str], model: str | None, actuators: list[dict], objects: dict
+) -> None:
+    from pydrake.multibody.plant import MultibodyPlantConfig
+
+    config = MultibodyPlantConfig(time_step=time_step)
     about = {
         "what": "Drake values of a tuned simtune run that the model files cannot hold; load_drake.py applies them",
         "plant": "MultibodyPlantConfig: time_step [s] (fixed when the plant is built), contact model and discrete "
@@ -177,19 +197,17 @@ def write(ctx: ExportContext) -> list[str]:
         about,
         {
             "plant": {
-                "time_step": float(s.timestep),
+                "time_step": float(time_step),
                 "contact_model": config.contact_model,
                 "discrete_contact_approximation": config.discrete_contact_approximation,
             },
             "files": files,
-            "robot_model": root.get("name"),
+            "robot_model": model,
             "actuators": actuators,
             "feedforward": "gravity_compensation",
             "objects": objects,
         },
     )
-    ctx.write(SCRIPT, hash_comment(ctx.header("load_drake.py: load this export in Drake (pydrake)")) + _SCRIPT)
-    return ctx.files
 
 
 def _sdf_model(name: str, static: bool) -> ET.Element:

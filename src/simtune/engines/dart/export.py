@@ -52,65 +52,16 @@ def write(ctx: ExportContext) -> list[str]:
     robot = ctx.robot
     first = ctx.engines[ctx.run.tasks[0].name]
     skeleton = first.robot  # type: ignore[attr-defined]
-
-    root = urdf.parse(robot.urdf)
-    for name, link in urdf.links(root).items():
-        urdf.set_inertial(link, _inertial(skeleton.getBodyNode(name)))
-    forces = []
-    for name, element in urdf.joints(root).items():
-        if element.get("type") == "fixed":
-            continue
-        joint = skeleton.getJoint(name)
-        urdf.set_damping(element, float(joint.getDampingCoefficient(0)))
-        if element.find("limit") is not None:  # DART enforces URDF velocity limits: keep the run's, not the clamp's
-            urdf.set_limit(element, float(joint.getForceUpperLimit(0)), float(joint.getVelocityUpperLimit(0)))
-    for name in robot.driven_joints:
-        joint = skeleton.getJoint(name)
-        forces.append([float(joint.getForceLowerLimit(0)), float(joint.getForceUpperLimit(0))])
-    what = "URDF of the tuned robot for DART: load it as load_dart.py does (dart.json has the rest)"
-    ctx.write("robot.urdf", urdf.document(root, ctx.header(what)))
-
+    forces = _write_robot(ctx, skeleton)
     gripper = [link for link, m in robot.link_materials.items() if m == "gripper"]
     floor_shape = first.world.getSkeleton("floor").getBodyNode(0).getShapeNodes()[0]  # type: ignore[attr-defined]
-    objects = {}
-    for task in ctx.run.tasks:
-        obj = task.object
-        if obj is None:
-            continue
-        body = ctx.engines[task.name].object  # type: ignore[attr-defined]
-        free = body.getParentJoint()
-        name = f"object_{task.name}.urdf"
-        document = urdf.single_link(robot.object, _inertial(body), _geometry(obj))
-        what = f"URDF of task {task.name!r}'s {obj.material} {obj.shape} for DART (pose, surface: dart.json)"
-        ctx.write(name, urdf.document(document, ctx.header(what)))
-        objects[task.name] = {
-            "file": name,
-            "cone": None if obj.shape != "cone" else {"radius_m": float(obj.size[0]), "height_m": float(obj.size[1])},
-            "start_position_m": [float(v) for v in obj.start_position],
-            "start_rotation": np.asarray(obj.rotation, dtype=float).tolist(),
-            "angular_damping": [float(free.getDampingCoefficient(k)) for k in range(3)],
-            "linear_damping": [float(free.getDampingCoefficient(k)) for k in range(3, 6)],
-            "surface": _surface(body.getShapeNodes()[0]),
-        }
-    world = first.world  # type: ignore[attr-defined]
-    about = {
-        "what": "DART values of a tuned simtune run that URDF cannot hold; load_dart.py applies them",
-        "time_step": "World.setTimeStep [s]",
-        "gravity": "World.setGravity [m/s^2]",
-        "collision_detector": "World.setCollisionDetector (Bullet: DART's default FCL meshes the primitives)",
-        "robot": "robot.urdf with a FIXED root joint placed at base_position_m; driven joints get actuator type "
-        "SERVO (the controller's velocity command is the servo's target) with force_limits_n_m [lower, upper] and "
-        "joint limit enforcement; gripper_links' shapes get the gripper surface; self-collision stays off",
-        "floor": "a static skeleton with a PlaneShape (normal, offset) and its surface",
-        "objects": "per task: URDF (FLOATING root: a FreeJoint), start pose, the FreeJoint's damping "
-        "coefficients (coordinates 0-2 rotation, 3-5 translation), surface; cone: DART's ConeShape of that size "
-        "(URDF has no cone)",
-        "surface": "DynamicsAspect friction and restitution coefficients (DART combines two shapes' friction "
-        "with the minimum, restitution with the product)",
+    objects = {
+        task.name: _write_object(ctx, task.name, task.object) for task in ctx.run.tasks if task.object is not None
     }
+    world = first.world  # type: ignore[attr-defined]
     ctx.write_json(
         SIDECAR,
-        about,
+        _ABOUT,
         {
             "time_step": float(world.getTimeStep()),
             "gravity": [float(v) for v in world.getGravity()],
@@ -131,6 +82,66 @@ def write(ctx: ExportContext) -> list[str]:
     )
     ctx.write(SCRIPT, hash_comment(ctx.header("load_dart.py: load this export in DART (dartpy)")) + _SCRIPT)
     return ctx.files
+
+
+def _write_robot(ctx: ExportContext, skeleton) -> list[list[float]]:
+    """robot.urdf from the engine's skeleton: inertias, damping, force limits; the driven joints' force limits."""
+    robot = ctx.robot
+    root = urdf.parse(robot.urdf)
+    for name, link in urdf.links(root).items():
+        urdf.set_inertial(link, _inertial(skeleton.getBodyNode(name)))
+    forces = []
+    for name, element in urdf.joints(root).items():
+        if element.get("type") == "fixed":
+            continue
+        joint = skeleton.getJoint(name)
+        urdf.set_damping(element, float(joint.getDampingCoefficient(0)))
+        if element.find("limit") is not None:  # DART enforces URDF velocity limits: keep the run's, not the clamp's
+            urdf.set_limit(element, float(joint.getForceUpperLimit(0)), float(joint.getVelocityUpperLimit(0)))
+    for name in robot.driven_joints:
+        joint = skeleton.getJoint(name)
+        forces.append([float(joint.getForceLowerLimit(0)), float(joint.getForceUpperLimit(0))])
+    what = "URDF of the tuned robot for DART: load it as load_dart.py does (dart.json has the rest)"
+    ctx.write("robot.urdf", urdf.document(root, ctx.header(what)))
+
+    return forces
+
+
+def _write_object(ctx: ExportContext, task: str, obj: ObjectSpec) -> dict:
+    """object_<task>.urdf: the task's object as the engine holds it; its dart.json entry."""
+    robot = ctx.robot
+    body = ctx.engines[task].object  # type: ignore[attr-defined]
+    free = body.getParentJoint()
+    name = f"object_{task}.urdf"
+    document = urdf.single_link(robot.object, _inertial(body), _geometry(obj))
+    what = f"URDF of task {task!r}'s {obj.material} {obj.shape} for DART (pose, surface: dart.json)"
+    ctx.write(name, urdf.document(document, ctx.header(what)))
+    return {
+        "file": name,
+        "cone": None if obj.shape != "cone" else {"radius_m": float(obj.size[0]), "height_m": float(obj.size[1])},
+        "start_position_m": [float(v) for v in obj.start_position],
+        "start_rotation": np.asarray(obj.rotation, dtype=float).tolist(),
+        "angular_damping": [float(free.getDampingCoefficient(k)) for k in range(3)],
+        "linear_damping": [float(free.getDampingCoefficient(k)) for k in range(3, 6)],
+        "surface": _surface(body.getShapeNodes()[0]),
+    }
+
+
+_ABOUT = {
+    "what": "DART values of a tuned simtune run that URDF cannot hold; load_dart.py applies them",
+    "time_step": "World.setTimeStep [s]",
+    "gravity": "World.setGravity [m/s^2]",
+    "collision_detector": "World.setCollisionDetector (Bullet: DART's default FCL meshes the primitives)",
+    "robot": "robot.urdf with a FIXED root joint placed at base_position_m; driven joints get actuator type "
+    "SERVO (the controller's velocity command is the servo's target) with force_limits_n_m [lower, upper] and "
+    "joint limit enforcement; gripper_links' shapes get the gripper surface; self-collision stays off",
+    "floor": "a static skeleton with a PlaneShape (normal, offset) and its surface",
+    "objects": "per task: URDF (FLOATING root: a FreeJoint), start pose, the FreeJoint's damping "
+    "coefficients (coordinates 0-2 rotation, 3-5 translation), surface; cone: DART's ConeShape of that size "
+    "(URDF has no cone)",
+    "surface": "DynamicsAspect friction and restitution coefficients (DART combines two shapes' friction "
+    "with the minimum, restitution with the product)",
+}
 
 
 def _geometry(obj: ObjectSpec) -> ET.Element | None:

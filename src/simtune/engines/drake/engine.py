@@ -35,8 +35,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from simtune.engines._shapes import object_mass_properties
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unreachable_servo_limits
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, library_version, unreachable_servo_limits
 from simtune.geometry import rpy_matrix
+from simtune.robot import MICO
 from simtune.robot.generate import robot_urdf_file
 from simtune.tasks.spec import CONTACT_GROUPS, ObjectSpec, TaskSpec
 
@@ -112,15 +113,11 @@ class DrakeEngine(Engine):
 
     @classmethod
     def version(cls) -> str:
-        if pydrake is None:
-            return "not installed"
-        from importlib.metadata import version
-
-        return version("drake")
+        return library_version(pydrake, "drake")
 
     @classmethod
     def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
-        return super().inactive_parameters(task) | unreachable_servo_limits(task.robot.servo_gain or SERVO_KD, task)
+        return super().inactive_parameters(task) | unreachable_servo_limits(task, SERVO_KD, measured_on=MICO)
 
     def __init__(self, task: TaskSpec):
         super().__init__(task)
@@ -157,11 +154,7 @@ class DrakeEngine(Engine):
             else RigidTransform(RotationMatrix(rpy_matrix(robot.base_rpy)), base),
         )
         joints = [plant.GetJointByName(j, arm) for j in robot.arm_joints]
-        actuators = []
-        for i, joint in enumerate(joints):
-            actuator = plant.AddJointActuator(f"{joint.name()}_servo", joint, robot.generic_effort(i))
-            actuator.set_controller_gains(PdControllerGains(p=0.0, d=robot.servo_gain or SERVO_KD))
-            actuators.append(actuator)
+        actuators = [self._add_servo(plant, joint, i) for i, joint in enumerate(joints)]
         inspector = scene_graph.model_inspector()
         arm_geometries = [
             g for link in robot.links for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link.name, arm))
@@ -188,20 +181,8 @@ class DrakeEngine(Engine):
         body, object_geometry = None, None
         obj = self.task.object
         if obj is not None:
-            instance = plant.AddModelInstance("object")
-            body = plant.AddRigidBody("object", instance, self._object_inertia(obj, obj.mass))
-            if obj.shape in ("cube", "cuboid"):
-                shape = Box(*obj.size)
-            elif obj.shape == "cylinder":
-                shape = Cylinder(obj.size[0], obj.size[1])
-            else:
-                shape = Convex(np.asarray(obj.cone_vertices()).T, "cone")  # the same hull as MuJoCo and PyBullet
-            props = ProximityProperties()
-            AddContactMaterial(friction=default_friction, properties=props)
-            AddCompliantHydroelasticProperties(
-                RESOLUTION_HINT, sg_config.default_proximity_properties.hydroelastic_modulus, props
-            )
-            object_geometry = plant.RegisterCollisionGeometry(body, RigidTransform(), shape, "object", props)
+            modulus = sg_config.default_proximity_properties.hydroelastic_modulus
+            body, object_geometry = self._add_object(plant, obj, default_friction, modulus)
             geometries[obj.material] = [object_geometry]
         plant.Finalize()
         # arm shapes touch the floor and the object, never each other
@@ -236,6 +217,30 @@ class DrakeEngine(Engine):
         plant.get_actuation_input_port(arm).FixValue(plant_context, np.zeros(len(joints)))
         self._pose(system, np.radians(self.task.start_pose_deg))
         return system
+
+    def _add_servo(self, plant: MultibodyPlant, joint: RevoluteJoint, index: int) -> JointActuator:
+        """The velocity servo of driven joint ``index`` (0 = the first): a PD actuator with only the D term."""
+        robot = self.task.robot
+        actuator = plant.AddJointActuator(f"{joint.name()}_servo", joint, robot.generic_effort(index))
+        actuator.set_controller_gains(PdControllerGains(p=0.0, d=robot.servo_gain or SERVO_KD))
+        return actuator
+
+    def _add_object(
+        self, plant: MultibodyPlant, obj: ObjectSpec, friction: CoulombFriction, modulus: float
+    ) -> tuple[RigidBody, GeometryId]:
+        """The task's object: a rigid body with a compliant hydroelastic shape of ``friction``; it and its geometry."""
+        instance = plant.AddModelInstance("object")
+        body = plant.AddRigidBody("object", instance, self._object_inertia(obj, obj.mass))
+        if obj.shape in ("cube", "cuboid"):
+            shape = Box(*obj.size)
+        elif obj.shape == "cylinder":
+            shape = Cylinder(obj.size[0], obj.size[1])
+        else:
+            shape = Convex(np.asarray(obj.cone_vertices()).T, "cone")  # the same hull as MuJoCo and PyBullet
+        props = ProximityProperties()
+        AddContactMaterial(friction=friction, properties=props)
+        AddCompliantHydroelasticProperties(RESOLUTION_HINT, modulus, props)
+        return body, plant.RegisterCollisionGeometry(body, RigidTransform(), shape, "object", props)
 
     def _object_inertia(self, obj: ObjectSpec, mass: float) -> SpatialInertia:
         com, inertia = object_mass_properties(obj, mass)

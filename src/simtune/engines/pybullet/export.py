@@ -26,33 +26,58 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from simtune.engines.pybullet.mapping import dynamics_changes, material_groups
 from simtune.export import urdf
 from simtune.export.common import ExportContext, hash_comment, num, write_cone_mesh
 from simtune.tasks.spec import ObjectSpec
 
 SIDECAR = "pybullet.json"
 SCRIPT = "load_pybullet.py"
-_CONTACT = {
-    "lateral_friction": "lateralFriction",
-    "spinning_friction": "spinningFriction",
-    "rolling_friction": "rollingFriction",
-    "restitution": "restitution",
-    "linear_damping": "linearDamping",
-    "angular_damping": "angularDamping",
-}
 
 
 def write(ctx: ExportContext) -> list[str]:
     import pybullet as p
 
-    robot = ctx.robot
     first = ctx.engines[ctx.run.tasks[0].name]
-    client, body = first.client, first.robot  # type: ignore[attr-defined]
+    _write_robot(ctx, p, first.client, first.robot)  # type: ignore[attr-defined]
+    floor = urdf.single_link(
+        ctx.robot.floor,
+        urdf.Inertial(0.0, np.zeros(3), np.zeros(3), np.zeros((3, 3))),
+        ET.Element("plane", normal="0 0 1"),
+    )
+    ctx.write("floor.urdf", urdf.document(floor, ctx.header("URDF of the floor: a static plane z = 0 (PyBullet's)")))
+    bodies: list[dict] = [
+        {"name": "floor", "task": None, "file": "floor.urdf", "position": [0.0, 0.0, 0.0], "orientation": [0, 0, 0, 1]},
+        {
+            "name": "robot",
+            "task": None,
+            "file": "robot.urdf",
+            "position": list(ctx.robot.base_position),
+            "orientation": [0.0, 0.0, 0.0, 1.0],
+            "fixed": True,
+        },
+    ]
+    changes: list[dict] = []
+    for task in ctx.run.tasks:
+        if task.object is not None:
+            bodies.append(_write_object(ctx, p, task.name, task.object))
+        for change in _changes(ctx, task):
+            if change not in changes:
+                changes.append(change)
+    for entry in bodies:
+        entry.setdefault("fixed", False)
+    _write_sidecar(ctx, float(first.timestep), bodies, changes)
+    ctx.write(SCRIPT, hash_comment(ctx.header("load_pybullet.py: load this export in PyBullet")) + _SCRIPT)
+    return ctx.files
+
+
+def _write_robot(ctx: ExportContext, p, client: int, body: int) -> None:
+    """robot.urdf: the links' masses and inertias as PyBullet simulated them, the tuned damping and limits."""
+    robot = ctx.robot
     index = {  # link name -> link index (joint j moves link j)
         p.getJointInfo(body, j, physicsClientId=client)[12].decode(): j
         for j in range(p.getNumJoints(body, physicsClientId=client))
     }
-
     root = urdf.parse(robot.urdf)
     for name, link in urdf.links(root).items():
         if name in index or p.getDynamicsInfo(body, -1, physicsClientId=client)[0] > 0:
@@ -69,48 +94,27 @@ def write(ctx: ExportContext) -> list[str]:
     what = "URDF of the tuned robot for PyBullet: load it as load_pybullet.py does (pybullet.json has the rest)"
     ctx.write("robot.urdf", urdf.document(root, ctx.header(what)))
 
-    floor = urdf.single_link(
-        robot.floor, urdf.Inertial(0.0, np.zeros(3), np.zeros(3), np.zeros((3, 3))), ET.Element("plane", normal="0 0 1")
-    )
-    ctx.write("floor.urdf", urdf.document(floor, ctx.header("URDF of the floor: a static plane z = 0 (PyBullet's)")))
 
-    bodies: list[dict] = [
-        {"name": "floor", "task": None, "file": "floor.urdf", "position": [0.0, 0.0, 0.0], "orientation": [0, 0, 0, 1]},
-        {
-            "name": "robot",
-            "task": None,
-            "file": "robot.urdf",
-            "position": list(robot.base_position),
-            "orientation": [0.0, 0.0, 0.0, 1.0],
-            "fixed": True,
-        },
-    ]
-    changes: list[dict] = []
-    for task in ctx.run.tasks:
-        engine = ctx.engines[task.name]
-        obj = task.object
-        if obj is not None:
-            name = f"object_{task.name}.urdf"
-            shape = _geometry(ctx, obj, task.name)
-            inertial = _inertial(p, engine.client, engine.object, -1)  # type: ignore[attr-defined]
-            document = urdf.single_link(robot.object, inertial, shape)
-            what = f"URDF of task {task.name!r}'s {obj.material} {obj.shape} for PyBullet (pose: pybullet.json)"
-            ctx.write(name, urdf.document(document, ctx.header(what)))
-            bodies.append(
-                {
-                    "name": "object",
-                    "task": task.name,
-                    "file": name,
-                    "position": [float(v) for v in obj.start_position],
-                    "orientation": [float(v) for v in p.getQuaternionFromEuler(obj.rpy)],
-                }
-            )
-        for change in _changes(ctx, task):
-            if change not in changes:
-                changes.append(change)
-    for entry in bodies:
-        entry.setdefault("fixed", False)
+def _write_object(ctx: ExportContext, p, task: str, obj: ObjectSpec) -> dict:
+    """object_<task>.urdf: the task's object with its tuned mass and PyBullet's inertia; its entry of ``bodies``."""
+    engine = ctx.engines[task]
+    name = f"object_{task}.urdf"
+    shape = _geometry(ctx, obj, task)
+    inertial = _inertial(p, engine.client, engine.object, -1)  # type: ignore[attr-defined]
+    document = urdf.single_link(ctx.robot.object, inertial, shape)
+    what = f"URDF of task {task!r}'s {obj.material} {obj.shape} for PyBullet (pose: pybullet.json)"
+    ctx.write(name, urdf.document(document, ctx.header(what)))
+    return {
+        "name": "object",
+        "task": task,
+        "file": name,
+        "position": [float(v) for v in obj.start_position],
+        "orientation": [float(v) for v in p.getQuaternionFromEuler(obj.rpy)],
+    }
 
+
+def _write_sidecar(ctx: ExportContext, time_step: float, bodies: list[dict], changes: list[dict]) -> None:
+    robot = ctx.robot
     about = {
         "what": "PyBullet values of a tuned simtune run that URDF cannot hold; load_pybullet.py applies them",
         "time_step": "seconds per stepSimulation (setTimeStep)",
@@ -127,7 +131,7 @@ def write(ctx: ExportContext) -> list[str]:
         SIDECAR,
         about,
         {
-            "time_step": float(first.timestep),
+            "time_step": time_step,
             "gravity": [0.0, 0.0, -9.81],
             "bodies": bodies,
             "load_flags": ["URDF_USE_INERTIA_FROM_FILE", "URDF_USE_IMPLICIT_CYLINDER"],
@@ -138,8 +142,6 @@ def write(ctx: ExportContext) -> list[str]:
             "change_dynamics": changes,
         },
     )
-    ctx.write(SCRIPT, hash_comment(ctx.header("load_pybullet.py: load this export in PyBullet")) + _SCRIPT)
-    return ctx.files
 
 
 def _inertial(p, client: int, body: int, link: int) -> urdf.Inertial:
@@ -163,18 +165,10 @@ def _geometry(ctx: ExportContext, obj: ObjectSpec, task: str) -> ET.Element:
 
 def _changes(ctx: ExportContext, task) -> list[dict]:
     """The changeDynamics calls of the run for ``task``'s scene: each material group's values on its bodies."""
-    robot = ctx.robot
-    groups: dict[str, list[tuple[str, str | None]]] = {
-        "floor": [("floor", None)],
-        "gripper": [("robot", link) for link, m in robot.link_materials.items() if m == "gripper"],
-    }
-    if task.object is not None:
-        groups[task.object.material] = [("object", None)]
+    gripper = [link for link, material in ctx.robot.link_materials.items() if material == "gripper"]
     out = []
-    for group, members in groups.items():
-        values = {
-            kw: float(ctx.values[f"{kind}_{group}"]) for kind, kw in _CONTACT.items() if f"{kind}_{group}" in ctx.values
-        }
+    for group, members in material_groups(gripper, task.object).items():
+        values = {keyword: float(value) for keyword, value in dynamics_changes(group, ctx.values).items()}
         for body, link in members:
             if values:
                 out.append(

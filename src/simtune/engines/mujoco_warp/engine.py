@@ -32,7 +32,7 @@ import numpy as np
 
 from simtune.controller import CONTROL_PERIOD, JointController, encoder_parameters
 from simtune.engines.base import CHECK_EVERY, Engine, Monitor, Rollout, _first_bad
-from simtune.engines.mujoco_engine import MujocoEngine, mujoco
+from simtune.engines.mujoco.engine import MujocoEngine, mujoco
 from simtune.robot.description import RobotDescription
 from simtune.robot.generate import OBJECT_BODY
 from simtune.tasks.spec import TaskSpec

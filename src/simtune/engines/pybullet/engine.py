@@ -6,11 +6,10 @@ warm-started solver state never carry over between evaluations: the same
 parameters always give the same trajectory.
 
 Mapping (docs/parameters.md has the full table): timestep -> ``setTimeStep``;
-masses, frictions, restitution, damping -> ``changeDynamics`` on the group's
-bodies/links (Bullet multiplies the two touching bodies' friction and
-restitution); max torque -> the ``force`` of the velocity motors; joint damping
--> ``changeDynamics(jointDamping=...)``.  The floor is static, so its velocity
-damping means nothing and is left out.
+masses -> ``changeDynamics(mass=...)``; frictions, restitution and velocity damping
+-> ``changeDynamics`` on each material group's bodies/links (:mod:`.mapping`, which
+the export reads too); max torque -> the ``force`` of the velocity motors; joint
+damping -> ``changeDynamics(jointDamping=...)``.
 """
 
 from __future__ import annotations
@@ -22,9 +21,11 @@ import sys
 
 import numpy as np
 
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
+from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, library_version, unloaded_hard_motors
+from simtune.engines.pybullet.mapping import DEFAULT_TIMESTEP, GROUP_PARAMETERS, dynamics_changes, material_groups
+from simtune.robot import MICO
 from simtune.robot.generate import robot_urdf_file
-from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
+from simtune.tasks.spec import TaskSpec
 
 try:
     import pybullet
@@ -49,38 +50,20 @@ def _stdout_silenced():
         os.close(saved)
 
 
-_CONTACT = {  # parameter kind -> changeDynamics keyword
-    "lateral_friction": "lateralFriction",
-    "spinning_friction": "spinningFriction",
-    "rolling_friction": "rollingFriction",
-    "restitution": "restitution",
-}
-_BODY_DAMPING = {"linear_damping": "linearDamping", "angular_damping": "angularDamping"}
-DEFAULT_TIMESTEP = 1.0 / 240.0  # Bullet's own default
-
-
 class PybulletEngine(Engine):
     name = "pybullet"
-    engine_parameters = (
-        RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in _CONTACT for g in CONTACT_GROUPS}
-        | {f"{kind}_{g}" for kind in _BODY_DAMPING for g in ("gripper", *MATERIALS)}
-    )
+    engine_parameters = RIGID_BODY_PARAMETERS | GROUP_PARAMETERS
 
     @classmethod
     def version(cls) -> str:
-        if pybullet is None:
-            return "not installed"
-        from importlib.metadata import version
-
-        return version("pybullet")
+        return library_version(pybullet, "pybullet")
 
     @classmethod
     def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
         # measured on every task and probe: only joint 2's motor, driving the hand into the floor, reaches the
         # limit; joints 2-6's damping shows through Bullet's iterative motor solution, joint 1's (no gravity load) not
         return super().inactive_parameters(task) | unloaded_hard_motors(
-            "PyBullet", task, joints=(1, 3, 4, 5, 6), damping=(1,)
+            "PyBullet", task, measured_on=MICO, joints=(1, 3, 4, 5, 6), damping=(1,)
         )
 
     def __init__(self, task: TaskSpec):
@@ -117,9 +100,9 @@ class PybulletEngine(Engine):
         }  # child link name -> index
         self._arm = [index[link] for link in robot.driven_links]
         self._wrist = index[robot.tracked_link]
-        self._gripper_links = [
-            index[link.name] for link in robot.links if link.material == "gripper" and link.name in index
-        ]
+        self._gripper_links = {  # name -> index
+            link.name: index[link.name] for link in robot.links if link.material == "gripper" and link.name in index
+        }
         # URDF joints start with a default velocity motor; switch them all to ours (zero target)
         p.setJointMotorControlArray(
             self.robot,
@@ -148,10 +131,13 @@ class PybulletEngine(Engine):
 
     def _groups(self) -> dict[str, list[tuple[int, int]]]:
         """Material group -> (body, link) pairs it covers."""
-        groups = {"floor": [(self.floor, -1)], "gripper": [(self.robot, link) for link in self._gripper_links]}
-        if self.object is not None and self.task.object is not None:
-            groups[self.task.object.material] = [(self.object, -1)]
-        return groups
+        bodies = {"floor": self.floor, "robot": self.robot}
+        if self.object is not None:
+            bodies["object"] = self.object
+        return {
+            group: [(bodies[body], -1 if link is None else self._gripper_links[link]) for body, link in members]
+            for group, members in material_groups(list(self._gripper_links), self.task.object).items()
+        }
 
     def _read_defaults(self) -> dict[str, float]:
         p, c = pybullet, self.client
@@ -197,11 +183,7 @@ class PybulletEngine(Engine):
         if obj is not None and obj.mass_parameter in params:
             p.changeDynamics(self.object, -1, mass=params[obj.mass_parameter], physicsClientId=c)
         for group, members in self._groups().items():
-            changes = {
-                kw: params[f"{kind}_{group}"]
-                for kind, kw in {**_CONTACT, **_BODY_DAMPING}.items()
-                if f"{kind}_{group}" in params
-            }
+            changes = dynamics_changes(group, params)
             for body, link in members:
                 if changes:
                     p.changeDynamics(body, link, physicsClientId=c, **changes)

@@ -47,23 +47,24 @@ from simtune.engines._shapes import (
     object_mass_properties,
 )
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
+from simtune.engines.ode.mapping import (
+    BOUNCE_VELOCITY,
+    DEFAULT_CONTACT,
+    DEFAULT_TIMESTEP,
+    GROUP_PARAMETERS,
+    PairSurface,
+    pair_surface,
+)
 from simtune.errors import ConfigError
+from simtune.robot import MICO
 from simtune.robot.description import Box, Cylinder, RobotDescription, Sphere
-from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, ObjectSpec, TaskSpec
+from simtune.tasks.spec import ObjectSpec, TaskSpec
 
 try:
     import odepy as ode
 except Exception:  # pragma: no cover - ImportError, or odepy's OdePyError when libode is missing
     ode = None
 
-_CONTACT_KINDS = ("lateral_friction", "rolling_friction", "spinning_friction", "restitution")
-
-#: ODE has no default time step (dWorldStep takes one per call); simtune's generic choice.
-DEFAULT_TIMESTEP = 0.005
-#: ODE has no default surface either (every contact's parameters come from the near
-#: callback); generic: Coulomb friction 1, no bounce, no rolling friction.
-DEFAULT_CONTACT = {"lateral_friction": 1.0, "rolling_friction": 0.0, "spinning_friction": 0.0, "restitution": 0.0}
-BOUNCE_VELOCITY = 0.01  # [m/s] slower impacts do not bounce (keeps resting contacts quiet)
 MAX_CONTACTS = 16  # per geom pair
 # collision categories: arm shapes touch the floor and the object, never each other
 _FLOOR, _ARM, _OBJECT = 1, 2, 4
@@ -114,6 +115,23 @@ def _link_poses(robot: RobotDescription, q) -> dict[str, tuple[np.ndarray, np.nd
     return {name: robot.forward_kinematics(q, name) for name in [robot.root, *robot.driven_links]}
 
 
+def _surface(surface: PairSurface):
+    """ODE's contact surface with the values ``surface`` (its mode flags the features they use)."""
+    s = ode.dSurfaceParameters()
+    s.mode = ode.dContactApprox1  # friction pyramid: mu is a coefficient
+    s.mu = surface.mu
+    if surface.rolling > 0 or surface.spinning > 0:
+        # without dContactAxisDep ODE ignores rho2 and rhoN and uses rho about all three
+        # axes (contact.cpp); the flag also makes the second friction direction read mu2
+        s.mode |= ode.dContactRolling | ode.dContactAxisDep
+        s.mu2 = s.mu
+        s.rho, s.rho2, s.rhoN = surface.rolling, surface.rolling, surface.spinning
+    if surface.bounce > 0:
+        s.mode |= ode.dContactBounce
+        s.bounce, s.bounce_vel = surface.bounce, BOUNCE_VELOCITY
+    return s
+
+
 def _set_mass(body, mass: float, inertia) -> None:
     """Give an ODE body its mass and its inertia tensor (about the centre of mass, as ODE expects)."""
     m = ode.dMass()
@@ -135,11 +153,7 @@ def _set_mass(body, mass: float, inertia) -> None:
 
 class OdeEngine(Engine):
     name = "ode"
-    engine_parameters = (
-        RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in _CONTACT_KINDS for g in CONTACT_GROUPS}
-        | {f"{kind}_{g}" for kind in ("linear_damping", "angular_damping") for g in ("gripper", *MATERIALS)}
-    )
+    engine_parameters = RIGID_BODY_PARAMETERS | GROUP_PARAMETERS
 
     @classmethod
     def version(cls) -> str:
@@ -159,7 +173,7 @@ class OdeEngine(Engine):
     def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
         # measured on every task and probe: only joints 1 and 2, pushing or pressing an object, reach the limit
         return super().inactive_parameters(task) | unloaded_hard_motors(
-            "ODE", task, joints=(3, 4, 5, 6), damping=(3, 4, 5, 6)
+            "ODE", task, measured_on=MICO, joints=(3, 4, 5, 6), damping=(3, 4, 5, 6)
         )
 
     def __init__(self, task: TaskSpec):
@@ -218,13 +232,35 @@ class OdeEngine(Engine):
             self._world = None
 
     def _build(self, p: dict[str, float]) -> None:
-        """Create the world with parameters ``p`` (a complete set), the arm at angle 0."""
+        """Create the world with parameters ``p`` (a complete set), the arm at angle 0.
+
+        The parts are made in a fixed order (arm, floor, joints, object), which fixes the order of
+        ODE's bodies, geoms and joints and so the solver's: the same parameters, the same trajectory."""
+        self._new_world(float(p["timestep"]))
+        poses = _link_poses(self.robot, np.zeros(self.robot.n_joints))
+        self._build_arm(p, poses)
+        floor = ode.dCreatePlane(self._space, 0.0, 0.0, 1.0, 0.0)
+        self._register(floor, "floor", None, _FLOOR, _ARM | _OBJECT)
+        self._build_joints(p, poses)
+        self._object = None
+        if self.task.object is not None:
+            self._build_object(self.task.object, p[self.task.object.mass_parameter])
+        for g, body in self._damped_bodies().items():
+            if f"linear_damping_{g}" in p:
+                ode.dBodySetLinearDamping(body, p[f"linear_damping_{g}"])
+            if f"angular_damping_{g}" in p:
+                ode.dBodySetAngularDamping(body, p[f"angular_damping_{g}"])
+        names = {g for g, _ in self._geoms.values()}
+        self._surfaces = {(a, b): _surface(pair_surface(p, a, b)) for a in names for b in names}
+
+    def _new_world(self, timestep: float) -> None:
+        """An empty world, space and contact group in place of the last ones."""
         self._destroy()
         self._pose_views: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # id(body) -> views of its pose
         _messages.clear()
         self._failed = ""
         ode.dRandSetSeed(0)
-        self._timestep = float(p["timestep"])
+        self._timestep = timestep
         world = self._world = ode.dWorldCreate()
         ode.dWorldSetGravity(world, 0.0, 0.0, -9.81)
         self._space = ode.dSimpleSpaceCreate(0)  # simple space: pairs in a fixed order
@@ -238,8 +274,10 @@ class OdeEngine(Engine):
         self._touching = False  # the last step's collision pass found an arm-object contact
         self._keep: list = []  # arrays ODE keeps pointers to (convex hull data)
 
+    def _build_arm(self, p: dict[str, float], poses: dict[str, tuple[np.ndarray, np.ndarray]]) -> None:
+        """One body per driven link's host (the root's shapes static, without a body), with its shapes;
+        ``poses``: the link frames at angle 0."""
         robot = self.robot
-        poses = _link_poses(robot, np.zeros(robot.n_joints))
         masses = {link: p[f"mass_link_{i}"] for i, link in enumerate(robot.driven_links, start=1)}
         mass_props = host_mass_properties(robot, masses)
         shapes = link_shapes_in_host(robot)
@@ -252,7 +290,7 @@ class OdeEngine(Engine):
             pos, rot = poses[host]
             body = None
             if host != robot.root:  # the base is static: geoms without a body
-                body = ode.dBodyCreate(world)
+                body = ode.dBodyCreate(self._world)
                 _set_mass(body, mass, inertia)
                 c = pos + rot @ com
                 ode.dBodySetPosition(body, *c)
@@ -275,9 +313,9 @@ class OdeEngine(Engine):
                 self._register(geom, member_group, body, _ARM, _FLOOR | _OBJECT)
                 self._arm_geoms.add(ctypes.cast(geom, c_void_p).value or 0)
 
-        floor = ode.dCreatePlane(self._space, 0.0, 0.0, 1.0, 0.0)
-        self._register(floor, "floor", None, _FLOOR, _ARM | _OBJECT)
-
+    def _build_joints(self, p: dict[str, float], poses: dict[str, tuple[np.ndarray, np.ndarray]]) -> None:
+        """A hinge with a velocity motor for every driven joint, defined at angle 0 (the link frames ``poses``)."""
+        robot = self.robot
         self._joints = []
         for i, name in enumerate(robot.arm_joints, start=1):
             joint = robot.joint_by_name[name]
@@ -301,56 +339,23 @@ class OdeEngine(Engine):
             self._joints.append(hinge)
         self._damping = np.array([p[f"joint_damping_{i}"] for i in range(1, robot.n_joints + 1)])
 
-        self._object = None
-        obj = self.task.object
-        if obj is not None:
-            mass = p[obj.mass_parameter]
-            com, inertia = object_mass_properties(obj, mass)
-            body = self._object = ode.dBodyCreate(world)
-            _set_mass(body, mass, inertia)
-            self._object_com = com
-            if obj.shape in ("cube", "cuboid"):
-                geom = ode.dCreateBox(self._space, *obj.size)
-            elif obj.shape == "cylinder":
-                geom = ode.dCreateCylinder(self._space, obj.size[0], obj.size[1])
-            else:
-                geom = self._convex(*cone_hull(obj))
-            ode.dGeomSetBody(geom, body)
-            ode.dGeomSetOffsetPosition(geom, *(-com))
-            self._register(geom, obj.material, body, _OBJECT, _FLOOR | _ARM)
-            self._object_geom = ctypes.cast(geom, c_void_p).value
-            self._place_object(obj)
-
-        for g, body in self._damped_bodies().items():
-            if f"linear_damping_{g}" in p:
-                ode.dBodySetLinearDamping(body, p[f"linear_damping_{g}"])
-            if f"angular_damping_{g}" in p:
-                ode.dBodySetAngularDamping(body, p[f"angular_damping_{g}"])
-
-        # contact surface of every pair of groups: geometric mean of the two groups' values
-        def surface(a: str, b: str):
-            def mean(kind):
-                va = p.get(f"{kind}_{a}", DEFAULT_CONTACT[kind])
-                vb = p.get(f"{kind}_{b}", DEFAULT_CONTACT[kind])
-                return float(np.sqrt(va * vb))
-
-            s = ode.dSurfaceParameters()
-            s.mode = ode.dContactApprox1  # friction pyramid: mu is a coefficient
-            s.mu = mean("lateral_friction")
-            rolling, spinning, bounce = mean("rolling_friction"), mean("spinning_friction"), mean("restitution")
-            if rolling > 0 or spinning > 0:
-                # without dContactAxisDep ODE ignores rho2 and rhoN and uses rho about all three
-                # axes (contact.cpp); the flag also makes the second friction direction read mu2
-                s.mode |= ode.dContactRolling | ode.dContactAxisDep
-                s.mu2 = s.mu
-                s.rho, s.rho2, s.rhoN = rolling, rolling, spinning
-            if bounce > 0:
-                s.mode |= ode.dContactBounce
-                s.bounce, s.bounce_vel = bounce, BOUNCE_VELOCITY
-            return s
-
-        names = {g for g, _ in self._geoms.values()}
-        self._surfaces = {(a, b): surface(a, b) for a in names for b in names}
+    def _build_object(self, obj: ObjectSpec, mass: float) -> None:
+        """The task's object: a body of ``mass`` with its collision shape, at its start pose."""
+        com, inertia = object_mass_properties(obj, mass)
+        body = self._object = ode.dBodyCreate(self._world)
+        _set_mass(body, mass, inertia)
+        self._object_com = com
+        if obj.shape in ("cube", "cuboid"):
+            geom = ode.dCreateBox(self._space, *obj.size)
+        elif obj.shape == "cylinder":
+            geom = ode.dCreateCylinder(self._space, obj.size[0], obj.size[1])
+        else:
+            geom = self._convex(*cone_hull(obj))
+        ode.dGeomSetBody(geom, body)
+        ode.dGeomSetOffsetPosition(geom, *(-com))
+        self._register(geom, obj.material, body, _OBJECT, _FLOOR | _ARM)
+        self._object_geom = ctypes.cast(geom, c_void_p).value
+        self._place_object(obj)
 
     def _link_geom(self, shape) -> tuple[Any, np.ndarray | None]:
         """A body-less ODE geom of a link's collision shape, in the shape's own frame, and None; for a mesh,

@@ -26,6 +26,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, Monitor, Rollout, unreachable_servo_limits
+from simtune.robot import MICO
 from simtune.robot.description import RobotDescription
 from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf, servo_gains
 from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, ObjectSpec, TaskSpec
@@ -93,7 +94,7 @@ class MujocoEngine(Engine):
 
     @classmethod
     def inactive_parameters(cls, task: TaskSpec) -> dict[str, str]:
-        return super().inactive_parameters(task) | unreachable_servo_limits(task.robot.servo_gain or SERVO_KV, task)
+        return super().inactive_parameters(task) | unreachable_servo_limits(task, SERVO_KV, measured_on=MICO)
 
     def __init__(self, task: TaskSpec):
         super().__init__(task)

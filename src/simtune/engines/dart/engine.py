@@ -28,6 +28,7 @@ import numpy as np
 from simtune.engines._shapes import object_mass_properties
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
 from simtune.geometry import rpy_matrix
+from simtune.robot import MICO
 from simtune.robot.generate import robot_urdf_file
 from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
 
@@ -63,7 +64,7 @@ class DartEngine(Engine):
         # measured on every task and probe: joints 1 and 2 reach the limit (the 20 Hz velocity steps move the
         # whole arm's inertia, and pressing the floor), joints 3-6 never
         return super().inactive_parameters(task) | unloaded_hard_motors(
-            "DART", task, joints=(3, 4, 5, 6), damping=(3, 4, 5, 6)
+            "DART", task, measured_on=MICO, joints=(3, 4, 5, 6), damping=(3, 4, 5, 6)
         )
 
     def __init__(self, task: TaskSpec):

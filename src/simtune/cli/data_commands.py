@@ -1,0 +1,329 @@
+"""Data commands: ``check`` (a project or a task's recordings), ``synth`` (recordings with a known truth) and
+``init`` (a project for a new robot), each a call into :mod:`simtune.api`."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.markup import escape
+
+from simtune.cli.options import (
+    DataOpt,
+    EngineOpt,
+    JsonOpt,
+    ProjectOpt,
+    SpaceOpt,
+    WorkersOpt,
+    finite,
+    not_negative,
+    out_option,
+    path,
+    seed_option,
+)
+from simtune.cli.output import err, fmt_g, out, print_json, split
+from simtune.console import text_table
+from simtune.errors import SimtuneError
+
+ProjectDirArg = Annotated[
+    Path | None,
+    typer.Argument(
+        help="Project folder to check (its simtune.toml); with --task, the project whose tasks are checked.",
+        show_default=False,
+        callback=path,
+    ),
+]
+CheckTaskOpt = Annotated[
+    str | None,
+    typer.Option("--task", "-t", help="Task name, or several joined by commas (checked together)."),
+]
+
+
+def check(
+    project_dir: ProjectDirArg = None,
+    engine: Annotated[str | None, typer.Option("--engine", "-e", help="Physics engine (default mujoco).")] = None,
+    task: CheckTaskOpt = None,
+    data: DataOpt = None,
+    space: SpaceOpt = "extended",
+    workers: WorkersOpt = 1,
+    as_json: JsonOpt = False,
+) -> None:
+    """Before tuning: a project's files (simtune check DIR), or a task's data and what it can inform (--task).
+
+    simtune check DIR: robot, joints and links, recordings, start pose, engines; one line per finding,
+    exit 2 if any is a problem.  With --task T (and --data ROOT, or DIR's recordings): per task, lost
+    marker frames and the longest gap of each recording, how well the repeats agree, how far each starts
+    from the simulated arm, each repeat's motion onset (and the command delay it implies); then the rank
+    and singular values of the residuals' Jacobian at the generic point and, per active parameter,
+    whether the recordings can inform it.
+    """
+    from simtune import api
+
+    if task is None:
+        if project_dir is None:
+            raise SimtuneError(
+                "check: name a project folder (simtune check DIR) or the tasks to check (--task T --data ROOT)"
+            )
+        _check_project(project_dir)
+        return
+    result = api.check(engine or "mujoco", task, project=project_dir, data=data, space=space, workers=workers)
+    if as_json:
+        print_json(result)
+        return
+    _print_data_quality(result["data_quality"])
+    _print_informed(result)
+
+
+def _check_project(project_dir: Path) -> None:
+    """``simtune check DIR``: one line per finding (problems on stderr); exit 2 if any is a problem."""
+    from simtune import api
+
+    findings = api.check_project(project_dir)
+    for finding in findings:
+        stream = err if finding.level == "problem" else out
+        stream.print(escape(str(finding)), highlight=False, soft_wrap=True)
+    if any(f.level == "problem" for f in findings):
+        raise typer.Exit(2)
+
+
+def _print_data_quality(parts: list[dict]) -> None:
+    for part in parts:
+        table = text_table(
+            f"{part['task']}: {len(part['repeats'])} repeats, spread {1000 * part['repeat_spread_m']:.1f} mm",
+            ("file", "lost frames", "longest gap [s]", "to mean [mm]", "start distance [mm]", "onset [s]"),
+        )
+        for r in part["repeats"]:
+            table.add_row(
+                r["file"],
+                str(r["lost_frames"]),
+                f"{r['longest_gap_s']:.2f}",
+                f"{1000 * r['distance_to_mean_m']:.1f}" + (" (outlier)" if r["outlier"] else ""),
+                f"{1000 * r['start_distance_m']:.1f}",
+                fmt_g(r["onset_s"]),
+            )
+        out.print(table)
+        for line in part["left_out"]:
+            out.print(f"  left out: {escape(line)}")
+        out.print(
+            f"  motion onset {fmt_g(part['onset_mean_s'])} s (std {fmt_g(part['onset_std_s'])} s); the generic "
+            f"simulation moves at {fmt_g(part['simulated_onset_s'])} s: command delay about "
+            f"{fmt_g(part['implied_command_delay_s'])} s"
+        )
+
+
+def _print_informed(result: dict) -> None:
+    jac = result["jacobian"]
+    shown = ", ".join(f"{v:.3g}" for v in jac["singular_values"])
+    out.print(
+        f"Jacobian at the generic point: rank {jac['rank']} of {jac['searched']} active parameters "
+        f"({jac['cutoff']}); singular values: {shown}"
+    )
+    table = text_table("what the recordings can inform", ("parameter", "informed", "sensitivity", "note"))
+    for p in sorted(result["parameters"], key=lambda p: -p["sensitivity"]):
+        table.add_row(
+            p["name"],
+            "yes" if p["informed"] else "no",
+            f"{p['sensitivity']:.3g}",
+            f"inactive: {p['inactive']}" if "inactive" in p else "",
+        )
+    out.print(table)
+
+
+SynthTaskOpt = Annotated[
+    str,
+    typer.Option(
+        "--task",
+        "-t",
+        help="Task(s) to record, comma-separated or a group (seed-11 = seed-1 ... seed-10); see `simtune tasks`.",
+    ),
+]
+TruthOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--truth",
+        help="JSON of the true parameter values (a flat mapping or a params file such as "
+        "best_params.json), checked against the engine's parameters. Default: the engine's generic values "
+        "and a command delay.",
+        callback=path,
+    ),
+]
+NoiseMmOpt = Annotated[
+    float,
+    typer.Option(
+        help="Motion-capture noise: Gaussian, per axis, on every 100 Hz "
+        "sample of the wrist marker [mm] (a quarter of it on base and object).",
+        callback=not_negative,
+    ),
+]
+DelayOpt = Annotated[
+    float | None,
+    typer.Option(
+        help="True command delay [s], overriding the truth file's (default without --truth: 1.5).", callback=finite
+    ),
+]
+JitterOpt = Annotated[
+    float,
+    typer.Option(
+        help="Each repeat's start moves by a uniform jitter within +- this [s], as real repeats do.",
+        callback=not_negative,
+    ),
+]
+FormatOpt = Annotated[
+    str,
+    typer.Option(
+        "--format",
+        help="What each recording holds: tsv (markers, Qualisys TSV), csv (markers and joint angles, simtune "
+        "CSV), joints-csv (joint angles alone), mcap or rosbag2 (joint angles alone as ROS 2 JointState "
+        "messages: an MCAP file, a rosbag2 folder), lerobot or lerobot-v2.1 (joint angles and commanded "
+        "targets as one LeRobot dataset per task, OUT/<task>/, v3.0 or v2.1 layout; the task file states "
+        "the unit: [recordings] units).",
+    ),
+]
+JointNoiseOpt = Annotated[
+    float | None,
+    typer.Option(
+        help="Encoder noise of the joint logs: Gaussian, on every 100 Hz sample of each joint angle [deg] "
+        "(default 0.05).",
+        callback=not_negative,
+        show_default=False,
+    ),
+]
+SynthOutOpt = Annotated[
+    Path,
+    out_option(
+        "Data root to write: `OUT/<task>/<task>NNNN.tsv` (or --format's kind), each task's truth "
+        "`OUT/truth-<task>.json` and `OUT/truth.json`.",
+        show_default=False,
+    ),
+]
+ForceOpt = Annotated[
+    bool,
+    typer.Option(
+        "--force",
+        help="Replace the truth files of an earlier synth into OUT (OUT/truth.json holding another truth); "
+        "each task's own OUT/truth-<task>.json is kept.",
+    ),
+]
+
+
+def synth(
+    *,  # keyword-only, so that the required --out may follow options with defaults
+    engine: EngineOpt = "mujoco",
+    task: SynthTaskOpt = "cube",
+    truth: TruthOpt = None,
+    noise_mm: NoiseMmOpt = 2.0,
+    delay_s: DelayOpt = None,
+    jitter_s: JitterOpt = 0.05,
+    repeats: Annotated[int, typer.Option(min=1, help="Recordings per task.")] = 10,
+    seed: Annotated[int, seed_option("Seed of the noise (same seed, same files).")] = 0,
+    fmt: FormatOpt = "tsv",
+    joint_noise_deg: JointNoiseOpt = None,
+    out_dir: SynthOutOpt,
+    project: ProjectOpt = None,
+    force: ForceOpt = False,
+) -> None:
+    """Make recordings with a known ground truth: simulate with chosen parameters, add mocap-like noise.
+
+    Writes Qualisys 6D TSV files (with header) to `OUT/<task>/` (or joint logs:
+    --format), read by every command's --data OUT like real recordings, each
+    task's truth to OUT/truth-<task>.json and OUT/truth.json (the truth of every
+    task synthesised into OUT with it; each file also a --params-file).  Tune on
+    them to check that tuning recovers the truth.  Another truth already in OUT
+    is never overwritten without --force.
+
+    Example: simtune synth --engine mujoco --task single,cube,double --delay-s 1.5 --out data/synthetic
+    """
+    from simtune import api
+    from simtune.synth import DEFAULT_JOINT_NOISE_DEG, TRUTH_FILE, truth_file
+
+    result = api.synth(
+        engine,
+        task,
+        out=out_dir,
+        truth=truth,
+        delay_s=delay_s,
+        project=project,
+        noise_m=noise_mm / 1000.0,
+        repeats=repeats,
+        seed=seed,
+        jitter_s=jitter_s,
+        fmt=fmt,
+        joint_noise_rad=math.radians(DEFAULT_JOINT_NOISE_DEG if joint_noise_deg is None else joint_noise_deg),
+        force=force,
+    )
+    for name, files in result.files.items():
+        held = f"{repeats} episodes of a LeRobot dataset" if fmt.startswith("lerobot") else f"{len(files)} recordings"
+        out.print(f"{name}: {held} in {out_dir / name}")
+    shown = ", ".join(f"{k}={v:g}" for k, v in result.truth.items())
+    noises = {
+        "tsv": f"{noise_mm:g} mm",
+        "csv": f"{noise_mm:g} mm and {math.degrees(result.joint_noise_rad):g} deg",
+    }
+    noise = noises.get(fmt, f"{math.degrees(result.joint_noise_rad):g} deg")
+    written = ", ".join(str(out_dir / truth_file(name)) for name in result.files)
+    out.print(
+        f"truth ({engine}): {shown}; noise {noise}, jitter +-{jitter_s:g} s -> {written} and {out_dir / TRUTH_FILE}",
+        highlight=False,
+        soft_wrap=True,
+    )
+
+
+RobotOpt = Annotated[
+    Path, typer.Option("--robot", help="The robot's URDF file (meshes beside it), used in place.", callback=path)
+]
+InitOutOpt = Annotated[Path, out_option("The new project folder (must not exist, or be empty).")]
+TrackedLinkOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--tracked-link",
+        help="The link the motion capture follows (default: the end of the longest chain of arm joints).",
+    ),
+]
+DrivenJointsOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--driven-joints",
+        help="The joints the controller drives, in order, joined by commas (default: the arm joints up to "
+        "the tracked link; gripper joints are held).",
+    ),
+]
+PackagePathOpt = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--package-path",
+        help="A folder where the URDF's package:// names are found (a package, or a folder of packages); "
+        "repeat for several. Also read: $SIMTUNE_PACKAGE_PATH, $ROS_PACKAGE_PATH.",
+    ),
+]
+
+
+def init(
+    robot: RobotOpt,
+    out_dir: InitOutOpt,
+    tracked_link: TrackedLinkOpt = None,
+    driven_joints: DrivenJointsOpt = None,
+    package_path: PackagePathOpt = None,
+) -> None:
+    """Start a project for your robot: a commented simtune.toml and an example task `reach`.
+
+    Prints what it chose (tracked link, driven and held joints) and why.
+    Example: simtune init --robot arm.urdf --out myproject; then simtune check myproject
+    """
+    from simtune import api
+
+    joints = None if driven_joints is None else split(driven_joints)
+    if joints is not None and not joints:
+        raise SimtuneError("init: --driven-joints names no joint (joint names joined by commas)")
+    loaded: list = []
+    file = api.init_project(
+        robot, out_dir, tracked_link=tracked_link, driven_joints=joints, package_path=package_path or (), loaded=loaded
+    )
+    description = loaded[0]
+    out.print(f"robot {description.name!r} from {robot}:", highlight=False, soft_wrap=True)
+    out.print(f"  driven joints: {', '.join(description.arm_joints)}", highlight=False, soft_wrap=True)
+    for note in description.choices:
+        out.print(f"  {note}", highlight=False, soft_wrap=True, markup=False)
+    out.print(f"wrote {file} and {out_dir / 'tasks' / 'reach.toml'}", highlight=False, soft_wrap=True)
+    out.print(f"next: simtune check {out_dir}", highlight=False, soft_wrap=True)

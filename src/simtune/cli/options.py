@@ -1,0 +1,176 @@
+"""The options several commands share, declared once as ``Annotated`` aliases, and the checks of their values.
+
+A value is checked where it enters: one line naming the option, exit status 2, nothing written yet.  Options
+whose help differs from command to command (``--out``, ``--max-seconds`` ...) are made by a function taking
+that help.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from simtune.limits import MAX_SEED
+
+#: the longest file or folder name common file systems allow [bytes]
+NAME_MAX = 255
+PATH_MAX = 4095
+
+
+def seconds(value: float | None) -> float | None:
+    """A duration [s]: finite and above zero."""
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise typer.BadParameter(f"{value:g} is not a number of seconds above 0")
+    return value
+
+
+def not_negative(value: float | None) -> float | None:
+    """A finite number, zero or more."""
+    if value is not None and not (math.isfinite(value) and value >= 0):
+        raise typer.BadParameter(f"{value:g} is not a finite number of 0 or more")
+    return value
+
+
+def finite(value: float | None) -> float | None:
+    if value is not None and not math.isfinite(value):
+        raise typer.BadParameter(f"{value:g} is not a finite number")
+    return value
+
+
+def path(value: Path | None) -> Path | None:
+    """A path every file system can hold: no name in it over 255 bytes."""
+    if value is None:
+        return value
+    for part in value.parts:
+        size = len(os.fsencode(part))
+        if size > NAME_MAX:
+            raise typer.BadParameter(
+                f"the name {part[:24]}... is {size} bytes long; file systems allow {NAME_MAX} bytes per name"
+            )
+    if len(os.fsencode(str(value))) > PATH_MAX:
+        raise typer.BadParameter(f"the path is longer than {PATH_MAX} bytes")
+    return value
+
+
+def out_option(help: str, *, checked: bool = True, **more: Any) -> Any:
+    """``--out``/``-o``, the folder a command writes, with that command's help (``checked``: its path checked)."""
+    if checked:
+        more["callback"] = path
+    return typer.Option("--out", "-o", help=help, **more)
+
+
+def max_seconds_option(help: str, **more: Any) -> Any:
+    """A wall-time limit [s] with that command's help."""
+    return typer.Option(help=help, callback=seconds, **more)
+
+
+def max_generations_option(help: str) -> Any:
+    return typer.Option(min=1, help=help)
+
+
+def refine_option(help: str) -> Any:
+    return typer.Option("--refine", help=help)
+
+
+def seed_option(help: str) -> Any:
+    return typer.Option(min=0, max=MAX_SEED, help=help)
+
+
+SeedOpt = Annotated[int, seed_option("Random seed of the optimiser (same seed, same run).")]
+EngineOpt = Annotated[str, typer.Option("--engine", "-e", help="Physics engine: see `simtune engines`.")]
+TaskOpt = Annotated[
+    str,
+    typer.Option(
+        "--task", "-t", help="Task name, or several joined by commas (their fitness is summed); see `simtune tasks`."
+    ),
+]
+DataOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--data",
+        "-d",
+        help="Folder with one sub-folder of recordings per task (`ROOT/<task>/*.tsv`, `*.csv`, `*.c3d`; joint logs "
+        "also `*.mcap` or rosbag2 folders). "
+        "Default: the reference recordings shipped with simtune.",
+        callback=path,
+    ),
+]
+ProjectOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--project",
+        help="Project folder: simtune.toml, the robot and its task files (docs/task-files.md). "
+        "Default: the bundled Kinova MICO project.",
+        callback=path,
+    ),
+]
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
+QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
+WeightsOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--weights",
+        help="Weights of the fitness's parts, e.g. joint=0.1,wrist=1,object=1 (keys left out keep their "
+        "defaults: wrist 1, object 1, joint 0.5 m/rad); a part the recordings lack counts nothing.",
+    ),
+]
+JointTopicOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--joint-topic",
+        help="ROS 2 joint logs: the sensor_msgs/msg/JointState topic to read (default: each log's only one).",
+    ),
+]
+SpaceOpt = Annotated[
+    str,
+    typer.Option(
+        "--space",
+        "-s",
+        help="Parameter space: shared (31, the paper's), "
+        "individual (57, the paper's), extended (individual + command delay "
+        "and marker offset) or calibrated (extended + encoder offsets and joint compliance); "
+        "an engine's lacks what it cannot map.",
+    ),
+]
+KeepInactiveOpt = Annotated[
+    bool,
+    typer.Option(
+        "--keep-inactive",
+        help="Keep parameters that change no rollout of the tasks (measured before the search, see "
+        "`simtune params --task T`) in the search: the paper's full D. --paper-exact implies it.",
+    ),
+]
+OnlyOpt = Annotated[
+    str | None,
+    typer.Option(help="Only these parameters of the space (comma-separated); the rest keep their generic values."),
+]
+WorkersOpt = Annotated[int, typer.Option("--workers", "-w", min=1, help="Processes evaluating in parallel.")]
+#: what each optimiser is, said once for every command's --optimizer
+OPTIMIZER_HELP = (
+    "auto: a least-squares opening from the generic point with each task's clock aligned to its recordings, then "
+    "rounds of a short DE and least squares on the residuals (see the README's Speed); de: differential evolution "
+    "as in the paper; cmaes: CMA-ES with restarts; bo: Bayesian optimisation (Optuna TPE, batches of --workers "
+    "trials); random: uniform random search. cmaes and bo need `pip install 'simtune[opt]'`."
+)
+OptimizerOpt = Annotated[str, typer.Option("--optimizer", help=OPTIMIZER_HELP)]
+MaxEvalsOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--max-evaluations",
+        min=1,
+        help="Stop once this many evaluations were used (checked after each batch; DE finishes its generation).",
+    ),
+]
+EvalTimeoutOpt = Annotated[
+    float,
+    typer.Option(
+        help="With --workers 2+: an evaluation still running after this "
+        "many seconds (while simtune runs: a paused or sleeping machine does not count) is abandoned, stored as "
+        "failed, its worker replaced; `simtune resume` retries it once.",
+        callback=seconds,
+    ),
+]

@@ -1,0 +1,391 @@
+"""Run commands: ``evaluate``, ``tune``, ``resume`` and ``uncertainty``, each a call into :mod:`simtune.api`."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from simtune.cli.options import (
+    OPTIMIZER_HELP,
+    DataOpt,
+    EngineOpt,
+    EvalTimeoutOpt,
+    JointTopicOpt,
+    JsonOpt,
+    KeepInactiveOpt,
+    MaxEvalsOpt,
+    OnlyOpt,
+    ProjectOpt,
+    QuietOpt,
+    SeedOpt,
+    SpaceOpt,
+    TaskOpt,
+    WeightsOpt,
+    WorkersOpt,
+    max_generations_option,
+    max_seconds_option,
+    not_negative,
+    out_option,
+    path,
+    refine_option,
+)
+from simtune.cli.output import err, fmt, fmt_g, only_names, out, print_json, print_uncertainty
+from simtune.console import text_table
+from simtune.errors import SimtuneError
+
+ParamsFileOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--params-file",
+        "-p",
+        help="JSON of parameter values (e.g. a run's best_params.json); default: the engine's generic values.",
+        callback=path,
+    ),
+]
+AlignClockOpt = Annotated[
+    bool | None,
+    typer.Option(
+        "--align-clock/--no-align-clock",
+        help="Align each task's recording clock first: its command delay estimated from its recordings "
+        "(motion onset, then a 1-D search over the delay with the physics held fixed). Default: the tasks "
+        "a run's --params-file was not tuned on (its 'tasks' field), which carry another recording's delay.",
+        show_default=False,
+    ),
+]
+TuneOptimizerOpt = Annotated[
+    str | None,
+    typer.Option("--optimizer", help=f"Default auto (de with --paper-exact). {OPTIMIZER_HELP}", show_default=False),
+]
+RefineOpt = Annotated[
+    bool,
+    refine_option(
+        "Afterwards, polish the best point with bounded least "
+        "squares (SciPy) on the per-sample residuals; its evaluations are stored "
+        "too."
+    ),
+]
+ThreadsOpt = Annotated[
+    bool,
+    typer.Option(
+        "--threads",
+        help="Evaluate on --workers threads of this process instead of worker processes (MuJoCo; the same "
+        "results; no --eval-timeout and no crash isolation).  On 2 cores processes are faster: "
+        "benchmarks/batch_threads.py.",
+    ),
+]
+MaxSecondsOpt = Annotated[float | None, max_seconds_option("Stop after this much wall time [s].")]
+MaxGenerationsOpt = Annotated[
+    int,
+    max_generations_option(
+        "Stop after this many generations (bo and random: D evaluations count as one; auto: each batch, a DE "
+        "generation, a least-squares trial point or a Jacobian)."
+    ),
+]
+TargetFitnessOpt = Annotated[
+    float | None, typer.Option(help="Stop once the best fitness reaches this.", callback=not_negative)
+]
+NoPruneOpt = Annotated[
+    bool,
+    typer.Option(
+        "--no-prune",
+        help="Simulate every trial to the end (by default a "
+        "DE trial that can no longer beat its parent stops early: same search, "
+        "its stored fitness a lower bound).",
+    ),
+]
+PaperExactOpt = Annotated[
+    bool,
+    typer.Option(
+        "--paper-exact",
+        help="Differential evolution exactly as the paper ran SciPy: immediate updating, SciPy's polish, "
+        "one worker, no pruning, the paper's whole parameter list (--space shared or individual; "
+        "parameters the engine lacks are kept, without effect).",
+    ),
+]
+TuneOutOpt = Annotated[
+    Path,
+    out_option("Run folder to create (store, best_params.json): a new or empty folder, held by this run alone."),
+]
+RescoreOpt = Annotated[
+    bool,
+    typer.Option(
+        "--rescore",
+        help="Start a new run in RUN_DIR on the data as it is now (for when the recordings, a task or the "
+        "engine changed since the run started): same settings, its search starting from the old run's last "
+        "population, every member scored anew; the old store and best_params.json move to RUN_DIR/superseded/.",
+    ),
+]
+
+
+def evaluate(
+    engine: EngineOpt = "mujoco",
+    task: TaskOpt = "cube",
+    data: DataOpt = None,
+    params_file: ParamsFileOpt = None,
+    weights: WeightsOpt = None,
+    joint_topic: JointTopicOpt = None,
+    project: ProjectOpt = None,
+    align_clock: AlignClockOpt = None,
+    as_json: JsonOpt = False,
+) -> None:
+    """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks."""
+    from simtune import api
+
+    score = api.evaluate(
+        engine,
+        task,
+        project=project,
+        data=data,
+        params=params_file,
+        weights=weights,
+        joint_topic=joint_topic,
+        align_clock=_tasks_to_align(align_clock, params_file, task, project),
+    )
+    if as_json:
+        print_json(
+            {
+                "engine": engine,
+                "task": task,
+                "space": None,
+                "fitness": score.fitness,
+                "wrist_error": score.wrist_error,
+                "object_error": score.object_error,
+                "joint_error": score.joint_error,
+                "generic_fitness": score.generic_fitness,
+                "stable": score.stable,
+                "wall_s": score.wall_s,
+                "tasks": [t.__dict__ for t in score.parts.values()],
+                "fitness_unaligned": score.fitness if score.fitness_unaligned is None else score.fitness_unaligned,
+                "clock_aligned": score.clock_aligned,
+            }
+        )
+        return
+    with_what = f" with {params_file}" if params_file else " (generic parameters)"
+    _print_evaluation(score, f"{engine} on {task}{with_what}")
+
+
+def _print_evaluation(score, title: str) -> None:
+    # the joint column only where joint logs were scored: motion-capture tables stay as they were
+    joint_col = score.joint_error is not None
+    table = text_table(
+        title,
+        (
+            "task",
+            "fitness",
+            "wrist error [m]",
+            "object error [m]",
+            *(["joint error [rad]"] if joint_col else []),
+            "note",
+        ),
+    )
+    parts: list = list(score.parts.values())
+    rows = [(t.task, t) for t in parts] + ([("all", score)] if len(parts) > 1 else [])
+    for name, part in rows:
+        joint = [fmt(part.joint_error)] if joint_col else []
+        table.add_row(name, fmt(part.fitness), fmt(part.wrist_error), fmt(part.object_error), *joint, part.message)
+    out.print(table)
+    if score.x:
+        out.print(f"generic fitness: {score.generic_fitness:.4f}")
+    for e in score.alignments:
+        out.print(
+            f"clock aligned: {e.task}'s command delay {e.delay_s:.2f} s, estimated from its recordings (motion onset "
+            f"{fmt_g(e.recorded_onset_s)} s) with the physics held fixed; without alignment the fitness is "
+            f"{score.fitness_unaligned:.4f} (--no-align-clock)"
+        )
+
+
+def _tasks_to_align(align_clock: bool | None, params_file: Path | None, task: str, project: Path | None) -> list[str]:
+    """The tasks whose clocks evaluate aligns: all (--align-clock), none (--no-align-clock), or by default those a
+    run's parameter file was not tuned on (its 'tasks' field) and does not time with its own delay."""
+    from simtune.params import read_params_file
+    from simtune.project import get_project
+
+    names = [t.name for t in get_project(project).parse_tasks(task)]
+    if align_clock is not None:
+        return names if align_clock else []
+    if params_file is None:
+        return []
+    try:
+        tuned_on = json.loads(params_file.read_text(encoding="utf-8-sig")).get("tasks")
+    except (OSError, ValueError, AttributeError):
+        tuned_on = None
+    if not isinstance(tuned_on, str):
+        return []
+    try:
+        seen = {t.name for t in get_project(project).parse_tasks(tuned_on)}
+        params = read_params_file(params_file)
+    except SimtuneError:
+        return []
+    return [name for name in names if name not in seen and f"command_delay_{name}" not in params]
+
+
+def report_tune(result, run_dir: Path, config, store, as_json: bool) -> None:
+    """What ``tune`` and ``resume`` print: the tuned fitness against the generic one, and where the run is."""
+    from simtune.runs import BEST_PARAMS_FILE
+
+    store_generic = store.get("generic")
+    searched, inactive = store.get("parameters"), store.get("inactive_parameters") or {}
+
+    payload = {
+        "engine": config.engine,
+        "task": config.tasks,
+        "space": config.space,
+        "optimizer": config.optimizer,
+        "fitness": result.score.fitness,
+        "wrist_error": result.score.wrist_error,
+        "object_error": result.score.object_error,
+        "joint_error": result.score.joint_error,
+        "generic_fitness": store_generic["fitness"],
+        "evaluations": result.evaluations,
+        "generations": result.generations,
+        "wall_s": result.wall_s,
+        "best_params_file": str(run_dir / BEST_PARAMS_FILE),
+        "message": result.message,
+        "search_dimension": len(searched),
+        "inactive_parameters": inactive,
+    }
+    if as_json:
+        print_json(payload)
+        return
+    out.print(
+        f"[bold]{config.engine}[/] on [bold]{config.tasks}[/], space {config.space}, optimizer "
+        f"{config.optimizer}{' + least squares' if config.refine else ''}: "
+        f"fitness {store_generic['fitness']:.4f} (generic) -> [bold green]{result.score.fitness:.4f}[/] (tuned)"
+    )
+    joint = "" if result.score.joint_error is None else f", joint error {fmt(result.score.joint_error)} rad"
+    out.print(
+        f"  wrist error {fmt(result.score.wrist_error)} m, object error {fmt(result.score.object_error)} m{joint}; "
+        f"{result.evaluations} evaluations, {result.generations} generations, {result.wall_s:.0f} s "
+        f"({result.message})"
+    )
+    out.print(f"  best parameters: {payload['best_params_file']}")
+    summary = store.get("uncertainty")
+    if summary:
+        print_uncertainty(summary, short=True, run_dir=run_dir)
+    if inactive:
+        kept = "kept in the search (--keep-inactive)" if set(inactive) & set(searched) else "left out of the search"
+        out.print(
+            f"  search dimension D = {len(searched)}; {len(inactive)} parameters change no rollout of "
+            f"{config.tasks} and were {kept} (`simtune params --task {config.tasks}` says why)"
+        )
+
+
+def tune(
+    engine: EngineOpt = "mujoco",
+    task: TaskOpt = "cube",
+    data: DataOpt = None,
+    space: SpaceOpt = "extended",
+    optimizer: TuneOptimizerOpt = None,
+    refine: RefineOpt = False,
+    seed: SeedOpt = 0,
+    workers: WorkersOpt = 1,
+    threads: ThreadsOpt = False,
+    max_seconds: MaxSecondsOpt = None,
+    max_generations: MaxGenerationsOpt = 1000,
+    max_evaluations: MaxEvalsOpt = None,
+    target_fitness: TargetFitnessOpt = None,
+    no_prune: NoPruneOpt = False,
+    only: OnlyOpt = None,
+    keep_inactive: KeepInactiveOpt = False,
+    eval_timeout: EvalTimeoutOpt = 600.0,
+    paper_exact: PaperExactOpt = False,
+    out_dir: TuneOutOpt = Path("runs/latest"),
+    weights: WeightsOpt = None,
+    joint_topic: JointTopicOpt = None,
+    project: ProjectOpt = None,
+    quiet: QuietOpt = False,
+    as_json: JsonOpt = False,
+) -> None:
+    """Tune an engine's parameters to recorded tasks (global then local by default; --optimizer de: the paper's DE).
+
+    Every evaluation is stored in OUT/run.sqlite as it finishes; if the run is
+    killed, `simtune resume OUT` continues it without redoing any evaluation
+    (every optimiser replays its search from its seed).
+
+    Example: simtune tune --engine mujoco --task cube --data DATA --optimizer cmaes --refine --max-evaluations 2000
+    """
+    from simtune import api
+    from simtune.store import RunStore
+
+    config = api.run_config(
+        engine,
+        task,
+        project=project,
+        data=data,
+        space=space,
+        optimizer=optimizer,
+        refine=refine,
+        seed=seed,
+        workers=workers,
+        max_evaluations=max_evaluations,
+        max_seconds=max_seconds,
+        max_generations=max_generations,
+        target_fitness=target_fitness,
+        only=only_names(only),
+        eval_timeout=eval_timeout,
+        weights=weights,
+        joint_topic=joint_topic,
+        prune=not no_prune,
+        paper_exact=paper_exact,
+        keep_inactive=keep_inactive,
+        threads=threads,
+    )
+    result = api.start(config, out_dir, show_progress=not quiet and not as_json)
+    report_tune(result, out_dir, config, RunStore(out_dir), as_json)
+
+
+def uncertainty(
+    run_dir: Annotated[Path, typer.Argument(help="A finished run folder made by `simtune tune`.", callback=path)],
+    workers: WorkersOpt = 1,
+    as_json: JsonOpt = False,
+) -> None:
+    """How well the recordings pin each parameter at a run's best point: 95 % intervals (Gauss-Newton).
+
+    The Jacobian of the per-sample residuals (finite differences, 2D + 1 rollouts as one batch over
+    --workers), its rank and condition number, a 95 % interval per parameter (unbounded where the
+    recordings cannot pin it) and the most correlated pairs; stored in the run for `simtune report`.
+    With --json: one object with a list `parameters` (name, value, low, high, active, identifiable).
+    """
+    from simtune import api
+
+    summary = api.uncertainty(run_dir, workers)
+    if as_json:
+        print_json(summary)
+        return
+    print_uncertainty(summary, short=False, run_dir=run_dir)
+
+
+def resume(
+    run_dir: Annotated[Path, typer.Argument(help="A run folder made by `simtune tune`.", callback=path)],
+    rescore: RescoreOpt = False,
+    quiet: QuietOpt = False,
+    as_json: JsonOpt = False,
+) -> None:
+    """Continue a tuning run that was stopped or killed, keeping every finished evaluation.
+
+    Refused (naming what changed) when the data, a task definition or the engine
+    version changed since the run started: its stored fitness values would be
+    stale; --rescore starts over from its last population instead.  Evaluations
+    that failed by running past --eval-timeout are retried once.
+    """
+    from simtune import api
+    from simtune.runs import RunConfig
+    from simtune.store import STORE_FILE, RunStore
+
+    result = api.resume(run_dir, show_progress=not quiet and not as_json, rescore=rescore)
+    store = RunStore(run_dir)
+    config = RunConfig.from_stored(store.get("config"), str(run_dir / STORE_FILE))
+    rescored = store.get("rescored_from")
+    if rescore and rescored and not as_json:
+        changed = "; ".join(rescored["changes"]) or "nothing changed"
+        start = f"its {rescored['members']} last members" if rescored["members"] else "scratch (it had no checkpoint)"
+        err.print(
+            f"rescored ({changed}): new run from {start}; old run kept in {run_dir / rescored['store']}",
+            markup=False,
+            highlight=False,
+            soft_wrap=True,
+        )
+    report_tune(result, run_dir, config, store, as_json)

@@ -1,0 +1,288 @@
+"""Studies: ``compare`` (optimisers), ``transfer`` (to unseen tasks), ``sensitivity`` and ``grid``, each a call
+into :mod:`simtune.api`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from simtune.cli.options import (
+    DataOpt,
+    EngineOpt,
+    EvalTimeoutOpt,
+    JsonOpt,
+    MaxEvalsOpt,
+    OnlyOpt,
+    OptimizerOpt,
+    QuietOpt,
+    SeedOpt,
+    SpaceOpt,
+    TaskOpt,
+    WorkersOpt,
+    max_generations_option,
+    max_seconds_option,
+    not_negative,
+    out_option,
+    path,
+    refine_option,
+    seed_option,
+)
+from simtune.cli.output import err, fmt, only_names, out, print_json, split
+from simtune.console import text_table
+
+CompareOutOpt = Annotated[
+    Path,
+    out_option("Folder for the runs (`OUT/<optimizer>/seed-<s>`) and compare.json; existing finished runs are reused."),
+]
+TargetOpt = Annotated[
+    float | None,
+    typer.Option(
+        help="Fitness to reach: the table gives the evaluations each optimiser needed (median over seeds).",
+        callback=not_negative,
+    ),
+]
+
+
+def compare(
+    optimizers: Annotated[
+        str, typer.Option(help="Optimisers to compare, comma-separated: de, cmaes, bo, random.")
+    ] = "de,cmaes,bo,random",
+    engine: EngineOpt = "mujoco",
+    task: TaskOpt = "cube",
+    data: DataOpt = None,
+    space: SpaceOpt = "extended",
+    budget_evals: Annotated[int, typer.Option("--budget-evals", min=1, help="Evaluations each run may use.")] = 300,
+    seeds: Annotated[int, typer.Option(min=1, help="Runs per optimiser (seeds 0..N-1); medians are over them.")] = 3,
+    target: TargetOpt = None,
+    workers: WorkersOpt = 1,
+    only: OnlyOpt = None,
+    eval_timeout: EvalTimeoutOpt = 600.0,
+    out_dir: CompareOutOpt = Path("runs/compare"),
+    as_json: JsonOpt = False,
+) -> None:
+    """Compare optimisers on the same budget of evaluations: best fitness at 25/50/100 % of it, evaluations to a target.
+
+    Every optimiser x seed is an ordinary run; the table reads each run store's
+    evaluations in the order they were stored (the first --budget-evals of them).
+    Running the command again reuses finished runs and resumes unfinished ones.
+
+    Example: simtune compare --engine mujoco --task cube --data DATA --budget-evals 300 --seeds 3 --target 0.05
+    """
+    from simtune import api
+    from simtune.compare import markdown_table
+
+    def note(name: str, seed: int, what: str) -> None:
+        if not as_json:
+            err.print(f"{what} {name} seed {seed} ...", highlight=False)
+
+    result = api.compare(
+        engine,
+        task,
+        out=out_dir,
+        optimizers=split(optimizers),
+        seeds=seeds,
+        budget=budget_evals,
+        target=target,
+        data=data,
+        space=space,
+        workers=workers,
+        only=only_names(only),
+        eval_timeout=eval_timeout,
+        on_run=note,
+    )
+    if as_json:
+        print_json({k: v for k, v in result.items() if k != "runs"})
+        return
+    text = markdown_table(result)
+    print(f"{engine} on {task}, space {space}: {budget_evals} evaluations x {seeds} seeds (median over seeds)\n")
+    print(text)
+    (out_dir / "compare.md").write_text(text)
+    out.print(f"runs and compare.json, compare.md in {out_dir}", highlight=False, soft_wrap=True)
+
+
+TransferAlignOpt = Annotated[
+    bool,
+    typer.Option(
+        "--align-clock/--no-align-clock",
+        help="Also score each test task with its own recording clock aligned: its command delay estimated "
+        "from its recordings with the tuned physics held fixed (so the transfer measures the physics, not "
+        "the clocks).",
+    ),
+]
+TransferOutOpt = Annotated[Path, out_option("Folder for the tuning run (OUT/run) and transfer.json.")]
+
+
+def transfer(
+    engine: EngineOpt = "mujoco",
+    train: Annotated[str, typer.Option(help="Tasks to tune on together (comma-separated).")] = "single,cube",
+    test: Annotated[str, typer.Option(help="Unseen tasks to evaluate the tuned parameters on.")] = "double",
+    data: DataOpt = None,
+    test_data: Annotated[
+        Path | None, typer.Option(help="Data root of the test tasks (default: --data).", callback=path)
+    ] = None,
+    space: SpaceOpt = "extended",
+    optimizer: OptimizerOpt = "de",
+    refine: Annotated[bool, refine_option("Polish the tuned point with least squares.")] = False,
+    seed: SeedOpt = 0,
+    workers: WorkersOpt = 1,
+    max_seconds: Annotated[float | None, max_seconds_option("Tuning wall-time limit [s].")] = None,
+    max_generations: Annotated[int, max_generations_option("Tuning generation limit.")] = 1000,
+    max_evaluations: MaxEvalsOpt = None,
+    only: OnlyOpt = None,
+    eval_timeout: EvalTimeoutOpt = 600.0,
+    out_dir: TransferOutOpt = Path("runs/transfer"),
+    align_clock: TransferAlignOpt = True,
+    quiet: QuietOpt = False,
+    as_json: JsonOpt = False,
+) -> None:
+    """Tune on some tasks, then test the tuned parameters on tasks never tuned on, against generic.
+
+    The tuning run is an ordinary run (resumable; OUT/run/best_params.json works
+    with `simtune evaluate --params-file` on any task). Running the command again
+    resumes or reuses it.
+
+    Example: simtune transfer --engine mujoco --train single,cube --test double --data DATA --max-evaluations 500
+    """
+    from simtune import api
+
+    result = api.transfer(
+        engine,
+        train,
+        test,
+        out=out_dir,
+        data=data,
+        test_data=test_data,
+        space=space,
+        optimizer=optimizer,
+        refine=refine,
+        seed=seed,
+        workers=workers,
+        max_seconds=max_seconds,
+        max_generations=max_generations,
+        max_evaluations=max_evaluations,
+        only=only_names(only),
+        eval_timeout=eval_timeout,
+        align_clock=align_clock,
+        show_progress=not quiet and not as_json,
+    )
+    if as_json:
+        print_json({k: v for k, v in result.items() if k != "params"})
+        return
+    out.print(_transfer_table(result, f"{engine}: tuned on {train} ({space}, {optimizer}), tested on {test}"))
+    for r in result["tasks"]:
+        if r["delay_s"] is not None:
+            out.print(
+                f"clock aligned: {r['task']}'s command delay {r['delay_s']:.2f} s, estimated from its recordings "
+                f"with the tuned physics held fixed: tuned fitness {r['tuned']:.4f} -> {r['tuned_aligned']:.4f} "
+                "(--no-align-clock leaves clocks alone)"
+            )
+    out.print(f"tuned parameters: {result['best_params_file']}; result: {out_dir / 'transfer.json'}")
+
+
+def _transfer_table(result: dict, title: str):
+    table = text_table(
+        title,
+        ("task", "set", "generic", "tuned", "change", "wrist [m]", "object [m]"),
+        right=("generic", "tuned", "change", "wrist [m]", "object [m]"),
+    )
+    for r in result["tasks"]:
+        table.add_row(
+            r["task"],
+            r["role"],
+            fmt(r["generic"]),
+            fmt(r["tuned"]),
+            f"{r['change'] * 100:+.0f} %",
+            fmt(r["tuned_wrist"]),
+            fmt(r["tuned_object"]),
+        )
+    for role, t in result["totals"].items():
+        table.add_row(
+            f"[bold]all {role}[/]", role, fmt(t["generic"]), fmt(t["tuned"]), f"{t['change'] * 100:+.0f} %", "", ""
+        )
+        if "tuned_aligned" in t:
+            table.add_row(
+                f"[bold]all {role}, clock aligned[/]",
+                role,
+                fmt(t["generic"]),
+                fmt(t["tuned_aligned"]),
+                f"{t['change_aligned'] * 100:+.0f} %",
+                "",
+                "",
+            )
+    return table
+
+
+SamplesOpt = Annotated[
+    int,
+    typer.Option(
+        min=2,
+        help="morris: trajectories (N (D+1) evaluations); sobol: base samples, a power of two (N (D+2) evaluations).",
+    ),
+]
+MethodOpt = Annotated[
+    str, typer.Option(help="morris (elementary effects, cheap screening) or sobol (variance shares S1 and ST).")
+]
+SensitivityOutOpt = Annotated[Path, out_option("Folder for sensitivity.json/.csv/.md/.png and the evaluation cache.")]
+
+
+def sensitivity(
+    engine: EngineOpt = "mujoco",
+    task: TaskOpt = "cube",
+    data: DataOpt = None,
+    space: SpaceOpt = "extended",
+    samples: SamplesOpt = 10,
+    method: MethodOpt = "morris",
+    seed: Annotated[int, seed_option("Seed of the sampling.")] = 0,
+    workers: WorkersOpt = 1,
+    only: OnlyOpt = None,
+    eval_timeout: EvalTimeoutOpt = 600.0,
+    out_dir: SensitivityOutOpt = Path("runs/sensitivity"),
+    as_json: JsonOpt = False,
+) -> None:
+    """Global sensitivity of the fitness to each parameter (SALib Morris or Sobol), most influential first.
+
+    Evaluations run through the same process pool as tuning and are cached in
+    OUT/sensitivity.sqlite. `simtune report` picks up OUT/sensitivity.json when
+    OUT is under or next to its input folders.
+
+    Example: simtune sensitivity --engine mujoco --task cube --data DATA --samples 20 --workers 2 --out runs/sens
+    """
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from simtune import api
+    from simtune.sensitivity import sensitivity_table
+
+    total = api.sensitivity_evaluations(engine, space, method, samples, only_names(only))
+    columns = (TextColumn("[bold]sensitivity[/]"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    with Progress(*columns, console=err, disable=as_json) as bar:
+        job = bar.add_task("evaluate", total=total)
+        result = api.sensitivity(
+            engine,
+            task,
+            out=out_dir,
+            data=data,
+            space=space,
+            samples=samples,
+            method=method,
+            only=only_names(only),
+            seed=seed,
+            workers=workers,
+            eval_timeout=eval_timeout,
+            on_evaluation=lambda score, reused: bar.advance(job),
+        )
+    if as_json:
+        print_json(result)
+        return
+    table = sensitivity_table(result)
+    view = text_table(
+        table.title,
+        [col.name for col in table.columns],
+        right=[col.name for col in table.columns if col.name != "parameter"],
+    )
+    for row in table.rows:
+        view.add_row(*(table.cell(v, c) for v, c in zip(row, table.columns)))
+    out.print(view)
+    out.print(table.note, highlight=False, markup=False)
+    out.print(f"{result['new_evaluations']} new evaluations; files in {out_dir}: sensitivity.json, .csv, .md, .png")

@@ -1,0 +1,250 @@
+"""A run's configuration and its plan: what the user asked for, and what it resolves to, once.
+
+:class:`RunConfig` is what a run stores (``run.sqlite``'s ``config``, its JSON form kept as it was so that old
+runs resume) and :func:`new_run_config` the one place a new one is made, by the API, the grid, the studies and
+the demo alike.  :func:`plan_run` resolves a configuration once into a :class:`RunPlan`: the tasks, their robot,
+the engine class, the parameter space, the inactive parameters, the references and the objective; a run
+(:mod:`simtune.runs`) passes the plan down instead of resolving its configuration again in every step.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import MISSING, asdict, dataclass, fields
+from functools import cached_property
+from pathlib import Path
+
+from simtune.activity import active_space, declared_inactive, inactive_parameters
+from simtune.data import TaskData
+from simtune.engines import Engine, engine_class
+from simtune.errors import ConfigError
+from simtune.fitness import FitnessWeights
+from simtune.limits import MAX_SEED
+from simtune.objective import Objective, load_references
+from simtune.optimize import get_optimizer
+from simtune.params import ParameterSpace, get_space
+from simtune.project import Project, get_project
+from simtune.robot.description import RobotDescription
+from simtune.tasks import TaskSpec, parse_tasks
+from simtune.tasks.spec import common_robot
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+@dataclass
+class RunConfig:
+    engine: str
+    tasks: str  # as given: "cube" or "single,cube"
+    space: str
+    data: str | None  # folder with one sub-folder of recordings per task; None: each task's own (its project's)
+    seed: int = 0
+    workers: int = 1
+    max_seconds: float | None = None
+    max_generations: int = 1000
+    only: list[str] | None = None  # tune just these parameters of the space
+    eval_timeout: float | None = None  # seconds before a worker's evaluation is abandoned
+    prune: bool = True  # stop trials that can no longer beat their parent (same search, less simulation)
+    target_fitness: float | None = None  # stop once the best fitness reaches this
+    optimizer: str = "de"  # a key of simtune.optimize.OPTIMIZERS
+    refine: bool = False  # polish the best point with least squares on the residuals afterwards
+    max_evaluations: int | None = None  # stop once this many evaluations were used (checked per batch)
+    #: the seed paper's exact search: SciPy's DE with immediate updating and polish, one worker, no
+    #: pruning, and the paper's whole parameter list (parameters the engine lacks kept, without effect)
+    paper_exact: bool = False
+    #: weights of the fitness's parts (simtune.fitness.FitnessWeights keys); None: the defaults
+    weights: dict[str, float] | None = None
+    #: the JointState topic of ROS 2 joint logs; None: each log's only one
+    joint_topic: str | None = None
+    #: the project file the tasks are read from (absolute); None: the bundled MICO project
+    project: str | None = None
+    #: keep parameters that change no rollout of the tasks in the search (the paper's full D); implied by
+    #: paper_exact.  Runs stored before this setting existed kept them all.
+    keep_inactive: bool = False
+    #: with several tasks, one command delay per task (``command_delay_<task>``) instead of one shared
+    #: delay; runs stored before this setting existed shared one
+    task_delays: bool = True
+    #: evaluate each batch in the coordinating process on --workers threads (the engine's batch path; the same
+    #: results as worker processes, without their crash isolation and time-outs)
+    threads: bool = False
+
+    def record(self) -> dict:
+        """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
+        ``weights`` and ``joint_topic`` at their defaults (None) and ``threads`` when off, so that the stores of
+        runs made before projects, joint logs and the batch path and of new MICO runs compare equal."""
+        values = asdict(self)
+        for key in ("project", "weights", "joint_topic"):
+            if values[key] is None:
+                del values[key]
+        if not values["threads"]:
+            del values["threads"]
+        return values
+
+    @classmethod
+    def from_stored(cls, values, where: str) -> RunConfig:
+        """The configuration a run store holds; one line naming ``where`` and the key for anything unknown or bad."""
+        if not isinstance(values, dict):
+            raise ConfigError(f"{where}: the stored configuration is not a JSON object")
+        known = {f.name for f in fields(cls)}
+        for key in values:
+            if key not in known:
+                raise ConfigError(
+                    f"{where}: unknown key {key!r} in the stored configuration (written by another simtune version?)"
+                )
+        # a run from before these settings searched every parameter, with one shared command delay
+        values = {"keep_inactive": True, "task_delays": False, **values}
+        for f in fields(cls):
+            if f.default is MISSING and f.name not in values:
+                raise ConfigError(f"{where}: the stored configuration has no {f.name!r}")
+        config = cls(**values)
+        config.check(where)
+        return config
+
+    def check(self, where: str = "") -> None:
+        """One-line ConfigError for settings no optimiser can run with (each value's type and range)."""
+        at = f"{where}: " if where else ""
+
+        def bad(key: str, what: str) -> ConfigError:
+            return ConfigError(f"{at}{key} must be {what}, got {getattr(self, key)!r}")
+
+        for key in ("engine", "tasks", "space", "optimizer"):
+            if not isinstance(getattr(self, key), str):
+                raise bad(key, "a string")
+        for key in ("data", "project"):
+            if getattr(self, key) is not None and not isinstance(getattr(self, key), str):
+                raise bad(key, "a string or null")
+        if not _is_int(self.seed) or not 0 <= self.seed <= MAX_SEED:
+            raise bad("seed", f"an integer from 0 to {MAX_SEED}")
+        for key in ("workers", "max_generations"):
+            if not _is_int(getattr(self, key)) or getattr(self, key) < 1:
+                raise bad(key, "an integer of at least 1")
+        if self.max_evaluations is not None and (not _is_int(self.max_evaluations) or self.max_evaluations < 1):
+            raise bad("max_evaluations", "an integer of at least 1")
+        for key in ("max_seconds", "eval_timeout"):
+            value = getattr(self, key)
+            if value is not None and (not _is_number(value) or value <= 0):
+                raise bad(key, "a finite number of seconds above 0")
+        if self.target_fitness is not None and (not _is_number(self.target_fitness) or self.target_fitness < 0):
+            raise bad("target_fitness", "a finite number of at least 0")
+        for key in ("prune", "refine", "paper_exact", "keep_inactive", "task_delays", "threads"):
+            if not isinstance(getattr(self, key), bool):
+                raise bad(key, "true or false")
+        if self.only is not None and (
+            not isinstance(self.only, list) or not all(isinstance(n, str) for n in self.only)
+        ):
+            raise bad("only", "a list of parameter names")
+        if self.weights is not None:
+            if not isinstance(self.weights, dict):
+                raise bad("weights", "a mapping of weight names to numbers")
+            FitnessWeights.from_mapping(self.weights, f"{at}weights")
+        if self.joint_topic is not None and not isinstance(self.joint_topic, str):
+            raise bad("joint_topic", "a topic name")
+        get_optimizer(self.optimizer)
+        if self.paper_exact:
+            if self.optimizer != "de":
+                raise ConfigError(f"{at}--paper-exact runs differential evolution, not --optimizer {self.optimizer}")
+            if self.space not in ("shared", "individual"):
+                raise ConfigError(
+                    f"{at}--paper-exact needs one of the paper's spaces (shared, individual), not {self.space!r}"
+                )
+            if self.only:
+                raise ConfigError(f"{at}--paper-exact tunes the paper's whole parameter list: drop --only")
+            if self.workers != 1:
+                raise ConfigError(
+                    f"{at}--paper-exact evaluates one trial at a time (SciPy's immediate updating): drop --workers"
+                )
+            if self.refine:
+                raise ConfigError(f"{at}--paper-exact ends with SciPy's own polish: drop --refine")
+
+
+def new_run_config(
+    engine: str,
+    tasks: str,
+    space: str,
+    *,
+    data: Path | str | None,
+    project: Project | None = None,
+    weights: FitnessWeights | None = None,
+    **settings,
+) -> RunConfig:
+    """The configuration of a new run, as its store keeps it: ``data`` as given (made absolute by the caller
+    where the run must find it from any folder), ``project`` by its project file (the bundled MICO project: not
+    at all), ``weights`` as a mapping; ``settings`` are RunConfig's other fields, their defaults where left out."""
+    bundled = project is None or project is get_project(None)
+    return RunConfig(
+        engine=engine,
+        tasks=tasks,
+        space=space,
+        data=None if data is None else str(data),
+        project=None if project is None or bundled else str(project.file.resolve()),
+        weights=None if weights is None else weights.as_dict(),
+        **settings,
+    )
+
+
+@dataclass(eq=False)
+class RunPlan:
+    """What a run's configuration resolves to, resolved once: made by :func:`plan_run`.
+
+    The inactive parameters and the references are read on first use: a resume that finds its data changed
+    stops before either is needed, and a resumed run takes its inactive parameters from its store.
+    """
+
+    config: RunConfig
+    tasks: list[TaskSpec]
+    robot: RobotDescription
+    engine: type[Engine]
+    #: the run's space before inactive parameters are left out: the engine's (or the paper's whole list)
+    full_space: ParameterSpace
+
+    @property
+    def keeps_inactive(self) -> bool:
+        """Whether the search keeps parameters that change no rollout (``keep_inactive``, ``paper_exact``)."""
+        return self.config.keep_inactive or self.config.paper_exact
+
+    @cached_property
+    def inactive(self) -> dict[str, str]:
+        """Parameters of the full space that change no rollout of the tasks: name -> why (measured, cached).
+
+        A run that keeps them all records what the engine and the schedules declare instead: it searches every
+        parameter either way, and the probe would only cost it rollouts."""
+        if self.keeps_inactive:
+            return declared_inactive(self.config.engine, self.tasks, self.full_space)
+        return inactive_parameters(self.config.engine, self.tasks, self.full_space, workers=self.config.workers)
+
+    @cached_property
+    def references(self) -> dict[str, TaskData]:
+        """The recordings of every task (from the run's data root, else each task's own folder)."""
+        data = None if self.config.data is None else Path(self.config.data)
+        return load_references(data, self.tasks, self.config.joint_topic)
+
+    def search_space(self, inactive: dict[str, str] | None = None) -> ParameterSpace:
+        """The space searched: the full space less ``inactive`` (default: the measured ones) unless the run keeps
+        them.  Parameters named by ``--only`` stay whether active or not: the user asked for them."""
+        if self.keeps_inactive:
+            return self.full_space
+        return active_space(self.full_space, self.inactive if inactive is None else inactive, self.config.only)
+
+    def objective(self, inactive: dict[str, str] | None = None) -> Objective:
+        """The run's objective over :meth:`search_space` (``inactive``: a stored run's, else measured)."""
+        space = self.search_space(inactive)
+        weights = self.config.weights
+        fitness_weights = None if weights is None else FitnessWeights.from_mapping(weights, "weights")
+        return Objective(self.config.engine, self.tasks, self.references, space, fitness_weights)
+
+
+def plan_run(config: RunConfig) -> RunPlan:
+    """Resolve ``config`` once: its tasks (of its project), their robot, the engine class and the full space."""
+    tasks = parse_tasks(config.tasks, config.project)
+    robot = common_robot(tasks)
+    engine = engine_class(config.engine)
+    # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
+    supported = None if config.paper_exact else engine.supported(robot)
+    names = [t.name for t in tasks] if config.task_delays else None
+    space = get_space(config.space, supported, config.only, robot=robot, tasks=names)
+    return RunPlan(config, tasks, robot, engine, space)
