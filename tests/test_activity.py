@@ -12,7 +12,7 @@ from simtune.activity import Activity, active_space, inactive_parameters, measur
 from simtune.engines import engine_class
 from simtune.params import get_space
 from simtune.reference import REFERENCE_DIR
-from simtune.report.collect import Group, RunRecord
+from simtune.report.collect import Group, ReportedRun
 from simtune.report.dr import dr_ranges
 from simtune.report.tables import importance_table
 from simtune.runs import RunConfig, build_objective, full_space, run_inactive
@@ -125,9 +125,9 @@ def test_params_command_shows_an_active_column_with_reasons():
     assert "task 'cube' has no wood cube" in text
 
 
-def _record(seed: int, values: dict[str, float], inactive: dict[str, str]) -> RunRecord:
+def _record(seed: int, values: dict[str, float], inactive: dict[str, str]) -> ReportedRun:
     names = list(values)
-    return RunRecord(
+    return ReportedRun(
         path=REFERENCE_DIR,
         label=f"run{seed}",
         engine="mujoco",

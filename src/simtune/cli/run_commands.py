@@ -222,12 +222,14 @@ def _tasks_to_align(align_clock: bool | None, params_file: Path | None, task: st
     return [name for name in names if name not in seen and f"command_delay_{name}" not in params]
 
 
-def report_tune(result, run_dir: Path, config, store, as_json: bool) -> None:
+def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
     """What ``tune`` and ``resume`` print: the tuned fitness against the generic one, and where the run is."""
     from simtune.runs import BEST_PARAMS_FILE
+    from simtune.store import read_record
 
-    store_generic = store.get("generic")
-    searched, inactive = store.get("parameters"), store.get("inactive_parameters") or {}
+    record = read_record(run_dir)
+    store_generic = record.generic or {}
+    searched, inactive = record.parameters or [], record.inactive
 
     payload = {
         "engine": config.engine,
@@ -262,9 +264,8 @@ def report_tune(result, run_dir: Path, config, store, as_json: bool) -> None:
         f"({result.message})"
     )
     out.print(f"  best parameters: {payload['best_params_file']}")
-    summary = store.get("uncertainty")
-    if summary:
-        print_uncertainty(summary, short=True, run_dir=run_dir)
+    if record.uncertainty:
+        print_uncertainty(record.uncertainty, short=True, run_dir=run_dir)
     if inactive:
         kept = "kept in the search (--keep-inactive)" if set(inactive) & set(searched) else "left out of the search"
         out.print(
@@ -308,7 +309,6 @@ def tune(
     Example: simtune tune --engine mujoco --task cube --data DATA --optimizer cmaes --refine --max-evaluations 2000
     """
     from simtune import api
-    from simtune.store import RunStore
 
     config = api.run_config(
         engine,
@@ -334,7 +334,7 @@ def tune(
         threads=threads,
     )
     result = api.start(config, out_dir, show_progress=not quiet and not as_json)
-    report_tune(result, out_dir, config, RunStore(out_dir), as_json)
+    report_tune(result, out_dir, config, as_json)
 
 
 def uncertainty(
@@ -373,12 +373,12 @@ def resume(
     """
     from simtune import api
     from simtune.runs import RunConfig
-    from simtune.store import STORE_FILE, RunStore
+    from simtune.store import STORE_FILE, read_record
 
     result = api.resume(run_dir, show_progress=not quiet and not as_json, rescore=rescore)
-    store = RunStore(run_dir)
-    config = RunConfig.from_stored(store.get("config"), str(run_dir / STORE_FILE))
-    rescored = store.get("rescored_from")
+    record = read_record(run_dir)
+    config = RunConfig.from_stored(record.config, str(run_dir / STORE_FILE))
+    rescored = record.rescored_from
     if rescore and rescored and not as_json:
         changed = "; ".join(rescored["changes"]) or "nothing changed"
         start = f"its {rescored['members']} last members" if rescored["members"] else "scratch (it had no checkpoint)"
@@ -388,4 +388,4 @@ def resume(
             highlight=False,
             soft_wrap=True,
         )
-    report_tune(result, run_dir, config, store, as_json)
+    report_tune(result, run_dir, config, as_json)

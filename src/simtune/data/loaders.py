@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Collection
+from collections.abc import Callable, Collection
+from dataclasses import dataclass
 from pathlib import Path
 
 from simtune.data._table import display_name
@@ -14,8 +15,26 @@ from simtune.data.recording import Recording
 from simtune.data.rosbag import is_bag_folder, read_joint_bag
 from simtune.errors import RecordingError
 
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """What a reader may need besides the file: see :func:`load_recording`."""
+
+    body_names: list[str] | None = None
+    joint_names: Collection[str] | None = None
+    joint_topic: str | None = None
+    joint_units: str | None = None
+
+
+#: The file formats, by name ending (lower case): a new format is a module in data/ and one line here.
+FILE_FORMATS: tuple[tuple[tuple[str, ...], Callable[[Path, ReadOptions], Recording]], ...] = (
+    ((".tsv", ".tsv.gz"), lambda path, o: read_qualisys_tsv(path, o.body_names)),
+    ((".csv", ".csv.gz"), lambda path, o: read_csv(path, o.joint_names, o.joint_units)),
+    ((".c3d",), lambda path, o: read_c3d(path)),
+    ((".mcap",), lambda path, o: read_joint_bag(path, o.joint_names, o.joint_topic, o.joint_units)),
+)
 #: File endings load_recording understands (lower case); a rosbag2 folder is a recording too.
-RECORDING_SUFFIXES = (".tsv", ".tsv.gz", ".csv", ".csv.gz", ".c3d", ".mcap")
+RECORDING_SUFFIXES = tuple(ending for endings, _ in FILE_FORMATS for ending in endings)
 
 
 def is_recording_file(path: Path) -> bool:
@@ -57,14 +76,12 @@ def load_recording(
         raise RecordingError(
             f"{display_name(path)}: a LeRobot dataset holds many episodes: read it with load_recordings"
         )
-    if is_bag_folder(path) or name.endswith(".mcap"):
+    options = ReadOptions(body_names, joint_names, joint_topic, joint_units)
+    if is_bag_folder(path):
         return read_joint_bag(path, joint_names, joint_topic, joint_units)
-    if name.endswith((".tsv", ".tsv.gz")):
-        return read_qualisys_tsv(path, body_names)
-    if name.endswith((".csv", ".csv.gz")):
-        return read_csv(path, joint_names, joint_units)
-    if name.endswith(".c3d"):
-        return read_c3d(path)
+    for endings, read in FILE_FORMATS:
+        if name.endswith(endings):
+            return read(path, options)
     raise RecordingError(
         f"{display_name(path)}: unknown recording format "
         f"(expected {', '.join(RECORDING_SUFFIXES)}, or a rosbag2 folder)"

@@ -210,11 +210,11 @@ def _samples(run: TunedRun) -> dict[str, int]:
 
 def _dr_ranges(runs: list[TunedRun]) -> dict:
     """engine -> parameter -> range (the report's dr_ranges) over ``runs``, and the tasks behind each engine."""
-    from simtune.report.collect import RunRecord, group_runs, load_run
+    from simtune.report.collect import ReportedRun, group_runs, load_run
     from simtune.report.dr import dr_ranges
     from simtune.report.simulate import nominal_values
 
-    records = [r for r in (load_run(run.path) for run in runs) if isinstance(r, RunRecord)]
+    records = [r for r in (load_run(run.path) for run in runs) if isinstance(r, ReportedRun)]
     groups, _ = group_runs(records)
     specs: dict[str, dict[str, TaskSpec]] = {}
     for run in runs:

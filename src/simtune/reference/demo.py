@@ -12,7 +12,7 @@ from simtune.reference import REFERENCE_DIR
 from simtune.run_plan import new_run_config
 from simtune.runlock import run_lock
 from simtune.runs import discard_run, has_run, start_run
-from simtune.store import RunStore
+from simtune.store import read_record
 
 #: What the demo tunes: the parameters the reference recording hides, in the extended space's ranges.
 DEMO_PARAMETERS = (
@@ -49,7 +49,7 @@ def run_demo(out_dir: Path, workers: int = 2, max_seconds: float = 120.0, consol
         only=list(DEMO_PARAMETERS),
     )
     result = start_run(config, out_dir)
-    generic = RunStore(out_dir).get("generic")
+    generic = read_record(out_dir).generic or {}
     table = text_table("generic vs tuned", ("", "fitness", "wrist error [m]", "object error [m]"))
     table.add_row(
         "generic MuJoCo", f"{generic['fitness']:.4f}", f"{generic['wrist_error']:.4f}", f"{generic['object_error']:.4f}"

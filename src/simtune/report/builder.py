@@ -17,7 +17,7 @@ import simtune
 from simtune.engines.contact import ContactProbe, probe_contact
 from simtune.errors import SimtuneError
 from simtune.report import tables as T
-from simtune.report.collect import Group, RunRecord, Skipped, find_run_dirs, group_runs, load_run
+from simtune.report.collect import Group, ReportedRun, Skipped, find_run_dirs, group_runs, load_run
 from simtune.report.html import render
 from simtune.report.published import PublishedSim, find_published, score_published
 from simtune.report.sections import ReportData, ReportOutput, make_sections
@@ -166,7 +166,7 @@ def _generic_entries(
 
 def _read_runs(run_dirs: list[Path], warn: Warn, step: Callable[[], None], project: str | None) -> list[Group]:
     """The finished runs, grouped into repeats; every folder left out is named in a warning."""
-    runs: list[RunRecord] = []
+    runs: list[ReportedRun] = []
     for d in run_dirs:
         loaded = load_run(d, project=project)
         if isinstance(loaded, Skipped):

@@ -3,7 +3,7 @@
 A *run dir* holds ``run.sqlite`` (made by ``simtune tune``); a *grid dir* is
 any folder with run dirs somewhere below it.  Each run is read through
 :func:`simtune.store.read_record` (read-only), so a report never changes a run,
-not even a broken one; :class:`RunRecord` is the report's checked view of it.  A run that is not
+not even a broken one; :class:`ReportedRun` is the report's checked view of it.  A run that is not
 finished, or whose store cannot be read, is returned as a :class:`Skipped`
 entry naming the folder and the reason: the report warns about it and leaves
 it out, it never merges it silently.
@@ -23,7 +23,7 @@ from simtune.tasks import TaskSpec, get_task, parse_tasks
 
 
 @dataclass
-class RunRecord:
+class ReportedRun:
     """Everything the report needs from one finished run, as plain data."""
 
     path: Path
@@ -116,7 +116,7 @@ class Group:
     engine: str
     tasks: str
     space: str
-    runs: list[RunRecord]
+    runs: list[ReportedRun]
 
     @property
     def key(self) -> tuple[str, str, str]:
@@ -127,7 +127,7 @@ class Group:
         return self.runs[0].task_names
 
     @property
-    def best_run(self) -> RunRecord:
+    def best_run(self) -> ReportedRun:
         return min(self.runs, key=lambda r: (r.best_fitness, r.seed))
 
     @property
@@ -195,8 +195,8 @@ def _require(key: str, value):
     return value
 
 
-def load_run(run_dir: Path, label: str | None = None, project: str | None = None) -> RunRecord | Skipped:
-    """A finished run as a :class:`RunRecord`, or a :class:`Skipped` saying why it cannot be used.
+def load_run(run_dir: Path, label: str | None = None, project: str | None = None) -> ReportedRun | Skipped:
+    """A finished run as a :class:`ReportedRun`, or a :class:`Skipped` saying why it cannot be used.
 
     ``project``: read its tasks from this project folder instead of the one the run names (moved since).
     """
@@ -228,7 +228,7 @@ def load_run(run_dir: Path, label: str | None = None, project: str | None = None
             raise SimtuneError(f"best vector has {len(best['x'])} values for {len(parameters)} parameters")
         project = project or config.get("project")
         task_names = [t.name for t in parse_tasks(str(config["tasks"]), project)]
-        return RunRecord(
+        return ReportedRun(
             path=run_dir,
             label=label,
             engine=stored.engine,
@@ -265,9 +265,9 @@ def load_run(run_dir: Path, label: str | None = None, project: str | None = None
         return Skipped(run_dir, label, f"unusable run store: {type(exc).__name__}: {exc}")
 
 
-def group_runs(runs: list[RunRecord]) -> tuple[list[Group], list[Skipped]]:
+def group_runs(runs: list[ReportedRun]) -> tuple[list[Group], list[Skipped]]:
     """Group runs by (engine, tasks, space); a second run with the same seed is left out (not a new repeat)."""
-    by_key: dict[tuple[str, str, str], list[RunRecord]] = defaultdict(list)
+    by_key: dict[tuple[str, str, str], list[ReportedRun]] = defaultdict(list)
     duplicates: list[Skipped] = []
     for run in runs:
         same = [r for r in by_key[run.group_key] if r.seed == run.seed]

@@ -24,7 +24,7 @@ from simtune.engines import Rollout
 from simtune.engines.contact import ContactProbe
 from simtune.report import figures as F
 from simtune.report import tables as T
-from simtune.report.collect import Group, RunRecord
+from simtune.report.collect import Group, ReportedRun
 from simtune.report.dr import dr_ranges, write_dr_yaml
 from simtune.report.html import FigureRef, Section
 from simtune.report.published import PublishedSim
@@ -51,7 +51,7 @@ class ReportData:
     contacts: list[ContactProbe] = field(default_factory=list)  # each engine's generic contact with each object
 
     @property
-    def runs(self) -> list[RunRecord]:
+    def runs(self) -> list[ReportedRun]:
         return [r for g in self.groups for r in g.runs]
 
     def task(self, name: str) -> TaskSpec:

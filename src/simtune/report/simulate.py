@@ -12,7 +12,7 @@ from simtune.engines import make_engine
 from simtune.errors import SimtuneError
 from simtune.fitness import TaskScore, marker_positions, rollout_joint_names, score_rollout
 from simtune.objective import Objective, load_references, recordings_folder
-from simtune.report.collect import Group, RunRecord
+from simtune.report.collect import Group, ReportedRun
 from simtune.tasks import TaskSpec
 
 
@@ -34,7 +34,7 @@ class References:
             raise value
         return value
 
-    def for_run(self, run: RunRecord) -> dict[str, TaskData]:
+    def for_run(self, run: ReportedRun) -> dict[str, TaskData]:
         return {t: self.get(run.data, run.task(t)) for t in run.task_names}
 
 
@@ -55,7 +55,7 @@ class TaskTrajectory:
 @dataclass
 class GroupSimulation:
     group: Group
-    run: RunRecord  # the group's best run, whose parameters are simulated
+    run: ReportedRun  # the group's best run, whose parameters are simulated
     params: dict[str, float]
     tasks: dict[str, TaskTrajectory]
 

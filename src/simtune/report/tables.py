@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from simtune.params.space import PARAMETERS
-from simtune.report.collect import Group, RunRecord
+from simtune.report.collect import Group, ReportedRun
 from simtune.table import Column, Table
 
 #: q below which the report calls a parameter's narrowing by tuning significant
@@ -740,7 +740,7 @@ def dr_table(ranges: dict[str, dict[str, dict]]) -> Table:
 
 
 # --- appendix: every run ---------------------------------------------------------------------------------
-def runs_table(runs: list[RunRecord]) -> Table:
+def runs_table(runs: list[ReportedRun]) -> Table:
     columns = [
         Column("run"),
         Column("engine"),

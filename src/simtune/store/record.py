@@ -55,6 +55,8 @@ class RunRecord:
     #: fitness and exact vectors of the initial population (generation 0), in store order
     initial_fitness: list[float]
     initial_population: list[list[float]]
+    #: where a ``resume --rescore`` started this run from: the changes, the members taken, the old store's file
+    rescored_from: dict | None
     #: the run's wall time over all its sessions (s)
     elapsed_s: float
     #: when its last stored evaluation finished (seconds since the epoch)
@@ -123,6 +125,7 @@ def read_record(run_dir: Path | str) -> RunRecord:
             generations=store.generations(),
             initial_fitness=store.initial_fitness(),
             initial_population=store.initial_population(),
+            rescored_from=store.get("rescored_from"),
             elapsed_s=float(store.get("elapsed_s", 0.0) or 0.0),
             finished_at=store.last_finished_at(),
         )
