@@ -4,8 +4,11 @@
 
 The real `cube` recordings, MuJoCo, the `extended` space; the batch is --evals random points of the middle
 of the space (stable simulations with differing masses and time steps, as a DE population has).  Each way is
-warmed up first (workers started, engines built), then timed on the same batch; the three ways take turns,
---repeats times, and the median [min, max] is printed with the load average: the host is shared.
+warmed up first (workers started, engines and their per-member copies built), then timed on the same batch;
+the three ways take turns, --repeats times, and the median [min, max] is printed with the load average: the
+host is shared.  "1 process" is the evaluator without a pool: the engine's batch path on one thread (MuJoCo's
+lockstep control periods, engines/mujoco/batch.py), where the pool's workers score one evaluation at a time.
+The share of the time inside ``mj_step`` is printed for both: what the GIL leaves to a second thread.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ def rate(objective: Objective, batch: np.ndarray, workers: int, threads: bool) -
     with tempfile.TemporaryDirectory() as tmp:
         store = RunStore(Path(tmp), create=True)
         with Evaluator(objective, store, workers, threads=threads) as evaluator:
-            evaluator(None, batch[:4] + 1e-9)  # warm-up: workers started, engines and thread copies built
+            evaluator(None, batch + 1e-9)  # warm-up: workers started, engines and one copy per member built
             t0 = time.perf_counter()
             evaluator(None, batch)
             seconds = time.perf_counter() - t0
@@ -41,22 +44,30 @@ def rate(objective: Objective, batch: np.ndarray, workers: int, threads: bool) -
     return len(batch) / seconds
 
 
-def stepping_share(objective: Objective, batch: np.ndarray) -> float:
-    """Share of one-at-a-time evaluation time spent inside ``mj_step`` (which runs without the GIL)."""
-    engine = objective._engine(objective.tasks[0])
-    step, inside = engine.step, [0.0]
+def stepping_share(objective: Objective, batch: np.ndarray, batched: bool) -> float:
+    """Share of the evaluation time spent inside ``mj_step`` (which runs without the GIL): one evaluation at a time,
+    or (``batched``) the batch at once on one thread (the batch path; the same as one at a time where there is none)."""
+    import mujoco
 
-    def timed_step(n: int) -> None:
+    step, inside = mujoco.mj_step, [0.0]
+
+    def timed_step(*args, **kwargs) -> None:
         t0 = time.perf_counter()
-        step(n)
+        step(*args, **kwargs)
         inside[0] += time.perf_counter() - t0
 
-    engine.step = timed_step  # type: ignore[method-assign]
-    t0 = time.perf_counter()
-    for x in batch:
-        objective.score_vector(x)
-    total = time.perf_counter() - t0
-    engine.step = step  # type: ignore[method-assign]
+    space = objective.vector_space()
+    mujoco.mj_step = timed_step
+    try:
+        t0 = time.perf_counter()
+        if batched:
+            list(objective.score_batch([space.to_dict(x) for x in batch]))
+        else:
+            for x in batch:
+                objective.score_vector(x)
+        total = time.perf_counter() - t0
+    finally:
+        mujoco.mj_step = step
     return inside[0] / total
 
 
@@ -80,11 +91,12 @@ def main() -> None:
             loads.append(os.getloadavg()[0])
     for way, values in rates.items():
         print(f"  {way}: {statistics.median(values):.2f} [{min(values):.2f}, {max(values):.2f}] eval/s")
-    share = stepping_share(objective, batch)
-    print(
-        f"  share of an evaluation inside mj_step (GIL released): {share:.2f}; the rest holds the GIL, so 2 "
-        f"threads can at best run {1 / ((1 - share) + share / 2):.2f} x as fast as one (Amdahl), 2 processes 2 x"
-    )
+    for what, batched in (("one at a time", False), ("the batch on one thread", True)):
+        share = stepping_share(objective, batch, batched)
+        print(
+            f"  share inside mj_step (GIL released), {what}: {share:.2f}; the rest holds the GIL, so 2 threads "
+            f"can at best run {1 / ((1 - share) + share / 2):.2f} x as fast as one (Amdahl)"
+        )
     one = statistics.median(rates["1 process"])
     print(
         f"  speed-up over 1 process: 2 processes x{statistics.median(rates['2 processes']) / one:.2f}, "

@@ -5,7 +5,7 @@ import pytest
 
 from simtune.engines import engine_class
 from simtune.objective import Objective, load_references
-from simtune.optimize.evaluator import Evaluator
+from simtune.optimize.evaluator import Evaluator, batch_on_threads
 from simtune.params import get_space
 from simtune.reference import REFERENCE_DIR
 from simtune.store import RunStore
@@ -77,6 +77,7 @@ def test_the_threaded_evaluator_stores_what_one_process_stores(tmp_path):
     assert sum(pruned for _, _, pruned, _ in rows["one"][0]) == 6
 
 
+@pytest.mark.slow  # the batch path's bit-identity stays in the default tier: tests/test_batch_vectorised.py
 def test_a_run_on_threads_is_the_run_of_one_process(tmp_path):
     from simtune.runs import RunConfig, start_run
 
@@ -86,3 +87,18 @@ def test_a_run_on_threads_is_the_run_of_one_process(tmp_path):
     threaded = start_run(RunConfig(**base, workers=2, threads=True), tmp_path / "threads", show_progress=False)
     assert threaded.fitness == one.fitness and threaded.evaluations == one.evaluations
     np.testing.assert_array_equal(threaded.x, one.x)
+
+
+def test_mujoco_batches_run_on_threads_by_default_where_they_win(tmp_path):
+    """Left unsaid, MuJoCo's batches go to its batch path on up to 2 workers (where threads beat processes), unless a
+    time-out needs worker processes; what is asked for is done."""
+    assert batch_on_threads("mujoco", 2, None, None) and batch_on_threads("mujoco", 1, None, None)
+    assert not batch_on_threads("mujoco", 2, None, 30.0) and not batch_on_threads("mujoco", 8, None, None)
+    assert not batch_on_threads("pybullet", 2, None, None) and batch_on_threads("pybullet", 2, True, None)
+    assert not batch_on_threads("mujoco", 2, False, None)
+    store = RunStore(tmp_path / "run", create=True)
+    with Evaluator(objective(), store, 2) as evaluator:
+        assert evaluator.threads and evaluator._pool is None
+    with Evaluator(objective(), store, 2, eval_timeout=60.0) as evaluator:
+        assert not evaluator.threads and evaluator._pool is not None
+    store.close()

@@ -48,6 +48,10 @@ def test_check_reports_quality_onsets_and_what_the_task_informs():
     for r in cube["repeats"]:
         assert r["lost_frames"] >= 0 and r["distance_to_mean_m"] < 0.05 and r["start_distance_m"] < 0.1
         assert r["onset_s"] is not None and 0.0 < r["onset_s"] < 5.0
+        assert abs(r["shift_s"]) < 0.2 and not r["shift_outlier"] and r["floor_fitness"] > 0
+    # the floor: the repeats agree better on one clock; the reference checked against is the aligned one
+    assert 0 < cube["repeat_spread_aligned_m"] <= cube["repeat_spread_unaligned_m"]
+    assert cube["reference"] == result["reference"] == "aligned" and cube["floor_fitness"] > 0
     jac = result["jacobian"]
     assert 0 < jac["rank"] <= jac["searched"] == len(jac["singular_values"])
     informed = {p["name"] for p in result["parameters"] if p["informed"]}

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from simtune.errors import ProjectError, RobotError
+import simtune.api as st
+from simtune.errors import ConfigError, ProjectError, RobotError
 from simtune.project import load_project
 from simtune.project_check import check_project
 from simtune.project_init import init_project
@@ -363,3 +364,14 @@ def test_a_bad_servo_gain_is_one_line_naming_the_key(panda_project, tmp_path, va
     with pytest.raises(ProjectError, match=r"simtune.toml: robot.servo_gain: ") as info:
         load_project(project)
     assert "\n" not in str(info.value)
+
+
+def test_a_truth_is_checked_against_the_projects_robot_not_the_mico(panda_project, tmp_path):
+    """The Panda's first link weighs 1.9-3.5 kg in its parameter range; the MICO's 0.52-0.97 kg."""
+    truth = tmp_path / "truth.json"
+    truth.write_text(json.dumps({"mass_link_1": 3.0}))
+    result = st.synth("mujoco", "reach", out=tmp_path / "data", truth=truth, project=panda_project, repeats=1)
+    assert result.truth["mass_link_1"] == 3.0
+    truth.write_text(json.dumps({"mass_link_1": 0.7}))  # a MICO mass, below the Panda's range
+    with pytest.raises(ConfigError, match="'mass_link_1' = 0.7 is outside its range"):
+        st.synth("mujoco", "reach", out=tmp_path / "more", truth=truth, project=panda_project, repeats=1)

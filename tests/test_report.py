@@ -396,6 +396,12 @@ def test_report_of_one_short_run(tmp_path):
     assert len(rows) == 1 and Path(rows[0]["run"]) == run
     best = list(csv.DictReader((tmp_path / "out" / "tables" / "best_tuned.csv").read_text().splitlines()))
     assert float(best[0]["best tuned fitness"]) == result.fitness
+    # the floor: the recorded repeats against their aligned mean, beside the tuned fitness
+    (floor,) = csv.DictReader((tmp_path / "out" / "tables" / "floor.csv").read_text().splitlines())
+    assert floor["task"] == "cube" and floor["repeats"] == "3"
+    assert 0 < float(floor["spread aligned [mm]"]) <= float(floor["spread as recorded [mm]"])
+    assert 0 < float(floor["floor (aligned mean vs repeats)"]) < result.fitness
+    assert "The floor: the real arm against itself" in html and "scored against: aligned" in html
 
 
 def _titles_inside(fig) -> list[str]:

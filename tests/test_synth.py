@@ -70,6 +70,8 @@ def test_tuning_recovers_the_true_delay(tmp_path):
         only=["command_delay"],
         optimizer="cmaes",
         max_evaluations=24,
+        # the delay the repeats' jitter averages to (the aligned reference moves at the median repeat's delay)
+        reference="mean",
     )
     result = start_run(config, tmp_path / "run", show_progress=False)
     assert abs(result.params["command_delay"] - 1.1) <= 0.05

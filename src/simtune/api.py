@@ -27,6 +27,7 @@ from pathlib import Path
 from simtune.alignment import DelayEstimate, aligned, estimate_delay
 from simtune.check import check as run_check
 from simtune.compare import run_compare
+from simtune.data.clock import DEFAULT_REFERENCE, check_reference
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, SimtuneError
 from simtune.export import ExportResult, export_run, export_runs
@@ -83,6 +84,8 @@ class Result:
     fitness_unaligned: float | None = None
     #: task -> the command delay [s] its clock was aligned with
     clock_aligned: dict[str, float] = field(default_factory=dict)
+    #: what the fitness compared the simulation with: ``aligned`` (the repeats on one clock) or ``mean``
+    reference: str = DEFAULT_REFERENCE
 
     @classmethod
     def from_score(cls, engine: str, x: Mapping[str, float], score: Score, generic: Score | dict, **more) -> Result:
@@ -172,6 +175,13 @@ def _study_root(data: object) -> Path:
     return Path(os.path.abspath(_path("data", data))) if data is not None else REFERENCE_DIR
 
 
+def _reference(reference: object, paper_exact: bool = False) -> str:
+    """The reference kind asked for: ``aligned`` or ``mean``; None: aligned, or mean with ``paper_exact``."""
+    if reference is None:
+        return "mean" if paper_exact else DEFAULT_REFERENCE
+    return check_reference(reference)
+
+
 def _aligned(align_clock: object, specs) -> set[str]:
     """The tasks whose clocks ``align_clock`` names: True (all), False (none) or task names of ``specs``."""
     if align_clock is None or isinstance(align_clock, bool):
@@ -196,6 +206,7 @@ def evaluate(
     weights: FitnessWeights | Mapping[str, float] | str | None = None,
     joint_topic: str | None = None,
     align_clock: bool | Collection[str] = False,
+    reference: str | None = None,
 ) -> Result:
     """Fitness of ``params`` (a mapping, or a params file such as best_params.json; default: the engine's
     generic values) for ``engine`` on ``tasks`` (names or groups: comma-separated, or a list) of ``project``.
@@ -205,9 +216,12 @@ def evaluate(
     ``joint_topic``: the JointState topic of ROS 2 joint logs (docs/recordings.md).  ``align_clock``:
     True, or the names of the tasks whose recording clock is aligned first (their command delay estimated
     from the recordings with the physics of ``params`` held fixed, :mod:`simtune.alignment`); the result's
-    ``fitness_unaligned`` is the fitness without it.  An argument of the wrong type or value is a
-    :class:`~simtune.errors.ConfigError` naming it.
+    ``fitness_unaligned`` is the fitness without it.  ``reference``: what the simulation is scored against,
+    ``aligned`` (the default: the repeats shifted onto one clock, then averaged) or ``mean`` (the paper's plain
+    mean of the repeats).  An argument of the wrong type or value is a :class:`~simtune.errors.ConfigError`
+    naming it.
     """
+    kind = _reference(reference)
     fitness_weights = _weights(weights)
     proj = _project(project)
     specs = proj.parse_tasks(",".join(_names("tasks", tasks, "single,cube")))
@@ -223,7 +237,7 @@ def evaluate(
         values = validate_params(file_values, supported, engine, where=str(given), robot=robot)
     else:
         values = validate_params(dict(given), supported, engine, where="params", robot=robot)
-    references = load_references(_root(data, proj), specs, joint_topic)
+    references = load_references(_root(data, proj), specs, joint_topic, kind)
     objective = Objective(engine, specs, references, weights=fitness_weights)
     try:
         start = time.perf_counter()
@@ -248,7 +262,9 @@ def evaluate(
         if estimates
         else {}
     )
-    return Result.from_score(engine, values, score, generic, evaluations=evaluations, wall_s=wall, **more)
+    return Result.from_score(
+        engine, values, score, generic, evaluations=evaluations, wall_s=wall, reference=kind, **more
+    )
 
 
 def _task_spec(tasks: object) -> str:
@@ -282,10 +298,12 @@ def run_config(
     paper_exact: bool = False,
     keep_inactive: bool = False,
     threads: bool = False,
+    reference: str | None = None,
 ) -> RunConfig:
     """The configuration ``tune`` runs and stores, from the same arguments (``simtune tune``'s options).
 
-    ``optimizer``: None for the default (auto; de with ``paper_exact``).  The project is stored by its project
+    ``optimizer``: None for the default (auto; de with ``paper_exact``); ``reference``: None for the default
+    (aligned; mean with ``paper_exact``).  The project is stored by its project
     file (the bundled MICO project: not at all), ``data`` absolute.
     """
     proj = _project(project)
@@ -312,6 +330,7 @@ def run_config(
         joint_topic=joint_topic,
         keep_inactive=keep_inactive,
         threads=threads,
+        reference=_reference(reference, paper_exact),
     )
 
 
@@ -364,11 +383,21 @@ def compare(
     only: str | Collection[str] | None = None,
     eval_timeout: float = 600.0,
     on_run: Callable[[str, int, str], None] | None = None,
+    reference: str | None = None,
 ) -> dict:
     """Optimisers head to head on ``budget`` evaluations, ``seeds`` runs each, in ``out`` (``simtune compare``);
     ``on_run(optimizer, seed, "running" or "resuming")`` before each run that is not reused."""
     # each run's optimiser, seed and budget are the comparison's
-    base = run_config(engine, tasks, data=data, space=space, workers=workers, only=only, eval_timeout=eval_timeout)
+    base = run_config(
+        engine,
+        tasks,
+        data=data,
+        space=space,
+        workers=workers,
+        only=only,
+        eval_timeout=eval_timeout,
+        reference=reference,
+    )
     # none named: run_compare says to name at least one
     return run_compare(base, _listed(optimizers), seeds, budget, _path("out", out), target, on_run=on_run)
 
@@ -393,6 +422,7 @@ def transfer(
     eval_timeout: float = 600.0,
     align_clock: bool = True,
     show_progress: bool = False,
+    reference: str | None = None,
 ) -> dict:
     """Tune on ``train``, then score the tuned and the generic parameters on ``train`` and the unseen ``test``
     tasks (``simtune transfer``); the result as OUT/transfer.json holds it."""
@@ -410,6 +440,7 @@ def transfer(
         max_evaluations=max_evaluations,
         only=only,
         eval_timeout=eval_timeout,
+        reference=reference,
     )
     test_root = None if test_data is None else _path("test_data", test_data)
     return run_transfer(
@@ -475,6 +506,7 @@ def grid_spec(
     max_generations: int = 1000,
     only: str | Collection[str] | None = None,
     keep_inactive: bool = False,
+    reference: str | None = None,
 ) -> GridSpec:
     """An experiment grid (``simtune grid``'s options): engines x experiments x spaces x ``repeats`` seeds; an
     experiment joins tasks tuned together with '+' (``single+cube``)."""
@@ -488,6 +520,7 @@ def grid_spec(
         max_generations=max_generations,
         only=None if only is None else _names("only", only, "command_delay"),
         keep_inactive=keep_inactive,
+        reference=_reference(reference),
     )
 
 
@@ -510,14 +543,17 @@ def check(
     data: Path | str | None = None,
     space: str = "extended",
     workers: int = 1,
+    reference: str | None = None,
 ) -> dict:
-    """Before tuning (``simtune check --task``): the recordings' quality per task and which active parameters
-    the recordings can inform (the Jacobian at the generic point)."""
+    """Before tuning (``simtune check --task``): the recordings' quality per task (with the repeats' clock
+    shifts and the floor: their spread with and without alignment), and which active parameters the recordings
+    can inform (the Jacobian at the generic point, against ``reference``: aligned, the default, or mean)."""
+    kind = _reference(reference)
     proj = _project(project)
     root = _root(data, proj)
     if root is None:
         raise SimtuneError(f"check: the project {project} names no data root: give the recordings with --data")
-    return run_check(engine, proj.parse_tasks(_task_spec(tasks)), root, space, workers)
+    return run_check(engine, proj.parse_tasks(_task_spec(tasks)), root, space, workers, reference=kind)
 
 
 def synth(
@@ -533,7 +569,8 @@ def synth(
     """Recordings with a known ground truth in the data root ``out`` (``simtune synth``): ``truth`` a params
     file (default: the engine's generic values), ``delay_s`` the true command delay; ``recording`` are
     :func:`simtune.synth.make_synthetic`'s noise_m, repeats, seed, jitter_s, fmt, joint_noise_rad and force."""
-    values = load_truth(None if truth is None else _path("truth", truth), engine, delay_s)
+    robot = _project(project).robot.description  # a truth is checked against its robot's ranges (None: the MICO)
+    values = load_truth(None if truth is None else _path("truth", truth), engine, delay_s, robot)
     return make_synthetic(engine, _task_spec(tasks), _path("out", out), truth=values, project=project, **recording)
 
 
@@ -589,6 +626,7 @@ def _read_run(run_dir: Path) -> Result:
         run_dir=run_dir,
         message=str(record.message if record.message is not None else (record.status or "")),
         wall_s=record.elapsed_s,
+        reference=str(record.config.get("reference", "mean")),  # a run stored before the choice: the mean
     )
 
 

@@ -5,8 +5,11 @@ Three parts, per task and then for the tasks together:
 - data quality: for each recording, the frames where the wrist marker was lost and the longest
   gap (the loader bridges gaps up to 0.25 s and leaves out a repeat with a longer one, with a
   warning the check lists); how well the repeats agree (each one's mean distance from the mean
-  track, and the largest); how far each repeat's first wrist sample lies from where the
-  simulated arm's marker starts (a large distance: another start pose, or a misplaced base);
+  track, and the largest), with and without their clocks aligned (:mod:`simtune.data.clock`: each
+  repeat's shift, an outlying one flagged); the floor: the fitness of the aligned mean against each
+  repeat, what a simulation as good as the arm's own repeats scores; how far each repeat's first
+  wrist sample lies from where the simulated arm's marker starts (a large distance: another start
+  pose, or a misplaced base);
 - the motion onset of each repeat (:func:`simtune.data.onset.motion_onset`) and of the generic
   simulation: their difference is the delay between pressing record and the first command;
 - which parameters the tasks can inform: the Jacobian of the per-sample residuals at the
@@ -26,10 +29,11 @@ import numpy as np
 from simtune.activity import active_space, inactive_parameters
 from simtune.alignment import PROBE_DELAY_S
 from simtune.data import TaskData, load_recording
+from simtune.data.clock import outlying_shifts
 from simtune.data.onset import motion_onset
 from simtune.engines import engine_class, make_engine
 from simtune.errors import SimtuneError
-from simtune.fitness import marker_positions
+from simtune.fitness import marker_positions, reference_floor, repeat_floor
 from simtune.objective import Objective, generic_values, load_references
 from simtune.params import get_space
 from simtune.tasks import TaskSpec
@@ -56,58 +60,86 @@ def _gaps(path: Path, body: str) -> tuple[int, float]:
     return int(lost.sum()), longest * period
 
 
-def task_quality(engine: str, task: TaskSpec, root: Path) -> tuple[dict, TaskData]:
-    """The data-quality and onset part of the check for one task, and its loaded reference."""
+def _repeat_rows(task: TaskSpec, aligned: TaskData, plain_agreement: np.ndarray, sim_start: np.ndarray) -> list[dict]:
+    """One row per repeat: its gaps, its distance from the mean track (aligned, and as recorded), its start,
+    its motion onset on its own clock, its clock shift and the fitness floor it sets."""
+    assert aligned.wrist_repeats is not None and aligned.wrist_mean is not None and aligned.alignment is not None
+    agreement = np.linalg.norm(aligned.wrist_repeats - aligned.wrist_mean[None], axis=2).mean(axis=1)
+    typical = float(np.median(agreement))
+    shifts = aligned.alignment.shifts
+    odd = set(outlying_shifts(shifts, 1.0 / aligned.rate))
+    floor = repeat_floor(aligned)
+    rows = []
+    for i, source in enumerate(aligned.sources):
+        lost, longest = _gaps(source, task.wrist_body)
+        rows.append(
+            {
+                "file": Path(source).name,
+                "lost_frames": lost,
+                "longest_gap_s": longest,
+                "distance_to_mean_m": float(agreement[i]),
+                "distance_to_mean_unaligned_m": float(plain_agreement[i]),
+                "outlier": bool(typical > 0 and agreement[i] > OUTLIER_FACTOR * typical),
+                "start_distance_m": float(np.linalg.norm(aligned.wrist_repeats[i, 0] - sim_start)),
+                "onset_s": aligned.alignment.onsets[i],
+                "shift_s": float(shifts[i]),
+                "shift_outlier": i in odd,
+                "floor_fitness": float(floor[i]),
+            }
+        )
+    return rows
+
+
+def task_quality(engine: str, task: TaskSpec, root: Path, reference: str = "aligned") -> tuple[dict, TaskData]:
+    """The data-quality and onset part of the check for one task, and its loaded reference (``reference``: aligned
+    or mean).  The repeats are aligned either way, to report their clock shifts and their spread with and
+    without alignment: the floor a tuned simulation should be compared with."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        reference = load_references(root, [task])[task.name]
-    wrist_repeats, wrist_mean = reference.wrist_repeats, reference.wrist_mean
-    if wrist_repeats is None or wrist_mean is None:
+        aligned = load_references(root, [task], reference="aligned")[task.name]
+        plain = load_references(root, [task], reference="mean")[task.name]
+    if aligned.wrist_repeats is None or aligned.wrist_mean is None or plain.wrist_repeats is None:
         raise SimtuneError(
             f"check --task {task.name}: its recordings hold no wrist marker (joint logs only); this check reads "
             "the marker track - simtune check DIR checks joint logs against the start pose"
         )
     sim = make_engine(engine, task)
     try:
-        rollout = sim.rollout({}, len(reference.times))
-        delayed = sim.rollout({"command_delay": PROBE_DELAY_S}, len(reference.times))
+        rollout = sim.rollout({}, len(aligned.times))
+        delayed = sim.rollout({"command_delay": PROBE_DELAY_S}, len(aligned.times))
     finally:
         sim.close()
     sim_marker = marker_positions(rollout, {})
     # measured with the arm resting first, as a recording's onset is; the probe's delay taken off
     onset = motion_onset(delayed.times, marker_positions(delayed, {}))
     sim_onset = None if onset is None else onset - PROBE_DELAY_S
-    agreement = np.linalg.norm(wrist_repeats - wrist_mean[None], axis=2).mean(axis=1)
-    typical = float(np.median(agreement))
-    repeats: list[dict] = []
-    for i, source in enumerate(reference.sources):
-        lost, longest = _gaps(source, task.wrist_body)
-        onset = motion_onset(reference.times, wrist_repeats[i])
-        repeats.append(
-            {
-                "file": Path(source).name,
-                "lost_frames": lost,
-                "longest_gap_s": longest,
-                "distance_to_mean_m": float(agreement[i]),
-                "outlier": bool(typical > 0 and agreement[i] > OUTLIER_FACTOR * typical),
-                "start_distance_m": float(np.linalg.norm(wrist_repeats[i, 0] - sim_marker[0])),
-                "onset_s": onset,
-            }
-        )
+    assert plain.wrist_mean is not None
+    plain_agreement = np.linalg.norm(plain.wrist_repeats - plain.wrist_mean[None], axis=2).mean(axis=1)
+    repeats = _repeat_rows(task, aligned, plain_agreement, sim_marker[0])
+    chosen = aligned if reference == "aligned" else plain
+    floor = reference_floor(aligned)
     onsets = [float(r["onset_s"]) for r in repeats if r["onset_s"] is not None]
     summary = {
         "task": task.name,
+        "reference": reference,
         "repeats": repeats,
         "left_out": [str(w.message) for w in caught],
-        "repeat_spread_m": reference.repeat_spread,
-        "largest_distance_to_mean_m": float(agreement.max()),
-        "start_distance_m": float(np.linalg.norm(wrist_mean[0] - sim_marker[0])),
+        "repeat_spread_m": chosen.repeat_spread,
+        "repeat_spread_aligned_m": floor.spread_aligned_m,
+        "repeat_spread_unaligned_m": floor.spread_unaligned_m,
+        "floor_fitness": floor.floor,
+        "shift_range_s": [floor.shift_min_s, floor.shift_max_s],
+        "shift_outliers": list(floor.outliers),
+        "largest_distance_to_mean_m": max(
+            r["distance_to_mean_m" if chosen is aligned else "distance_to_mean_unaligned_m"] for r in repeats
+        ),
+        "start_distance_m": float(np.linalg.norm(chosen.wrist_mean[0] - sim_marker[0])),  # type: ignore[index]
         "onset_mean_s": float(np.mean(onsets)) if onsets else None,
         "onset_std_s": float(np.std(onsets, ddof=1)) if len(onsets) > 1 else None,
         "simulated_onset_s": sim_onset,
         "implied_command_delay_s": (float(np.mean(onsets) - sim_onset) if onsets and sim_onset is not None else None),
     }
-    return summary, reference
+    return summary, chosen
 
 
 def repeat_noise(references: list[TaskData]) -> tuple[float, float]:
@@ -130,14 +162,23 @@ def repeat_noise(references: list[TaskData]) -> tuple[float, float]:
     return float(np.mean(variances)), correlation_time(deviations)
 
 
-def check(engine: str, tasks: list[TaskSpec], root: Path, space_name: str = "extended", workers: int = 1) -> dict:
-    """Every part of the check for ``tasks`` on ``engine`` with the recordings under ``root``."""
+def check(
+    engine: str,
+    tasks: list[TaskSpec],
+    root: Path,
+    space_name: str = "extended",
+    workers: int = 1,
+    *,
+    reference: str = "aligned",
+) -> dict:
+    """Every part of the check for ``tasks`` on ``engine`` with the recordings under ``root``, the Jacobian's
+    residuals against ``reference`` (aligned or mean)."""
     cls = engine_class(engine)
     per_task, references = [], {}
     for task in tasks:
-        summary, reference = task_quality(engine, task, Path(root))
+        summary, reference_data = task_quality(engine, task, Path(root), reference)
         per_task.append(summary)
-        references[task.name] = reference
+        references[task.name] = reference_data
     full = get_space(space_name, cls.supported())
     inactive = inactive_parameters(engine, tasks, full)
     space = active_space(full, inactive)
@@ -167,6 +208,7 @@ def check(engine: str, tasks: list[TaskSpec], root: Path, space_name: str = "ext
         "tasks": [t.name for t in tasks],
         "data": str(root),
         "space": space_name,
+        "reference": reference,
         "data_quality": per_task,
         "jacobian": {
             "point": "generic",

@@ -134,7 +134,8 @@ def run_compare(
             if (run_dir / STORE_FILE).exists():
                 stored = RunStore(run_dir)
                 try:
-                    same = stored.get("config") == config.record()
+                    # a run stored before the choice of reference scored against the mean
+                    same = {"reference": "mean", **(stored.get("config") or {})} == config.record()
                     finished = stored.get("status") == "finished"
                 finally:
                     stored.close()
@@ -155,6 +156,7 @@ def run_compare(
         "engine": base.engine,
         "tasks": base.tasks,
         "space": base.space,
+        "reference": base.reference,
         "data": base.data,
         "only": base.only,
         "budget": budget,

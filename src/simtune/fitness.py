@@ -230,6 +230,61 @@ def score_rollout(
     )
 
 
+def repeat_floor(reference: TaskData, weights: FitnessWeights = FitnessWeights()) -> np.ndarray:
+    """Per repeat, the fitness the reference's mean scores against that repeat, as a simulation would be scored
+    against the mean: what a simulation as good as the real arm's own repeats scores (the floor of the fitness).
+
+    The wrist part is the repeat's mean distance from ``wrist_mean``, the object part its final object position's
+    distance from the mean one, the joint part its mean absolute angle difference from ``joint_mean``.
+    """
+    count = len(reference.sources)
+    wrist = joint = obj = np.full(count, np.nan)
+    if reference.wrist_repeats is not None and reference.wrist_mean is not None:
+        wrist = np.linalg.norm(reference.wrist_repeats - reference.wrist_mean[None], axis=2).mean(axis=1)
+    if reference.object_final is not None:
+        obj = np.linalg.norm(reference.object_final - reference.object_final.mean(axis=0), axis=1)
+    if reference.joint_repeats is not None and reference.joint_mean is not None:
+        joint = np.abs(reference.joint_repeats - reference.joint_mean[None]).mean(axis=(1, 2))
+
+    def part(values: np.ndarray, i: int) -> float | None:
+        return None if np.isnan(values[i]) else float(values[i])
+
+    return np.array([_weighted(weights, part(wrist, i), part(obj, i), part(joint, i)) for i in range(count)])
+
+
+@dataclass(frozen=True)
+class RepeatFloor:
+    """How well a task's repeats agree, with and without their clocks aligned, and the floor it sets."""
+
+    task: str
+    repeats: int
+    spread_unaligned_m: float | None  # the wrist's repeat spread on the repeats' own clocks
+    spread_aligned_m: float | None  # ... with their clocks aligned
+    shift_min_s: float
+    shift_max_s: float
+    outliers: tuple[str, ...]  # the files whose shift is an outlier
+    floor: float  # mean over the repeats of :func:`repeat_floor`
+
+
+def reference_floor(aligned: TaskData, weights: FitnessWeights = FitnessWeights()) -> RepeatFloor:
+    """The :class:`RepeatFloor` of the aligned reference ``aligned`` (loaded with ``reference="aligned"``)."""
+    from simtune.data.clock import outlying_shifts
+
+    if aligned.alignment is None:
+        raise ValueError(f"task {aligned.task}: reference_floor needs the aligned reference, not {aligned.reference}")
+    shifts = aligned.alignment.shifts
+    return RepeatFloor(
+        task=aligned.task,
+        repeats=len(aligned.sources),
+        spread_unaligned_m=aligned.unaligned_spread,
+        spread_aligned_m=aligned.repeat_spread,
+        shift_min_s=float(shifts.min()),
+        shift_max_s=float(shifts.max()),
+        outliers=tuple(aligned.sources[i].name for i in outlying_shifts(shifts, 1.0 / aligned.rate)),
+        floor=float(repeat_floor(aligned, weights).mean()),
+    )
+
+
 def pruned_message(at: str) -> str:
     """The message of a task pruned at time ``at`` [s, as written] (the run store keeps ``at`` alone)."""
     return f"pruned at t={at} s: cannot beat its parent"

@@ -18,8 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
+from simtune.data import TaskData
 from simtune.engines import ENGINES, engine_class
 from simtune.errors import EngineUnavailable, SimtuneError
+from simtune.fitness import reference_floor
 from simtune.objective import load_task_recordings, recordings_folder
 from simtune.project import Project, load_project
 
@@ -79,7 +81,7 @@ def _check_recordings(project: Project, name: str) -> list[Finding]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            data = load_task_recordings(folder, task)
+            data = load_task_recordings(folder, task, reference="aligned")
         except SimtuneError as exc:
             return [Finding("problem", f"{where}: recordings: {exc}")]
     findings = [Finding("warning", f"{where}: recordings: {w.message}") for w in caught]
@@ -91,6 +93,7 @@ def _check_recordings(project: Project, name: str) -> list[Finding]:
     if data.joint_names:
         holds.append(f"{len(data.joint_names)} joint angles")
     findings.append(Finding("note", f"task {name}: {len(data.sources)} recordings in {folder} ({', '.join(holds)})"))
+    findings.append(Finding("note", _floor_line(name, data)))
     if data.wrist_repeats is not None:
         start, _ = task.robot.forward_kinematics(np.radians(task.start_pose_deg))
         first = data.wrist_repeats[0, 0]
@@ -118,6 +121,21 @@ def _check_recordings(project: Project, name: str) -> list[Finding]:
             else:
                 findings.append(Finding("note", line))
     return findings
+
+
+def _floor_line(name: str, data: TaskData) -> str:
+    """The repeats' spread with and without their clocks aligned, their shifts and the floor of the fitness."""
+    floor = reference_floor(data)
+    spread = ""
+    if floor.spread_unaligned_m is not None and floor.spread_aligned_m is not None:
+        spread = (
+            f"wrist spread {floor.spread_unaligned_m * 1000:.1f} mm as recorded, "
+            f"{floor.spread_aligned_m * 1000:.1f} mm with the clocks aligned; "
+        )
+    return (
+        f"task {name}: {spread}clock shifts {floor.shift_min_s:+.3f} to {floor.shift_max_s:+.3f} s; floor (the aligned "
+        f"mean scored against each repeat, what a tuned simulation compares with) {floor.floor:.4f}"
+    )
 
 
 def _xyz(v) -> str:

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from simtune.activity import active_space, declared_inactive, inactive_parameters
 from simtune.data import TaskData
+from simtune.data.clock import DEFAULT_REFERENCE, check_reference
 from simtune.engines import Engine, engine_class
 from simtune.errors import ConfigError
 from simtune.fitness import FitnessWeights
@@ -72,6 +73,14 @@ class RunConfig:
     #: evaluate each batch in the coordinating process on --workers threads (the engine's batch path; the same
     #: results as worker processes, without their crash isolation and time-outs)
     threads: bool = False
+    #: what the simulation is scored against: ``aligned`` (the repeats on one clock, then averaged) or ``mean``
+    #: (the paper's plain mean); left empty: aligned, or mean with paper_exact.  Runs stored before this setting
+    #: existed scored against the mean
+    reference: str = ""
+
+    def __post_init__(self) -> None:
+        if self.reference == "":
+            self.reference = "mean" if self.paper_exact is True else DEFAULT_REFERENCE
 
     def record(self) -> dict:
         """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
@@ -96,8 +105,9 @@ class RunConfig:
                 raise ConfigError(
                     f"{where}: unknown key {key!r} in the stored configuration (written by another simtune version?)"
                 )
-        # a run from before these settings searched every parameter, with one shared command delay
-        values = {"keep_inactive": True, "task_delays": False, **values}
+        # a run from before these settings searched every parameter, with one shared command delay, and scored
+        # against the plain mean of the repeats
+        values = {"keep_inactive": True, "task_delays": False, "reference": "mean", **values}
         for f in fields(cls):
             if f.default is MISSING and f.name not in values:
                 raise ConfigError(f"{where}: the stored configuration has no {f.name!r}")
@@ -145,7 +155,13 @@ class RunConfig:
         if self.joint_topic is not None and not isinstance(self.joint_topic, str):
             raise bad("joint_topic", "a topic name")
         get_optimizer(self.optimizer)
+        check_reference(self.reference, f"{at}reference")
         if self.paper_exact:
+            if self.reference != "mean":
+                raise ConfigError(
+                    f"{at}--paper-exact scores against the plain mean of the repeats (the paper's fitness): "
+                    f"drop --reference {self.reference}"
+                )
             if self.optimizer != "de":
                 raise ConfigError(f"{at}--paper-exact runs differential evolution, not --optimizer {self.optimizer}")
             if self.space not in ("shared", "individual"):
@@ -219,9 +235,10 @@ class RunPlan:
 
     @cached_property
     def references(self) -> dict[str, TaskData]:
-        """The recordings of every task (from the run's data root, else each task's own folder)."""
+        """The recordings of every task (from the run's data root, else each task's own folder), as the run's
+        reference (aligned or mean)."""
         data = None if self.config.data is None else Path(self.config.data)
-        return load_references(data, self.tasks, self.config.joint_topic)
+        return load_references(data, self.tasks, self.config.joint_topic, self.config.reference)
 
     def search_space(self, inactive: dict[str, str] | None = None) -> ParameterSpace:
         """The space searched: the full space less ``inactive`` (default: the measured ones) unless the run keeps

@@ -93,9 +93,11 @@ def task_fingerprint(task: TaskSpec) -> str:
 
 
 def run_fingerprint(plan: RunPlan) -> dict:
-    """What the fitness of a run depends on besides its parameters: data files, task definitions, engine version."""
+    """What the fitness of a run depends on besides its parameters: data files, the reference made of them (aligned
+    or mean), task definitions, engine version."""
     return {
         "data": folders_fingerprint({t.name: recordings_folder(plan.config.data, t) for t in plan.tasks}),
+        "reference": plan.config.reference,
         "tasks": {t.name: task_fingerprint(t) for t in plan.tasks},
         "engine": f"{plan.config.engine} {plan.engine.version()}",
     }
@@ -120,6 +122,10 @@ FORMER_TASK_FINGERPRINTS = {
 def fingerprint_differences(stored: dict, now: dict) -> list[str]:
     """What changed between two run fingerprints, one phrase each (``cube/cube0002.tsv changed``)."""
     changes = fingerprint_changes(stored.get("data", {}), now["data"])
+    # a run stored before the choice of reference scored against the plain mean
+    was, now_kind = stored.get("reference", "mean"), now.get("reference", "mean")
+    if was != now_kind:
+        changes.append(f"the reference changed from {was} to {now_kind}")
     for name in sorted(set(stored.get("tasks", {})) | set(now["tasks"])):
         before, after = stored.get("tasks", {}).get(name), now["tasks"].get(name)
         if before != after and before != FORMER_TASK_FINGERPRINTS.get(after or ""):

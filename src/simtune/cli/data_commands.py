@@ -15,6 +15,7 @@ from simtune.cli.options import (
     EngineOpt,
     JsonOpt,
     ProjectOpt,
+    ReferenceOpt,
     SpaceOpt,
     WorkersOpt,
     finite,
@@ -48,6 +49,7 @@ def check(
     data: DataOpt = None,
     space: SpaceOpt = "extended",
     workers: WorkersOpt = 1,
+    reference: ReferenceOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Before tuning: a project's files (simtune check DIR), or a task's data and what it can inform (--task).
@@ -68,7 +70,9 @@ def check(
             )
         _check_project(project_dir)
         return
-    result = api.check(engine or "mujoco", task, project=project_dir, data=data, space=space, workers=workers)
+    result = api.check(
+        engine or "mujoco", task, project=project_dir, data=data, space=space, workers=workers, reference=reference
+    )
     if as_json:
         print_json(result)
         return
@@ -91,8 +95,19 @@ def _check_project(project_dir: Path) -> None:
 def _print_data_quality(parts: list[dict]) -> None:
     for part in parts:
         table = text_table(
-            f"{part['task']}: {len(part['repeats'])} repeats, spread {1000 * part['repeat_spread_m']:.1f} mm",
-            ("file", "lost frames", "longest gap [s]", "to mean [mm]", "start distance [mm]", "onset [s]"),
+            f"{part['task']}: {len(part['repeats'])} repeats, spread {1000 * part['repeat_spread_m']:.1f} mm "
+            f"(reference: {part['reference']})",
+            (
+                "file",
+                "lost frames",
+                "longest gap [s]",
+                "to mean [mm]",
+                "as recorded [mm]",
+                "start distance [mm]",
+                "onset [s]",
+                "shift [s]",
+                "floor",
+            ),
         )
         for r in part["repeats"]:
             table.add_row(
@@ -100,12 +115,21 @@ def _print_data_quality(parts: list[dict]) -> None:
                 str(r["lost_frames"]),
                 f"{r['longest_gap_s']:.2f}",
                 f"{1000 * r['distance_to_mean_m']:.1f}" + (" (outlier)" if r["outlier"] else ""),
+                f"{1000 * r['distance_to_mean_unaligned_m']:.1f}",
                 f"{1000 * r['start_distance_m']:.1f}",
                 fmt_g(r["onset_s"]),
+                f"{r['shift_s']:+.3f}" + (" (outlier)" if r["shift_outlier"] else ""),
+                f"{r['floor_fitness']:.4f}",
             )
         out.print(table)
         for line in part["left_out"]:
-            out.print(f"  left out: {escape(line)}")
+            out.print(f"  {'left out' if 'left out' in line else 'warning'}: {escape(line)}")
+        out.print(
+            f"  repeat spread {1000 * part['repeat_spread_unaligned_m']:.1f} mm as recorded, "
+            f"{1000 * part['repeat_spread_aligned_m']:.1f} mm with the clocks aligned (shifts "
+            f"{part['shift_range_s'][0]:+.3f} to {part['shift_range_s'][1]:+.3f} s); floor: the aligned mean "
+            f"scores {part['floor_fitness']:.4f} against the repeats (mean), what a tuned simulation compares with"
+        )
         out.print(
             f"  motion onset {fmt_g(part['onset_mean_s'])} s (std {fmt_g(part['onset_std_s'])} s); the generic "
             f"simulation moves at {fmt_g(part['simulated_onset_s'])} s: command delay about "

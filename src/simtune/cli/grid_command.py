@@ -10,7 +10,14 @@ from typing import Annotated
 
 import typer
 
-from simtune.cli.options import DataOpt, KeepInactiveOpt, max_generations_option, max_seconds_option, out_option
+from simtune.cli.options import (
+    DataOpt,
+    KeepInactiveOpt,
+    ReferenceOpt,
+    max_generations_option,
+    max_seconds_option,
+    out_option,
+)
 from simtune.cli.output import err, only_names, out, split
 from simtune.console import text_table
 
@@ -66,6 +73,7 @@ def grid(
     max_generations: Annotated[int, max_generations_option("Generation limit of each optimisation.")] = 1000,
     only: Annotated[str | None, typer.Option(help="Tune only these parameters (comma-separated).")] = None,
     keep_inactive: KeepInactiveOpt = False,
+    reference: ReferenceOpt = None,
     plan: PlanOpt = False,
     cluster_cores: ClusterCoresOpt = 100,
 ) -> None:
@@ -87,6 +95,7 @@ def grid(
         max_generations=max_generations,
         only=only_names(only),
         keep_inactive=keep_inactive,
+        reference=reference,
     )
     if plan:
         _print_plan(spec, max_generations, cluster_cores)

@@ -109,6 +109,24 @@ ProjectOpt = Annotated[
     ),
 ]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
+#: what ``--reference`` is, said once for every command that scores
+REFERENCE_HELP = (
+    "What a simulation is scored against: aligned (each repeat's clock shifted onto the task's median motion "
+    "onset, refined by matching it to the other repeats, then averaged: docs/recordings.md) or mean (the repeats "
+    "averaged as recorded: the paper's fitness). Default: aligned; mean with --paper-exact."
+)
+
+
+def reference(value: str | None) -> str | None:
+    """``--reference``: aligned or mean."""
+    if value is not None and value not in ("aligned", "mean"):
+        raise typer.BadParameter(f"{value!r} is neither aligned nor mean")
+    return value
+
+
+ReferenceOpt = Annotated[str | None, typer.Option("--reference", help=REFERENCE_HELP, callback=reference)]
+
+
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
 WeightsOpt = Annotated[
     str | None,

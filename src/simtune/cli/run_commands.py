@@ -20,6 +20,7 @@ from simtune.cli.options import (
     OnlyOpt,
     ProjectOpt,
     QuietOpt,
+    ReferenceOpt,
     SeedOpt,
     SpaceOpt,
     TaskOpt,
@@ -129,6 +130,7 @@ def evaluate(
     joint_topic: JointTopicOpt = None,
     project: ProjectOpt = None,
     align_clock: AlignClockOpt = None,
+    reference: ReferenceOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks."""
@@ -143,6 +145,7 @@ def evaluate(
         weights=weights,
         joint_topic=joint_topic,
         align_clock=_tasks_to_align(align_clock, params_file, task, project),
+        reference=reference,
     )
     if as_json:
         print_json(
@@ -160,11 +163,12 @@ def evaluate(
                 "tasks": [t.__dict__ for t in score.parts.values()],
                 "fitness_unaligned": score.fitness if score.fitness_unaligned is None else score.fitness_unaligned,
                 "clock_aligned": score.clock_aligned,
+                "reference": score.reference,
             }
         )
         return
     with_what = f" with {params_file}" if params_file else " (generic parameters)"
-    _print_evaluation(score, f"{engine} on {task}{with_what}")
+    _print_evaluation(score, f"{engine} on {task}{with_what}; reference: {score.reference}")
 
 
 def _print_evaluation(score, title: str) -> None:
@@ -236,6 +240,7 @@ def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
         "task": config.tasks,
         "space": config.space,
         "optimizer": config.optimizer,
+        "reference": config.reference,
         "fitness": result.score.fitness,
         "wrist_error": result.score.wrist_error,
         "object_error": result.score.object_error,
@@ -254,7 +259,7 @@ def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
         return
     out.print(
         f"[bold]{config.engine}[/] on [bold]{config.tasks}[/], space {config.space}, optimizer "
-        f"{config.optimizer}{' + least squares' if config.refine else ''}: "
+        f"{config.optimizer}{' + least squares' if config.refine else ''}, reference {config.reference}: "
         f"fitness {store_generic['fitness']:.4f} (generic) -> [bold green]{result.score.fitness:.4f}[/] (tuned)"
     )
     joint = "" if result.score.joint_error is None else f", joint error {fmt(result.score.joint_error)} rad"
@@ -297,6 +302,7 @@ def tune(
     weights: WeightsOpt = None,
     joint_topic: JointTopicOpt = None,
     project: ProjectOpt = None,
+    reference: ReferenceOpt = None,
     quiet: QuietOpt = False,
     as_json: JsonOpt = False,
 ) -> None:
@@ -332,6 +338,7 @@ def tune(
         paper_exact=paper_exact,
         keep_inactive=keep_inactive,
         threads=threads,
+        reference=reference,
     )
     result = api.start(config, out_dir, show_progress=not quiet and not as_json)
     report_tune(result, out_dir, config, as_json)

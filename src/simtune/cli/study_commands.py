@@ -17,6 +17,7 @@ from simtune.cli.options import (
     OnlyOpt,
     OptimizerOpt,
     QuietOpt,
+    ReferenceOpt,
     SeedOpt,
     SpaceOpt,
     TaskOpt,
@@ -60,6 +61,7 @@ def compare(
     only: OnlyOpt = None,
     eval_timeout: EvalTimeoutOpt = 600.0,
     out_dir: CompareOutOpt = Path("runs/compare"),
+    reference: ReferenceOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Compare optimisers on the same budget of evaluations: best fitness at 25/50/100 % of it, evaluations to a target.
@@ -91,6 +93,7 @@ def compare(
         only=only_names(only),
         eval_timeout=eval_timeout,
         on_run=note,
+        reference=reference,
     )
     if as_json:
         print_json({k: v for k, v in result.items() if k != "runs"})
@@ -134,6 +137,7 @@ def transfer(
     eval_timeout: EvalTimeoutOpt = 600.0,
     out_dir: TransferOutOpt = Path("runs/transfer"),
     align_clock: TransferAlignOpt = True,
+    reference: ReferenceOpt = None,
     quiet: QuietOpt = False,
     as_json: JsonOpt = False,
 ) -> None:
@@ -166,6 +170,7 @@ def transfer(
         eval_timeout=eval_timeout,
         align_clock=align_clock,
         show_progress=not quiet and not as_json,
+        reference=reference,
     )
     if as_json:
         print_json({k: v for k, v in result.items() if k != "params"})

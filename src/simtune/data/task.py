@@ -12,6 +12,7 @@ from typing import NoReturn
 import numpy as np
 
 from simtune.data._table import display_name
+from simtune.data.clock import ClockAlignment, align_clocks, check_reference, spread, warn_outliers
 from simtune.data.fingerprint import task_files
 from simtune.data.lerobot import LeRobotReading
 from simtune.data.loaders import load_recordings
@@ -57,6 +58,13 @@ class TaskData:
     joint_repeats: np.ndarray | None = None
     #: per repeat, the object's mean position over the recording's first :data:`REST_S` seconds (3,) [m]
     object_rest: np.ndarray | None = None
+    #: ``aligned``: the repeats were shifted onto one clock before averaging (:mod:`simtune.data.clock`);
+    #: ``mean``: each on its own clock, the paper's mean
+    reference: str = "mean"
+    #: the shifts of an aligned reference (None for the mean)
+    alignment: ClockAlignment | None = None
+    #: the wrist's :attr:`repeat_spread` with every repeat on its own clock [m]: the mean reference's
+    unaligned_spread: float | None = None
 
     @property
     def object_start_mean(self) -> np.ndarray | None:
@@ -81,8 +89,7 @@ class TaskData:
         """Mean over repeats of the mean 3-D distance between a repeat and ``wrist_mean`` [m]; None without a wrist."""
         if self.wrist_repeats is None or self.wrist_mean is None:
             return None
-        dist = np.linalg.norm(self.wrist_repeats - self.wrist_mean[None], axis=2)
-        return float(dist.mean(axis=1).mean())
+        return spread(self.wrist_repeats)
 
     @property
     def duration(self) -> float:
@@ -318,6 +325,20 @@ def _object_positions(repeats: list[_Repeat], object_body: str) -> tuple[np.ndar
     return starts, finals, rests
 
 
+def _aligned_clocks(
+    repeats: list[_Repeat], bodies: list[str], joints: list[str], wrist_body: str, rate: float
+) -> ClockAlignment:
+    """Each repeat's shift onto the task's clock, from its wrist track (joint logs: its joint angles); a shift
+    that is an outlier is warned about."""
+    if bodies:
+        tracks = [filled[wrist_body] for _, _, filled in repeats]
+    else:
+        tracks = [np.stack([rec.joints[j] for j in joints], axis=1) for rec, _, _ in repeats]
+    alignment = align_clocks([t for _, t, _ in repeats], tracks, rate)
+    warn_outliers([rec.source for rec, _, _ in repeats], alignment.shifts, 1.0 / rate)
+    return alignment
+
+
 def _on_common_clock(
     task: str,
     rate: float,
@@ -326,18 +347,30 @@ def _on_common_clock(
     joints: list[str],
     wrist_body: str,
     object_body: str | None,
+    reference: str = "mean",
 ) -> TaskData:
-    """The repeats resampled to ``rate`` over the shortest one's length, and their means."""
+    """The repeats resampled to ``rate`` over the shortest one's length, and their means; with the ``aligned``
+    reference each repeat is shifted onto the task's clock first (its ends held where the shift uncovers them)."""
     shortest = min(float(t[-1]) for _, t, _ in repeats)
     # floor(duration * rate) + 1 samples: every repeat covers the last one.
     n = int(math.floor(shortest * rate + 1e-9)) + 1
-    wrists = None
+    alignment = None
+    if reference == "aligned" and (bodies or joints):
+        alignment = _aligned_clocks(repeats, bodies, joints, wrist_body, rate)
+    shifts = np.zeros(len(repeats)) if alignment is None else alignment.shifts
+    wrists = unaligned = None
     if bodies:
-        wrists = np.stack([resample(t, filled[wrist_body], rate, n) for _, t, filled in repeats])
+        wrists = np.stack([resample(t + s, filled[wrist_body], rate, n) for (_, t, filled), s in zip(repeats, shifts)])
+        unaligned = wrists
+        if alignment is not None:
+            unaligned = np.stack([resample(t, f[wrist_body], rate, n) for _, t, f in repeats])
     angles = None
     if joints:
         angles = np.stack(
-            [resample(t, np.stack([rec.joints[j] for j in joints], axis=1), rate, n) for rec, t, _ in repeats]
+            [
+                resample(t + s, np.stack([rec.joints[j] for j in joints], axis=1), rate, n)
+                for (rec, t, _), s in zip(repeats, shifts)
+            ]
         )
     starts = finals = rests = None
     if object_body is not None and object_body in bodies:
@@ -355,6 +388,9 @@ def _on_common_clock(
         joint_mean=None if angles is None else angles.mean(axis=0),
         joint_repeats=angles,
         object_rest=rests,
+        reference=reference,
+        alignment=alignment,
+        unaligned_spread=None if unaligned is None else spread(unaligned),
     )
 
 
@@ -374,6 +410,7 @@ def load_task_data(
     joint_topic: str | None = None,
     lerobot: LeRobotReading | None = None,
     joint_ranges: Mapping[str, JointRange] | None = None,
+    reference: str = "mean",
 ) -> TaskData:
     """Load every repeat in ``folder`` (sorted by name), check it, and put the repeats on a common clock.
 
@@ -399,7 +436,12 @@ def load_task_data(
     (:func:`~simtune.data.sanity.check_joint_units`).  A rosbag2 folder without
     its metadata.yaml that cannot be read from its storage alone is left out
     with a RecordingWarning.
+
+    ``reference``: ``mean`` averages the repeats each on its own clock (the seed paper's reference);
+    ``aligned`` shifts each repeat onto the task's clock first (:mod:`simtune.data.clock`), warning about a
+    repeat whose shift is an outlier.
     """
+    check_reference(reference)
     _check_numbers(rate, max_gap_s, duration_s, reach_m)
     folder = Path(folder)
     files = _files_in(folder)
@@ -415,4 +457,4 @@ def load_task_data(
     repeats, short, reason = _drop_short(repeats, duration_s)
     if not repeats:
         _none_usable(folder, len(recordings), lost, unreadable, short, reason, max_gap_s)
-    return _on_common_clock(task, rate, repeats, bodies, joints, wrist_body, object_body)
+    return _on_common_clock(task, rate, repeats, bodies, joints, wrist_body, object_body, reference)

@@ -33,6 +33,7 @@ class GridSpec:
     max_generations: int = 1000
     only: list[str] | None = None  # tune just these parameters of each space
     keep_inactive: bool = False  # keep parameters that change no rollout in the search (the paper's full D)
+    reference: str = "aligned"  # what each run is scored against: aligned (repeats on one clock) or mean
 
     def units(self) -> list[Unit]:
         return [
@@ -45,6 +46,7 @@ class GridSpec:
 
     def validate(self) -> None:
         """Fail before any compute on an unknown engine, task or space, or missing data."""
+        from simtune.data.clock import check_reference
         from simtune.engines import engine_class
         from simtune.objective import load_references
         from simtune.params import get_space
@@ -52,11 +54,12 @@ class GridSpec:
 
         if self.repeats < 1:
             raise ConfigError("--repeats must be at least 1")
+        check_reference(self.reference, "--reference")
         for name in self.engines:
             for space in self.spaces:
                 get_space(space, engine_class(name).supported(), self.only)
         tasks = {t.name: t for entry in self.tasks for t in parse_tasks(entry.replace("+", ","))}
-        load_references(Path(self.data), list(tasks.values()))
+        load_references(Path(self.data), list(tasks.values()), reference=self.reference)
 
 
 def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
@@ -78,6 +81,7 @@ def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
         max_generations=spec.max_generations,
         only=spec.only,
         keep_inactive=spec.keep_inactive,
+        reference=spec.reference,
     )
     try:
         path.mkdir(parents=True, exist_ok=True)

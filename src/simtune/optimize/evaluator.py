@@ -9,9 +9,13 @@ with a penalty fitness, and the run goes on.
 
 With ``threads`` (``TuneSettings.threads``) there is no pool: each batch goes
 whole to :meth:`~simtune.objective.Objective.score_batch` in this process, whose
-engine may run it on ``workers`` threads (MuJoCo does), with the same results
-bit for bit.  That path has no crash isolation or time-out: an engine that
-segfaults ends the run (finished evaluations are kept; resume continues).
+engine may run it on ``workers`` threads (MuJoCo does: its members in lockstep
+control periods, the controller, sampling and checks as NumPy over the batch),
+with the same results bit for bit.  That path has no crash isolation or time-out:
+an engine that segfaults ends the run (finished evaluations are kept; resume
+continues).  ``threads`` left at None picks it where it is the faster
+(:func:`batch_on_threads`: MuJoCo on up to 2 workers) and no ``eval_timeout``
+asks for worker processes.
 One process (``workers`` = 1) uses the same batch path on one thread.
 
 The time-out counts the seconds this (the coordinating) process was running
@@ -67,8 +71,9 @@ class TuneSettings:
     on_generation: Callable[[int, float], None] | None = None  # (generation, best fitness)
     #: points the search starts from (rows of parameter vectors; ``simtune resume --rescore``), scored anew
     initial_population: np.ndarray | None = None
-    #: evaluate each batch in this process on ``workers`` threads (the engine's batch path) instead of processes
-    threads: bool = False
+    #: evaluate each batch in this process on ``workers`` threads (the engine's batch path) instead of processes;
+    #: None: where that is the faster (:func:`batch_on_threads`)
+    threads: bool | None = None
 
 
 @dataclass
@@ -130,6 +135,23 @@ class RunningClock:
         self.seconds += min(now - self._last, MAX_STEP_S)
         self._last = now
         return self.seconds
+
+
+#: Engines whose batch path runs a batch on threads faster than a pool of as many worker processes, up to
+#: :data:`THREADS_WIN_UP_TO` of them (``python benchmarks/batch_threads.py`` on 2 cores:
+#: benchmarks/results/batch-threads-vectorised-2026-11-25.txt).  With more, the batch path's Python between the
+#: control periods (one thread's, about a tenth of the work) makes processes the faster.
+THREADED_ENGINES = frozenset({"mujoco"})
+THREADS_WIN_UP_TO = 2
+
+
+def batch_on_threads(engine: str, workers: int, threads: bool | None, eval_timeout: float | None) -> bool:
+    """Whether an :class:`Evaluator` runs its batches on threads: as ``threads`` says, and where it says nothing
+    (None), for the engines whose batch path is the faster on ``workers`` threads, unless a time-out asks for
+    worker processes."""
+    if threads is not None:
+        return threads
+    return engine in THREADED_ENGINES and workers <= THREADS_WIN_UP_TO and eval_timeout is None
 
 
 # --- what one evaluation computes, in this process or a worker ------------------------------------------
@@ -210,12 +232,12 @@ class Evaluator:
         on_evaluation: Callable[[Score, bool], None] | None = None,
         eval_timeout: float | None = None,
         prune: bool = True,
-        threads: bool = False,
+        threads: bool | None = None,
     ):
         self.objective = objective
-        self.threads = threads
         self.store = store
         self.workers = max(1, int(workers))
+        self.threads = batch_on_threads(objective.engine, self.workers, threads, eval_timeout)
         self.on_evaluation = on_evaluation
         self.eval_timeout = eval_timeout
         self.generation = 0

@@ -22,6 +22,7 @@ def make_report(
     show_progress: bool = True,
     figure4_parameter: str = "timestep",
     project: Path | str | None = None,
+    reference: str | None = None,
 ) -> Path:
     """Write the report for the runs under ``paths`` into folder ``out``; return its ``index.html``.
 
@@ -31,12 +32,19 @@ def make_report(
     Unfinished or unreadable runs are skipped with a
     :class:`simtune.report.builder.ReportWarning` naming them.  ``figure4_parameter``:
     the parameter whose tuned values the paper's Figure 4 shows.  ``project``: the project folder to
-    read the runs' tasks from (default: the one each run names, else the bundled MICO project).
+    read the runs' tasks from (default: the one each run names, else the bundled MICO project).  ``reference``:
+    re-score every run against ``aligned`` or ``mean`` (default: each run against its own).
     """
     from simtune.report.builder import make_report as _make
 
     return _make(
-        paths, out, published_sims, show_progress=show_progress, figure4_parameter=figure4_parameter, project=project
+        paths,
+        out,
+        published_sims,
+        show_progress=show_progress,
+        figure4_parameter=figure4_parameter,
+        project=project,
+        reference=reference,
     )
 
 

@@ -14,8 +14,10 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
 
 import simtune
+from simtune.data.clock import check_reference
 from simtune.engines.contact import ContactProbe, probe_contact
-from simtune.errors import SimtuneError
+from simtune.errors import RecordingWarning, SimtuneError
+from simtune.fitness import RepeatFloor, reference_floor
 from simtune.report import tables as T
 from simtune.report.collect import Group, ReportedRun, Skipped, find_run_dirs, group_runs, load_run
 from simtune.report.html import render
@@ -78,6 +80,7 @@ def make_report(
     show_progress: bool = True,
     figure4_parameter: str = "timestep",
     project: Path | str | None = None,
+    reference: str | None = None,
 ) -> Path:
     """Write the report for the runs under ``paths`` into ``out``; return the path of its ``index.html``.
 
@@ -85,7 +88,8 @@ def make_report(
     :class:`ReportWarning` naming them.  Raises :class:`SimtuneError` when no
     usable run is found, or for an unknown ``figure4_parameter`` (the parameter
     of the paper's Figure 4).  ``project``: read the runs' tasks from this project folder instead of
-    the one each run names (for a project moved since the runs).
+    the one each run names (for a project moved since the runs).  ``reference``: re-score every run against
+    ``aligned`` or ``mean``; None: each against its own (a run stored before the choice: the mean).
     """
     from simtune.params.space import PARAMETERS
 
@@ -119,7 +123,7 @@ def make_report(
         figures = 5 + len(engines) + len(experiments) + sum(len(g.task_names) for g in groups)
         progress.stage("scoring published simulations", 1 + len(engines) + len(groups) + figures + 1)
 
-        references = References()
+        references = References(None if reference is None else check_reference(reference))
         entries, published = _generic_entries(groups, published_folder, references, warn)
         progress.step()
         progress.describe("nominal parameter values")
@@ -135,6 +139,8 @@ def make_report(
             sims=_resimulate(groups, references, warn, progress),
             figure4_parameter=figure4_parameter,
             contacts=_probe_contacts(groups, warn, progress),
+            floors=_floors(groups, references, warn),
+            references=sorted({references.kind(r) for g in groups for r in g.runs}),
         )
 
         progress.describe("drawing figures and writing tables")
@@ -164,6 +170,23 @@ def _generic_entries(
     return entries, published
 
 
+def _floors(groups: list[Group], references: References, warn: Warn) -> list[RepeatFloor]:
+    """Each task's repeats against their aligned mean (:func:`simtune.fitness.reference_floor`), from the data of
+    the first run that has it; a task whose recordings cannot be read is named in a warning and left out."""
+    floors = []
+    for name in dict.fromkeys(t for g in groups for t in g.task_names):
+        run = next(r for g in groups if name in g.task_names for r in g.runs)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RecordingWarning)  # said when the runs were tuned
+                aligned = references.get(run.data, run.task(name), "aligned")
+        except SimtuneError as exc:
+            warn(f"task {name}: no floor: its recordings are unavailable ({exc})")
+            continue
+        floors.append(reference_floor(aligned))
+    return floors
+
+
 def _read_runs(run_dirs: list[Path], warn: Warn, step: Callable[[], None], project: str | None) -> list[Group]:
     """The finished runs, grouped into repeats; every folder left out is named in a warning."""
     runs: list[ReportedRun] = []
@@ -190,7 +213,7 @@ def _score_published(folder: Path, groups: list[Group], references: References, 
             continue
         run = next(r for g in groups if item.task in g.task_names for r in g.runs)
         try:
-            reference = references.get(run.data, run.task(item.task))
+            reference = references.get(run.data, run.task(item.task), references.kind(run))
         except SimtuneError as exc:
             warn(f"{item.path}: not scored: recordings of {item.task!r} unavailable ({exc})")
             continue

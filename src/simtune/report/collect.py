@@ -61,6 +61,11 @@ class ReportedRun:
         return get_task(name, self.project)
 
     @property
+    def reference(self) -> str:
+        """What the run was scored against: ``aligned`` or ``mean`` (a run stored before the choice: the mean)."""
+        return str(self.config.get("reference", "mean"))
+
+    @property
     def paper_exact(self) -> bool:
         """Whether the run searched exactly as the seed paper ran SciPy (``simtune tune --paper-exact``)."""
         return bool(self.config.get("paper_exact", False))

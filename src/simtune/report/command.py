@@ -50,6 +50,14 @@ def report(
             "made without --project.",
         ),
     ] = None,
+    reference: Annotated[
+        str | None,
+        typer.Option(
+            "--reference",
+            help="Re-score every run against aligned (the repeats on one clock) or mean (the paper's plain mean); "
+            "default: each run against its own (runs made before the choice: mean).",
+        ),
+    ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Write an HTML report of tuning runs: fitness tables, convergence, parameters, trajectories.
@@ -64,6 +72,12 @@ def report(
     from simtune.report import make_report
 
     index = make_report(
-        runs, out, published_sims, show_progress=not quiet, figure4_parameter=figure4_parameter, project=project
+        runs,
+        out,
+        published_sims,
+        show_progress=not quiet,
+        figure4_parameter=figure4_parameter,
+        project=project,
+        reference=reference,
     )
     Console().print(f"report: {index}", highlight=False, soft_wrap=True)

@@ -22,6 +22,7 @@ from matplotlib.figure import Figure
 
 from simtune.engines import Rollout
 from simtune.engines.contact import ContactProbe
+from simtune.fitness import RepeatFloor
 from simtune.report import figures as F
 from simtune.report import tables as T
 from simtune.report.collect import Group, ReportedRun
@@ -49,6 +50,8 @@ class ReportData:
     sims: list[GroupSimulation]  # the best run of each group, re-simulated
     figure4_parameter: str = "timestep"  # the parameter of the paper's Figure 4
     contacts: list[ContactProbe] = field(default_factory=list)  # each engine's generic contact with each object
+    floors: list[RepeatFloor] = field(default_factory=list)  # each task's repeats against their aligned mean
+    references: list[str] = field(default_factory=list)  # what the runs were re-scored against
 
     @property
     def runs(self) -> list[ReportedRun]:
@@ -130,13 +133,15 @@ def tuned_section(data: ReportData, out: ReportOutput) -> Section:
         "tuned",
         "Tuned fitness",
         "The best fitness tuning reached per task and parameter space, with the engine that reached it "
-        "(the paper's Table III), and every engine's tuned fitness over repeats.",
+        "(the paper's Table III), every engine's tuned fitness over repeats, and the floor a tuned fitness "
+        "compares with: the real arm's repeats against their own (aligned) mean.",
         [
             out.table(T.paper_tuned_table(data.groups, data.entries)),
             out.table(T.summary_counts_table(data.groups)),
             out.table(T.best_tuned_table(data.groups, data.entries)),
             overview,
             out.table(T.tuned_by_group_table(data.groups)),
+            *([out.table(T.floor_table(data.floors, data.references))] if data.floors else []),
         ],
     )
 

@@ -17,16 +17,22 @@ from simtune.tasks import TaskSpec
 
 
 class References:
-    """Recordings per (data folder, task), loaded once."""
+    """Recordings per (data folder, task, reference kind), loaded once.
 
-    def __init__(self) -> None:
-        self._cache: dict[tuple[str, str], TaskData | SimtuneError] = {}
+    ``reference``: what every run is re-scored against (``aligned`` or ``mean``); None: each run's own (a run
+    stored before the choice: the mean).
+    """
 
-    def get(self, data: str | None, task: TaskSpec) -> TaskData:
-        key = (str(recordings_folder(data, task).resolve()), task.name)
+    def __init__(self, reference: str | None = None) -> None:
+        self.reference = reference
+        self._cache: dict[tuple[str, str, str], TaskData | SimtuneError] = {}
+
+    def get(self, data: str | None, task: TaskSpec, reference: str = "mean") -> TaskData:
+        key = (str(recordings_folder(data, task).resolve()), task.name, reference)
         if key not in self._cache:
             try:
-                self._cache[key] = load_references(None if data is None else Path(data), [task])[task.name]
+                root = None if data is None else Path(data)
+                self._cache[key] = load_references(root, [task], reference=reference)[task.name]
             except SimtuneError as exc:
                 self._cache[key] = exc
         value = self._cache[key]
@@ -34,8 +40,12 @@ class References:
             raise value
         return value
 
+    def kind(self, run: ReportedRun) -> str:
+        """The reference ``run`` is re-scored against."""
+        return self.reference or run.reference
+
     def for_run(self, run: ReportedRun) -> dict[str, TaskData]:
-        return {t: self.get(run.data, run.task(t)) for t in run.task_names}
+        return {t: self.get(run.data, run.task(t), self.kind(run)) for t in run.task_names}
 
 
 @dataclass

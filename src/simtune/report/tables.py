@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simtune.fitness import RepeatFloor
 from simtune.params.space import PARAMETERS
 from simtune.report.collect import Group, ReportedRun
 from simtune.table import Column, Table
@@ -736,6 +737,43 @@ def dr_table(ranges: dict[str, dict[str, dict]]) -> Table:
         note="Per engine and parameter: the range the tuned values span across all its runs (every task "
         "and space), and the nominal (generic) value. Randomising a simulation over these ranges "
         "covers what tuning found plausible.",
+    )
+
+
+def floor_table(floors: list[RepeatFloor], references: list[str]) -> Table:
+    """Each task's repeat spread with and without the clocks aligned, and the floor of its fitness."""
+    columns = [
+        Column("task"),
+        Column("repeats", "d"),
+        Column("spread as recorded [mm]", ".1f"),
+        Column("spread aligned [mm]", ".1f"),
+        Column("shifts from [s]", "+.3f"),
+        Column("shifts to [s]", "+.3f"),
+        Column("outlying shifts"),
+        Column("floor (aligned mean vs repeats)", ".4f"),
+    ]
+    rows = [
+        [
+            f.task,
+            f.repeats,
+            None if f.spread_unaligned_m is None else 1000 * f.spread_unaligned_m,
+            None if f.spread_aligned_m is None else 1000 * f.spread_aligned_m,
+            f.shift_min_s,
+            f.shift_max_s,
+            ", ".join(f.outliers) or "none",
+            f.floor,
+        ]
+        for f in floors
+    ]
+    return Table(
+        "floor",
+        "The floor: the real arm against itself",
+        columns,
+        rows,
+        note="Spread: the mean distance of a repeat's wrist from the repeats' mean, on the repeats' own clocks and "
+        "with each repeat's clock shifted onto the task's (its motion onset, refined against the other repeats). "
+        "Floor: the fitness of the aligned mean against each repeat, as a simulation is scored: what a simulation "
+        f"as good as the arm's own repeats scores. The runs here were scored against: {', '.join(references)}.",
     )
 
 

@@ -19,13 +19,16 @@ per-body velocity damping for the jointed arm or the static floor.
 from __future__ import annotations
 
 import copy
+import math
 import warnings
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from simtune.controller import JointController
 from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, Monitor, Rollout, unreachable_servo_limits
+from simtune.engines.mujoco.batch import Batch, Stepper
 from simtune.robot import MICO
 from simtune.robot.description import RobotDescription
 from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf, servo_gains
@@ -220,7 +223,7 @@ class MujocoEngine(Engine):
     def object_position(self) -> np.ndarray | None:
         return None if self._object is None else self.data.xpos[self._object].copy()
 
-    # --- batches across threads -------------------------------------------------------------------
+    # --- batches: lockstep control periods, on threads -----------------------------------------------------
     def rollout_batch(
         self,
         params: Sequence[dict[str, float]],
@@ -228,56 +231,55 @@ class MujocoEngine(Engine):
         monitors: Sequence[Monitor | None] | None = None,
         threads: int = 1,
     ) -> Iterator[tuple[int, Rollout | Exception]]:
-        """A batch's rollouts stepped on ``threads`` threads, each member with its own copy of the model and data.
-
-        Lockstep rounds: every member runs :meth:`rollout_steps` (controller, sampling, checks: Python) in
-        this thread up to the physics steps it asks for next; then all members' steps are shared among
-        ``threads`` threads (this one and the pool's), which call ``mj_step`` without the GIL.  Thread
-        hand-overs are what cost here, so there are two per round, whatever the batch's size.  Each copy
-        is reset from the compiled model's values before every rollout (tuned masses and time steps differ
-        per member) and sees the calls :meth:`rollout` makes, in the same order: the results are those of
-        :meth:`rollout`, bit for bit.
+        """A batch's rollouts in lockstep control periods (:mod:`simtune.engines.mujoco.batch`): each member with
+        its own copy of the model and data, the controller, sampling and checks of all members as one NumPy
+        computation per period, their physics steps shared among ``threads`` threads (``mj_step`` runs without
+        the GIL).  Each copy is reset from the compiled model's values before every rollout (tuned masses and
+        time steps differ per member) and sees the calls :meth:`rollout` makes, in the same order: the results
+        are those of :meth:`rollout`, bit for bit.  A batch of one is :meth:`rollout` itself.
         """
-        threads = max(1, min(threads, len(params)))
-        if threads == 1:
+        if len(params) < 2 or n_samples < 1:
             yield from super().rollout_batch(params, n_samples, monitors)
             return
         engines = self._thread_copies(len(params))
+        ready: list[int] = []
+        controllers = []
+        for i, p in enumerate(params):
+            monitor = monitors[i] if monitors is not None else None
+            try:  # in the order Engine.rollout_steps starts: a member whose parameters fail is that member's
+                engines[i].reset(p)
+                controller = JointController(self.task, p)
+                if not 0 < engines[i].timestep < math.inf:  # no step counts: alone, it fails as it fails
+                    yield i, engines[i].rollout(p, n_samples, monitor=monitor)
+                    continue
+            except Exception as exc:
+                yield i, exc
+                continue
+            ready.append(i)
+            controllers.append(controller)
+        if not ready:
+            return
+        watch = [monitors[i] if monitors is not None else None for i in ready]
+        batch = Batch([engines[i] for i in ready], controllers, watch, n_samples)
+        threads = max(1, min(threads, len(ready)))
+        done: set[int] = set()
+        try:
+            for slot, rollout in batch.run(Stepper(self._thread_pool(threads), threads)):
+                done.add(slot)
+                yield ready[slot], rollout
+        except Exception as exc:  # a failure of the batch itself is each unfinished member's
+            for slot, i in enumerate(ready):
+                if slot not in done:
+                    yield i, exc
+
+    def _thread_pool(self, threads: int) -> ThreadPoolExecutor | None:
+        """The pool of ``threads`` - 1 threads that step beside this one (None for one thread)."""
+        if threads == 1:
+            return None
         if self._pool is None or self._pool_threads != threads:
             self._close_pool()
             self._pool, self._pool_threads = ThreadPoolExecutor(threads - 1, thread_name_prefix="mujoco-batch"), threads
-        members = {
-            i: engines[i].rollout_steps(p, n_samples, monitor=monitors[i] if monitors is not None else None)
-            for i, p in enumerate(params)
-        }
-        asked = dict.fromkeys(members, 0)  # member -> the steps it asks for next (0: none yet, it starts)
-        try:
-            while members:
-                # every member's steps, in ``threads`` shares of about equal step counts
-                shares: list[list[int]] = [[] for _ in range(threads)]
-                loads = [0] * threads
-                for i in sorted(asked, key=lambda member: asked[member], reverse=True):
-                    if asked[i]:
-                        least = loads.index(min(loads))
-                        shares[least].append(i)
-                        loads[least] += asked[i]
-                # the first share is stepped in this thread: one hand-over fewer per round
-                futures = [self._pool.submit(_step_each, [(engines[i], asked[i]) for i in s]) for s in shares[1:] if s]
-                _step_each([(engines[i], asked[i]) for i in shares[0]])
-                for future in futures:
-                    future.result()
-                for i in list(members):
-                    try:
-                        asked[i] = members[i].send(None)
-                    except StopIteration as finished:
-                        del members[i], asked[i]
-                        yield i, finished.value
-                    except Exception as exc:  # one member's failure is that member's, as in a worker process
-                        del members[i], asked[i]
-                        yield i, exc
-        finally:  # a consumer that stops early: the members left are dropped
-            for rollout in members.values():
-                rollout.close()
+        return self._pool
 
     _pool: ThreadPoolExecutor | None = None
     _pool_threads = 0
@@ -303,9 +305,3 @@ class MujocoEngine(Engine):
     def close(self) -> None:
         self._close_pool()
         self._copies = None
-
-
-def _step_each(steps: list[tuple[MujocoEngine, int]]) -> None:
-    """Take ``n`` steps of each engine, one after the other (a share of a batch, on one thread of the pool)."""
-    for engine, n in steps:
-        engine.step(n)

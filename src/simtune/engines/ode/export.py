@@ -151,7 +151,8 @@ def _surfaces(names: list[str], values: dict[str, float]) -> list[dict]:
 
 _ABOUT = {
     "what": "ODE has no model file format: this file holds every value the tuned run's ODE world was built "
-    "with, for a program that builds it (docs/parameters.md, 'ODE'); simtune's ode_engine.py is one such program",
+    "with, for a program that builds it (docs/parameters.md, 'ODE'); simtune's engines/ode/engine.py is one "
+    "such program",
     "time_step": "seconds per dWorldStep (the exact LCP stepper; dWorldQuickStep drifts with these hard motors)",
     "bodies": "one rigid body per moving link (static: body-less geoms), keyed by link; its origin is the centre "
     "of mass (ODE's rule), turned like the link frame; inertia 3x3 about the centre of mass in the link frame; "
