@@ -54,6 +54,7 @@ TABLES = {
     "contact",
     "generic_fitness",
     "best_tuned",
+    "floor",
     "tuned_by_group",
     "parameter_importance",
     "parameter_importance_top",
