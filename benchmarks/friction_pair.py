@@ -14,7 +14,8 @@ from __future__ import annotations
 from common import add_data_option, make_parser
 
 from simtune.optimize.pipeline import aligned_generic_start
-from simtune.runs import RunConfig, build_objective
+from simtune.run_plan import plan_run
+from simtune.runs import RunConfig
 
 FRICTIONS = (1.0, 0.5, 0.2, 0.1, 0.05, 0.02, 0.005)
 
@@ -24,7 +25,7 @@ def main() -> None:
     add_data_option(parser)
     args = parser.parse_args()
     config = RunConfig(engine="mujoco", tasks="cube", space="extended", data=str(args.data))
-    objective = build_objective(config)
+    objective = plan_run(config).objective()
     start = objective.vector_space().to_dict(aligned_generic_start(objective))
     print("real cube, mujoco, extended, from auto's opening point (generic, delay aligned)")
     print(f"{'lateral friction':>18} {'floor alone':>24} {'floor and plastic':>24}")

@@ -15,7 +15,8 @@ from simtune.reference import REFERENCE_DIR
 from simtune.report.collect import Group, ReportedRun
 from simtune.report.dr import dr_ranges
 from simtune.report.tables import importance_table
-from simtune.runs import RunConfig, build_objective, full_space, run_inactive
+from simtune.run_plan import plan_run
+from simtune.runs import RunConfig
 from simtune.tasks import get_task
 
 PROBED = [
@@ -88,14 +89,15 @@ def _config(**kw):
 @pytest.mark.slow  # about 16 s: two activity probes of the whole space
 def test_search_leaves_out_inactive_parameters_unless_kept():
     config = _config()
-    full, inactive = full_space(config), run_inactive(config)
-    searched = build_objective(config).vector_space().names
+    plan = plan_run(config)
+    full, inactive = plan.full_space, plan.inactive
+    searched = plan.objective().vector_space().names
     assert searched == [n for n in full.names if n not in inactive]
     assert {"mass_cube_wood", "max_torque_joint_1", "lateral_friction_wood"} <= set(inactive)
     assert "mass_cube_plastic" in searched and "command_delay" in searched
-    assert build_objective(_config(keep_inactive=True)).vector_space().names == full.names
+    assert plan_run(_config(keep_inactive=True)).objective().vector_space().names == full.names
     # --only names stay even where inactive: the user asked for them
-    only = build_objective(_config(only=["mass_cube_wood", "command_delay"])).vector_space().names
+    only = plan_run(_config(only=["mass_cube_wood", "command_delay"])).objective().vector_space().names
     assert only == ["mass_cube_wood", "command_delay"]
 
 

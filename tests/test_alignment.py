@@ -14,7 +14,8 @@ from simtune.params import get_space, validate_params
 from simtune.params.space import read_params_file
 from simtune.reference import REFERENCE_DIR
 from simtune.reference.make import TRUTH
-from simtune.runs import RunConfig, full_space
+from simtune.run_plan import plan_run
+from simtune.runs import RunConfig
 from simtune.tasks import get_task
 
 
@@ -33,7 +34,7 @@ def test_tasks_tuned_together_get_one_delay_each():
     only = get_space("extended", None, ["command_delay"], tasks=["single", "cube"])
     assert only.names == ["command_delay_single", "command_delay_cube"]
     config = RunConfig(engine="mujoco", tasks="single,cube", space="extended", data=str(REFERENCE_DIR))
-    assert {"command_delay_single", "command_delay_cube"} <= set(full_space(config).names)
+    assert {"command_delay_single", "command_delay_cube"} <= set(plan_run(config).full_space.names)
     # a run stored before per-task delays shared one delay: resuming it keeps its parameter list
     stored = {"engine": "mujoco", "tasks": "single,cube", "space": "extended", "data": "x"}
     assert RunConfig.from_stored(stored, "old").task_delays is False

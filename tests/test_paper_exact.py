@@ -8,7 +8,8 @@ import pytest
 from scipy.optimize import differential_evolution
 
 from simtune.errors import ConfigError
-from simtune.runs import RunConfig, build_objective, start_run
+from simtune.run_plan import plan_run
+from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
 
 #: the seed paper's settings, spelled out here rather than imported: SciPy's defaults except the
@@ -54,7 +55,7 @@ def test_paper_exact_is_scipys_own_run(single_data, tmp_path):
     )
     result = start_run(config, tmp_path / "run", show_progress=False)
 
-    objective = build_objective(config)
+    objective = plan_run(config).objective()
     assert len(objective.vector_space()) == 31  # the paper's whole shared list, object masses included
     direct = []
     scipy_result = differential_evolution(
@@ -119,9 +120,9 @@ def test_paper_exact_keeps_parameters_the_engine_lacks(single_data):
     """The individual space in Drake: 57 parameters in the vector, though Drake maps far fewer of them."""
     pytest.importorskip("pydrake")
     config = RunConfig(engine="drake", tasks="single", space="individual", data=str(single_data), paper_exact=True)
-    assert len(build_objective(config).vector_space()) == 57
+    assert len(plan_run(config).objective().vector_space()) == 57
     config.paper_exact = False
-    assert len(build_objective(config).vector_space()) < 57
+    assert len(plan_run(config).objective().vector_space()) < 57
 
 
 def test_cli_paper_exact_refuses_workers(single_data, tmp_path):

@@ -48,7 +48,6 @@ from simtune.errors import RunInterrupted, SimtuneError
 from simtune.objective import Objective, recordings_folder
 from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squares_refine
 from simtune.optimize.evaluator import timed_out
-from simtune.params import ParameterSpace
 from simtune.params.space import is_supported
 from simtune.progress import TuneProgress
 from simtune.run_plan import RunConfig, RunPlan, plan_run
@@ -138,21 +137,6 @@ def fingerprint_differences(stored: dict, now: dict) -> list[str]:
 def _summary(changes: list[str], shown: int = 3) -> str:
     more = f" and {len(changes) - shown} more" if len(changes) > shown else ""
     return "; ".join(changes[:shown]) + more
-
-
-def full_space(config: RunConfig) -> ParameterSpace:
-    """The run's space before inactive parameters are left out (:attr:`RunPlan.full_space`)."""
-    return plan_run(config).full_space
-
-
-def run_inactive(config: RunConfig) -> dict[str, str]:
-    """Parameters of the run's full space that change no rollout of its tasks (:attr:`RunPlan.inactive`)."""
-    return plan_run(config).inactive
-
-
-def build_objective(config: RunConfig, inactive: dict[str, str] | None = None) -> Objective:
-    """The run's objective; its space leaves out ``inactive`` (measured when not given) unless the run keeps them."""
-    return plan_run(config).objective(inactive)
 
 
 def write_json_atomic(path: Path, data: dict) -> None:
