@@ -27,7 +27,7 @@ from pathlib import Path
 from simtune.alignment import DelayEstimate, aligned, estimate_delay
 from simtune.check import check as run_check
 from simtune.compare import run_compare
-from simtune.data.clock import DEFAULT_REFERENCE, check_reference
+from simtune.data.clock import DEFAULT_REFERENCE, check_reference, default_reference
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, SimtuneError
 from simtune.export import ExportResult, export_run, export_runs
@@ -177,9 +177,7 @@ def _study_root(data: object) -> Path:
 
 def _reference(reference: object, paper_exact: bool = False) -> str:
     """The reference kind asked for: ``aligned`` or ``mean``; None: aligned, or mean with ``paper_exact``."""
-    if reference is None:
-        return "mean" if paper_exact else DEFAULT_REFERENCE
-    return check_reference(reference)
+    return default_reference(paper_exact) if reference is None else check_reference(reference)
 
 
 def _aligned(align_clock: object, specs) -> set[str]:

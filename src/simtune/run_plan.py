@@ -16,7 +16,7 @@ from pathlib import Path
 
 from simtune.activity import active_space, declared_inactive, inactive_parameters
 from simtune.data import TaskData
-from simtune.data.clock import DEFAULT_REFERENCE, check_reference
+from simtune.data.clock import check_reference, default_reference
 from simtune.engines import Engine, engine_class
 from simtune.errors import ConfigError
 from simtune.fitness import FitnessWeights
@@ -80,7 +80,7 @@ class RunConfig:
 
     def __post_init__(self) -> None:
         if self.reference == "":
-            self.reference = "mean" if self.paper_exact is True else DEFAULT_REFERENCE
+            self.reference = default_reference(self.paper_exact is True)
 
     def record(self) -> dict:
         """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),

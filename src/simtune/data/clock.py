@@ -32,6 +32,13 @@ from simtune.errors import ConfigError, RecordingWarning
 REFERENCES = ("aligned", "mean")
 #: The reference of a new run.
 DEFAULT_REFERENCE = "aligned"
+
+
+def default_reference(paper_exact: bool) -> str:
+    """The reference of a run that names none: the paper's plain mean for a paper-exact run, else the default."""
+    return "mean" if paper_exact else DEFAULT_REFERENCE
+
+
 #: How far [s] the first refinement step looks on either side of a repeat's shift from its onset.
 SEARCH_S = 0.5
 #: How far [s] each later step looks on either side of a repeat's current shift.
