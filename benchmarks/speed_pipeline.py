@@ -2,13 +2,14 @@
 
     python benchmarks/speed_pipeline.py [--data ../shared/datasets/qrg2019/mocap] [--optimizers auto,de]
         [--seeds 0] [--tasks cube:0.03,single:0.01] [--spaces extended] [--max-seconds 150] [--workers 2]
-        [--out FILE]
+        [--milestones 0.1,0.05,0.04,0.03,0.025] [--reference aligned|mean] [--out FILE]
 
 For each task:target, space, optimiser and seed: `simtune tune --engine mujoco --space S --workers 2` on
 the real recordings, stopped at the target fitness or after --max-seconds.  Printed: the wall time at
 which the best fitness first reached the target (from the run store's generation checkpoints: the
 run's elapsed time after each batch; "not reached" if it did not), the evaluations used by then, and
-the best fitness at the end, and when it passed 0.1, 0.05, 0.04, 0.03 and 0.025 on the way.  The load average is printed
+the best fitness at the end, and when it passed the --milestones on the way (those above the target; a
+target of 0 runs every run for its whole time).  The load average is printed
 beside each run: the host is shared, and a
 run on a busy host is slower.  With --out the lines are appended to that file as well.
 """
@@ -52,16 +53,19 @@ def main() -> None:
     parser.add_argument("--spaces", default="extended")
     parser.add_argument("--max-seconds", type=float, default=150.0)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--reference", default=None, help="aligned or mean (default: a new run's, aligned)")
+    parser.add_argument("--milestones", default=",".join(f"{m:g}" for m in MILESTONES))
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
     lines: list[str] = []
+    milestones = [float(m) for m in args.milestones.split(",")]
 
     def say(line: str) -> None:
         print(line, flush=True)
         lines.append(line)
 
     say(
-        f"# speed_pipeline: mujoco, {args.workers} workers, data {args.data}, "
+        f"# speed_pipeline: mujoco, {args.workers} workers, reference {args.reference or 'default'}, data {args.data}, "
         f"{os.cpu_count()} cores, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}"
     )
     runs = [
@@ -85,6 +89,7 @@ def main() -> None:
                     target_fitness=float(target),
                     optimizer=optimizer,
                     max_generations=100_000,
+                    **({"reference": args.reference} if args.reference else {}),
                 )
                 load = os.getloadavg()[0]
                 run_dir = Path(tmp) / "run"
@@ -92,10 +97,10 @@ def main() -> None:
                 seconds, evaluations, best = time_to_target(run_dir, float(target))
                 load = max(load, os.getloadavg()[0])
                 reached = f"{seconds:.1f} s ({evaluations} evaluations)" if seconds is not None else "not reached"
+                passed = [(level, *time_to_target(run_dir, level)[:2]) for level in milestones if level > float(target)]
                 on_the_way = ", ".join(
-                    f"<= {level:g} at {t:.0f} s" if t is not None else f"<= {level:g} never"
-                    for level, t in ((level, time_to_target(run_dir, level)[0]) for level in MILESTONES)
-                    if level > float(target)
+                    f"<= {level:g} at {t:.0f} s, {n} evaluations" if t is not None else f"<= {level:g} never"
+                    for level, t, n in passed
                 )
             say(
                 f"{task} {space} {optimizer} seed {seed}: fitness <= {target}: {reached}; best {best:.4f} after "

@@ -27,6 +27,7 @@ from pathlib import Path
 from simtune.alignment import DelayEstimate, aligned, estimate_delay
 from simtune.check import check as run_check
 from simtune.compare import run_compare
+from simtune.data import check_repeats
 from simtune.data.clock import DEFAULT_REFERENCE, check_reference, default_reference
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, SimtuneError
@@ -86,6 +87,10 @@ class Result:
     clock_aligned: dict[str, float] = field(default_factory=dict)
     #: what the fitness compared the simulation with: ``aligned`` (the repeats on one clock) or ``mean``
     reference: str = DEFAULT_REFERENCE
+    #: which of each task's repeats built that reference: ``all``, ``even`` or ``odd``
+    repeats: str = "all"
+    #: task -> the file names of the repeats that built its reference (evaluate; empty for a run read back)
+    repeat_files: dict[str, list[str]] = field(default_factory=dict)
 
     @classmethod
     def from_score(cls, engine: str, x: Mapping[str, float], score: Score, generic: Score | dict, **more) -> Result:
@@ -180,6 +185,11 @@ def _reference(reference: object, paper_exact: bool = False) -> str:
     return default_reference(paper_exact) if reference is None else check_reference(reference)
 
 
+def _repeats(repeats: object) -> str:
+    """The repeats asked for: ``all``, ``even`` or ``odd``; None: all."""
+    return "all" if repeats is None else check_repeats(repeats)
+
+
 def _aligned(align_clock: object, specs) -> set[str]:
     """The tasks whose clocks ``align_clock`` names: True (all), False (none) or task names of ``specs``."""
     if align_clock is None or isinstance(align_clock, bool):
@@ -205,6 +215,7 @@ def evaluate(
     joint_topic: str | None = None,
     align_clock: bool | Collection[str] = False,
     reference: str | None = None,
+    repeats: str | None = None,
 ) -> Result:
     """Fitness of ``params`` (a mapping, or a params file such as best_params.json; default: the engine's
     generic values) for ``engine`` on ``tasks`` (names or groups: comma-separated, or a list) of ``project``.
@@ -216,10 +227,13 @@ def evaluate(
     from the recordings with the physics of ``params`` held fixed, :mod:`simtune.alignment`); the result's
     ``fitness_unaligned`` is the fitness without it.  ``reference``: what the simulation is scored against,
     ``aligned`` (the default: the repeats shifted onto one clock, then averaged) or ``mean`` (the paper's plain
-    mean of the repeats).  An argument of the wrong type or value is a :class:`~simtune.errors.ConfigError`
-    naming it.
+    mean of the repeats).  ``repeats``: which of each task's repeats build that reference, ``all`` (the default),
+    ``even`` (the 1st, 3rd ... in sorted order) or ``odd`` (the 2nd, 4th ...): score on the repeats a run was not
+    tuned on; the result's ``repeat_files`` name them.  An argument of the wrong type or value is a
+    :class:`~simtune.errors.ConfigError` naming it.
     """
     kind = _reference(reference)
+    selection = _repeats(repeats)
     fitness_weights = _weights(weights)
     proj = _project(project)
     specs = proj.parse_tasks(",".join(_names("tasks", tasks, "single,cube")))
@@ -235,7 +249,7 @@ def evaluate(
         values = validate_params(file_values, supported, engine, where=str(given), robot=robot)
     else:
         values = validate_params(dict(given), supported, engine, where="params", robot=robot)
-    references = load_references(_root(data, proj), specs, joint_topic, kind)
+    references = load_references(_root(data, proj), specs, joint_topic, kind, selection)
     objective = Objective(engine, specs, references, weights=fitness_weights)
     try:
         start = time.perf_counter()
@@ -260,8 +274,18 @@ def evaluate(
         if estimates
         else {}
     )
+    files = {name: [Path(source).name for source in ref.sources] for name, ref in references.items()}
     return Result.from_score(
-        engine, values, score, generic, evaluations=evaluations, wall_s=wall, reference=kind, **more
+        engine,
+        values,
+        score,
+        generic,
+        evaluations=evaluations,
+        wall_s=wall,
+        reference=kind,
+        repeats=selection,
+        repeat_files=files,
+        **more,
     )
 
 
@@ -297,11 +321,13 @@ def run_config(
     keep_inactive: bool = False,
     threads: bool = False,
     reference: str | None = None,
+    repeats: str | None = None,
 ) -> RunConfig:
     """The configuration ``tune`` runs and stores, from the same arguments (``simtune tune``'s options).
 
     ``optimizer``: None for the default (auto; de with ``paper_exact``); ``reference``: None for the default
-    (aligned; mean with ``paper_exact``).  The project is stored by its project
+    (aligned; mean with ``paper_exact``); ``repeats``: which of each task's repeats it is tuned on (all, even or
+    odd; None: all).  The project is stored by its project
     file (the bundled MICO project: not at all), ``data`` absolute.
     """
     proj = _project(project)
@@ -329,6 +355,7 @@ def run_config(
         keep_inactive=keep_inactive,
         threads=threads,
         reference=_reference(reference, paper_exact),
+        repeats=_repeats(repeats),
     )
 
 
@@ -382,6 +409,7 @@ def compare(
     eval_timeout: float = 600.0,
     on_run: Callable[[str, int, str], None] | None = None,
     reference: str | None = None,
+    repeats: str | None = None,
 ) -> dict:
     """Optimisers head to head on ``budget`` evaluations, ``seeds`` runs each, in ``out`` (``simtune compare``);
     ``on_run(optimizer, seed, "running" or "resuming")`` before each run that is not reused."""
@@ -395,6 +423,7 @@ def compare(
         only=only,
         eval_timeout=eval_timeout,
         reference=reference,
+        repeats=repeats,
     )
     # none named: run_compare says to name at least one
     return run_compare(base, _listed(optimizers), seeds, budget, _path("out", out), target, on_run=on_run)
@@ -421,6 +450,7 @@ def transfer(
     align_clock: bool = True,
     show_progress: bool = False,
     reference: str | None = None,
+    repeats: str | None = None,
 ) -> dict:
     """Tune on ``train``, then score the tuned and the generic parameters on ``train`` and the unseen ``test``
     tasks (``simtune transfer``); the result as OUT/transfer.json holds it."""
@@ -439,6 +469,7 @@ def transfer(
         only=only,
         eval_timeout=eval_timeout,
         reference=reference,
+        repeats=repeats,
     )
     test_root = None if test_data is None else _path("test_data", test_data)
     return run_transfer(
@@ -505,9 +536,12 @@ def grid_spec(
     only: str | Collection[str] | None = None,
     keep_inactive: bool = False,
     reference: str | None = None,
+    repeat_set: str | None = None,
 ) -> GridSpec:
     """An experiment grid (``simtune grid``'s options): engines x experiments x spaces x ``repeats`` seeds; an
-    experiment joins tasks tuned together with '+' (``single+cube``)."""
+    experiment joins tasks tuned together with '+' (``single+cube``).  ``repeat_set``: which of each task's
+    recorded repeats every run is tuned on (all, even or odd; None: all), ``--repeat-set`` (``repeats`` is the
+    number of seeds)."""
     return GridSpec(
         engines=_listed(engines),
         tasks=_listed(tasks),
@@ -519,6 +553,7 @@ def grid_spec(
         only=None if only is None else _names("only", only, "command_delay"),
         keep_inactive=keep_inactive,
         reference=_reference(reference),
+        repeat_set=_repeats(repeat_set),
     )
 
 
@@ -542,16 +577,20 @@ def check(
     space: str = "extended",
     workers: int = 1,
     reference: str | None = None,
+    repeats: str | None = None,
 ) -> dict:
     """Before tuning (``simtune check --task``): the recordings' quality per task (with the repeats' clock
     shifts and the floor: their spread with and without alignment), and which active parameters the recordings
-    can inform (the Jacobian at the generic point, against ``reference``: aligned, the default, or mean)."""
+    can inform (the Jacobian at the generic point, against ``reference``: aligned, the default, or mean), of the
+    repeats ``repeats`` selects (all, the default, even or odd; the result names the files used)."""
     kind = _reference(reference)
+    selection = _repeats(repeats)
     proj = _project(project)
     root = _root(data, proj)
     if root is None:
         raise SimtuneError(f"check: the project {project} names no data root: give the recordings with --data")
-    return run_check(engine, proj.parse_tasks(_task_spec(tasks)), root, space, workers, reference=kind)
+    specs = proj.parse_tasks(_task_spec(tasks))
+    return run_check(engine, specs, root, space, workers, reference=kind, repeats=selection)
 
 
 def synth(
@@ -625,6 +664,7 @@ def _read_run(run_dir: Path) -> Result:
         message=str(record.message if record.message is not None else (record.status or "")),
         wall_s=record.elapsed_s,
         reference=str(record.config.get("reference", "mean")),  # a run stored before the choice: the mean
+        repeats=str(record.config.get("repeats", "all")),  # stored only when not all
     )
 
 

@@ -90,14 +90,17 @@ def _repeat_rows(task: TaskSpec, aligned: TaskData, plain_agreement: np.ndarray,
     return rows
 
 
-def task_quality(engine: str, task: TaskSpec, root: Path, reference: str = "aligned") -> tuple[dict, TaskData]:
+def task_quality(
+    engine: str, task: TaskSpec, root: Path, reference: str = "aligned", repeats: str = "all"
+) -> tuple[dict, TaskData]:
     """The data-quality and onset part of the check for one task, and its loaded reference (``reference``: aligned
-    or mean).  The repeats are aligned either way, to report their clock shifts and their spread with and
-    without alignment: the floor a tuned simulation should be compared with."""
+    or mean; ``repeats``: all, even or odd of the repeats).  The repeats are aligned either way, to report their
+    clock shifts and their spread with and without alignment: the floor a tuned simulation should be compared
+    with."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        aligned = load_references(root, [task], reference="aligned")[task.name]
-        plain = load_references(root, [task], reference="mean")[task.name]
+        aligned = load_references(root, [task], reference="aligned", repeats=repeats)[task.name]
+        plain = load_references(root, [task], reference="mean", repeats=repeats)[task.name]
     if aligned.wrist_repeats is None or aligned.wrist_mean is None or plain.wrist_repeats is None:
         raise SimtuneError(
             f"check --task {task.name}: its recordings hold no wrist marker (joint logs only); this check reads "
@@ -115,14 +118,14 @@ def task_quality(engine: str, task: TaskSpec, root: Path, reference: str = "alig
     sim_onset = None if onset is None else onset - PROBE_DELAY_S
     assert plain.wrist_mean is not None
     plain_agreement = np.linalg.norm(plain.wrist_repeats - plain.wrist_mean[None], axis=2).mean(axis=1)
-    repeats = _repeat_rows(task, aligned, plain_agreement, sim_marker[0])
+    rows = _repeat_rows(task, aligned, plain_agreement, sim_marker[0])
     chosen = aligned if reference == "aligned" else plain
     floor = reference_floor(aligned)
-    onsets = [float(r["onset_s"]) for r in repeats if r["onset_s"] is not None]
+    onsets = [float(r["onset_s"]) for r in rows if r["onset_s"] is not None]
     summary = {
         "task": task.name,
         "reference": reference,
-        "repeats": repeats,
+        "repeats": rows,
         "left_out": [str(w.message) for w in caught],
         "repeat_spread_m": chosen.repeat_spread,
         "repeat_spread_aligned_m": floor.spread_aligned_m,
@@ -131,7 +134,7 @@ def task_quality(engine: str, task: TaskSpec, root: Path, reference: str = "alig
         "shift_range_s": [floor.shift_min_s, floor.shift_max_s],
         "shift_outliers": list(floor.outliers),
         "largest_distance_to_mean_m": max(
-            r["distance_to_mean_m" if chosen is aligned else "distance_to_mean_unaligned_m"] for r in repeats
+            r["distance_to_mean_m" if chosen is aligned else "distance_to_mean_unaligned_m"] for r in rows
         ),
         "start_distance_m": float(np.linalg.norm(chosen.wrist_mean[0] - sim_marker[0])),  # type: ignore[index]
         "onset_mean_s": float(np.mean(onsets)) if onsets else None,
@@ -139,6 +142,10 @@ def task_quality(engine: str, task: TaskSpec, root: Path, reference: str = "alig
         "simulated_onset_s": sim_onset,
         "implied_command_delay_s": (float(np.mean(onsets) - sim_onset) if onsets and sim_onset is not None else None),
     }
+    if repeats != "all":  # which repeats the check used (the rows name them) and which it held out
+        summary["repeat_selection"] = repeats
+        summary["repeat_files"] = [row["file"] for row in rows]
+        summary["held_out"] = [Path(source).name for source in aligned.held_out]
     return summary, chosen
 
 
@@ -170,13 +177,14 @@ def check(
     workers: int = 1,
     *,
     reference: str = "aligned",
+    repeats: str = "all",
 ) -> dict:
-    """Every part of the check for ``tasks`` on ``engine`` with the recordings under ``root``, the Jacobian's
-    residuals against ``reference`` (aligned or mean)."""
+    """Every part of the check for ``tasks`` on ``engine`` with the recordings under ``root`` (the repeats
+    ``repeats`` selects: all, even or odd), the Jacobian's residuals against ``reference`` (aligned or mean)."""
     cls = engine_class(engine)
     per_task, references = [], {}
     for task in tasks:
-        summary, reference_data = task_quality(engine, task, Path(root), reference)
+        summary, reference_data = task_quality(engine, task, Path(root), reference, repeats)
         per_task.append(summary)
         references[task.name] = reference_data
     full = get_space(space_name, cls.supported())
@@ -209,6 +217,7 @@ def check(
         "data": str(root),
         "space": space_name,
         "reference": reference,
+        **({"repeats": repeats} if repeats != "all" else {}),
         "data_quality": per_task,
         "jacobian": {
             "point": "generic",

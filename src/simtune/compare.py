@@ -157,6 +157,7 @@ def run_compare(
         "tasks": base.tasks,
         "space": base.space,
         "reference": base.reference,
+        **({"repeats": base.repeats} if base.repeats != "all" else {}),
         "data": base.data,
         "only": base.only,
         "budget": budget,

@@ -44,3 +44,12 @@ class RobotWarning(UserWarning):
 
 class RobotError(SimtuneError):
     """A robot description (URDF, meshes) that cannot be loaded, or a link or joint it does not have."""
+
+
+def check_choice(value: object, choices: tuple[str, ...], where: str, meaning: str) -> str:
+    """``value`` if it is one of ``choices``; else a one-line ConfigError naming ``where``, the choices and what
+    they mean (``meaning``, in parentheses)."""
+    if not isinstance(value, str) or value not in choices:
+        listed = f"{', '.join(choices[:-1])} or {choices[-1]}" if len(choices) > 1 else choices[0]
+        raise ConfigError(f"{where}: expected {listed} ({meaning}), got {value!r}")
+    return value

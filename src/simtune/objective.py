@@ -35,10 +35,11 @@ from simtune.tasks.lerobot import reading_for
 
 
 def load_task_recordings(
-    folder: Path, task: TaskSpec, joint_topic: str | None = None, reference: str = "mean"
+    folder: Path, task: TaskSpec, joint_topic: str | None = None, reference: str = "mean", repeats: str = "all"
 ) -> TaskData:
     """One task's recordings from ``folder``, with what the task and its robot tell the loader's sanity stage,
-    averaged as ``reference`` says (``aligned``: on one clock, :mod:`simtune.data.clock`; ``mean``: as recorded).
+    averaged as ``reference`` says (``aligned``: on one clock, :mod:`simtune.data.clock`; ``mean``: as recorded),
+    of the repeats ``repeats`` selects (``all``, ``even`` or ``odd``: :func:`simtune.data.load_task_data`).
 
     A task that starts its object where the recordings put it (``start_from_recordings``) needs recordings that
     track the object: joint logs alone are a one-line error.
@@ -56,6 +57,7 @@ def load_task_recordings(
         lerobot=reading_for(task),
         joint_ranges=joint_ranges(task),
         reference=reference,
+        repeats=repeats,
     )
     if task.start_from_recordings and task.object is not None and data.object_start_mean is None:
         raise RecordingError(
@@ -83,10 +85,15 @@ def joint_ranges(task: TaskSpec) -> dict[str, JointRange]:
 
 
 def load_references(
-    root: Path | None, tasks: list[TaskSpec], joint_topic: str | None = None, reference: str = "mean"
+    root: Path | None,
+    tasks: list[TaskSpec],
+    joint_topic: str | None = None,
+    reference: str = "mean",
+    repeats: str = "all",
 ) -> dict[str, TaskData]:
     """The recordings of each task, from ``root/<task name>/``, checked against the task and the arm, averaged as
-    ``reference`` says (``aligned`` or ``mean``: :func:`load_task_recordings`).
+    ``reference`` says (``aligned`` or ``mean``: :func:`load_task_recordings`), of the repeats ``repeats``
+    selects (``all``, ``even`` or ``odd``).
 
     Without ``root``, each task's own recordings folder (``TaskSpec.recordings``, from its project).
     The task's duration, its robot's reach and its joint names go to the loader's sanity stage as
@@ -109,7 +116,7 @@ def load_references(
         if not folder.is_dir():
             what = f"{folder} is a file, not a folder" if folder.exists() else f"folder {folder} does not exist"
             raise SimtuneError(f"no recordings for task {task.name!r}: {what}")
-        refs[task.name] = load_task_recordings(folder, task, joint_topic, reference)
+        refs[task.name] = load_task_recordings(folder, task, joint_topic, reference, repeats)
         gap = start_pose_gap(task, refs[task.name])
         if gap is not None and gap > START_WARN_M:
             warnings.warn(

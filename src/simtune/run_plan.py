@@ -15,7 +15,7 @@ from functools import cached_property
 from pathlib import Path
 
 from simtune.activity import active_space, declared_inactive, inactive_parameters
-from simtune.data import TaskData
+from simtune.data import TaskData, check_repeats
 from simtune.data.clock import check_reference, default_reference
 from simtune.engines import Engine, engine_class
 from simtune.errors import ConfigError
@@ -77,6 +77,9 @@ class RunConfig:
     #: (the paper's plain mean); left empty: aligned, or mean with paper_exact.  Runs stored before this setting
     #: existed scored against the mean
     reference: str = ""
+    #: which of each task's repeats build the reference (held-out scoring): ``all``, ``even`` (the 1st, 3rd ...
+    #: in sorted order) or ``odd`` (the 2nd, 4th ...); runs stored before this setting existed used all
+    repeats: str = "all"
 
     def __post_init__(self) -> None:
         if self.reference == "":
@@ -84,14 +87,17 @@ class RunConfig:
 
     def record(self) -> dict:
         """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
-        ``weights`` and ``joint_topic`` at their defaults (None) and ``threads`` when off, so that the stores of
-        runs made before projects, joint logs and the batch path and of new MICO runs compare equal."""
+        ``weights`` and ``joint_topic`` at their defaults (None), ``threads`` when off and ``repeats`` when
+        ``all``, so that the stores of runs made before projects, joint logs, the batch path and the choice of
+        repeats and of new MICO runs compare equal."""
         values = asdict(self)
         for key in ("project", "weights", "joint_topic"):
             if values[key] is None:
                 del values[key]
         if not values["threads"]:
             del values["threads"]
+        if values["repeats"] == "all":
+            del values["repeats"]
         return values
 
     @classmethod
@@ -156,6 +162,7 @@ class RunConfig:
             raise bad("joint_topic", "a topic name")
         get_optimizer(self.optimizer)
         check_reference(self.reference, f"{at}reference")
+        check_repeats(self.repeats, f"{at}repeats")
         if self.paper_exact:
             if self.reference != "mean":
                 raise ConfigError(
@@ -236,9 +243,9 @@ class RunPlan:
     @cached_property
     def references(self) -> dict[str, TaskData]:
         """The recordings of every task (from the run's data root, else each task's own folder), as the run's
-        reference (aligned or mean)."""
+        reference (aligned or mean), of the run's repeats (all, even or odd)."""
         data = None if self.config.data is None else Path(self.config.data)
-        return load_references(data, self.tasks, self.config.joint_topic, self.config.reference)
+        return load_references(data, self.tasks, self.config.joint_topic, self.config.reference, self.config.repeats)
 
     def search_space(self, inactive: dict[str, str] | None = None) -> ParameterSpace:
         """The space searched: the full space less ``inactive`` (default: the measured ones) unless the run keeps

@@ -93,13 +93,17 @@ def task_fingerprint(task: TaskSpec) -> str:
 
 def run_fingerprint(plan: RunPlan) -> dict:
     """What the fitness of a run depends on besides its parameters: data files, the reference made of them (aligned
-    or mean), task definitions, engine version."""
-    return {
+    or mean) and which repeats build it (left out when all: the fingerprints of runs stored before the choice
+    stay), task definitions, engine version."""
+    fingerprint = {
         "data": folders_fingerprint({t.name: recordings_folder(plan.config.data, t) for t in plan.tasks}),
         "reference": plan.config.reference,
         "tasks": {t.name: task_fingerprint(t) for t in plan.tasks},
         "engine": f"{plan.config.engine} {plan.engine.version()}",
     }
+    if plan.config.repeats != "all":
+        fingerprint["repeats"] = plan.config.repeats
+    return fingerprint
 
 
 #: A task's fingerprint now -> the one runs stored before tasks were files, for the same definition: the
@@ -125,6 +129,10 @@ def fingerprint_differences(stored: dict, now: dict) -> list[str]:
     was, now_kind = stored.get("reference", "mean"), now.get("reference", "mean")
     if was != now_kind:
         changes.append(f"the reference changed from {was} to {now_kind}")
+    # a fingerprint without repeats: all of them (every run stored before the choice, and every run of all)
+    was, now_kind = stored.get("repeats", "all"), now.get("repeats", "all")
+    if was != now_kind:
+        changes.append(f"the repeats changed from {was} to {now_kind}")
     for name in sorted(set(stored.get("tasks", {})) | set(now["tasks"])):
         before, after = stored.get("tasks", {}).get(name), now["tasks"].get(name)
         if before != after and before != FORMER_TASK_FINGERPRINTS.get(after or ""):

@@ -67,11 +67,11 @@ def run_transfer(
         raise ConfigError(f"--test: {', '.join(sorted(overlap))} also in --train: a transfer test needs unseen tasks")
     test_root = Path(test_data) if test_data is not None else _root(config.data)
     # fail on missing test data before tuning
-    test_refs = load_references(test_root, test_tasks, config.joint_topic, config.reference)
+    test_refs = load_references(test_root, test_tasks, config.joint_topic, config.reference, config.repeats)
     out = Path(out)
     run_dir = out / RUN_FOLDER
     tuned = _tune(config, run_dir, show_progress)
-    train_refs = load_references(_root(config.data), train_tasks, config.joint_topic, config.reference)
+    train_refs = load_references(_root(config.data), train_tasks, config.joint_topic, config.reference, config.repeats)
     weights = None if config.weights is None else FitnessWeights.from_mapping(config.weights, "weights")
     rows = [
         _score(config.engine, task, role, refs[task.name], tuned.params, weights, role == "test" and align_clock)
@@ -87,6 +87,7 @@ def run_transfer(
         "test_data": str(test_root),
         "optimizer": config.optimizer,
         "reference": config.reference,
+        **({"repeats": config.repeats} if config.repeats != "all" else {}),
         "run": str(run_dir),
         "best_params_file": str(run_dir / "best_params.json"),
         "evaluations": tuned.evaluations,

@@ -16,6 +16,7 @@ from simtune.cli.options import (
     JsonOpt,
     ProjectOpt,
     ReferenceOpt,
+    RepeatsOpt,
     SpaceOpt,
     WorkersOpt,
     finite,
@@ -50,6 +51,7 @@ def check(
     space: SpaceOpt = "extended",
     workers: WorkersOpt = 1,
     reference: ReferenceOpt = None,
+    repeats: RepeatsOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Before tuning: a project's files (simtune check DIR), or a task's data and what it can inform (--task).
@@ -71,7 +73,14 @@ def check(
         _check_project(project_dir)
         return
     result = api.check(
-        engine or "mujoco", task, project=project_dir, data=data, space=space, workers=workers, reference=reference
+        engine or "mujoco",
+        task,
+        project=project_dir,
+        data=data,
+        space=space,
+        workers=workers,
+        reference=reference,
+        repeats=repeats,
     )
     if as_json:
         print_json(result)
@@ -94,9 +103,10 @@ def _check_project(project_dir: Path) -> None:
 
 def _print_data_quality(parts: list[dict]) -> None:
     for part in parts:
+        selection = f", repeats {part['repeat_selection']}" if "repeat_selection" in part else ""
         table = text_table(
             f"{part['task']}: {len(part['repeats'])} repeats, spread {1000 * part['repeat_spread_m']:.1f} mm "
-            f"(reference: {part['reference']})",
+            f"(reference: {part['reference']}{selection})",
             (
                 "file",
                 "lost frames",
@@ -122,6 +132,14 @@ def _print_data_quality(parts: list[dict]) -> None:
                 f"{r['floor_fitness']:.4f}",
             )
         out.print(table)
+        if "repeat_selection" in part:
+            held = ", ".join(part["held_out"]) or "none"
+            out.print(
+                f"  repeats {part['repeat_selection']}: the {len(part['repeats'])} above, of "
+                f"{len(part['repeats']) + len(part['held_out'])} usable; held out: {held}",
+                highlight=False,
+                soft_wrap=True,
+            )
         for line in part["left_out"]:
             out.print(f"  {'left out' if 'left out' in line else 'warning'}: {escape(line)}")
         out.print(

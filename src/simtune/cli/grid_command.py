@@ -14,6 +14,7 @@ from simtune.cli.options import (
     DataOpt,
     KeepInactiveOpt,
     ReferenceOpt,
+    RepeatSetOpt,
     max_generations_option,
     max_seconds_option,
     out_option,
@@ -74,6 +75,7 @@ def grid(
     only: Annotated[str | None, typer.Option(help="Tune only these parameters (comma-separated).")] = None,
     keep_inactive: KeepInactiveOpt = False,
     reference: ReferenceOpt = None,
+    repeat_set: RepeatSetOpt = None,
     plan: PlanOpt = False,
     cluster_cores: ClusterCoresOpt = 100,
 ) -> None:
@@ -96,6 +98,7 @@ def grid(
         only=only_names(only),
         keep_inactive=keep_inactive,
         reference=reference,
+        repeat_set=repeat_set,
     )
     if plan:
         _print_plan(spec, max_generations, cluster_cores)

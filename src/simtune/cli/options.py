@@ -125,6 +125,31 @@ def reference(value: str | None) -> str | None:
 
 
 ReferenceOpt = Annotated[str | None, typer.Option("--reference", help=REFERENCE_HELP, callback=reference)]
+#: what ``--repeats`` is, said once for every command that scores
+REPEATS_HELP = (
+    "Which of each task's repeats build the reference, in sorted file order: all, even (the 1st, 3rd, 5th ...) or "
+    "odd (the 2nd, 4th ...), chosen before their clocks are aligned and they are averaged: tune on even, score on "
+    "odd (held-out repeats: docs/tuning.md). Default: all."
+)
+
+
+def repeats(value: str | None) -> str | None:
+    """``--repeats``: all, even or odd."""
+    if value is not None and value not in ("all", "even", "odd"):
+        raise typer.BadParameter(f"{value!r} is not all, even or odd")
+    return value
+
+
+RepeatsOpt = Annotated[str | None, typer.Option("--repeats", help=REPEATS_HELP, callback=repeats)]
+#: ``simtune grid``'s spelling of it: its ``--repeats`` is the number of seeds
+RepeatSetOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--repeat-set",
+        help=REPEATS_HELP.replace("Default: all.", "Default: all. (--repeats is the number of seeds here.)"),
+        callback=repeats,
+    ),
+]
 
 
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]

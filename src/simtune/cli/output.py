@@ -79,3 +79,69 @@ def print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
         if loose:
             out.print(f"  unbounded (the recordings cannot pin them here): {', '.join(loose)}")
         out.print(f"  `simtune uncertainty {run_dir}` lists every parameter (--json for scripts)")
+
+
+def evaluation_json(engine: str, task: str, score) -> dict:
+    """``evaluate --json``: one object; with a selection of repeats other than all, ``repeats`` and, per task, the
+    files of the repeats that built its reference (``repeat_files``)."""
+    payload = {
+        "engine": engine,
+        "task": task,
+        "space": None,
+        "fitness": score.fitness,
+        "wrist_error": score.wrist_error,
+        "object_error": score.object_error,
+        "joint_error": score.joint_error,
+        "generic_fitness": score.generic_fitness,
+        "stable": score.stable,
+        "wall_s": score.wall_s,
+        "tasks": [t.__dict__ for t in score.parts.values()],
+        "fitness_unaligned": score.fitness if score.fitness_unaligned is None else score.fitness_unaligned,
+        "clock_aligned": score.clock_aligned,
+        "reference": score.reference,
+    }
+    if score.repeats != "all":
+        payload["repeats"] = score.repeats
+        payload["repeat_files"] = score.repeat_files
+    return payload
+
+
+def print_evaluation(score, title: str) -> None:
+    """``evaluate``'s table: per task (and all of them) the fitness and its parts; the generic fitness, each
+    clock aligned, and the repeats scored against when not all of them."""
+    # the joint column only where joint logs were scored: motion-capture tables stay as they were
+    joint_col = score.joint_error is not None
+    if score.repeats != "all":
+        title += f", repeats {score.repeats}"
+    table = text_table(
+        title,
+        (
+            "task",
+            "fitness",
+            "wrist error [m]",
+            "object error [m]",
+            *(["joint error [rad]"] if joint_col else []),
+            "note",
+        ),
+    )
+    parts: list = list(score.parts.values())
+    rows = [(t.task, t) for t in parts] + ([("all", score)] if len(parts) > 1 else [])
+    for name, part in rows:
+        joint = [fmt(part.joint_error)] if joint_col else []
+        table.add_row(name, fmt(part.fitness), fmt(part.wrist_error), fmt(part.object_error), *joint, part.message)
+    out.print(table)
+    if score.x:
+        out.print(f"generic fitness: {score.generic_fitness:.4f}")
+    for e in score.alignments:
+        out.print(
+            f"clock aligned: {e.task}'s command delay {e.delay_s:.2f} s, estimated from its recordings (motion onset "
+            f"{fmt_g(e.recorded_onset_s)} s) with the physics held fixed; without alignment the fitness is "
+            f"{score.fitness_unaligned:.4f} (--no-align-clock)"
+        )
+    if score.repeats != "all":
+        for task, files in score.repeat_files.items():
+            out.print(
+                f"repeats {score.repeats}: {task} scored against {len(files)} repeats: {', '.join(files)}",
+                highlight=False,
+                soft_wrap=True,
+            )

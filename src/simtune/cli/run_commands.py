@@ -21,6 +21,7 @@ from simtune.cli.options import (
     ProjectOpt,
     QuietOpt,
     ReferenceOpt,
+    RepeatsOpt,
     SeedOpt,
     SpaceOpt,
     TaskOpt,
@@ -33,8 +34,16 @@ from simtune.cli.options import (
     path,
     refine_option,
 )
-from simtune.cli.output import err, fmt, fmt_g, only_names, out, print_json, print_uncertainty
-from simtune.console import text_table
+from simtune.cli.output import (
+    err,
+    evaluation_json,
+    fmt,
+    only_names,
+    out,
+    print_evaluation,
+    print_json,
+    print_uncertainty,
+)
 from simtune.errors import SimtuneError
 
 ParamsFileOpt = Annotated[
@@ -131,9 +140,14 @@ def evaluate(
     project: ProjectOpt = None,
     align_clock: AlignClockOpt = None,
     reference: ReferenceOpt = None,
+    repeats: RepeatsOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
-    """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks."""
+    """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks.
+
+    Held-out repeats: a run tuned with --repeats even is scored on the others with
+    `simtune evaluate --params-file RUN/best_params.json --repeats odd`.
+    """
     from simtune import api
 
     score = api.evaluate(
@@ -146,59 +160,13 @@ def evaluate(
         joint_topic=joint_topic,
         align_clock=_tasks_to_align(align_clock, params_file, task, project),
         reference=reference,
+        repeats=repeats,
     )
     if as_json:
-        print_json(
-            {
-                "engine": engine,
-                "task": task,
-                "space": None,
-                "fitness": score.fitness,
-                "wrist_error": score.wrist_error,
-                "object_error": score.object_error,
-                "joint_error": score.joint_error,
-                "generic_fitness": score.generic_fitness,
-                "stable": score.stable,
-                "wall_s": score.wall_s,
-                "tasks": [t.__dict__ for t in score.parts.values()],
-                "fitness_unaligned": score.fitness if score.fitness_unaligned is None else score.fitness_unaligned,
-                "clock_aligned": score.clock_aligned,
-                "reference": score.reference,
-            }
-        )
+        print_json(evaluation_json(engine, task, score))
         return
     with_what = f" with {params_file}" if params_file else " (generic parameters)"
-    _print_evaluation(score, f"{engine} on {task}{with_what}; reference: {score.reference}")
-
-
-def _print_evaluation(score, title: str) -> None:
-    # the joint column only where joint logs were scored: motion-capture tables stay as they were
-    joint_col = score.joint_error is not None
-    table = text_table(
-        title,
-        (
-            "task",
-            "fitness",
-            "wrist error [m]",
-            "object error [m]",
-            *(["joint error [rad]"] if joint_col else []),
-            "note",
-        ),
-    )
-    parts: list = list(score.parts.values())
-    rows = [(t.task, t) for t in parts] + ([("all", score)] if len(parts) > 1 else [])
-    for name, part in rows:
-        joint = [fmt(part.joint_error)] if joint_col else []
-        table.add_row(name, fmt(part.fitness), fmt(part.wrist_error), fmt(part.object_error), *joint, part.message)
-    out.print(table)
-    if score.x:
-        out.print(f"generic fitness: {score.generic_fitness:.4f}")
-    for e in score.alignments:
-        out.print(
-            f"clock aligned: {e.task}'s command delay {e.delay_s:.2f} s, estimated from its recordings (motion onset "
-            f"{fmt_g(e.recorded_onset_s)} s) with the physics held fixed; without alignment the fitness is "
-            f"{score.fitness_unaligned:.4f} (--no-align-clock)"
-        )
+    print_evaluation(score, f"{engine} on {task}{with_what}; reference: {score.reference}")
 
 
 def _tasks_to_align(align_clock: bool | None, params_file: Path | None, task: str, project: Path | None) -> list[str]:
@@ -241,6 +209,7 @@ def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
         "space": config.space,
         "optimizer": config.optimizer,
         "reference": config.reference,
+        **({"repeats": config.repeats} if config.repeats != "all" else {}),
         "fitness": result.score.fitness,
         "wrist_error": result.score.wrist_error,
         "object_error": result.score.object_error,
@@ -259,7 +228,8 @@ def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
         return
     out.print(
         f"[bold]{config.engine}[/] on [bold]{config.tasks}[/], space {config.space}, optimizer "
-        f"{config.optimizer}{' + least squares' if config.refine else ''}, reference {config.reference}: "
+        f"{config.optimizer}{' + least squares' if config.refine else ''}, reference {config.reference}"
+        f"{'' if config.repeats == 'all' else f' of the {config.repeats} repeats'}: "
         f"fitness {store_generic['fitness']:.4f} (generic) -> [bold green]{result.score.fitness:.4f}[/] (tuned)"
     )
     joint = "" if result.score.joint_error is None else f", joint error {fmt(result.score.joint_error)} rad"
@@ -303,6 +273,7 @@ def tune(
     joint_topic: JointTopicOpt = None,
     project: ProjectOpt = None,
     reference: ReferenceOpt = None,
+    repeats: RepeatsOpt = None,
     quiet: QuietOpt = False,
     as_json: JsonOpt = False,
 ) -> None:
@@ -339,6 +310,7 @@ def tune(
         keep_inactive=keep_inactive,
         threads=threads,
         reference=reference,
+        repeats=repeats,
     )
     result = api.start(config, out_dir, show_progress=not quiet and not as_json)
     report_tune(result, out_dir, config, as_json)

@@ -18,6 +18,7 @@ from simtune.cli.options import (
     OptimizerOpt,
     QuietOpt,
     ReferenceOpt,
+    RepeatsOpt,
     SeedOpt,
     SpaceOpt,
     TaskOpt,
@@ -62,6 +63,7 @@ def compare(
     eval_timeout: EvalTimeoutOpt = 600.0,
     out_dir: CompareOutOpt = Path("runs/compare"),
     reference: ReferenceOpt = None,
+    repeats: RepeatsOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Compare optimisers on the same budget of evaluations: best fitness at 25/50/100 % of it, evaluations to a target.
@@ -94,6 +96,7 @@ def compare(
         eval_timeout=eval_timeout,
         on_run=note,
         reference=reference,
+        repeats=repeats,
     )
     if as_json:
         print_json({k: v for k, v in result.items() if k != "runs"})
@@ -138,6 +141,7 @@ def transfer(
     out_dir: TransferOutOpt = Path("runs/transfer"),
     align_clock: TransferAlignOpt = True,
     reference: ReferenceOpt = None,
+    repeats: RepeatsOpt = None,
     quiet: QuietOpt = False,
     as_json: JsonOpt = False,
 ) -> None:
@@ -171,6 +175,7 @@ def transfer(
         align_clock=align_clock,
         show_progress=not quiet and not as_json,
         reference=reference,
+        repeats=repeats,
     )
     if as_json:
         print_json({k: v for k, v in result.items() if k != "params"})

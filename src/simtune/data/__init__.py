@@ -10,14 +10,16 @@ from simtune.data.loaders import RECORDING_SUFFIXES, load_recording, load_record
 from simtune.data.qualisys import write_qualisys_tsv
 from simtune.data.recording import QRG2019_BODIES, Recording
 from simtune.data.rosbag import read_joint_bag, write_joint_bag
-from simtune.data.task import TaskData, load_task_data, resample
+from simtune.data.task import REPEATS, TaskData, check_repeats, load_task_data, resample
 
 __all__ = [
     "QRG2019_BODIES",
     "RECORDING_SUFFIXES",
+    "REPEATS",
     "LeRobotReading",
     "Recording",
     "TaskData",
+    "check_repeats",
     "data_fingerprint",
     "fingerprint_changes",
     "load_recording",

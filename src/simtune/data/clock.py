@@ -26,7 +26,7 @@ import numpy as np
 
 from simtune.data._table import display_name
 from simtune.data.onset import motion_onset
-from simtune.errors import ConfigError, RecordingWarning
+from simtune.errors import RecordingWarning, check_choice
 
 #: The reference kinds: ``aligned`` (repeats on one clock, then averaged) and ``mean`` (the paper's plain mean).
 REFERENCES = ("aligned", "mean")
@@ -59,12 +59,7 @@ OUTLIER_MIN_REPEATS = 5
 
 def check_reference(value: object, where: str = "reference") -> str:
     """``value`` if it names a reference kind; else a one-line ConfigError naming ``where``."""
-    if not isinstance(value, str) or value not in REFERENCES:
-        raise ConfigError(
-            f"{where}: expected {' or '.join(REFERENCES)} (repeats on one clock, or the paper's plain mean), "
-            f"got {value!r}"
-        )
-    return value
+    return check_choice(value, REFERENCES, where, "repeats on one clock, or the paper's plain mean")
 
 
 @dataclass(frozen=True)

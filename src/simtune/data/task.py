@@ -28,7 +28,22 @@ from simtune.data.sanity import (
     duration_floor,
     wrist_distance,
 )
-from simtune.errors import ConfigError, RecordingError, RecordingWarning
+from simtune.errors import ConfigError, RecordingError, RecordingWarning, check_choice
+
+#: Which of a task's repeats build its reference: ``all``, or every other one in the loader's sorted order,
+#: ``even`` (the 1st, 3rd, 5th ...: indices 0, 2, 4 ...) or ``odd`` (the 2nd, 4th ...: indices 1, 3 ...), to fit on
+#: some repeats and score on the others.
+REPEATS = ("all", "even", "odd")
+#: The repeats of a run that names none (and of every run stored before the choice).
+DEFAULT_REPEATS = "all"
+
+
+def check_repeats(value: object, where: str = "repeats") -> str:
+    """``value`` if it names a selection of repeats; else a one-line ConfigError naming ``where``."""
+    return check_choice(
+        value, REPEATS, where, "every repeat, or the 1st, 3rd ... or the 2nd, 4th ... of the repeats in sorted order"
+    )
+
 
 #: The first seconds of a recording, before the arm moves (every task holds its start pose at least
 #: this long): what the object's and the wrist's start positions are averaged over.
@@ -65,6 +80,10 @@ class TaskData:
     alignment: ClockAlignment | None = None
     #: the wrist's :attr:`repeat_spread` with every repeat on its own clock [m]: the mean reference's
     unaligned_spread: float | None = None
+    #: which of the repeats the loader kept build the reference (:data:`REPEATS`): ``all``, ``even`` or ``odd``
+    repeats: str = DEFAULT_REPEATS
+    #: the repeats the loader kept that the selection left out (none with ``all``), in sorted order
+    held_out: list[Path] = field(default_factory=list)
 
     @property
     def object_start_mean(self) -> np.ndarray | None:
@@ -339,6 +358,22 @@ def _aligned_clocks(
     return alignment
 
 
+def _select(folder: Path, kept: list[_Repeat], repeats: str) -> tuple[list[_Repeat], list[_Repeat]]:
+    """The repeats ``repeats`` selects of those kept (in the loader's sorted order), and those it leaves out;
+    a selection of none is a one-line error naming the folder and the choice."""
+    if repeats == "all":
+        return kept, []
+    first = 0 if repeats == "even" else 1
+    chosen = kept[first::2]
+    if not chosen:
+        names = ", ".join(display_name(rec.source) for rec, _, _ in kept)
+        raise RecordingError(
+            f"{folder}: repeats {repeats!r} selects none of its {len(kept)} usable repeat(s) ({names}): "
+            f"{repeats} takes the 2nd, 4th ... of them; choose all or even"
+        )
+    return chosen, [r for i, r in enumerate(kept) if i % 2 != first]
+
+
 def _on_common_clock(
     task: str,
     rate: float,
@@ -411,6 +446,7 @@ def load_task_data(
     lerobot: LeRobotReading | None = None,
     joint_ranges: Mapping[str, JointRange] | None = None,
     reference: str = "mean",
+    repeats: str = DEFAULT_REPEATS,
 ) -> TaskData:
     """Load every repeat in ``folder`` (sorted by name), check it, and put the repeats on a common clock.
 
@@ -440,8 +476,13 @@ def load_task_data(
     ``reference``: ``mean`` averages the repeats each on its own clock (the seed paper's reference);
     ``aligned`` shifts each repeat onto the task's clock first (:mod:`simtune.data.clock`), warning about a
     repeat whose shift is an outlier.
+
+    ``repeats``: which of the repeats kept (after the checks above, in sorted order) build the reference, before
+    their clocks are aligned and they are averaged: ``all``, ``even`` (indices 0, 2, 4 ...) or ``odd`` (1, 3 ...);
+    the ones left out are :attr:`TaskData.held_out`.  A selection of none is a RecordingError.
     """
     check_reference(reference)
+    check_repeats(repeats)
     _check_numbers(rate, max_gap_s, duration_s, reach_m)
     folder = Path(folder)
     files = _files_in(folder)
@@ -452,9 +493,13 @@ def load_task_data(
     recordings, bodies, joints = _sane_recordings(
         sources, wrist_body, object_body, base_body, duration_s, reach_m, ranges
     )
-    repeats = _bridge_gaps(recordings, bodies, max_gap_s)
-    lost = len(recordings) - len(repeats)
-    repeats, short, reason = _drop_short(repeats, duration_s)
-    if not repeats:
+    kept = _bridge_gaps(recordings, bodies, max_gap_s)
+    lost = len(recordings) - len(kept)
+    kept, short, reason = _drop_short(kept, duration_s)
+    if not kept:
         _none_usable(folder, len(recordings), lost, unreadable, short, reason, max_gap_s)
-    return _on_common_clock(task, rate, repeats, bodies, joints, wrist_body, object_body, reference)
+    chosen, held_out = _select(folder, kept, repeats)
+    data = _on_common_clock(task, rate, chosen, bodies, joints, wrist_body, object_body, reference)
+    data.repeats = repeats
+    data.held_out = [rec.source for rec, _, _ in held_out]
+    return data

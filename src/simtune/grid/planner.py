@@ -29,7 +29,7 @@ def plan_grid(spec: GridSpec, samples: int = 3, seed: int = 0) -> list[dict]:
     for engine in spec.engines:
         for entry in spec.tasks:
             tasks = parse_tasks(entry.replace("+", ","))
-            refs = load_references(Path(spec.data), tasks, reference=spec.reference)
+            refs = load_references(Path(spec.data), tasks, reference=spec.reference, repeats=spec.repeat_set)
             for space_name in spec.spaces:
                 space = get_space(space_name, engine_class(engine).supported(), spec.only)
                 objective = Objective(engine, tasks, refs, space)

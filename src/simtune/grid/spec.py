@@ -34,6 +34,9 @@ class GridSpec:
     only: list[str] | None = None  # tune just these parameters of each space
     keep_inactive: bool = False  # keep parameters that change no rollout in the search (the paper's full D)
     reference: str = "aligned"  # what each run is scored against: aligned (repeats on one clock) or mean
+    #: which of each task's recorded repeats build that reference: all, even or odd (``--repeat-set``; ``repeats``
+    #: is the number of seeds)
+    repeat_set: str = "all"
 
     def units(self) -> list[Unit]:
         return [
@@ -46,6 +49,7 @@ class GridSpec:
 
     def validate(self) -> None:
         """Fail before any compute on an unknown engine, task or space, or missing data."""
+        from simtune.data import check_repeats
         from simtune.data.clock import check_reference
         from simtune.engines import engine_class
         from simtune.objective import load_references
@@ -55,11 +59,12 @@ class GridSpec:
         if self.repeats < 1:
             raise ConfigError("--repeats must be at least 1")
         check_reference(self.reference, "--reference")
+        check_repeats(self.repeat_set, "--repeat-set")
         for name in self.engines:
             for space in self.spaces:
                 get_space(space, engine_class(name).supported(), self.only)
         tasks = {t.name: t for entry in self.tasks for t in parse_tasks(entry.replace("+", ","))}
-        load_references(Path(self.data), list(tasks.values()), reference=self.reference)
+        load_references(Path(self.data), list(tasks.values()), reference=self.reference, repeats=self.repeat_set)
 
 
 def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
@@ -82,6 +87,7 @@ def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
         only=spec.only,
         keep_inactive=spec.keep_inactive,
         reference=spec.reference,
+        repeats=spec.repeat_set,
     )
     try:
         path.mkdir(parents=True, exist_ok=True)

@@ -70,6 +70,10 @@ class BatchSearch:
         self.best_x: np.ndarray | None = None
         self.best_fitness = float("inf")
         self.stop_reason: str | None = None
+        #: points scored before the search asked for them (least squares' speculative Jacobian columns), by key:
+        #: tracked when it asks (:meth:`release`) or at the end (:meth:`result`), never before, so that the
+        #: search's path does not depend on how many workers scored ahead
+        self.held: dict[bytes, tuple[np.ndarray, float]] = {}
 
     # --- context: the process pool -----------------------------------------------------------------
     def __enter__(self) -> BatchSearch:
@@ -95,8 +99,10 @@ class BatchSearch:
 
     @property
     def used(self) -> int:
-        """Evaluations asked for so far in this session's search (reused from the store or simulated)."""
-        return self.evaluator.requested
+        """Evaluations asked for so far in this session's search (reused from the store or simulated); points
+        scored ahead count once the search asks for them, so a budget stops a search at the same point of its
+        path on any number of workers."""
+        return self.evaluator.requested - len(self.held)
 
     @property
     def generations(self) -> int:
@@ -155,10 +161,23 @@ class BatchSearch:
 
     def track(self, vectors, fitness) -> None:
         """Note scored vectors (the best point so far is kept)."""
+        if len(fitness) == 0:
+            return
         i = int(np.argmin(fitness))
         if fitness[i] < self.best_fitness:
             self.best_fitness = float(fitness[i])
             self.best_x = np.array(vectors[i], dtype=float)
+
+    def hold(self, key: bytes, x: np.ndarray, fitness: float) -> None:
+        """Keep a point scored ahead of the search out of its best point until :meth:`release` (``key``: the
+        search's own name for the point)."""
+        self.held[key] = (np.array(x, dtype=float), float(fitness))
+
+    def release(self, key: bytes) -> None:
+        """Track the held point ``key`` now that the search asks for it (nothing if none is held)."""
+        if key in self.held:
+            x, fitness = self.held.pop(key)
+            self.track(x[None], np.array([fitness]))
 
     def checkpoint(self, vectors, fitness, population: bool = True) -> bool:
         """Record a batch (or population) as a generation checkpoint; True when a budget says stop.
@@ -187,6 +206,9 @@ class BatchSearch:
 
     def result(self, message: str | None = None, converged: bool = False) -> TuneResult:
         """The :class:`TuneResult` of the search so far (best point, with its stored score)."""
+        used = self.used  # before the held points are let in: what the search asked for (a replay's budget)
+        for key in list(self.held):  # the run's best point is the best of every point it scored
+            self.release(key)
         if self.best_x is None:
             raise RuntimeError("no batch was evaluated")
         best = self.store.lookup(self.best_x) or self.objective.score_vector(self.best_x)
@@ -203,5 +225,5 @@ class BatchSearch:
             list(self.history),
             self.evaluator.pruned_evaluations,
             self.evaluator.steps,
-            self.used,
+            used,
         )

@@ -14,7 +14,9 @@ is often one basin away.  Then, in rounds:
 2. **local**: SciPy's ``least_squares`` (trust-region reflective, within the bounds, in the unit cube)
    from the best point of the run on the per-sample residuals (:func:`simtune.fitness.residuals`),
    with a forward-difference Jacobian whose D perturbed points go to the Evaluator as one batch (worker
-   processes, or the engine's batch path with ``--threads``).  It ends when a solver step gains less than
+   processes, or the engine's batch path with ``--threads``); each trial point goes out with as many columns
+   of its own Jacobian as there are workers besides it, which the solver asks for next whenever the trial
+   lowers the cost (:func:`~simtune.optimize.refine.least_squares_phase`).  It ends when a solver step gains less than
    ``STALL_FTOL`` of the cost (it stalls: back to the global phase, which looks for a better basin) or
    after ``LOCAL_NFEV`` solver steps.  A point already refined, or where a local phase stalled, is not
    refined again: the round's own best is then.
@@ -22,6 +24,10 @@ is often one basin away.  Then, in rounds:
 Rounds go on until a budget of the settings is spent (time, evaluations, generations, target fitness),
 checked after every batch: a DE generation, a least-squares trial point or a Jacobian.  A generation of
 this optimiser is one such batch.
+
+The worker count shapes the batches (the speculative Jacobian columns), and a speculative point that scores
+best becomes the run's best point, so runs of one seed on different worker counts may part ways after
+their first local phase; on one worker count the search is deterministic.
 
 Resume: the search is deterministic given its seed and the stored results (DE draws from the seed of its
 round; least squares is deterministic given the residuals, which the store keeps for every point of a

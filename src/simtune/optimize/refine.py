@@ -7,7 +7,8 @@ recorded wrist at every sample, stacked over tasks, plus the final object
 position error).  It works in the unit cube (each parameter scaled to its
 range) with a forward-difference Jacobian of step ``step`` (in units of each
 range: simulations are not smooth at the scale of rounding errors), whose D
-evaluations go to the process pool as one batch.
+evaluations go to the process pool as one batch; workers a trial point would
+leave idle evaluate the first columns of its own Jacobian meanwhile.
 
 Every evaluation, with its residual vector, lands in the run store, so a
 resumed run replays the refinement without simulating again.  The
@@ -42,44 +43,80 @@ def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float =
 
     Every batch (a trial point, or a Jacobian's D points) is checkpointed as a generation, not a population;
     :class:`BudgetSpent` is raised once a checkpoint says a budget is spent.  Returns SciPy's result.
+
+    Workers a batch would leave idle do work the solver is likely to ask for next: the start point goes out
+    with its whole Jacobian (the solver always asks for it), and each trial point with the first columns of
+    its own Jacobian, as many as there are workers besides the trial's (:func:`speculative_columns`).  The
+    solver asks for that Jacobian as soon as the trial lowers the cost; a trial it rejects leaves those
+    points stored but unused.  Points scored ahead are held back from the search's best point until the
+    solver asks for them (:meth:`BatchSearch.hold`), so the search takes the same path on any number of
+    workers; the run's best point is chosen among all of them at its end.
     """
     x0 = np.asarray(x0, dtype=float)
     u0 = search.to_unit(x0)
     cache: dict[bytes, np.ndarray] = {}
+    spare = speculative_columns(search.evaluator.workers)
 
     def vector(u: np.ndarray) -> np.ndarray:
         return x0.copy() if np.array_equal(u, u0) else search.from_unit(u)
 
-    def batch(us: list[np.ndarray]) -> list[np.ndarray]:
+    def batch(us: list[np.ndarray], asked: int) -> None:
+        """Score ``us``: the first ``asked`` for the solver now, the rest held for when it asks."""
         xs = np.array([vector(u) for u in us])
         results = search.evaluator.residuals(xs)
         fitness = np.array([score.fitness for _, score in results])
-        search.track(xs, fitness)
+        search.track(xs[:asked], fitness[:asked])
+        for u, x, f in zip(us[asked:], xs[asked:], fitness[asked:]):
+            search.hold(np.asarray(u, dtype=float).tobytes(), x, f)
         stop = search.checkpoint(xs, fitness, population=False)
         for u, (r, _) in zip(us, results):
             cache[np.asarray(u, dtype=float).tobytes()] = r
         if stop:
             raise BudgetSpent
-        return [r for r, _ in results]
+
+    def known(u: np.ndarray) -> bool:
+        return np.asarray(u, dtype=float).tobytes() in cache
 
     def fun(u: np.ndarray) -> np.ndarray:
-        key = np.asarray(u, dtype=float).tobytes()
-        return cache[key] if key in cache else batch([u])[0]
+        u = np.asarray(u, dtype=float)
+        if not known(u):
+            first = len(cache) == 0  # the start point: its Jacobian comes next, whatever its residuals
+            columns = jacobian_points(u, step)[0]
+            batch([u, *[p for p in (columns if first else columns[:spare]) if not known(p)]], asked=1)
+        search.release(u.tobytes())
+        return cache[u.tobytes()]
 
     def jac(u: np.ndarray) -> np.ndarray:
         r0 = fun(u)
-        h = np.where(u + step <= 1.0, step, -step)
-        points = []
-        for i in range(len(u)):
-            p = np.array(u, dtype=float)
-            p[i] += h[i]
-            points.append(p)
-        columns = batch(points)
+        points, h = jacobian_points(np.asarray(u, dtype=float), step)
+        for p in points:  # asked for now: the columns scored ahead count before the batch of the others
+            search.release(p.tobytes())
+        missing = [p for p in points if not known(p)]
+        if missing:
+            batch(missing, asked=len(missing))
+        columns = [cache[p.tobytes()] for p in points]
         return np.stack([(r - r0) / hi for r, hi in zip(columns, h)], axis=1)
 
     return least_squares(
         fun, np.clip(u0, 0.0, 1.0), jac=jac, bounds=(0.0, 1.0), method="trf", max_nfev=max_nfev, ftol=ftol
     )
+
+
+def jacobian_points(u: np.ndarray, step: float) -> tuple[list[np.ndarray], np.ndarray]:
+    """The D points of a forward-difference Jacobian at ``u`` (unit cube) and their signed steps: each
+    coordinate moved by ``step``, backwards where forwards would leave the cube."""
+    h = np.where(u + step <= 1.0, step, -step)
+    points = []
+    for i in range(len(u)):
+        p = np.array(u, dtype=float)
+        p[i] += h[i]
+        points.append(p)
+    return points, h
+
+
+def speculative_columns(workers: int) -> int:
+    """Jacobian columns evaluated alongside a trial point: one for each worker the trial leaves idle."""
+    return max(0, workers - 1)
 
 
 def least_squares_refine(

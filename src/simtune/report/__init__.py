@@ -23,6 +23,7 @@ def make_report(
     figure4_parameter: str = "timestep",
     project: Path | str | None = None,
     reference: str | None = None,
+    repeats: str | None = None,
 ) -> Path:
     """Write the report for the runs under ``paths`` into folder ``out``; return its ``index.html``.
 
@@ -33,7 +34,8 @@ def make_report(
     :class:`simtune.report.builder.ReportWarning` naming them.  ``figure4_parameter``:
     the parameter whose tuned values the paper's Figure 4 shows.  ``project``: the project folder to
     read the runs' tasks from (default: the one each run names, else the bundled MICO project).  ``reference``:
-    re-score every run against ``aligned`` or ``mean`` (default: each run against its own).
+    re-score every run against ``aligned`` or ``mean`` (default: each run against its own).  ``repeats``: of the
+    ``all``, ``even`` or ``odd`` repeats of each task (default: each run's own).
     """
     from simtune.report.builder import make_report as _make
 
@@ -45,6 +47,7 @@ def make_report(
         figure4_parameter=figure4_parameter,
         project=project,
         reference=reference,
+        repeats=repeats,
     )
 
 

@@ -66,6 +66,12 @@ class ReportedRun:
         return str(self.config.get("reference", "mean"))
 
     @property
+    def repeats(self) -> str:
+        """Which of each task's repeats the run was scored against: ``all``, ``even`` or ``odd`` (stored only when
+        not all)."""
+        return str(self.config.get("repeats", "all"))
+
+    @property
     def paper_exact(self) -> bool:
         """Whether the run searched exactly as the seed paper ran SciPy (``simtune tune --paper-exact``)."""
         return bool(self.config.get("paper_exact", False))

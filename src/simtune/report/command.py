@@ -58,6 +58,15 @@ def report(
             "default: each run against its own (runs made before the choice: mean).",
         ),
     ] = None,
+    repeats: Annotated[
+        str | None,
+        typer.Option(
+            "--repeats",
+            help="Re-score every run against all, the even (1st, 3rd ...) or the odd (2nd, 4th ...) repeats of each "
+            "task, in sorted file order: a run tuned on the even ones scored on the held-out odd ones; default: each "
+            "run against its own (runs made before the choice: all).",
+        ),
+    ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Write an HTML report of tuning runs: fitness tables, convergence, parameters, trajectories.
@@ -79,5 +88,6 @@ def report(
         figure4_parameter=figure4_parameter,
         project=project,
         reference=reference,
+        repeats=repeats,
     )
     Console().print(f"report: {index}", highlight=False, soft_wrap=True)

@@ -17,22 +17,24 @@ from simtune.tasks import TaskSpec
 
 
 class References:
-    """Recordings per (data folder, task, reference kind), loaded once.
+    """Recordings per (data folder, task, reference kind, repeats), loaded once.
 
     ``reference``: what every run is re-scored against (``aligned`` or ``mean``); None: each run's own (a run
-    stored before the choice: the mean).
+    stored before the choice: the mean).  ``repeats``: of which of each task's repeats (``all``, ``even`` or
+    ``odd``); None: each run's own (a run stored before the choice: all).
     """
 
-    def __init__(self, reference: str | None = None) -> None:
+    def __init__(self, reference: str | None = None, repeats: str | None = None) -> None:
         self.reference = reference
-        self._cache: dict[tuple[str, str, str], TaskData | SimtuneError] = {}
+        self.repeats = repeats
+        self._cache: dict[tuple[str, str, str, str], TaskData | SimtuneError] = {}
 
-    def get(self, data: str | None, task: TaskSpec, reference: str = "mean") -> TaskData:
-        key = (str(recordings_folder(data, task).resolve()), task.name, reference)
+    def get(self, data: str | None, task: TaskSpec, reference: str = "mean", repeats: str = "all") -> TaskData:
+        key = (str(recordings_folder(data, task).resolve()), task.name, reference, repeats)
         if key not in self._cache:
             try:
                 root = None if data is None else Path(data)
-                self._cache[key] = load_references(root, [task], reference=reference)[task.name]
+                self._cache[key] = load_references(root, [task], reference=reference, repeats=repeats)[task.name]
             except SimtuneError as exc:
                 self._cache[key] = exc
         value = self._cache[key]
@@ -44,8 +46,18 @@ class References:
         """The reference ``run`` is re-scored against."""
         return self.reference or run.reference
 
+    def selection(self, run: ReportedRun) -> str:
+        """The repeats ``run`` is re-scored against: all, even or odd."""
+        return self.repeats or run.repeats
+
+    def label(self, run: ReportedRun) -> str:
+        """The reference ``run`` is re-scored against, as the report names it (``aligned``, ``mean of the even
+        repeats``)."""
+        kind, selection = self.kind(run), self.selection(run)
+        return kind if selection == "all" else f"{kind} of the {selection} repeats"
+
     def for_run(self, run: ReportedRun) -> dict[str, TaskData]:
-        return {t: self.get(run.data, run.task(t), self.kind(run)) for t in run.task_names}
+        return {t: self.get(run.data, run.task(t), self.kind(run), self.selection(run)) for t in run.task_names}
 
 
 @dataclass
