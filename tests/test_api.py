@@ -49,3 +49,9 @@ def test_tune_and_read_run(tmp_path):
     assert best["params"] == tuned.x and best["fitness"] == tuned.fitness
     # the tuned parameters, simulated again, score what the run stored
     assert st.evaluate("mujoco", "cube", params=out / "best_params.json").fitness == tuned.fitness
+
+
+def test_tune_runs_in_calibrated_unless_paper_exact_or_told() -> None:
+    assert st.run_config("mujoco", "cube").space == "calibrated"
+    assert st.run_config("mujoco", "cube", paper_exact=True).space == "extended"
+    assert st.run_config("mujoco", "cube", space="shared").space == "shared"

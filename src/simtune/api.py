@@ -43,7 +43,7 @@ from simtune.project import load_project as _load_project
 from simtune.project_check import check_project
 from simtune.project_init import init_project
 from simtune.reference import REFERENCE_DIR, run_demo
-from simtune.run_plan import RunConfig, new_run_config
+from simtune.run_plan import RunConfig, default_space, new_run_config
 from simtune.runs import resume_run, run_uncertainty, start_run
 from simtune.sensitivity import evaluation_count, run_sensitivity
 from simtune.store import STORE_FILE, read_record
@@ -303,7 +303,7 @@ def run_config(
     *,
     project: Project | Path | str | None = None,
     data: Path | str | None = None,
-    space: str = "extended",
+    space: str | None = None,
     optimizer: str | None = None,
     refine: bool = False,
     seed: int = 0,
@@ -325,6 +325,7 @@ def run_config(
 ) -> RunConfig:
     """The configuration ``tune`` runs and stores, from the same arguments (``simtune tune``'s options).
 
+    ``space``: None for the default (calibrated; extended with ``paper_exact``: :func:`default_space`);
     ``optimizer``: None for the default (auto; de with ``paper_exact``); ``reference``: None for the default
     (aligned; mean with ``paper_exact``); ``repeats``: which of each task's repeats it is tuned on (all, even or
     odd; None: all).  The project is stored by its project
@@ -335,7 +336,7 @@ def run_config(
     return new_run_config(
         engine,
         _task_spec(tasks),
-        space,
+        default_space(paper_exact) if space is None else space,
         data=_root(data, proj),
         project=proj,
         weights=fitness_weights,

@@ -29,6 +29,16 @@ from simtune.robot.description import RobotDescription
 from simtune.tasks import TaskSpec, parse_tasks
 from simtune.tasks.spec import common_robot
 
+#: ``simtune tune``'s space where none is given: ``calibrated`` fits both real tasks better and sooner than
+#: ``extended`` (docs/tuning.md "The default space", measured 2026-11-26); a paper-exact run keeps ``extended``,
+#: the space its figures were measured in
+DEFAULT_SPACE = "calibrated"
+
+
+def default_space(paper_exact: bool) -> str:
+    """The space a tune runs in when none is named: :data:`DEFAULT_SPACE`, or ``extended`` for a paper-exact run."""
+    return "extended" if paper_exact else DEFAULT_SPACE
+
 
 def _is_int(value) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)

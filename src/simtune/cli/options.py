@@ -168,15 +168,20 @@ JointTopicOpt = Annotated[
         help="ROS 2 joint logs: the sensor_msgs/msg/JointState topic to read (default: each log's only one).",
     ),
 ]
-SpaceOpt = Annotated[
-    str,
+SPACE_HELP = (
+    "Parameter space: shared (31, the paper's), individual (57, the paper's), extended (individual + command delay "
+    "and marker offset) or calibrated (extended + encoder offsets and joint compliance); an engine's lacks what it "
+    "cannot map."
+)
+SpaceOpt = Annotated[str, typer.Option("--space", "-s", help=SPACE_HELP)]
+#: ``tune``'s: its default depends on --paper-exact
+TuneSpaceOpt = Annotated[
+    str | None,
     typer.Option(
         "--space",
         "-s",
-        help="Parameter space: shared (31, the paper's), "
-        "individual (57, the paper's), extended (individual + command delay "
-        "and marker offset) or calibrated (extended + encoder offsets and joint compliance); "
-        "an engine's lacks what it cannot map.",
+        help=f"{SPACE_HELP} Default: calibrated (extended with --paper-exact): docs/tuning.md says why.",
+        show_default=False,
     ),
 ]
 KeepInactiveOpt = Annotated[
