@@ -33,7 +33,7 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
-from common import add_data_option, make_parser
+from common import Transcript, add_data_option, make_parser
 
 from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
@@ -76,11 +76,9 @@ def main() -> None:
     )
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
-    lines: list[str] = []
 
-    def say(line: str) -> None:
-        print(line, flush=True)
-        lines.append(line)
+    transcript = Transcript(args.out)
+    say = transcript.say
 
     say(
         f"# auto_workers: mujoco, {args.task}, {args.space}, {args.max_seconds:g} s, threads {args.threads}, "
@@ -135,9 +133,7 @@ def main() -> None:
             f"{workers} workers / {worker_counts[0]}: x{statistics.median(rates[workers]) / base:.2f} the "
             f"evaluations per second (medians over seeds {args.seeds})"
         )
-    if args.out:
-        with open(args.out, "a") as fh:
-            fh.write("\n".join(lines) + "\n")
+    transcript.save()
 
 
 if __name__ == "__main__":

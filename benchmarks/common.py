@@ -64,6 +64,24 @@ def start_or_resume(config: RunConfig, run_dir: Path) -> Any:
     return start_run(config, run_dir, show_progress=False)
 
 
+class Transcript:
+    """A benchmark's output lines: printed as they come, and appended to ``out`` (``--out FILE``) at the end."""
+
+    def __init__(self, out: Path | None):
+        self.out = out
+        self.lines: list[str] = []
+
+    def say(self, line: str) -> None:
+        print(line, flush=True)
+        self.lines.append(line)
+
+    def save(self) -> None:
+        """Append the lines said to ``out`` (nothing without one)."""
+        if self.out:
+            with open(self.out, "a") as fh:
+                fh.write("\n".join(self.lines) + "\n")
+
+
 def today() -> str:
     """The date that names a result file (ISO, local)."""
     return datetime.date.today().isoformat()

@@ -22,7 +22,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from common import add_data_option, make_parser
+from common import Transcript, add_data_option, make_parser
 
 from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
@@ -57,12 +57,10 @@ def main() -> None:
     parser.add_argument("--milestones", default=",".join(f"{m:g}" for m in MILESTONES))
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
-    lines: list[str] = []
     milestones = [float(m) for m in args.milestones.split(",")]
 
-    def say(line: str) -> None:
-        print(line, flush=True)
-        lines.append(line)
+    transcript = Transcript(args.out)
+    say = transcript.say
 
     say(
         f"# speed_pipeline: mujoco, {args.workers} workers, reference {args.reference or 'default'}, data {args.data}, "
@@ -108,9 +106,7 @@ def main() -> None:
             )
             times.append(seconds if seconds is not None else float("inf"))
         say(f"{task} {space} {optimizer}: median time to fitness <= {target}: {statistics.median(times):.1f} s")
-    if args.out:
-        with open(args.out, "a") as fh:
-            fh.write("\n".join(lines) + "\n")
+    transcript.save()
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""Least squares keeps idle workers busy with the Jacobian it will ask for next, without changing its path."""
+"""Least squares keeps idle workers busy with the Jacobian it will ask for next, without changing its path
+(the whole of `auto` on several workers: tests/test_pipeline.py)."""
 
 from __future__ import annotations
 
@@ -6,13 +7,11 @@ from pathlib import Path
 
 import numpy as np
 
-from simtune.optimize import pipeline
 from simtune.optimize.base import BatchSearch
 from simtune.optimize.evaluator import TuneSettings
 from simtune.optimize.refine import least_squares_phase
 from simtune.reference import REFERENCE_DIR
 from simtune.run_plan import RunConfig, plan_run
-from simtune.runs import start_run
 from simtune.store import RunStore
 
 ONLY = ["command_delay", "max_velocity_joint_2", "marker_offset_z"]
@@ -52,36 +51,3 @@ def test_spare_workers_evaluate_the_next_jacobian_and_the_solver_path_is_unchang
     # four workers: each trial with the three columns of its Jacobian; a taken step needs no other batch
     assert shared_sizes[1:] == [1 + len(ONLY)] * (shared.nfev - 1)
     assert len(shared_sizes) < len(alone_sizes)
-
-
-def _auto(run_dir: Path, workers: int):
-    config = RunConfig(
-        engine="mujoco",
-        tasks="cube",
-        space="extended",
-        data=str(REFERENCE_DIR),
-        seed=1,
-        only=ONLY,
-        optimizer="auto",
-        max_evaluations=45,
-        workers=workers,
-        threads=True,
-    )
-    result = start_run(config, run_dir, show_progress=False)
-    store = RunStore.open_read_only(run_dir)
-    scored = {tuple(np.float32(e["x"])) for e in store.evaluations()}  # the store keeps some as float32
-    store.close()
-    return result, scored
-
-
-def test_auto_takes_the_same_path_on_any_number_of_workers(tmp_path: Path, monkeypatch) -> None:
-    monkeypatch.setattr(pipeline, "GLOBAL_GENERATIONS", 2)  # short rounds: DE, then least squares, twice
-    monkeypatch.setattr(pipeline, "LOCAL_NFEV", 4)
-    alone, alone_scored = _auto(tmp_path / "one", workers=1)
-    shared, shared_scored = _auto(tmp_path / "three", workers=3)
-    # every point the one-worker search scored, the three-worker one scored too, and it stopped at the same
-    # count of points asked for; what it scored besides (columns of rejected trials) can only improve the best
-    assert alone_scored <= shared_scored
-    assert shared.used_evaluations == alone.used_evaluations
-    assert shared.fitness <= alone.fitness
-    assert len(shared_scored) >= len(alone_scored)

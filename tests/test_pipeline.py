@@ -77,3 +77,21 @@ def test_auto_resumed_after_a_crash_in_a_local_phase_loses_and_redoes_nothing(tm
     assert resumed.evaluations == reference.evaluations
     assert resumed.fitness == reference.fitness
     np.testing.assert_array_equal(resumed.x, reference.x)
+
+
+def _scored(run_dir) -> set[tuple]:
+    """Every point the run store holds (the store keeps some as float32 copies: compared as such)."""
+    store = RunStore.open_read_only(run_dir)
+    scored = {tuple(np.float32(e["x"])) for e in store.evaluations()}
+    store.close()
+    return scored
+
+
+def test_auto_takes_the_same_path_on_any_number_of_workers(tmp_path):
+    alone = start_run(config(max_evaluations=45, threads=True), tmp_path / "one", show_progress=False)
+    shared = start_run(config(max_evaluations=45, threads=True, workers=3), tmp_path / "three", show_progress=False)
+    # every point the one-worker search scored, the three-worker one scored too, and it stopped at the same
+    # count of points asked for; what it scored besides (columns of rejected trials) can only improve the best
+    assert _scored(tmp_path / "one") <= _scored(tmp_path / "three")
+    assert shared.used_evaluations == alone.used_evaluations
+    assert shared.fitness <= alone.fitness

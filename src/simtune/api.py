@@ -27,8 +27,8 @@ from pathlib import Path
 from simtune.alignment import DelayEstimate, aligned, estimate_delay
 from simtune.check import check as run_check
 from simtune.compare import run_compare
-from simtune.data import check_repeats
 from simtune.data.clock import DEFAULT_REFERENCE, check_reference, default_reference
+from simtune.data.task import DEFAULT_REPEATS, check_repeats
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, SimtuneError
 from simtune.export import ExportResult, export_run, export_runs
@@ -187,7 +187,7 @@ def _reference(reference: object, paper_exact: bool = False) -> str:
 
 def _repeats(repeats: object) -> str:
     """The repeats asked for: ``all``, ``even`` or ``odd``; None: all."""
-    return "all" if repeats is None else check_repeats(repeats)
+    return DEFAULT_REPEATS if repeats is None else check_repeats(repeats)
 
 
 def _aligned(align_clock: object, specs) -> set[str]:

@@ -14,6 +14,8 @@ from typing import Annotated, Any
 
 import typer
 
+from simtune.data import REPEATS
+from simtune.data.clock import REFERENCES
 from simtune.limits import MAX_SEED
 
 #: the longest file or folder name common file systems allow [bytes]
@@ -117,11 +119,24 @@ REFERENCE_HELP = (
 )
 
 
-def reference(value: str | None) -> str | None:
-    """``--reference``: aligned or mean."""
-    if value is not None and value not in ("aligned", "mean"):
-        raise typer.BadParameter(f"{value!r} is neither aligned nor mean")
-    return value
+def one_of(choices: tuple[str, ...]):
+    """A callback that passes None or one of ``choices`` and refuses anything else in one line."""
+    named = (
+        f"neither {choices[0]} nor {choices[1]}"
+        if len(choices) == 2
+        else f"not {', '.join(choices[:-1])} or {choices[-1]}"
+    )
+
+    def check(value: str | None) -> str | None:
+        if value is not None and value not in choices:
+            raise typer.BadParameter(f"{value!r} is {named}")
+        return value
+
+    return check
+
+
+#: ``--reference``: aligned or mean
+reference = one_of(REFERENCES)
 
 
 ReferenceOpt = Annotated[str | None, typer.Option("--reference", help=REFERENCE_HELP, callback=reference)]
@@ -133,11 +148,8 @@ REPEATS_HELP = (
 )
 
 
-def repeats(value: str | None) -> str | None:
-    """``--repeats``: all, even or odd."""
-    if value is not None and value not in ("all", "even", "odd"):
-        raise typer.BadParameter(f"{value!r} is not all, even or odd")
-    return value
+#: ``--repeats``: all, even or odd
+repeats = one_of(REPEATS)
 
 
 RepeatsOpt = Annotated[str | None, typer.Option("--repeats", help=REPEATS_HELP, callback=repeats)]

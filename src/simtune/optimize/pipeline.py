@@ -25,9 +25,10 @@ Rounds go on until a budget of the settings is spent (time, evaluations, generat
 checked after every batch: a DE generation, a least-squares trial point or a Jacobian.  A generation of
 this optimiser is one such batch.
 
-The worker count shapes the batches (the speculative Jacobian columns), and a speculative point that scores
-best becomes the run's best point, so runs of one seed on different worker counts may part ways after
-their first local phase; on one worker count the search is deterministic.
+The worker count shapes the batches (the speculative Jacobian columns), not the search: a point scored ahead
+counts towards the best point and the evaluation budget only once the solver asks for it, so runs of one seed
+on any worker count ask for the same points and stop at the same one; the run's best point is then the best
+of all it scored, which the points scored ahead can only improve.
 
 Resume: the search is deterministic given its seed and the stored results (DE draws from the seed of its
 round; least squares is deterministic given the residuals, which the store keeps for every point of a

@@ -60,6 +60,9 @@ def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float =
     def vector(u: np.ndarray) -> np.ndarray:
         return x0.copy() if np.array_equal(u, u0) else search.from_unit(u)
 
+    def key(u: np.ndarray) -> bytes:  # the name of a point of the unit cube in the cache and the search's holds
+        return np.asarray(u, dtype=float).tobytes()
+
     def batch(us: list[np.ndarray], asked: int) -> None:
         """Score ``us``: the first ``asked`` for the solver now, the rest held for when it asks."""
         xs = np.array([vector(u) for u in us])
@@ -67,15 +70,15 @@ def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float =
         fitness = np.array([score.fitness for _, score in results])
         search.track(xs[:asked], fitness[:asked])
         for u, x, f in zip(us[asked:], xs[asked:], fitness[asked:]):
-            search.hold(np.asarray(u, dtype=float).tobytes(), x, f)
+            search.hold(key(u), x, f)
         stop = search.checkpoint(xs, fitness, population=False)
         for u, (r, _) in zip(us, results):
-            cache[np.asarray(u, dtype=float).tobytes()] = r
+            cache[key(u)] = r
         if stop:
             raise BudgetSpent
 
     def known(u: np.ndarray) -> bool:
-        return np.asarray(u, dtype=float).tobytes() in cache
+        return key(u) in cache
 
     def fun(u: np.ndarray) -> np.ndarray:
         u = np.asarray(u, dtype=float)
@@ -83,18 +86,18 @@ def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float =
             first = len(cache) == 0  # the start point: its Jacobian comes next, whatever its residuals
             columns = jacobian_points(u, step)[0]
             batch([u, *[p for p in (columns if first else columns[:spare]) if not known(p)]], asked=1)
-        search.release(u.tobytes())
-        return cache[u.tobytes()]
+        search.release(key(u))
+        return cache[key(u)]
 
     def jac(u: np.ndarray) -> np.ndarray:
         r0 = fun(u)
         points, h = jacobian_points(np.asarray(u, dtype=float), step)
         for p in points:  # asked for now: the columns scored ahead count before the batch of the others
-            search.release(p.tobytes())
+            search.release(key(p))
         missing = [p for p in points if not known(p)]
         if missing:
             batch(missing, asked=len(missing))
-        columns = [cache[p.tobytes()] for p in points]
+        columns = [cache[key(p)] for p in points]
         return np.stack([(r - r0) / hi for r, hi in zip(columns, h)], axis=1)
 
     return least_squares(
