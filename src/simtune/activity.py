@@ -44,6 +44,7 @@ from simtune.engines.base import Rollout
 from simtune.fitness import marker_positions
 from simtune.params import ParameterSpace
 from simtune.params.space import is_supported
+from simtune.spawn_guard import check_main_guarded
 from simtune.tasks import TaskSpec
 
 #: A parameter that moves no sample of the visible track by more than this [m] is inactive.
@@ -171,6 +172,7 @@ class _Probe:
 
     def __enter__(self) -> _Probe:
         if self.workers > 1:
+            check_main_guarded(f"the activity probe's {self.workers} workers")
             self.pool = ProcessPoolExecutor(
                 self.workers,
                 mp_context=multiprocessing.get_context("spawn"),

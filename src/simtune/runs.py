@@ -52,6 +52,7 @@ from simtune.params.space import is_supported
 from simtune.progress import TuneProgress
 from simtune.run_plan import RunConfig, RunPlan, plan_run
 from simtune.runlock import LOCK_FILE, check_free, run_lock
+from simtune.spawn_guard import check_main_guarded
 from simtune.store import STORE_FILE, RunStore, check_store_file
 from simtune.tasks import TaskSpec
 from simtune.tasks.spec import FINGERPRINT
@@ -248,6 +249,8 @@ def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> T
     plan = plan_run(config)
     objective = plan.objective()  # checks engine, tasks, space and data before any folder is made
     generic = objective.score({})
+    if config.workers > 1 and not config.threads:  # before the folder: a script to fix leaves no run behind
+        check_main_guarded(f"{config.workers} workers")
     _make_folder(run_dir)
     with run_lock(run_dir):
         _check_vacant(run_dir, locked=True)  # again: another process may have started a run meanwhile

@@ -19,6 +19,7 @@ from pathlib import Path
 from simtune.errors import ConfigError, SimtuneError
 from simtune.grid.index import GridIndex, open_index
 from simtune.grid.spec import GridSpec, Unit, run_unit
+from simtune.spawn_guard import check_main_guarded
 
 EXECUTORS = ("local", "dask")
 MAX_ATTEMPTS = 3
@@ -65,6 +66,7 @@ def run_dask(
     if scheduler:
         client = Client(scheduler)
     else:
+        check_main_guarded(f"a local Dask cluster of {workers} workers")
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
         client = Client(cluster)
     try:

@@ -42,6 +42,7 @@ from pebble import ProcessExpired, ProcessPool
 from simtune.errors import SimtuneError
 from simtune.fitness import PENALTY, Score, TaskScore
 from simtune.objective import Objective
+from simtune.spawn_guard import check_main_guarded
 from simtune.store import RunStore
 
 
@@ -254,6 +255,7 @@ class Evaluator:
 
     def __enter__(self) -> Evaluator:
         if self.workers > 1 and not self.threads:
+            check_main_guarded(f"{self.workers} workers")
             # spawn: engines hold native handles that must not be shared through fork
             self._pool = ProcessPool(
                 self.workers,
