@@ -98,16 +98,14 @@ def test_auto_takes_the_same_path_on_any_number_of_workers(tmp_path):
 
 
 def test_the_first_global_population_holds_the_openings_best_and_half_its_members_close_to_it():
-    lows, highs = np.array([0.0, -1.0, 10.0]), np.array([1.0, 1.0, 10.0])  # a fixed parameter too
-    best = np.array([0.999, 0.0, 10.0])
-    population = pipeline.opening_population(lows, highs, best, seed=3)
-    again = pipeline.opening_population(lows, highs, best, seed=3)
+    best = np.array([0.999, 0.5, 0.0])  # in the unit cube, one coordinate at each edge
+    population = pipeline.opening_population(best, seed=3)
+    again = pipeline.opening_population(best, seed=3)
     assert population.shape == (max(5, pipeline.POPSIZE * 3), 3)
     np.testing.assert_array_equal(population, again)  # a resumed run draws the same
     np.testing.assert_array_equal(population[0], best)
-    assert ((population >= lows) & (population <= highs)).all()
-    unit = (population[:, :2] - lows[:2]) / (highs[:2] - lows[:2])
-    close = np.abs(unit - unit[0]).max(axis=1) <= 5 * pipeline.NEAR_SCALE
+    assert ((population >= 0.0) & (population <= 1.0)).all()
+    close = np.abs(population - best).max(axis=1) <= 5 * pipeline.NEAR_SCALE
     near = int(pipeline.NEAR_SHARE * len(population))
     assert close[: 1 + near].all()
     assert close[1 + near :].sum() < len(population) - 1 - near  # the others spread over the box

@@ -77,7 +77,8 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
             if opening:
                 local_steps += _local_phase(search, aligned_generic_start(objective), refined)
                 assert search.best_x is not None, "the opening scored its start"
-                population = opening_population(search.lows, search.highs, search.best_x, settings.seed)
+                population = search.from_unit(opening_population(search.to_unit(search.best_x), settings.seed))
+                population[0] = search.best_x  # as scored, not through the unit cube and back
             while True:
                 population, last_energies, round_x = _global_phase(search, population, settings.seed + 1000 * rounds)
                 assert search.best_x is not None, "the global phase scored a batch"
@@ -122,26 +123,23 @@ def aligned_generic_start(objective: Objective) -> np.ndarray:
     return space.vector_within_bounds(values)
 
 
-def opening_population(lows: np.ndarray, highs: np.ndarray, best: np.ndarray, seed: int) -> np.ndarray:
-    """The first global phase's population after the opening: its best point ``best`` first, ``NEAR_SHARE`` of
-    the members drawn around it (normal, ``NEAR_SCALE`` of each range, within the bounds) and the rest a latin
-    hypercube over the bounds ``lows``..``highs``; DE's population size, as SciPy draws its own.
+def opening_population(best: np.ndarray, seed: int) -> np.ndarray:
+    """The first global phase's population after the opening, in the unit cube: its best point ``best`` first,
+    ``NEAR_SHARE`` of the members drawn around it (normal, ``NEAR_SCALE`` of each range, within the cube) and the
+    rest a latin hypercube; DE's population size, as SciPy draws its own.
 
     Where the opening's least squares stalls, the objective is not smooth at its finite-difference scale (the
     cube's contact, the time step's whole steps per control period), and differential evolution's moves among
     members a few per cent apart find the way on; a population spread over the whole box leaves it at the
     opening's point for the round (measured: docs/performance.md, "The opening's population")."""
-    dim = len(lows)
+    dim = len(best)
     size = max(5, POPSIZE * dim)
     rng = np.random.default_rng(seed)
     unit = qmc.LatinHypercube(d=dim, rng=rng).random(size)
-    width = highs - lows
-    at = np.divide(best - lows, width, out=np.zeros(dim), where=width > 0)
     near = int(NEAR_SHARE * size)
-    unit[1 : 1 + near] = np.clip(at + rng.normal(0.0, NEAR_SCALE, (near, dim)), 0.0, 1.0)
-    population = lows + unit * width
-    population[0] = best
-    return population
+    unit[1 : 1 + near] = np.clip(best + rng.normal(0.0, NEAR_SCALE, (near, dim)), 0.0, 1.0)
+    unit[0] = best
+    return unit
 
 
 def _global_phase(search: BatchSearch, init: np.ndarray | None, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
