@@ -149,7 +149,7 @@ def _record(seed: int, values: dict[str, float], inactive: dict[str, str]) -> Re
         evaluations=1,
         elapsed_s=1.0,
         message="",
-        initial_population=[[0.1] * len(names), [0.9] * len(names)],
+        random_start=[[0.1] * len(names), [0.9] * len(names)],
         inactive=inactive,
     )
 

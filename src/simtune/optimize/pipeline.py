@@ -126,20 +126,39 @@ def aligned_generic_start(objective: Objective) -> np.ndarray:
 def opening_population(best: np.ndarray, seed: int) -> np.ndarray:
     """The first global phase's population after the opening, in the unit cube: its best point ``best`` first,
     ``NEAR_SHARE`` of the members drawn around it (normal, ``NEAR_SCALE`` of each range, within the cube) and the
-    rest a latin hypercube; DE's population size, as SciPy draws its own.
+    rest a latin hypercube (:func:`random_start`); DE's population size, as SciPy draws its own.
 
     Where the opening's least squares stalls, the objective is not smooth at its finite-difference scale (the
     cube's contact, the time step's whole steps per control period), and differential evolution's moves among
     members a few per cent apart find the way on; a population spread over the whole box leaves it at the
     opening's point for the round (measured: docs/performance.md, "The opening's population")."""
     dim = len(best)
-    size = max(5, POPSIZE * dim)
-    rng = np.random.default_rng(seed)
-    unit = qmc.LatinHypercube(d=dim, rng=rng).random(size)
-    near = int(NEAR_SHARE * size)
-    unit[1 : 1 + near] = np.clip(best + rng.normal(0.0, NEAR_SCALE, (near, dim)), 0.0, 1.0)
+    rng, unit, first_random = _opening_draw(dim, seed)
+    unit[1:first_random] = np.clip(best + rng.normal(0.0, NEAR_SCALE, (first_random - 1, dim)), 0.0, 1.0)
     unit[0] = best
     return unit
+
+
+def random_start(dim: int, seed: int) -> np.ndarray:
+    """The members of the first global phase that ``opening_population`` leaves drawn at random over the whole
+    unit cube (its latin-hypercube rows), for a space of ``dim`` parameters and the run's ``seed``: they depend on
+    nothing else, so the report finds them again in any run store as its untuned baseline."""
+    _, unit, first_random = _opening_draw(dim, seed)
+    return unit[first_random:]
+
+
+def global_population_size(dim: int) -> int:
+    """Members of a global phase's population for ``dim`` parameters (SciPy's, with the paper's 1 x D)."""
+    return max(5, POPSIZE * dim)
+
+
+def _opening_draw(dim: int, seed: int) -> tuple[np.random.Generator, np.ndarray, int]:
+    """The seeded stream of the opening's population, its latin hypercube drawn first, and the first row that
+    stays random (rows 1 to it are drawn around the opening's best point)."""
+    size = global_population_size(dim)
+    rng = np.random.default_rng(seed)
+    unit = qmc.LatinHypercube(d=dim, rng=rng).random(size)
+    return rng, unit, 1 + int(NEAR_SHARE * size)
 
 
 def _global_phase(search: BatchSearch, init: np.ndarray | None, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -17,8 +17,11 @@ from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from simtune.errors import SimtuneError
-from simtune.store import STORE_FILE, read_record
+from simtune.optimize.pipeline import global_population_size, random_start
+from simtune.store import STORE_FILE, RunRecord, RunStore, read_record
 from simtune.tasks import TaskSpec, get_task, parse_tasks
 
 
@@ -47,7 +50,9 @@ class ReportedRun:
     message: str
     versions: dict = field(default_factory=dict)
     outcomes: dict = field(default_factory=dict)  # store.count_outcomes(): unstable and pruned evaluations
-    initial_population: list[list[float]] = field(default_factory=list)  # generation 0's parameter vectors
+    #: the parameter sets the run drew at random over its box before any search step (:func:`untuned_sample`)
+    random_start: list[list[float]] = field(default_factory=list)
+    random_start_fitness: list[float] = field(default_factory=list)  # of those of them it scored
     de_settings: dict | None = None  # SciPy's settings of a differential-evolution run (None: other optimiser)
     converged: bool = False  # the search met its convergence criterion (store meta search_converged)
     project: str | None = None  # the project (file or folder) of its tasks; None: the bundled MICO project
@@ -84,7 +89,10 @@ class ReportedRun:
 
     @property
     def population_size(self) -> int:
-        """Members of the initial population (the first batch of evaluations)."""
+        """Members of the differential evolution's population (``auto``: of its global phases); any other
+        optimiser: its first batch of evaluations."""
+        if self.config.get("optimizer") == "auto":
+            return global_population_size(len(self.parameters))
         return len(self.initial_fitness)
 
     @property
@@ -239,6 +247,7 @@ def load_run(run_dir: Path, label: str | None = None, project: str | None = None
             raise SimtuneError(f"best vector has {len(best['x'])} values for {len(parameters)} parameters")
         project = project or config.get("project")
         task_names = [t.name for t in parse_tasks(str(config["tasks"]), project)]
+        random_members, random_fitness = untuned_sample(stored)
         return ReportedRun(
             path=run_dir,
             label=label,
@@ -262,7 +271,8 @@ def load_run(run_dir: Path, label: str | None = None, project: str | None = None
             message=str(stored.message or ""),
             versions=stored.versions,
             outcomes=stored.outcomes,
-            initial_population=stored.initial_population,
+            random_start=random_members,
+            random_start_fitness=random_fitness,
             de_settings=stored.de_settings,
             converged=stored.converged,
             inactive=stored.inactive,
@@ -274,6 +284,47 @@ def load_run(run_dir: Path, label: str | None = None, project: str | None = None
         return Skipped(run_dir, label, f"unusable run store: {exc}")
     except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
         return Skipped(run_dir, label, f"unusable run store: {type(exc).__name__}: {exc}")
+
+
+#: how close a stored evaluation must be to a drawn member of ``auto``'s random start, as a share of each range, to be
+#: its score: SciPy's DE maps its population through its own scaling (last-bit differences) and a lean store keeps
+#: float32 copies of most vectors (7 digits)
+MATCH_TOLERANCE = 1e-5
+
+
+def untuned_sample(stored: RunRecord) -> tuple[list[list[float]], list[float]]:
+    """The parameter sets ``stored`` drew at random over its whole box before any search step, and the fitness of
+    those it scored: the report's untuned baseline (the spread test of Table 4, the untuned sample of Table 5).
+
+    - ``auto``: the latin-hypercube half of its first global phase, drawn again from the run's seed
+      (:func:`simtune.optimize.pipeline.random_start`; its generation 0 is the opening's start and Jacobian, all
+      within a few per cent of the generic point); the fitness of those found among its evaluations (a run that
+      reached its target in the opening scored none of them);
+    - a run that ``resume --rescore`` started from an earlier run's population: none (it started from that);
+    - any other optimiser: its generation 0 (differential evolution: a latin hypercube; random search: uniform
+      draws; CMA-ES: its first population, spread 0.3 of each range around the centre; Bayes: its first trials).
+    """
+    if stored.rescored_from:
+        return [], []
+    if stored.optimizer != "auto":
+        return stored.initial_population, stored.initial_fitness
+    bounds = np.array(stored.bounds, dtype=float).reshape(-1, 2)
+    lows, widths = bounds[:, 0], np.where(bounds[:, 1] > bounds[:, 0], bounds[:, 1] - bounds[:, 0], 1.0)
+    unit = random_start(len(bounds), int((stored.config or {})["seed"]))
+    drawn = lows + unit * widths
+    store = RunStore.open_read_only(stored.path)
+    try:
+        scored = [e for e in store.evaluations() if e["x"] is not None and e["generation"] > 0]
+    finally:
+        store.close()
+    fitness: list[float] = []
+    if scored:
+        stored_unit = (np.array([e["x"] for e in scored], dtype=float) - lows) / widths
+        for member in unit:
+            hits = np.flatnonzero(np.abs(stored_unit - member).max(axis=1) <= MATCH_TOLERANCE)
+            if hits.size:
+                fitness.append(float(scored[hits[0]]["fitness"]))
+    return drawn.tolist(), fitness
 
 
 def group_runs(runs: list[ReportedRun]) -> tuple[list[Group], list[Skipped]]:

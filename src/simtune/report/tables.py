@@ -390,8 +390,8 @@ def spread_test(tuned: np.ndarray, initial: np.ndarray) -> float | None:
 
 
 def _initial_values(group: Group, name: str) -> np.ndarray:
-    """The values of parameter ``name`` in the initial populations of the group's repeats, pooled."""
-    values = [x[r.parameters.index(name)] for r in group.runs if name in r.parameters for x in r.initial_population]
+    """The values of parameter ``name`` in the random starts of the group's repeats, pooled."""
+    values = [x[r.parameters.index(name)] for r in group.runs if name in r.parameters for x in r.random_start]
     return np.asarray(values, dtype=float)
 
 
@@ -478,20 +478,21 @@ def importance_table(groups: list[Group]) -> Table:
         "Table 4. Parameter importance: spread of tuned values across repeats, and its significance",
         columns,
         rows,
-        note="The paper's measure: a parameter whose tuned value is tightly bounded across independent "
-        "repeats matters to the fitness; one that wanders over its range does not. Spread = sample "
-        "std (and max - min) of the best value of each repeat, divided by the parameter's range. "
-        "Rank 1 = the tightest (most influential) parameter of that engine, tasks and space. "
-        "With one repeat there is no spread and no rank. Significance: the one-sided Brown-Forsythe "
-        "test (absolute deviations from the median; scipy.stats.ttest_ind on them, whose square is the "
-        "Brown-Forsythe F) of the tuned values across repeats against the values of the initial "
-        "Latin-hypercube populations, pooled over repeats: p = chance of a spread this small if tuning "
-        "had not narrowed it. q: Benjamini-Hochberg adjusted over the parameters of the row's engine, "
-        f"tasks and space; significant: q < {SIGNIFICANCE:g}. Best repeat: the tuned value of the best "
-        "repeat; its 95 % interval is the Gauss-Newton interval at that point (`simtune uncertainty`; "
-        "'unbounded' where the recordings cannot pin the parameter, '-' where not computed). Active: "
-        "whether the parameter changes any rollout of the tasks (measured before the search); an inactive "
-        "one is listed with the reason and never ranked.",
+        note="The paper's measure: a parameter whose tuned value is tightly bounded across independent repeats "
+        "matters to the fitness; one that wanders over its range does not. Spread = sample std (and max - "
+        "min) of the best value of each repeat, divided by the parameter's range. Rank 1 = the tightest (most"
+        " influential) parameter of that engine, tasks and space. With one repeat there is no spread and no "
+        "rank. Significance: the one-sided Brown-Forsythe test (absolute deviations from the median; "
+        "scipy.stats.ttest_ind on them, whose square is the Brown-Forsythe F) of the tuned values across "
+        "repeats against their values in each repeat's random start (parameter sets drawn over the whole box "
+        "before any search step: DE's initial latin hypercube; auto's the latin-hypercube half of its first "
+        "global phase), pooled over repeats: p = chance of a spread this small if tuning had not narrowed it."
+        " q: Benjamini-Hochberg adjusted over the parameters of the row's engine, tasks and space; "
+        f"significant: q < {SIGNIFICANCE:g}. Best repeat: the tuned value of the best repeat; its 95 % "
+        "interval is the Gauss-Newton interval at that point (`simtune uncertainty`; 'unbounded' where the "
+        "recordings cannot pin the parameter, '-' where not computed). Active: whether the parameter changes "
+        "any rollout of the tasks (measured before the search); an inactive one is listed with the reason and"
+        " never ranked.",
     )
 
 
@@ -553,7 +554,7 @@ def mann_whitney_table(groups: list[Group]) -> Table:
     rows = []
     for g in groups:
         tuned = [r.best_fitness for r in g.runs]
-        untuned = [f for r in g.runs for f in r.initial_fitness]
+        untuned = [f for r in g.runs for f in r.random_start_fitness]
         u = p2 = p1 = None
         if tuned and untuned:
             res2 = mannwhitneyu(tuned, untuned, alternative="two-sided")
@@ -580,10 +581,10 @@ def mann_whitney_table(groups: list[Group]) -> Table:
         columns,
         rows,
         note="Tuned sample: the best fitness of each repeat. The generic fitness is one deterministic "
-        "number, so the untuned sample is instead every evaluation of each repeat's initial "
-        "population (generation 0: random parameter sets from the latin-hypercube start), pooled "
-        "over repeats. U is the statistic of the tuned sample; the one-sided p tests whether "
-        "tuned fitness is lower.",
+        "number, so the untuned sample is instead the fitness of each repeat's random start (parameter "
+        "sets drawn over the whole box before any search step: DE's initial latin hypercube; auto's the "
+        "latin-hypercube half of its first global phase, where the run got that far), pooled over "
+        "repeats. U is the statistic of the tuned sample; the one-sided p tests whether tuned fitness is lower.",
     )
 
 
