@@ -12,13 +12,17 @@ reports the mean wrist (marker) error with it, against the run's own:
 - ``feedback lag``: the controller reads its encoders 0.5-3 control periods late (interpolated), the
   run simulated anew for each;
 - ``lag + dead band``: as well, the velocity command dropped to zero below 2, 5 or 10 deg/s (a
-  joint that stops once the P law asks for less than its static friction lets it).
+  joint that stops once the P law asks for less than its static friction lets it);
+- ``backlash``: each joint's link lags its motor by half a play ``b_j`` against its last direction of
+  motion (above 0.5 deg/s), ``b_j`` fitted by least squares on the marker (kinematic, as link lengths);
+- ``encoder scale``: each joint's encoder reads ``(1 + s_j)`` times its angle (a gear-ratio error) besides
+  an offset ``o_j``, both fitted so; beside it the offsets alone refitted, its baseline.
 
 Also printed: the marker error every 0.25 s with the simulated and recorded wrist, whether the arm
 touches the object then (from the engine's contact list), and (MuJoCo) the simulated wrist when the
 fingers pass through the object: where the error sits, and whether a contact holds the arm.
 
-    python benchmarks/residual_probes.py RUN_DIR [--data ROOT]
+    python benchmarks/residual_probes.py RUN_DIR [--data ROOT] [--reference aligned|mean]
 """
 
 from __future__ import annotations
@@ -33,9 +37,11 @@ from common import add_data_option, load_best, make_parser
 from scipy.optimize import least_squares, minimize
 
 from simtune.controller import JointController
+from simtune.data.clock import REFERENCES
 from simtune.engines import engine_class
 from simtune.fitness import marker_positions
 from simtune.objective import Objective, load_references
+from simtune.store import read_record
 
 #: the main axis of each joint origin of the MICO's chain that a length error would change (joint, axis)
 CHAIN_LENGTHS = (
@@ -80,17 +86,20 @@ def main() -> int:
     parser = make_parser(__doc__.split("\n\n")[0])
     parser.add_argument("run", type=Path)
     add_data_option(parser, default=None, help="the recordings' root (default: the tasks' own)")
+    parser.add_argument("--reference", choices=REFERENCES, help="what to score against (default: the run's own)")
     args = parser.parse_args()
     best, task = load_best(args.run)
     params = dict(best["params"])
-    ref = load_references(args.data, [task])[task.name]
+    reference = args.reference or read_record(args.run).config.get("reference", "mean")  # type: ignore[union-attr]
+    ref = load_references(args.data, [task], reference=reference)[task.name]
     assert ref.wrist_mean is not None, "a wrist-tracking task"
     objective = Objective(best["engine"], [task], {task.name: ref})
     rollout = objective.rollouts(params)[task.name]
     marker = marker_positions(rollout, params)
     diff = marker - ref.wrist_mean
     wrist = float(np.linalg.norm(diff, axis=1).mean())
-    print(f"\n#### Residual probes on {args.run} ({best['engine']} {task.name} {best['space']})\n")
+    setting = f"{best['engine']} {task.name} {best['space']}, {reference} reference"
+    print(f"\n#### Residual probes on {args.run} ({setting})\n")
 
     # where the error sits, with the arm's contacts with the object
     engine = engine_class(best["engine"])(task)
@@ -137,6 +146,14 @@ def main() -> int:
     offset = np.array([params.get(f"marker_offset_{a}", 0.0) for a in "xyz"])
     names = [j.name for j in robot.joints]
 
+    def markers_at(chain, angles: np.ndarray) -> np.ndarray:
+        """The marker of ``chain`` (a robot description) at each row of joint ``angles``."""
+        out = []
+        for q in angles:
+            pos, rot = chain.forward_kinematics(q)
+            out.append(pos + rot @ offset)
+        return np.array(out)
+
     def chain_markers(deltas: np.ndarray) -> np.ndarray:
         joints = list(robot.joints)
         for (name, axis), delta in zip(CHAIN_LENGTHS, deltas):
@@ -144,24 +161,51 @@ def main() -> int:
             xyz = list(joints[i].xyz)
             xyz[axis] += delta
             joints[i] = dataclasses.replace(joints[i], xyz=tuple(xyz))
-        changed = dataclasses.replace(robot, joints=tuple(joints))
-        out = []
-        for q in true_angles:
-            pos, rot = changed.forward_kinematics(q)
-            out.append(pos + rot @ offset)
-        return np.array(out)
+        return markers_at(dataclasses.replace(robot, joints=tuple(joints)), true_angles)
 
     nominal = chain_markers(np.zeros(len(CHAIN_LENGTHS)))
     n = len(ref.times)
-    fit = least_squares(
-        lambda d: ((marker + chain_markers(d) - nominal - ref.wrist_mean) / np.sqrt(n)).ravel(),
-        np.zeros(len(CHAIN_LENGTHS)),
-        bounds=(-0.02, 0.02),
-        diff_step=1e-3,
+
+    def kinematic_fit(markers_of, size: int, bound: float) -> tuple[np.ndarray, float]:
+        """Fit ``size`` values (within +-``bound``) of an effect that moves the marker to ``markers_of(values)``
+        (the run's marker moved by the difference of forward kinematics); the values and the wrist error."""
+        fit = least_squares(
+            lambda v: ((marker + markers_of(v) - nominal - ref.wrist_mean) / np.sqrt(n)).ravel(),
+            np.zeros(size),
+            bounds=(-bound, bound),
+            diff_step=1e-3,
+        )
+        moved = marker + markers_of(fit.x) - nominal
+        return fit.x, float(np.linalg.norm(moved - ref.wrist_mean, axis=1).mean())
+
+    deltas, error = kinematic_fit(chain_markers, len(CHAIN_LENGTHS), 0.02)
+    lengths = ", ".join(f"{j} {'xyz'[a]} {d * 1000:+.1f}" for (j, a), d in zip(CHAIN_LENGTHS, deltas))
+    rows.append((f"link lengths ({lengths} mm)", error))
+
+    def angle_markers(angles: np.ndarray) -> np.ndarray:
+        return markers_at(robot, angles)
+
+    joints = true_angles.shape[1]
+    speed = np.gradient(true_angles, ref.times[: len(true_angles)], axis=0)
+    direction = np.zeros_like(true_angles)  # the last direction each joint moved in faster than 0.5 deg/s
+    last = np.zeros(joints)
+    for k, v in enumerate(speed):
+        last = np.where(np.abs(v) > np.radians(0.5), np.sign(v), last)
+        direction[k] = last
+    play, error = kinematic_fit(lambda b: angle_markers(true_angles - 0.5 * b * direction), joints, 0.15)
+    rows.append((f"backlash (play {np.round(np.degrees(play), 2).tolist()} deg)", error))
+    offsets, error = kinematic_fit(lambda o: angle_markers(true_angles + o), joints, 0.1)
+    rows.append((f"joint offsets refitted ({np.round(np.degrees(offsets), 2).tolist()} deg)", error))
+    both, error = kinematic_fit(
+        lambda p: angle_markers(true_angles + p[:joints] + p[joints:] * true_angles), 2 * joints, 0.2
     )
-    moved = marker + chain_markers(fit.x) - nominal
-    lengths = ", ".join(f"{j} {'xyz'[a]} {d * 1000:+.1f}" for (j, a), d in zip(CHAIN_LENGTHS, fit.x))
-    rows.append((f"link lengths ({lengths} mm)", float(np.linalg.norm(moved - ref.wrist_mean, axis=1).mean())))
+    rows.append(
+        (
+            f"encoder scale {np.round(both[joints:], 3).tolist()} + offsets "
+            f"{np.round(np.degrees(both[:joints]), 2).tolist()} deg",
+            error,
+        )
+    )
 
     for lag, band in [(lag, 0.0) for lag in (0.5, 1, 2, 3)] + [(1, band) for band in (2, 5, 10)]:
         with controller_variant(lag, band):
