@@ -191,7 +191,8 @@ def test_stores_of_every_version_read_as_the_same_run(runs):
     # the report and `compare` read them
     records = [load_run(stores[v]) for v in (3, 2, 1)]
     assert len({r.best_fitness for r in records}) == 1 and len({tuple(r.best_x) for r in records}) == 1
-    assert records[0].initial_population == records[1].initial_population == records[2].initial_population
+    assert records[0].random_start == records[1].random_start == records[2].random_start != []
+    assert records[0].random_start_fitness == records[1].random_start_fitness == records[2].random_start_fitness
     assert (
         curve_from_store(stores[3], 10)[0] == curve_from_store(stores[2], 10)[0] == curve_from_store(stores[1], 10)[0]
     )

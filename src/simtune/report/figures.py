@@ -350,8 +350,31 @@ def _time_panels(fig: Figure, gs, traj, wrist: tuple[np.ndarray, np.ndarray], li
         if i == 0:
             panel_title(ax, "end effector against time", ncols)
             ax.legend(fontsize="x-small", ncols=2)
-        if i == 2:
-            ax.set_xlabel("time [s]")
+
+
+def _error_panel(fig: Figure, cell, traj, wrist: tuple[np.ndarray, np.ndarray], lines: tuple) -> None:
+    """Each simulation's distance from the recorded mean against time, over the repeats' own spread about it, with
+    the schedule's phase starts."""
+    wrist_mean, wrist_repeats = wrist
+    t = traj.reference.times
+    n = len(t)
+    ax = fig.add_subplot(cell)
+    # on a log scale: the untuned error is often 100 x the tuned one, and the repeats' spread 10 x below that
+    floor = 0.1  # mm: the scale's bottom, well below any motion-capture repeatability
+    spread = np.linalg.norm(wrist_repeats - wrist_mean[None], axis=2).mean(axis=0)
+    ax.fill_between(t, floor, np.maximum(1000.0 * spread, floor), color="#999999", alpha=0.35, linewidth=0)
+    ax.plot([], [], color="#999999", alpha=0.6, linewidth=6, label="repeat spread")
+    for label, marker, color, style in lines:
+        error = np.linalg.norm(marker[:n] - wrist_mean, axis=1)
+        ax.plot(t, np.maximum(1000.0 * error, floor), color=color, linestyle=style, linewidth=1.3, label=label)
+    for _, start, _ in traj.spans[1:]:
+        ax.axvline(start, color="#555555", linestyle=":", linewidth=0.9)
+    ax.set_yscale("log")
+    ax.set_ylim(bottom=floor)
+    ax.set_ylabel("wrist error [mm]")
+    ax.set_xlabel("time [s]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="x-small", ncols=3)
 
 
 def _object_panel(fig: Figure, cell, traj, finals: np.ndarray, objects: tuple[np.ndarray, np.ndarray], ncols: int):
@@ -402,11 +425,12 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
     finals, untuned_object, tuned_object = ref.object_final, traj.untuned_object, traj.tuned_object
     has_object = finals is not None and untuned_object is not None and tuned_object is not None
     ncols = 3 if has_object else 2
-    fig = new_figure(5.2 * ncols, 6.4)
-    gs = fig.add_gridspec(3, ncols, width_ratios=[1.25, 1.0, 1.0][:ncols])
+    fig = new_figure(5.2 * ncols, 8.4)
+    gs = fig.add_gridspec(4, ncols, width_ratios=[1.25, 1.0, 1.0][:ncols])
     lines = (("untuned", traj.untuned_marker, UNTUNED, "--"), ("tuned", traj.tuned_marker, TUNED, "-"))
     _path_panel(fig, gs[:, 0], traj, (wrist_mean, wrist_repeats), lines, ncols)
     _time_panels(fig, gs, traj, (wrist_mean, wrist_repeats), lines, ncols)
+    _error_panel(fig, gs[3, 1], traj, (wrist_mean, wrist_repeats), lines)
     if finals is not None and untuned_object is not None and tuned_object is not None:
         _object_panel(fig, gs[:, 2], traj, finals, (untuned_object, tuned_object), ncols)
 

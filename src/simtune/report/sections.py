@@ -217,7 +217,8 @@ def _trajectory_caption(sim: GroupSimulation, task: str) -> str:
         f"{g.engine} on {task} (space {g.space}): the recorded wrist marker (mean of "
         f"{len(traj.reference.sources)} repeats, and each repeat / min-max band) "
         f"against the untuned simulation (generic parameters) and the tuned one (best repeat, "
-        f"{sim.run.label}), in 3-D and as x, y, z against time"
+        f"{sim.run.label}), in 3-D and as x, y, z against time, with the distance of each from the recorded "
+        "mean under them (grey: the repeats' own spread about it; dotted: the schedule's phases)"
         + ("; right: final object positions." if with_object else ".")
     )
 
@@ -248,6 +249,25 @@ def _final_positions(data: ReportData) -> list[T.FinalPosition]:
     return finals
 
 
+def _phase_errors(data: ReportData) -> list[T.PhaseError]:
+    """Per group and task whose recordings track the wrist: the wrist error per stretch of the task."""
+    entries: list[T.PhaseError] = []
+    for sim in data.sims:
+        for task, traj in sim.tasks.items():
+            ref = traj.reference
+            if ref.wrist_mean is None or ref.wrist_repeats is None:
+                continue
+            entries += T.phase_errors(
+                sim.group,
+                task,
+                traj.spans,
+                ref.times,
+                (ref.wrist_mean, ref.wrist_repeats),
+                (traj.untuned_marker, traj.tuned_marker),
+            )
+    return entries
+
+
 def trajectories_section(data: ReportData, out: ReportOutput) -> Section:
     figures = [
         out.figure(
@@ -264,7 +284,11 @@ def trajectories_section(data: ReportData, out: ReportOutput) -> Section:
         "Trajectories",
         "The recorded end-effector path against the untuned and the tuned simulation (the paper's "
         "Figure 1), re-simulated for the best repeat of each engine, tasks and space.",
-        [*figures, out.table(T.object_final_table(_final_positions(data)))],
+        [
+            *figures,
+            out.table(T.object_final_table(_final_positions(data))),
+            out.table(T.phase_error_table(_phase_errors(data))),
+        ],
     )
 
 

@@ -628,6 +628,126 @@ def object_final_table(finals: list[FinalPosition]) -> Table:
     )
 
 
+# --- 6a. wrist error per phase ------------------------------------------------------------------------------
+#: the recorded mean wrist moving slower than this [m/s] is at rest (a rest pose), faster it moves
+REST_SPEED = 0.01
+
+
+@dataclass
+class PhaseError:
+    """The wrist (marker) error of one group's best run over one stretch of one task, and reality's own spread."""
+
+    engine: str
+    tasks: str
+    space: str
+    task: str
+    phase: str
+    start: float
+    end: float
+    samples: int
+    untuned: float  # mean distance from the recorded mean wrist [m]
+    tuned: float
+    tuned_at_rest: float | None  # over the samples where the recorded wrist rests (None: none there)
+    tuned_moving: float | None
+    tuned_offset: np.ndarray  # mean signed tuned - recorded, x y z [m]
+    repeat_spread: float  # mean distance of a recorded repeat from the recorded mean [m]
+
+
+def phase_errors(
+    group: Group,
+    task: str,
+    spans: list[tuple[str, float, float]],
+    times: np.ndarray,
+    recorded: tuple[np.ndarray, np.ndarray],
+    simulated: tuple[np.ndarray, np.ndarray],
+) -> list[PhaseError]:
+    """Per stretch of ``task`` (``spans``: label, start, end [s], as :func:`simtune.report.simulate.phase_spans`
+    gives them): the wrist error of the untuned and the tuned marker (``simulated``, each (n, 3) or longer)
+    against the recorded mean, and the repeats' spread about it (``recorded``: the mean (n, 3) and the repeats
+    (r, n, 3))."""
+    mean, repeats = recorded
+    n = len(times)
+    untuned, tuned = (np.asarray(m)[:n] for m in simulated)
+    speed = np.linalg.norm(np.gradient(mean, times, axis=0), axis=1)
+    distance = {"untuned": np.linalg.norm(untuned - mean, axis=1), "tuned": np.linalg.norm(tuned - mean, axis=1)}
+    spread = np.linalg.norm(repeats - mean[None], axis=2).mean(axis=0)
+    out = []
+    for i, (label, start, end) in enumerate(spans):
+        last = i == len(spans) - 1
+        inside = (times >= start) & ((times <= end) if last else (times < end))
+        if not inside.any():
+            continue
+        rest, moving = inside & (speed < REST_SPEED), inside & (speed >= REST_SPEED)
+        tuned_d = distance["tuned"]
+        out.append(
+            PhaseError(
+                group.engine,
+                group.tasks,
+                group.space,
+                task,
+                label,
+                start,
+                end,
+                int(inside.sum()),
+                float(distance["untuned"][inside].mean()),
+                float(tuned_d[inside].mean()),
+                float(tuned_d[rest].mean()) if rest.any() else None,
+                float(tuned_d[moving].mean()) if moving.any() else None,
+                (tuned[inside] - mean[inside]).mean(axis=0),
+                float(spread[inside].mean()),
+            )
+        )
+    return out
+
+
+def phase_error_table(entries: list[PhaseError]) -> Table:
+    mm = [Column(name, ".1f") for name in ("untuned [mm]", "tuned [mm]", "tuned at rest [mm]", "tuned moving [mm]")]
+    offsets = [Column(f"tuned - recorded {axis} [mm]", "+.1f") for axis in "xyz"]
+    columns = [
+        *(Column(name) for name in ("engine", "tasks", "space", "task", "stretch")),
+        Column("from [s]", ".2f"),
+        Column("to [s]", ".2f"),
+        Column("samples", "d"),
+        *mm,
+        *offsets,
+        Column("repeat spread [mm]", ".1f"),
+    ]
+
+    def millimetres(value: float | None) -> float | None:
+        return None if value is None else 1000.0 * value
+
+    rows = [
+        [
+            e.engine,
+            e.tasks,
+            e.space,
+            e.task,
+            e.phase,
+            e.start,
+            e.end,
+            e.samples,
+            *(millimetres(v) for v in (e.untuned, e.tuned, e.tuned_at_rest, e.tuned_moving)),
+            *(1000.0 * float(v) for v in e.tuned_offset),
+            1000.0 * e.repeat_spread,
+        ]
+        for e in entries
+    ]
+    return Table(
+        "phase_errors",
+        "Table 7. Where the wrist error sits: per stretch of each task's schedule",
+        columns,
+        rows,
+        note="The best run of each engine, tasks and space, re-simulated (as the trajectory figures): the mean "
+        "distance of the simulated wrist marker from the recorded mean over each stretch of the task's schedule "
+        "as the tuned simulation runs it (each phase from when its command arrives: the schedule's start plus the "
+        "tuned command delay; before the first, the start pose), untuned and tuned; the tuned one "
+        f"split where the recorded wrist rests (slower than {100 * REST_SPEED:g} cm/s) and where it moves, and "
+        "its mean signed offset per axis. Repeat spread: the mean distance of a recorded repeat from the "
+        "recorded mean there - how closely the real arm repeats itself, the floor a simulation is measured "
+        "against. Weighted by samples, the tuned column gives the wrist error of the tuned fitness.",
+    )
+
+
 # --- contact ---------------------------------------------------------------------------------------------
 def contact_table(probes) -> Table:
     """One row per engine and task with an object: ``simtune tasks --contact``'s fields."""
