@@ -1,4 +1,4 @@
-"""The report's wrist error per stretch of a task (Table 7): where in time a fit's error sits."""
+"""The report's wrist error per stretch of a task (Table 6a): where in time a fit's error sits."""
 
 import numpy as np
 import pytest

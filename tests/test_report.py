@@ -317,7 +317,7 @@ def test_trajectories_resimulate_the_stored_best(report, grid):
         )
         tuned = next(r for r in rows if (r["source"], r["engine"]) == ("tuned", engine))
         assert float(tuned["distance to recorded mean [m]"]) == pytest.approx(best["score"]["object_error"], abs=1e-9)
-        # Table 7: the stretches cover the task, and their errors weighted by samples are the fitness's wrist term
+        # Table 6a: the stretches cover the task, and their errors weighted by samples are the fitness's wrist term
         stretches = [r for r in _table(report, "phase_errors") if (r["engine"], r["task"]) == (engine, "cube")]
         samples = [int(r["samples"]) for r in stretches]
         weighted = sum(float(r["tuned [mm]"]) * k for r, k in zip(stretches, samples)) / sum(samples)

@@ -734,7 +734,7 @@ def phase_error_table(entries: list[PhaseError]) -> Table:
     ]
     return Table(
         "phase_errors",
-        "Table 7. Where the wrist error sits: per stretch of each task's schedule",
+        "Table 6a. Where the wrist error sits: per stretch of each task's schedule",
         columns,
         rows,
         note="The best run of each engine, tasks and space, re-simulated (as the trajectory figures): the mean "
