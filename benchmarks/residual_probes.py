@@ -18,6 +18,14 @@ reports the mean wrist (marker) error with it, against the run's own:
 - ``encoder scale``: each joint's encoder reads ``(1 + s_j)`` times its angle (a gear-ratio error) besides
   an offset ``o_j``, both fitted so; beside it the offsets alone refitted, its baseline.
 
+Last, **what each rest pose asks of the joints**: the recordings also hold the wrist body's orientation
+(which the fitness does not use).  At the end of each stretch of the schedule (its last second, where the
+arm rests), the recorded position and orientation (mean over the repeats, each on the aligned clock) against
+the simulated link frame; the marker body's fixed rotation in that frame taken from the best-placed rest
+pose; then, per rest pose, the small joint changes (least squares, 1 deg weighed as 5 mm, a light pull to
+zero) that would place the simulated wrist there.  One calibration explains the rest poses only if they ask
+for the same changes.
+
 Also printed: the marker error every 0.25 s with the simulated and recorded wrist, whether the arm
 touches the object then (from the engine's contact list), and (MuJoCo) the simulated wrist when the
 fingers pass through the object: where the error sits, and whether a contact holds the arm.
@@ -218,7 +226,67 @@ def main() -> int:
     print("|---|---:|")
     for label, value in rows:
         print(f"| {label} | {value:.4f} |")
+    rest_pose_changes(task, ref, params, true_angles)
     return 0
+
+
+def rest_pose_changes(task, ref, params: dict, true_angles: np.ndarray) -> None:
+    """Print, per rest pose at the end of each stretch of ``task``, the joint changes that would place the simulated
+    wrist where the recordings (position and orientation, mean over the aligned repeats) put it."""
+    from scipy.spatial.transform import Rotation
+
+    from simtune.controller import JointController
+    from simtune.data.loaders import load_recording
+    from simtune.report.simulate import phase_spans
+
+    shifts = ref.alignment.shifts if ref.alignment is not None else np.zeros(len(ref.sources))
+    recordings = [load_recording(source) for source in ref.sources]
+    robot, offset = task.robot, np.array([params.get(f"marker_offset_{a}", 0.0) for a in "xyz"])
+    poses = []
+    for label, _, end in phase_spans(task, JointController(task, params).delay):
+        window = (end - 1.0, end - 0.2)  # the stretch's last second: the arm rests, whatever its repeat's jitter
+        positions, rotations = [], []
+        for rec, shift in zip(recordings, shifts):
+            at = (rec.time + shift >= window[0]) & (rec.time + shift <= window[1])
+            rot = rec.rotations[task.wrist_body][at]
+            keep = np.isfinite(rot).all(axis=(1, 2))
+            if keep.any():
+                positions.append(np.nanmean(rec.positions[task.wrist_body][at], axis=0))
+                rotations.append(Rotation.from_matrix(rot[keep]).mean())
+        if not rotations:
+            continue
+        sample = min(int(round((end - 0.6) * ref.rate)), len(true_angles) - 1)
+        real_rot = Rotation.from_quat(np.array([r.as_quat() for r in rotations])).mean().as_matrix()
+        poses.append((label, true_angles[sample], np.mean(positions, axis=0), real_rot))
+
+    def frame(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        pos, rot = robot.forward_kinematics(q)
+        return pos + rot @ offset, rot
+
+    errors = [np.linalg.norm(frame(q)[0] - real) for _, q, real, _ in poses]
+    anchor = int(np.argmin(errors))
+    in_link = frame(poses[anchor][1])[1].T @ poses[anchor][3]  # the marker body's rotation in the link frame
+
+    def residual(change: np.ndarray, q: np.ndarray, real_pos: np.ndarray, real_rot: np.ndarray) -> np.ndarray:
+        pos, rot = frame(q + change)
+        turn = Rotation.from_matrix(rot.T @ real_rot @ in_link.T).as_rotvec()
+        return np.r_[1000 * (pos - real_pos), 5 * np.degrees(turn), 0.2 * np.degrees(change)]
+
+    print(
+        "\n| rest pose (last second of) | simulated joints [deg] | position off [mm] | orientation off [deg] | "
+        "joint changes that place it [deg] | left [mm] |"
+    )
+    print("|---|---|---:|---:|---|---:|")
+    for label, q, real_pos, real_rot in poses:
+        before = residual(np.zeros(len(q)), q, real_pos, real_rot)
+        fit = least_squares(residual, np.zeros(len(q)), args=(q, real_pos, real_rot))
+        left = residual(fit.x, q, real_pos, real_rot)
+        mark = " (orientation reference)" if label == poses[anchor][0] else ""
+        print(
+            f"| {label}{mark} | {' '.join(f'{v:.1f}' for v in np.degrees(q))} | {np.linalg.norm(before[:3]):.1f} | "
+            f"{np.linalg.norm(before[3:6]) / 5:.1f} | {' '.join(f'{v:+.1f}' for v in np.degrees(fit.x))} | "
+            f"{np.linalg.norm(left[:3]):.1f} |"
+        )
 
 
 if __name__ == "__main__":
