@@ -31,7 +31,7 @@ def auto_run(tmp_path_factory):
             seed=4,
             only=ONLY,
             optimizer="auto",
-            max_evaluations=40,
+            max_evaluations=28,
             threads=True,
         )
         start_run(config, run_dir, show_progress=False)
