@@ -309,9 +309,10 @@ def untuned_sample(stored: RunRecord) -> tuple[list[list[float]], list[float]]:
     if stored.optimizer != "auto":
         return stored.initial_population, stored.initial_fitness
     bounds = np.array(stored.bounds, dtype=float).reshape(-1, 2)
-    lows, widths = bounds[:, 0], np.where(bounds[:, 1] > bounds[:, 0], bounds[:, 1] - bounds[:, 0], 1.0)
+    lows, highs = bounds[:, 0], bounds[:, 1]
+    widths = np.where(highs > lows, highs - lows, 1.0)  # a fixed parameter: compared as it is
     unit = random_start(len(bounds), int((stored.config or {})["seed"]))
-    drawn = lows + unit * widths
+    drawn = np.clip(lows + unit * (highs - lows), lows, highs)  # as the search mapped them (BatchSearch.from_unit)
     store = RunStore.open_read_only(stored.path)
     try:
         scored = [e for e in store.evaluations() if e["x"] is not None and e["generation"] > 0]
