@@ -237,13 +237,12 @@ def rest_pose_changes(task, ref, params: dict, true_angles: np.ndarray) -> None:
 
     from simtune.controller import JointController
     from simtune.data.loaders import load_recording
-    from simtune.report.simulate import phase_spans
 
     shifts = ref.alignment.shifts if ref.alignment is not None else np.zeros(len(ref.sources))
     recordings = [load_recording(source) for source in ref.sources]
     robot, offset = task.robot, np.array([params.get(f"marker_offset_{a}", 0.0) for a in "xyz"])
     poses = []
-    for label, _, end in phase_spans(task, JointController(task, params).delay):
+    for label, _, end in task.stretches(JointController(task, params).delay):
         window = (end - 1.0, end - 0.2)  # the stretch's last second: the arm rests, whatever its repeat's jitter
         positions, rotations = [], []
         for rec, shift in zip(recordings, shifts):

@@ -7,8 +7,11 @@ import sys
 import numpy as np
 import pytest
 
+from simtune.check import rest_poses
+from simtune.data import TaskData
 from simtune.data.onset import ONSET_M, motion_onset
 from simtune.reference import REFERENCE_DIR
+from simtune.tasks import get_task
 
 
 def _track(onset: float, glitch: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -34,6 +37,25 @@ def test_a_track_that_never_moves_has_no_onset():
     assert motion_onset(times, track) is None
 
 
+def test_a_rest_pose_the_targets_do_not_reach_is_named():
+    task = get_task("cube")  # phases from 0, 8 and 14 s to 20 s
+    times = np.arange(401) / 20.0
+    poses = np.array([[0.11, -0.01, 0.50], [0.40, 0.0, 0.25], [0.51, 0.0, 0.33]])
+    simulated = poses[np.searchsorted([8.0, 14.0], times, side="right")]  # at rest at each phase's pose at once
+    delay = 1.5
+    recorded = poses[np.searchsorted([8.0 + delay, 14.0 + delay], times, side="right")]
+    recorded[(times >= 8.0 + delay) & (times < 14.0 + delay)] += [-0.03, 0.0, -0.02]  # the real arm rested elsewhere
+    reference = TaskData("cube", 20.0, times, recorded, None, None, None, [])
+    rows = rest_poses(task, reference, (times, simulated), delay)
+    assert [r["stretch"] for r in rows] == ["phase 1", "phase 2", "phase 3"]
+    assert [r["end_s"] for r in rows] == [8.0, 14.0, 20.0]
+    assert rows[0]["distance_m"] == pytest.approx(0.0, abs=1e-12) and not rows[0]["far"]
+    assert rows[1]["distance_m"] == pytest.approx(np.hypot(0.03, 0.02)) and rows[1]["far"]
+    np.testing.assert_allclose(rows[1]["recorded_m"], poses[1] + [-0.03, 0.0, -0.02])
+    # the last phase's end runs past the recording with the delay added: its last second is compared instead
+    assert rows[2]["distance_m"] == pytest.approx(0.0, abs=1e-12)
+
+
 def _cli(*args):
     return subprocess.run([sys.executable, "-m", "simtune.cli", *args], capture_output=True, text=True, timeout=600)
 
@@ -52,6 +74,9 @@ def test_check_reports_quality_onsets_and_what_the_task_informs():
     # the floor: the repeats agree better on one clock; the reference checked against is the aligned one
     assert 0 < cube["repeat_spread_aligned_m"] <= cube["repeat_spread_unaligned_m"]
     assert cube["reference"] == result["reference"] == "aligned" and cube["floor_fitness"] > 0
+    # the shipped repeats rest where each phase's targets put the arm, but for the marker's offset
+    assert [r["stretch"] for r in cube["rest_poses"]] == ["phase 1", "phase 2", "phase 3"]
+    assert all(0 < r["distance_m"] < 0.03 and not r["far"] for r in cube["rest_poses"])
     jac = result["jacobian"]
     assert 0 < jac["rank"] <= jac["searched"] == len(jac["singular_values"])
     informed = {p["name"] for p in result["parameters"] if p["informed"]}

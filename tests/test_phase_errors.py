@@ -4,23 +4,22 @@ import numpy as np
 import pytest
 
 from simtune.report.collect import Group
-from simtune.report.simulate import phase_spans
 from simtune.report.tables import phase_error_table, phase_errors
 from simtune.tasks import get_task
 
 
 def test_the_stretches_are_the_schedules_phases_from_when_each_command_arrives():
     cube = get_task("cube")
-    assert phase_spans(cube) == [("phase 1", 0.0, 8.0), ("phase 2", 8.0, 14.0), ("phase 3", 14.0, 20.0)]
-    assert phase_spans(cube, delay=1.5) == [
+    assert cube.stretches() == [("phase 1", 0.0, 8.0), ("phase 2", 8.0, 14.0), ("phase 3", 14.0, 20.0)]
+    assert cube.stretches(delay=1.5) == [
         ("start pose", 0.0, 1.5),
         ("phase 1", 1.5, 9.5),
         ("phase 2", 9.5, 15.5),
         ("phase 3", 15.5, 20.0),
     ]
     single = get_task("single")
-    assert phase_spans(single) == [("phase 1", 0.0, single.duration)]
-    assert phase_spans(single, delay=single.duration + 1) == [("start pose", 0.0, single.duration)]  # none arrives
+    assert single.stretches() == [("phase 1", 0.0, single.duration)]
+    assert single.stretches(delay=single.duration + 1) == [("start pose", 0.0, single.duration)]  # none arrives
 
 
 def test_each_stretch_gets_its_own_error_offset_and_floor():
@@ -37,7 +36,7 @@ def test_each_stretch_gets_its_own_error_offset_and_floor():
     tuned[(times >= 10.0) & (times < 14.0)] += [0.0, 0.0, -0.03]
     tuned[times >= 14.0] += [0.0, 0.004, 0.0]
     group = Group("mujoco", "cube", "calibrated", [])
-    spans = phase_spans(task)
+    spans = task.stretches()
     entries = phase_errors(group, "cube", spans, times, (mean, repeats), (untuned, np.vstack([tuned, tuned[-1:]])))
     assert [e.phase for e in entries] == ["phase 1", "phase 2", "phase 3"]
     assert [e.samples for e in entries] == [160, 120, 121]  # the last stretch keeps the last sample

@@ -12,6 +12,11 @@ Three parts, per task and then for the tasks together:
   pose, or a misplaced base);
 - the motion onset of each repeat (:func:`simtune.data.onset.motion_onset`) and of the generic
   simulation: their difference is the delay between pressing record and the first command;
+- the rest poses: at the end of each phase the generic simulation rests where the phase's targets put
+  the arm; the recorded wrist over that phase's last second (on the recordings' clock, the delay
+  above added) is compared with it (:func:`rest_poses`).  Where one lies more than
+  :data:`~simtune.objective.START_WARN_M` off while the others agree, that phase's targets are not
+  what the real arm reached: a tuned calibration cannot take that up;
 - which parameters the tasks can inform: the Jacobian of the per-sample residuals at the
   generic point (:func:`simtune.uncertainty.jacobian`, one batch of rollouts), its rank and
   singular values, and for each active parameter whether the recordings could pin it: the
@@ -34,7 +39,7 @@ from simtune.data.onset import motion_onset
 from simtune.engines import engine_class, make_engine
 from simtune.errors import SimtuneError
 from simtune.fitness import marker_positions, reference_floor, repeat_floor
-from simtune.objective import Objective, generic_values, load_references
+from simtune.objective import START_WARN_M, Objective, generic_values, load_references
 from simtune.params import get_space
 from simtune.tasks import TaskSpec
 from simtune.uncertainty import RCOND, analyse, correlation_time, jacobian
@@ -90,6 +95,41 @@ def _repeat_rows(task: TaskSpec, aligned: TaskData, plain_agreement: np.ndarray,
     return rows
 
 
+#: the stretch of each phase's end compared as its rest pose: from this long before the end ... [s]
+REST_WINDOW_S = (1.0, 0.2)  # ... to this long before it (the arm has settled; the next command not yet arrived)
+
+
+def rest_poses(
+    task: TaskSpec, reference: TaskData, simulated: tuple[np.ndarray, np.ndarray], delay: float
+) -> list[dict]:
+    """Per stretch of ``task``: where the generic simulation (``simulated``: its times and marker, no command delay)
+    rests at the stretch's end, against the mean recorded wrist over the same last second on the recordings' clock
+    (``delay`` [s] later; the recording's last second where that runs past it)."""
+    assert reference.wrist_mean is not None
+    times, marker = simulated
+    early, late = REST_WINDOW_S
+    rows = []
+    for label, _, end in task.stretches():
+        at_rest = (times >= end - early) & (times <= end - late)
+        recorded_end = min(end + delay, float(reference.times[-1]) + late)
+        recorded = (reference.times >= recorded_end - early) & (reference.times <= recorded_end - late)
+        if not at_rest.any() or not recorded.any():
+            continue
+        sim_pose, real_pose = marker[at_rest].mean(axis=0), reference.wrist_mean[recorded].mean(axis=0)
+        distance = float(np.linalg.norm(sim_pose - real_pose))
+        rows.append(
+            {
+                "stretch": label,
+                "end_s": float(end),
+                "simulated_m": [float(v) for v in sim_pose],
+                "recorded_m": [float(v) for v in real_pose],
+                "distance_m": distance,
+                "far": distance > START_WARN_M,
+            }
+        )
+    return rows
+
+
 def task_quality(
     engine: str, task: TaskSpec, root: Path, reference: str = "aligned", repeats: str = "all"
 ) -> tuple[dict, TaskData]:
@@ -120,8 +160,9 @@ def task_quality(
     plain_agreement = np.linalg.norm(plain.wrist_repeats - plain.wrist_mean[None], axis=2).mean(axis=1)
     rows = _repeat_rows(task, aligned, plain_agreement, sim_marker[0])
     chosen = aligned if reference == "aligned" else plain
-    floor = reference_floor(aligned)
     onsets = [float(r["onset_s"]) for r in rows if r["onset_s"] is not None]
+    delay = float(np.mean(onsets) - sim_onset) if onsets and sim_onset is not None else None
+    floor = reference_floor(aligned)
     summary = {
         "task": task.name,
         "reference": reference,
@@ -140,7 +181,8 @@ def task_quality(
         "onset_mean_s": float(np.mean(onsets)) if onsets else None,
         "onset_std_s": float(np.std(onsets, ddof=1)) if len(onsets) > 1 else None,
         "simulated_onset_s": sim_onset,
-        "implied_command_delay_s": (float(np.mean(onsets) - sim_onset) if onsets and sim_onset is not None else None),
+        "implied_command_delay_s": delay,
+        "rest_poses": rest_poses(task, chosen, (rollout.times, sim_marker), max(delay or 0.0, 0.0)),
     }
     if repeats != "all":  # which repeats the check used (the rows name them) and which it held out
         summary["repeat_selection"] = repeats

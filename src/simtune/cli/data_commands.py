@@ -153,6 +153,32 @@ def _print_data_quality(parts: list[dict]) -> None:
             f"simulation moves at {fmt_g(part['simulated_onset_s'])} s: command delay about "
             f"{fmt_g(part['implied_command_delay_s'])} s"
         )
+        _print_rest_poses(part)
+
+
+def _print_rest_poses(part: dict) -> None:
+    table = text_table(
+        f"{part['task']}: rest poses - where each phase's targets put the marker (generic simulation) against the "
+        "recorded wrist over the phase's last second",
+        ("stretch", "ends [s]", "simulated [mm]", "recorded [mm]", "apart [mm]"),
+    )
+    for r in part["rest_poses"]:
+        table.add_row(
+            r["stretch"],
+            f"{r['end_s']:g}",
+            " ".join(f"{1000 * v:.0f}" for v in r["simulated_m"]),
+            " ".join(f"{1000 * v:.0f}" for v in r["recorded_m"]),
+            f"{1000 * r['distance_m']:.1f}" + (" (far)" if r["far"] else ""),
+        )
+    out.print(table)
+    far = [r["stretch"] for r in part["rest_poses"] if r["far"]]
+    if far and len(far) < len(part["rest_poses"]):
+        out.print(
+            f"  note: the real arm rested elsewhere than the targets of {', '.join(far)} put it, while the other rests "
+            "agree: check those targets (a tuned calibration moves every pose at once and cannot take this up)",
+            highlight=False,
+            soft_wrap=True,
+        )
 
 
 def _print_informed(result: dict) -> None:

@@ -113,22 +113,9 @@ def simulate_group(group: Group, references: References) -> GroupSimulation:
             tuned_object=tuned[task].object_pos,
             untuned_score=score_rollout(untuned[task], ref, {}, joint_names=joints),
             tuned_score=score_rollout(tuned[task], ref, params, joint_names=joints),
-            spans=phase_spans(run.task(task), JointController(run.task(task), params).delay),
+            spans=run.task(task).stretches(JointController(run.task(task), params).delay),
         )
     return GroupSimulation(group, run, params, out)
-
-
-def phase_spans(task: TaskSpec, delay: float = 0.0) -> list[tuple[str, float, float]]:
-    """Each stretch of ``task``'s schedule as a simulation with command delay ``delay`` [s] runs it: its label, and
-    its start and end [s] (each phase from when its command arrives; the start pose held before the first one is a
-    stretch of its own; the last ends with the task)."""
-    starts = [p.start + delay for p in task.phases if p.start + delay < task.duration]
-    if not starts or starts[0] > 0:
-        spans = [("start pose", 0.0, starts[0] if starts else task.duration)]
-    else:
-        spans = []
-    ends = [*starts[1:], task.duration]
-    return spans + [(f"phase {k + 1}", a, b) for k, (a, b) in enumerate(zip(starts, ends)) if b > a]
 
 
 def nominal_values(engine: str, tasks: list[TaskSpec]) -> dict[str, float]:

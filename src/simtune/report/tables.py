@@ -661,7 +661,7 @@ def phase_errors(
     recorded: tuple[np.ndarray, np.ndarray],
     simulated: tuple[np.ndarray, np.ndarray],
 ) -> list[PhaseError]:
-    """Per stretch of ``task`` (``spans``: label, start, end [s], as :func:`simtune.report.simulate.phase_spans`
+    """Per stretch of ``task`` (``spans``: label, start, end [s], as :meth:`simtune.tasks.TaskSpec.stretches`
     gives them): the wrist error of the untuned and the tuned marker (``simulated``, each (n, 3) or longer)
     against the recorded mean, and the repeats' spread about it (``recorded``: the mean (n, 3) and the repeats
     (r, n, 3))."""

@@ -186,6 +186,15 @@ class TaskSpec:
         table = np.array([self.start_pose_deg, *(p.targets_deg for p in self.phases)], dtype=float)
         return starts, table
 
+    def stretches(self, delay: float = 0.0) -> list[tuple[str, float, float]]:
+        """Each stretch of the schedule as a simulation with command delay ``delay`` [s] runs it: its label, start
+        and end [s] - each phase from when its command arrives, the start pose held before the first one as a
+        stretch of its own, the last one ending with the task."""
+        starts = [p.start + delay for p in self.phases if p.start + delay < self.duration]
+        held = [("start pose", 0.0, starts[0] if starts else self.duration)] if not starts or starts[0] > 0 else []
+        ends = [*starts[1:], self.duration]
+        return held + [(f"phase {k + 1}", a, b) for k, (a, b) in enumerate(zip(starts, ends)) if b > a]
+
 
 def common_robot(tasks) -> RobotDescription:
     """The one robot of tasks tuned together (their parameters are one robot's)."""
