@@ -109,10 +109,11 @@ def rest_poses(
     times, marker = simulated
     early, late = REST_WINDOW_S
     rows = []
-    for label, _, end in task.stretches():
-        at_rest = (times >= end - early) & (times <= end - late)
+    for label, start, end in task.stretches():  # a stretch shorter than the window: from its start on
+        at_rest = (times >= max(start, end - early)) & (times <= end - late)
         recorded_end = min(end + delay, float(reference.times[-1]) + late)
-        recorded = (reference.times >= recorded_end - early) & (reference.times <= recorded_end - late)
+        clock = reference.times
+        recorded = (clock >= max(start + delay, recorded_end - early)) & (clock <= recorded_end - late)
         if not at_rest.any() or not recorded.any():
             continue
         sim_pose, real_pose = marker[at_rest].mean(axis=0), reference.wrist_mean[recorded].mean(axis=0)
