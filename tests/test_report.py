@@ -60,6 +60,7 @@ TABLES = {
     "parameter_importance_top",
     "mann_whitney",
     "object_final",
+    "phase_errors",
     "compute",
     "dr_ranges",
     "runs",
