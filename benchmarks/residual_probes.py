@@ -190,9 +190,6 @@ def main() -> int:
     lengths = ", ".join(f"{j} {'xyz'[a]} {d * 1000:+.1f}" for (j, a), d in zip(CHAIN_LENGTHS, deltas))
     rows.append((f"link lengths ({lengths} mm)", error))
 
-    def angle_markers(angles: np.ndarray) -> np.ndarray:
-        return markers_at(robot, angles)
-
     joints = true_angles.shape[1]
     speed = np.gradient(true_angles, ref.times[: len(true_angles)], axis=0)
     direction = np.zeros_like(true_angles)  # the last direction each joint moved in faster than 0.5 deg/s
@@ -200,12 +197,12 @@ def main() -> int:
     for k, v in enumerate(speed):
         last = np.where(np.abs(v) > np.radians(0.5), np.sign(v), last)
         direction[k] = last
-    play, error = kinematic_fit(lambda b: angle_markers(true_angles - 0.5 * b * direction), joints, 0.15)
+    play, error = kinematic_fit(lambda b: markers_at(robot, true_angles - 0.5 * b * direction), joints, 0.15)
     rows.append((f"backlash (play {np.round(np.degrees(play), 2).tolist()} deg)", error))
-    offsets, error = kinematic_fit(lambda o: angle_markers(true_angles + o), joints, 0.1)
+    offsets, error = kinematic_fit(lambda o: markers_at(robot, true_angles + o), joints, 0.1)
     rows.append((f"joint offsets refitted ({np.round(np.degrees(offsets), 2).tolist()} deg)", error))
     both, error = kinematic_fit(
-        lambda p: angle_markers(true_angles + p[:joints] + p[joints:] * true_angles), 2 * joints, 0.2
+        lambda p: markers_at(robot, true_angles + p[:joints] + p[joints:] * true_angles), 2 * joints, 0.2
     )
     rows.append(
         (
@@ -235,6 +232,7 @@ def rest_pose_changes(task, ref, params: dict, true_angles: np.ndarray) -> None:
     wrist where the recordings (position and orientation, mean over the aligned repeats) put it."""
     from scipy.spatial.transform import Rotation
 
+    from simtune.check import REST_WINDOW_S
     from simtune.controller import JointController
     from simtune.data.loaders import load_recording
 
@@ -243,7 +241,7 @@ def rest_pose_changes(task, ref, params: dict, true_angles: np.ndarray) -> None:
     robot, offset = task.robot, np.array([params.get(f"marker_offset_{a}", 0.0) for a in "xyz"])
     poses = []
     for label, _, end in task.stretches(JointController(task, params).delay):
-        window = (end - 1.0, end - 0.2)  # the stretch's last second: the arm rests, whatever its repeat's jitter
+        window = (end - REST_WINDOW_S[0], end - REST_WINDOW_S[1])  # at rest, whatever its repeat's jitter
         positions, rotations = [], []
         for rec, shift in zip(recordings, shifts):
             at = (rec.time + shift >= window[0]) & (rec.time + shift <= window[1])
@@ -254,7 +252,7 @@ def rest_pose_changes(task, ref, params: dict, true_angles: np.ndarray) -> None:
                 rotations.append(Rotation.from_matrix(rot[keep]).mean())
         if not rotations:
             continue
-        sample = min(int(round((end - 0.6) * ref.rate)), len(true_angles) - 1)
+        sample = min(int(round(np.mean(window) * ref.rate)), len(true_angles) - 1)
         real_rot = Rotation.from_quat(np.array([r.as_quat() for r in rotations])).mean().as_matrix()
         poses.append((label, true_angles[sample], np.mean(positions, axis=0), real_rot))
 

@@ -108,11 +108,11 @@ def rest_poses(
     assert reference.wrist_mean is not None
     times, marker = simulated
     early, late = REST_WINDOW_S
+    clock = reference.times
     rows = []
     for label, start, end in task.stretches():  # a stretch shorter than the window: from its start on
         at_rest = (times >= max(start, end - early)) & (times <= end - late)
-        recorded_end = min(end + delay, float(reference.times[-1]) + late)
-        clock = reference.times
+        recorded_end = min(end + delay, float(clock[-1]) + late)
         recorded = (clock >= max(start + delay, recorded_end - early)) & (clock <= recorded_end - late)
         if not at_rest.any() or not recorded.any():
             continue

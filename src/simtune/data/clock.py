@@ -174,6 +174,11 @@ def warn_outliers(sources: list[Path], shifts: np.ndarray, floor_s: float) -> No
     )
 
 
+def spread_per_sample(repeats: np.ndarray) -> np.ndarray:
+    """At each sample of repeats (r, n, k), the mean distance of a repeat from the repeats' mean (n,) [track units]."""
+    return np.linalg.norm(repeats - repeats.mean(axis=0)[None], axis=2).mean(axis=0)
+
+
 def spread(repeats: np.ndarray) -> float:
     """Mean over repeats (r, n, k) of the mean distance between a repeat and the repeats' mean [track units]."""
     return float(np.linalg.norm(repeats - repeats.mean(axis=0)[None], axis=2).mean(axis=1).mean())

@@ -16,6 +16,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 
+from simtune.data.clock import spread_per_sample
 from simtune.report.collect import Group
 from simtune.report.simulate import GroupSimulation
 from simtune.report.tables import GenericEntry, experiment_generic
@@ -361,7 +362,7 @@ def _error_panel(fig: Figure, cell, traj, wrist: tuple[np.ndarray, np.ndarray], 
     ax = fig.add_subplot(cell)
     # on a log scale: the untuned error is often 100 x the tuned one, and the repeats' spread 10 x below that
     floor = 0.1  # mm: the scale's bottom, well below any motion-capture repeatability
-    spread = np.linalg.norm(wrist_repeats - wrist_mean[None], axis=2).mean(axis=0)
+    spread = spread_per_sample(wrist_repeats)
     ax.fill_between(t, floor, np.maximum(1000.0 * spread, floor), color="#999999", alpha=0.35, linewidth=0)
     ax.plot([], [], color="#999999", alpha=0.6, linewidth=6, label="repeat spread")
     for label, marker, color, style in lines:

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simtune.data.clock import spread_per_sample
 from simtune.fitness import RepeatFloor
 from simtune.params.space import PARAMETERS
 from simtune.report.collect import Group, ReportedRun
@@ -669,8 +670,8 @@ def phase_errors(
     n = len(times)
     untuned, tuned = (np.asarray(m)[:n] for m in simulated)
     speed = np.linalg.norm(np.gradient(mean, times, axis=0), axis=1)
-    distance = {"untuned": np.linalg.norm(untuned - mean, axis=1), "tuned": np.linalg.norm(tuned - mean, axis=1)}
-    spread = np.linalg.norm(repeats - mean[None], axis=2).mean(axis=0)
+    untuned_d, tuned_d = np.linalg.norm(untuned - mean, axis=1), np.linalg.norm(tuned - mean, axis=1)
+    spread = spread_per_sample(repeats)
     out = []
     for i, (label, start, end) in enumerate(spans):
         last = i == len(spans) - 1
@@ -678,7 +679,6 @@ def phase_errors(
         if not inside.any():
             continue
         rest, moving = inside & (speed < REST_SPEED), inside & (speed >= REST_SPEED)
-        tuned_d = distance["tuned"]
         out.append(
             PhaseError(
                 group.engine,
@@ -689,7 +689,7 @@ def phase_errors(
                 start,
                 end,
                 int(inside.sum()),
-                float(distance["untuned"][inside].mean()),
+                float(untuned_d[inside].mean()),
                 float(tuned_d[inside].mean()),
                 float(tuned_d[rest].mean()) if rest.any() else None,
                 float(tuned_d[moving].mean()) if moving.any() else None,
