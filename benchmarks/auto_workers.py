@@ -2,7 +2,7 @@
 workers, and the schedule's efficiency at 1, 2 and 16 workers.
 
     python benchmarks/auto_workers.py [--data ../shared/datasets/qrg2019/mocap] [--task cube] [--space shared]
-        [--max-seconds 120] [--seeds 0] [--workers 1,2,16] [--threads none|on|off] [--out FILE]
+        [--max-seconds 120] [--seeds 0] [--workers 1,2,16] [--threads none|on|off] [--same-search] [--out FILE]
 
 For each seed and worker count: `simtune tune --engine mujoco --task T --space S --workers W --max-seconds 120`
 on the real recordings (the run's other settings at their defaults), then, from its run store:
@@ -19,6 +19,20 @@ on the real recordings (the run's other settings at their defaults), then, from 
   process: its schedule is what it is measured for, not its evaluations per second;
 - the coordinator's share: elapsed time outside the batches' evaluations (the solver, the store, checks),
   which no worker count shortens.
+
+With --same-search the runs at more workers do not stop at --max-seconds but where the first worker count's run
+stopped its search (its used evaluations, `max_evaluations`: the search takes the same path on any number of
+workers, and points scored ahead are not counted until the search asks for them).  Evaluations per second over
+120 s compare different work - the faster run gets further, to phases whose evaluations cost more (least
+squares runs each rollout to its end; DE's trials are mostly pruned early) - so the speed-up on the same search,
+the first run's time over this one's, is the like-for-like figure; the evaluations scored ahead and never asked
+for are printed beside it.
+
+First, the host's own ceiling (--ceiling-repeats, 0 to skip): a batch of 7 members of the middle of the space
+scored over and over by one process alone, then by two processes at once (three turns each, alternating), each
+on its own (no pool, no coordinator, nothing shared): work that parallelises perfectly, so the ratio is what two
+workers can give at most on this machine (2 x alone / together, medians; below 2 where two cores are not two
+cores' worth).
 
 The load average is printed beside each run: the host is shared.  With --out the lines are appended to FILE.
 """
@@ -63,6 +77,59 @@ def schedule_efficiency(run: list[tuple[int, float]], workers: int) -> float:
     return busy / held if held else 1.0
 
 
+#: turns of one process alone and two together in the ceiling's measurement
+ROUNDS = 3
+
+
+def _batch_seconds(data: str, task: str, space: str, repeats: int, ready, go) -> float:
+    """Median seconds of one 7-member batch of ``task`` (the middle of ``space``), scored ``repeats`` times after
+    ``ready`` is set and ``go`` arrives (a process of :func:`parallel_ceiling`)."""
+    import numpy as np
+
+    from simtune.engines import engine_class
+    from simtune.objective import Objective, load_references
+    from simtune.params import get_space
+    from simtune.tasks import get_task
+
+    spec = get_task(task)
+    tuned = get_space(space, engine_class("mujoco").supported())
+    objective = Objective("mujoco", [spec], load_references(data, [spec]), tuned)
+    lo, hi = np.array(tuned.bounds).T
+    points = lo + (0.3 + 0.4 * np.random.default_rng(0).random((7, len(lo)))) * (hi - lo)
+    params = [objective.vector_space().to_dict(x) for x in points]
+    list(objective.score_batch(params))  # warm-up: engines and per-member copies built
+    ready.set()
+    go.wait()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        list(objective.score_batch(params))
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def parallel_ceiling(data: str, task: str, space: str, repeats: int) -> tuple[float, float, float]:
+    """(seconds of a batch alone, the two processes' median seconds together, 2 x alone / together)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    context = multiprocessing.get_context("spawn")
+    manager = context.Manager()
+    seconds: dict[int, list[float]] = {1: [], 2: []}
+    for _ in range(ROUNDS):  # alone and together take turns: the host's load drifts
+        for count in (1, 2):
+            ready, go = [manager.Event() for _ in range(count)], manager.Event()
+            with ProcessPoolExecutor(count, mp_context=context) as pool:
+                futures = [pool.submit(_batch_seconds, data, task, space, repeats, r, go) for r in ready]
+                for r in ready:  # both built and warm before either starts timing
+                    r.wait()
+                go.set()
+                seconds[count] += [f.result() for f in futures]
+    manager.shutdown()
+    alone, together = statistics.median(seconds[1]), statistics.median(seconds[2])
+    return alone, together, 2 * alone / together
+
+
 def main() -> None:
     parser = make_parser(__doc__)
     add_data_option(parser)
@@ -74,6 +141,8 @@ def main() -> None:
     parser.add_argument(
         "--threads", choices=("none", "on", "off"), default="none", help="RunConfig.threads (none: its default)"
     )
+    parser.add_argument("--same-search", action="store_true", help="later worker counts stop where the first stopped")
+    parser.add_argument("--ceiling-repeats", type=int, default=20, help="batches per process for the ceiling")
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
 
@@ -84,9 +153,18 @@ def main() -> None:
         f"# auto_workers: mujoco, {args.task}, {args.space}, {args.max_seconds:g} s, threads {args.threads}, "
         f"data {args.data}, {os.cpu_count()} cores, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}"
     )
+    if args.ceiling_repeats > 0:
+        alone, together, ceiling = parallel_ceiling(str(args.data), args.task, args.space, args.ceiling_repeats)
+        say(
+            f"host ceiling: a 7-member batch takes {alone * 1e3:.0f} ms in one process alone, {together * 1e3:.0f} ms "
+            f"in each of two at once: two workers can give at most x{ceiling:.2f} (load average "
+            f"{os.getloadavg()[0]:.2f})"
+        )
     rates: dict[int, list[float]] = defaultdict(list)
+    speedups: dict[int, list[float]] = defaultdict(list)
     worker_counts = [int(w) for w in args.workers.split(",")]
     for seed in [int(s) for s in args.seeds.split(",")]:
+        first: tuple[int, float, int] | None = None  # the first worker count's used evaluations, time, simulated
         for workers in worker_counts:
             extra = {} if args.threads == "none" else {"threads": args.threads == "on"}
             oversubscribed = workers > (os.cpu_count() or 1)
@@ -99,7 +177,8 @@ def main() -> None:
                 data=str(args.data),
                 seed=seed,
                 workers=workers,
-                max_seconds=args.max_seconds,
+                max_seconds=None if args.same_search and first else args.max_seconds,
+                max_evaluations=first[0] if args.same_search and first else None,
                 max_generations=1_000_000,
                 optimizer="auto",  # `simtune tune`'s defaults
                 eval_timeout=600.0,
@@ -119,6 +198,14 @@ def main() -> None:
             sizes = sorted(n for n, _ in run)
             schedule = ", ".join(f"{w}: {schedule_efficiency(run, w):.2f}" for w in sorted({1, workers}))
             threads = " (threads of one process: the schedule, not the rate)" if oversubscribed else ""
+            if first is None:
+                first = (result.used_evaluations, elapsed, simulated)
+            elif args.same_search and not oversubscribed:
+                speedups[workers].append(first[1] / elapsed)
+                threads += (
+                    f" on the same search ({first[0]} used evaluations: x{first[1] / elapsed:.2f} the first run's "
+                    f"speed; {simulated - first[2]} scored ahead and never asked for)"
+                )
             say(
                 f"seed {seed}, {workers} worker(s){threads}: {simulated} evaluations in {elapsed:.1f} s = "
                 f"{rate:.1f} eval/s; "
@@ -132,6 +219,11 @@ def main() -> None:
         say(
             f"{workers} workers / {worker_counts[0]}: x{statistics.median(rates[workers]) / base:.2f} the "
             f"evaluations per second (medians over seeds {args.seeds})"
+        )
+    for workers, values in speedups.items():
+        say(
+            f"{workers} workers / {worker_counts[0]} on the same search: x{statistics.median(values):.2f} the speed "
+            f"(median over seeds {args.seeds})"
         )
     transcript.save()
 

@@ -5,7 +5,7 @@ import pytest
 
 from simtune.engines import engine_class
 from simtune.objective import Objective, load_references
-from simtune.optimize.evaluator import Evaluator, batch_on_threads
+from simtune.optimize.evaluator import Evaluator, batch_on_threads, chunks, has_batch_path
 from simtune.params import get_space
 from simtune.reference import REFERENCE_DIR
 from simtune.store import RunStore
@@ -57,13 +57,14 @@ def test_a_batch_scores_each_member_as_alone(threads, two_task_data):
     fresh.close()
 
 
-def test_the_threaded_evaluator_stores_what_one_process_stores(tmp_path):
+def test_threads_and_chunked_worker_processes_store_what_one_process_stores(tmp_path):
     obj = objective()
     xs = vectors(obj, 6, seed=1)
     rows = {}
-    for name, workers, threads in (("one", 1, False), ("threads", 2, True)):
+    for name, workers, threads in (("one", 1, False), ("threads", 2, True), ("processes", 2, False)):
         store = RunStore(tmp_path / name, create=True)
         with Evaluator(objective(), store, workers, threads=threads) as evaluator:
+            assert evaluator.chunked == (name == "processes")  # each worker runs its chunk through the batch path
             fitness = evaluator.evaluate(xs)
             evaluator.parent_energies = fitness * 0.5  # every trial pruned against a better parent
             evaluator.evaluate(xs + 1e-9)
@@ -73,7 +74,7 @@ def test_the_threaded_evaluator_stores_what_one_process_stores(tmp_path):
             [(r.tolist(), s) for r, s in residuals],
         )
         store.close()
-    assert rows["one"] == rows["threads"]
+    assert rows["one"] == rows["threads"] == rows["processes"]
     assert sum(pruned for _, _, pruned, _ in rows["one"][0]) == 6
 
 
@@ -102,3 +103,13 @@ def test_mujoco_batches_run_on_threads_by_default_where_they_win(tmp_path):
     with Evaluator(objective(), store, 2, eval_timeout=60.0) as evaluator:
         assert not evaluator.threads and evaluator._pool is not None
     store.close()
+
+
+def test_worker_processes_get_chunks_where_the_engine_has_a_batch_path():
+    assert has_batch_path("mujoco") and not has_batch_path("pybullet")
+    # balanced by cost (a member's steps per period), each chunk in order, none empty
+    assert chunks([1.0, 1.0, 1.0], 2) == [[0, 2], [1]]
+    assert chunks([50.0, 1.0, 1.0, 1.0, 1.0, 1.0], 2) == [[0], [1, 2, 3, 4, 5]]
+    assert chunks([2.0, 1.0], 5) == [[0], [1]]
+    parts = chunks(list(np.random.default_rng(0).random(13) * 50 + 1), 2)
+    assert sorted(i for part in parts for i in part) == list(range(13)) and all(p == sorted(p) for p in parts)

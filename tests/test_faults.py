@@ -23,13 +23,22 @@ class FaultyObjective(Objective):
     Fault injection for the test: the physics of every other evaluation is real.
     """
 
-    def score_vector(self, x, bound=None):
-        delay = self.space.to_dict(x)["command_delay"]
+    @staticmethod
+    def _fault(params):
+        delay = params["command_delay"]
         if delay > 2.4:  # command_delay in its top fifth: the worker dies as on a segfault
             os.kill(os.getpid(), signal.SIGKILL)
         if delay < 0.6:  # in its bottom fifth: the worker hangs
             time.sleep(120)
+
+    def score_vector(self, x, bound=None):
+        self._fault(self.space.to_dict(x))
         return super().score_vector(x, bound)
+
+    def score_batch(self, params, bounds=None, threads=1):  # a chunk of a batch (MuJoCo's batch path)
+        for p in params:
+            self._fault(p)
+        yield from super().score_batch(params, bounds, threads)
 
 
 def faulty_objective():
@@ -44,6 +53,8 @@ def test_a_crashing_and_a_hanging_evaluation_cost_only_themselves(tmp_path):
     delays = (1.4, 2.8, 0.2, 1.2)  # fine, crash, hang, fine
     batch = np.array([space.to_vector({"command_delay": d, "max_velocity_joint_2": 30.0}) for d in delays])
     with Evaluator(objective, store, workers=2, eval_timeout=2.0) as evaluator:
+        # MuJoCo's workers take the batch in two chunks: each has a fault, fails whole and goes out again singly
+        assert evaluator.chunked
         fitness = evaluator.evaluate(batch)
     assert evaluator.failed_evaluations == 2 and store.count_evaluations() == 4
     crashed, hung = store.lookup(batch[1]), store.lookup(batch[2])

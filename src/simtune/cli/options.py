@@ -230,7 +230,8 @@ EvalTimeoutOpt = Annotated[
     typer.Option(
         help="With --workers 2+: an evaluation still running after this "
         "many seconds (while simtune runs: a paused or sleeping machine does not count) is abandoned, stored as "
-        "failed, its worker replaced; `simtune resume` retries it once.",
+        "failed, its worker replaced; `simtune resume` retries it once.  (MuJoCo's workers run a chunk of a batch at "
+        "once: a chunk past it goes out again one evaluation at a time.)",
         callback=seconds,
     ),
 ]

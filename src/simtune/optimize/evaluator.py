@@ -13,10 +13,16 @@ engine may run it on ``workers`` threads (MuJoCo does: its members in lockstep
 control periods, the controller, sampling and checks as NumPy over the batch),
 with the same results bit for bit.  That path has no crash isolation or time-out:
 an engine that segfaults ends the run (finished evaluations are kept; resume
-continues).  ``threads`` left at None picks it where it is the faster
-(:func:`batch_on_threads`: MuJoCo on up to 2 workers) and no ``eval_timeout``
-asks for worker processes.
+continues).  ``threads`` left at None picks it where no processes are needed
+(:func:`batch_on_threads`: MuJoCo on up to 2 workers, no ``eval_timeout``).
 One process (``workers`` = 1) uses the same batch path on one thread.
+
+Worker processes get the same gain where the engine has a batch path (:func:`has_batch_path`): a batch is
+split into one chunk per worker (balanced by each member's physics steps, :func:`chunks`), and each worker
+runs its chunk through the batch path on one thread.  A chunk's members run in lockstep, so each member's
+running time is the chunk's: a chunk that runs past ``eval_timeout``, or whose worker dies, gives no
+results, and its members go out again one at a time, each with its own time-out - the faulty one fails
+alone and the others are simulated as usual (the same results: the batch path equals one at a time).
 
 The time-out counts the seconds this (the coordinating) process was running
 while the evaluation ran, not the clock on the wall: a coordinator that was
@@ -39,6 +45,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from pebble import ProcessExpired, ProcessPool
 
+from simtune.controller import CONTROL_PERIOD
+from simtune.engines import Engine, engine_class
 from simtune.errors import SimtuneError
 from simtune.fitness import PENALTY, Score, TaskScore
 from simtune.objective import Objective
@@ -138,21 +146,43 @@ class RunningClock:
         return self.seconds
 
 
-#: Engines whose batch path runs a batch on threads faster than a pool of as many worker processes, up to
-#: :data:`THREADS_WIN_UP_TO` of them (``python benchmarks/batch_threads.py`` on 2 cores:
-#: benchmarks/results/batch-threads-vectorised-2026-11-25.txt).  With more, the batch path's Python between the
-#: control periods (one thread's, about a tenth of the work) makes processes the faster.
+#: Engines whose batch path runs a batch on threads, which an Evaluator left to choose uses on up to
+#: :data:`THREADS_WIN_UP_TO` workers: no processes to start (nor a ``__main__`` guard for a script to need), for
+#: sensitivity and uncertainty's batches.  Since worker processes run chunks through the same batch path they are
+#: the faster on large batches (``python benchmarks/batch_threads.py``, 14 members on 2 cores, 2026-11-26:
+#: 2 processes 103.6 evaluations/s, 2 threads 60.3, one process 58.9), and ``simtune tune`` asks for them.
 THREADED_ENGINES = frozenset({"mujoco"})
 THREADS_WIN_UP_TO = 2
 
 
 def batch_on_threads(engine: str, workers: int, threads: bool | None, eval_timeout: float | None) -> bool:
     """Whether an :class:`Evaluator` runs its batches on threads: as ``threads`` says, and where it says nothing
-    (None), for the engines whose batch path is the faster on ``workers`` threads, unless a time-out asks for
-    worker processes."""
+    (None), for the engines with a threaded batch path on up to :data:`THREADS_WIN_UP_TO` workers, unless a
+    time-out asks for worker processes."""
     if threads is not None:
         return threads
     return engine in THREADED_ENGINES and workers <= THREADS_WIN_UP_TO and eval_timeout is None
+
+
+def has_batch_path(engine: str) -> bool:
+    """Whether ``engine`` runs a batch otherwise than one member after the other (its class overrides
+    :meth:`~simtune.engines.Engine.rollout_batch`): then worker processes get chunks, not single evaluations."""
+    try:
+        return engine_class(engine).rollout_batch is not Engine.rollout_batch
+    except SimtuneError:  # not installed here: the workers will say so
+        return False
+
+
+def chunks(costs: list[float], n: int) -> list[list[int]]:
+    """The indices of ``costs`` in ``n`` chunks of about equal total cost (the longest first, each to the
+    chunk with the least so far), each chunk in index order; no empty chunk."""
+    held = [0.0] * min(n, len(costs))
+    parts: list[list[int]] = [[] for _ in held]
+    for i in sorted(range(len(costs)), key=lambda i: -costs[i]):
+        least = held.index(min(held))
+        parts[least].append(i)
+        held[least] += costs[i]
+    return [sorted(part) for part in parts]
 
 
 # --- what one evaluation computes, in this process or a worker ------------------------------------------
@@ -162,6 +192,31 @@ def _score(objective: Objective, x: np.ndarray, bound: float | None) -> tuple[No
 
 def _residuals(objective: Objective, x: np.ndarray) -> tuple[np.ndarray, Score]:
     return objective.residuals_and_score(objective.vector_space().to_dict(x))
+
+
+def _batch_results(
+    objective: Objective, work: Callable, jobs: dict[int, tuple], threads: int
+) -> Iterator[tuple[int, object, Score | Exception, float]]:
+    """``(i, payload, score, wall_s)`` for each job of ``work`` (:func:`_score` or :func:`_residuals`), the
+    jobs run as one batch of the objective on ``threads`` threads; a member whose simulation raised gives the
+    exception as its score.  ``wall_s`` of a result is the time since the previous one (they add up to the
+    batch's)."""
+    indices = list(jobs)
+    space = objective.vector_space()
+    params = [space.to_dict(jobs[i][0]) for i in indices]
+    results: Iterator[tuple[int, object]]
+    if work is _score:
+        results = objective.score_batch(params, [jobs[i][1] for i in indices], threads)
+    else:
+        results = objective.residuals_batch(params, threads)
+    last = time.perf_counter()
+    for j, result in results:
+        now = time.perf_counter()
+        wall_s, last = now - last, now
+        payload = None
+        if isinstance(result, tuple):  # a member's residuals and score
+            payload, result = result
+        yield indices[j], payload, result, wall_s
 
 
 _WORKER_OBJECTIVE: Objective | None = None
@@ -198,6 +253,21 @@ def _in_worker(work: Callable, *args) -> tuple[object, dict, float]:
     t0 = time.perf_counter()
     payload, score = work(_WORKER_OBJECTIVE, *args)
     return payload, score.to_dict(), time.perf_counter() - t0
+
+
+def _chunk_in_worker(work: Callable, jobs: dict[int, tuple]) -> list[tuple[int, object, dict | str, float]]:
+    """A chunk of jobs as one batch of the worker's objective on one thread: ``(i, payload, score, wall_s)``
+    each, the score as a dict, or the error of a member whose simulation raised as a line."""
+    assert _WORKER_OBJECTIVE is not None
+    done: list[tuple[int, object, dict | str, float]] = []
+    for i, payload, result, wall_s in _batch_results(_WORKER_OBJECTIVE, work, jobs, 1):
+        if isinstance(result, SimtuneError):
+            raise result  # bad input or a full disk: the run stops
+        if isinstance(result, Exception):
+            done.append((i, None, f"{type(result).__name__}: {result}", wall_s))
+        else:
+            done.append((i, payload, result.to_dict(), wall_s))
+    return done
 
 
 def _twins(vectors: list[np.ndarray]) -> dict[int, int]:
@@ -252,6 +322,8 @@ class Evaluator:
         self.prune = prune
         self._pool: ProcessPool | None = None
         self._batch_failures: list[str] = []
+        #: worker processes get chunks of a batch (one per worker) where the engine has a batch path
+        self.chunked = self.workers > 1 and not self.threads and has_batch_path(objective.engine)
 
     def __enter__(self) -> Evaluator:
         if self.workers > 1 and not self.threads:
@@ -291,20 +363,60 @@ class Evaluator:
         A failure of one evaluation (an engine error at a corner of the space, a
         dead or hung worker) gives a failed score and no payload; a SimtuneError
         (bad input, full disk) stops the run.  Without a pool the jobs go to the
-        objective as one batch (``work`` says which kind).
+        objective as one batch (``work`` says which kind); with one, one chunk per
+        worker where the engine has a batch path (:attr:`chunked`), else one job at
+        a time.  A chunk that fails as a whole goes out again one job at a time.
         """
+        if not jobs:
+            return
         if self._pool is None:
             yield from self._run_batch(work, jobs)
             return
-        with _sigint_blocked():  # the pool's workers and threads start here, and inherit this
-            futures: dict[Future, int] = {self._pool.schedule(_in_worker, (work, *args)): i for i, args in jobs.items()}
+        units = [[i] for i in jobs]
+        if self.chunked:
+            indices = list(jobs)
+            units = [
+                [indices[j] for j in part] for part in chunks([self._cost(jobs[i][0]) for i in indices], self.workers)
+            ]
+        futures: dict[Future, list[int]] = {}
+        pending: set[Future] = set()
+
+        def schedule(unit: list[int]) -> None:
+            with _sigint_blocked():  # the pool's workers and threads start here, and inherit this
+                if len(unit) == 1:
+                    future = self._pool.schedule(_in_worker, (work, *jobs[unit[0]]))  # type: ignore[union-attr]
+                else:
+                    future = self._pool.schedule(  # type: ignore[union-attr]
+                        _chunk_in_worker, (work, {i: jobs[i] for i in unit})
+                    )
+            futures[future] = unit
+            pending.add(future)
+
+        for unit in units:
+            schedule(unit)
         clock, began = RunningClock(), time.perf_counter()
         started: dict = {}  # future -> running time of this process when its evaluation started
-        pending: set[Future] = set(futures)
         while pending:
-            done, pending = wait(pending, timeout=POLL_S, return_when=FIRST_COMPLETED)
+            done, still = wait(pending, timeout=POLL_S, return_when=FIRST_COMPLETED)
+            pending.difference_update(done)
             now = clock.read()
             for future in done:
+                unit = futures.pop(future)
+                if len(unit) > 1:
+                    try:
+                        results = future.result()
+                    except SimtuneError:
+                        raise
+                    except Exception:  # the worker died (or the chunk could not run): find the faulty member alone
+                        for i in unit:
+                            schedule([i])
+                        continue
+                    for i, payload, score_or_error, wall_s in results:
+                        if isinstance(score_or_error, str):
+                            yield i, None, self._failed(score_or_error), wall_s
+                        else:
+                            yield i, payload, Score.from_dict(score_or_error), wall_s
+                    continue
                 wall_s, payload = time.perf_counter() - began, None
                 try:
                     payload, score_dict, wall_s = future.result()
@@ -317,42 +429,40 @@ class Evaluator:
                     raise
                 except Exception as exc:
                     score = self._failed(f"{type(exc).__name__}: {exc}")
-                yield futures[future], payload, score, wall_s
+                yield unit[0], payload, score, wall_s
             if self.eval_timeout is None:
                 continue
-            for future in [f for f in pending if f.running()]:
+            for future in [f for f in still if f.running()]:
                 if now - started.setdefault(future, now) > self.eval_timeout and future.cancel():
                     pending.discard(future)  # pebble stops its worker and starts another
+                    unit = futures.pop(future)
+                    if len(unit) > 1:  # each member ran the chunk's whole time: which one hung is not known
+                        for i in unit:
+                            schedule([i])
+                        continue
                     reason = f"{TIMEOUT_REASON}{self.eval_timeout:g} s; worker replaced"
-                    yield futures[future], None, self._failed(reason), time.perf_counter() - began
+                    yield unit[0], None, self._failed(reason), time.perf_counter() - began
+
+    def _cost(self, x: np.ndarray) -> float:
+        """A member's physics steps per control period, relative (its time step, where the space tunes it):
+        what balances the chunks."""
+        names = self.objective.vector_space().names
+        if "timestep" not in names:
+            return 1.0
+        dt = float(x[names.index("timestep")])
+        return max(1.0, CONTROL_PERIOD / dt) if dt > 0 else 1.0
 
     def _run_batch(self, work: Callable, jobs: dict[int, tuple]) -> Iterator[tuple[int, object, Score, float]]:
         """:meth:`_run` in this process: the jobs as one batch of the objective (on ``workers`` threads with
-        ``threads``).  ``wall_s`` of a result is the time since the previous one (they add up to the batch's)."""
-        if not jobs:
-            return
-        indices = list(jobs)
-        space = self.objective.vector_space()
-        params = [space.to_dict(jobs[i][0]) for i in indices]
+        ``threads``)."""
         threads = self.workers if self.threads else 1
-        results: Iterator[tuple[int, object]]
-        if work is _score:
-            results = self.objective.score_batch(params, [jobs[i][1] for i in indices], threads)
-        else:
-            results = self.objective.residuals_batch(params, threads)
-        last = time.perf_counter()
-        for j, result in results:
-            now = time.perf_counter()
-            wall_s, last = now - last, now
+        for i, payload, result, wall_s in _batch_results(self.objective, work, jobs, threads):
             if isinstance(result, SimtuneError):
                 raise result
             if isinstance(result, Exception):
-                yield indices[j], None, self._failed(f"{type(result).__name__}: {result}"), wall_s
-            elif isinstance(result, Score):
-                yield indices[j], None, result, wall_s
+                yield i, None, self._failed(f"{type(result).__name__}: {result}"), wall_s
             else:
-                residuals, score = result
-                yield indices[j], residuals, score, wall_s
+                yield i, payload, result, wall_s
 
     def _end_batch(self, simulated: int) -> None:
         if simulated and len(self._batch_failures) == simulated:
