@@ -47,7 +47,7 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
-from common import Transcript, add_data_option, make_parser
+from common import Transcript, add_data_option, make_parser, middle_batch
 
 from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
@@ -84,18 +84,7 @@ ROUNDS = 3
 def _batch_seconds(data: str, task: str, space: str, repeats: int, ready, go) -> float:
     """Median seconds of one 7-member batch of ``task`` (the middle of ``space``), scored ``repeats`` times after
     ``ready`` is set and ``go`` arrives (a process of :func:`parallel_ceiling`)."""
-    import numpy as np
-
-    from simtune.engines import engine_class
-    from simtune.objective import Objective, load_references
-    from simtune.params import get_space
-    from simtune.tasks import get_task
-
-    spec = get_task(task)
-    tuned = get_space(space, engine_class("mujoco").supported())
-    objective = Objective("mujoco", [spec], load_references(data, [spec]), tuned)
-    lo, hi = np.array(tuned.bounds).T
-    points = lo + (0.3 + 0.4 * np.random.default_rng(0).random((7, len(lo)))) * (hi - lo)
+    objective, points = middle_batch(data, task, space, 7)
     params = [objective.vector_space().to_dict(x) for x in points]
     list(objective.score_batch(params))  # warm-up: engines and per-member copies built
     ready.set()

@@ -20,14 +20,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-from common import add_data_option, make_parser
+from common import add_data_option, make_parser, middle_batch
 
-from simtune.engines import engine_class
-from simtune.objective import Objective, load_references
+from simtune.objective import Objective
 from simtune.optimize.evaluator import Evaluator
-from simtune.params import get_space
 from simtune.store import RunStore
-from simtune.tasks import get_task
 
 WAYS = {"1 process": (1, False), "2 processes": (2, False), "2 threads": (2, True)}
 
@@ -77,11 +74,7 @@ def main() -> None:
     parser.add_argument("--evals", type=int, default=40)
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
-    task = get_task("cube")
-    space = get_space("extended", engine_class("mujoco").supported())
-    objective = Objective("mujoco", [task], load_references(args.data, [task]), space)
-    lo, hi = np.array(space.bounds).T
-    batch = lo + (0.3 + 0.4 * np.random.default_rng(0).random((args.evals, len(lo)))) * (hi - lo)
+    objective, batch = middle_batch(args.data, "cube", "extended", args.evals)
     print(f"batch throughput, real cube, mujoco, extended, {args.evals} evaluations per batch, {os.cpu_count()} cores")
     rates: dict[str, list[float]] = {way: [] for way in WAYS}
     loads = []

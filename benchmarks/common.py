@@ -13,6 +13,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from simtune.objective import Objective
 from simtune.runs import RunConfig, resume_run, start_run
 from simtune.tasks import parse_tasks
 from simtune.tasks.spec import TaskSpec
@@ -55,6 +56,25 @@ def add_search_options(parser: argparse.ArgumentParser, budget_evals: int) -> No
     parser.add_argument("--budget-evals", type=int, default=budget_evals)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--no-refine", action="store_true", help="skip the least-squares refinement")
+
+
+def middle_batch(data: Path | str, task: str, space: str, n: int) -> tuple[Objective, Any]:
+    """MuJoCo's objective on the recordings of ``task`` under ``data``, tuning ``space``, and ``n`` random vectors
+    (rows of an array) of the middle of that space (each value in the middle 40 % of its range, seed 0): stable
+    simulations with differing masses and time steps, as a DE population has."""
+    import numpy as np
+
+    from simtune.engines import engine_class
+    from simtune.objective import load_references
+    from simtune.params import get_space
+    from simtune.tasks import get_task
+
+    spec = get_task(task)
+    tuned = get_space(space, engine_class("mujoco").supported())
+    objective = Objective("mujoco", [spec], load_references(data, [spec]), tuned)
+    lo, hi = np.array(tuned.bounds).T
+    points = lo + (0.3 + 0.4 * np.random.default_rng(0).random((n, len(lo)))) * (hi - lo)
+    return objective, points
 
 
 def start_or_resume(config: RunConfig, run_dir: Path) -> Any:

@@ -369,26 +369,27 @@ class Evaluator:
         """
         if not jobs:
             return
-        if self._pool is None:
+        pool = self._pool
+        if pool is None:
             yield from self._run_batch(work, jobs)
             return
-        units = [[i] for i in jobs]
+        indices = list(jobs)
         if self.chunked:
-            indices = list(jobs)
             units = [
-                [indices[j] for j in part] for part in chunks([self._cost(jobs[i][0]) for i in indices], self.workers)
+                [indices[j] for j in part] for part in chunks(self._costs([jobs[i][0] for i in indices]), self.workers)
             ]
+        else:
+            units = [[i] for i in indices]
         futures: dict[Future, list[int]] = {}
         pending: set[Future] = set()
 
         def schedule(unit: list[int]) -> None:
+            future: Future
             with _sigint_blocked():  # the pool's workers and threads start here, and inherit this
                 if len(unit) == 1:
-                    future = self._pool.schedule(_in_worker, (work, *jobs[unit[0]]))  # type: ignore[union-attr]
+                    future = pool.schedule(_in_worker, (work, *jobs[unit[0]]))
                 else:
-                    future = self._pool.schedule(  # type: ignore[union-attr]
-                        _chunk_in_worker, (work, {i: jobs[i] for i in unit})
-                    )
+                    future = pool.schedule(_chunk_in_worker, (work, {i: jobs[i] for i in unit}))
             futures[future] = unit
             pending.add(future)
 
@@ -443,14 +444,14 @@ class Evaluator:
                     reason = f"{TIMEOUT_REASON}{self.eval_timeout:g} s; worker replaced"
                     yield unit[0], None, self._failed(reason), time.perf_counter() - began
 
-    def _cost(self, x: np.ndarray) -> float:
-        """A member's physics steps per control period, relative (its time step, where the space tunes it):
+    def _costs(self, vectors: list[np.ndarray]) -> list[float]:
+        """Each member's physics steps per control period, relative (its time step, where the space tunes it):
         what balances the chunks."""
         names = self.objective.vector_space().names
         if "timestep" not in names:
-            return 1.0
-        dt = float(x[names.index("timestep")])
-        return max(1.0, CONTROL_PERIOD / dt) if dt > 0 else 1.0
+            return [1.0] * len(vectors)
+        at = names.index("timestep")
+        return [max(1.0, CONTROL_PERIOD / float(x[at])) if x[at] > 0 else 1.0 for x in vectors]
 
     def _run_batch(self, work: Callable, jobs: dict[int, tuple]) -> Iterator[tuple[int, object, Score, float]]:
         """:meth:`_run` in this process: the jobs as one batch of the objective (on ``workers`` threads with
