@@ -13,8 +13,8 @@ on the real recordings (the run's other settings at their defaults), then, from 
   batch or a Jacobian; every member of a batch given the batch's mean time, which is what the run store
   knows of a batch run on one thread): the share of worker time that does work, sum(n) / (W * sum(ceil(n/W)))
   weighted by the batches' times - idle slots are the members a batch lacks to fill its last round.  The
-  batches depend on the worker count (least squares sends a trial point out with as many columns of its next
-  Jacobian as there are workers besides it), so each run's schedule is simulated at its own worker count
+  batches depend on the worker count (least squares sends a trial point out with as many of the trials that
+  follow its rejection as there are workers besides it), so each run's schedule is simulated at its own worker count
   and at 1.  A run with more workers than this machine has cores (16 here) runs them as threads of one
   process: its schedule is what it is measured for, not its evaluations per second;
 - the coordinator's share: elapsed time outside the batches' evaluations (the solver, the store, checks),

@@ -30,6 +30,12 @@ stopped (SIGSTOP, Ctrl-Z, a cluster's pre-emption) or a machine that slept
 does not turn the evaluations that were running meanwhile into failures.
 An evaluation that failed by time-out is retried once when the run is
 resumed (:func:`timed_out`, :meth:`simtune.store.RunStore.release_failures`).
+
+While it is open the Evaluator holds BLAS (OpenBLAS under NumPy and SciPy) to one thread in this process, and
+its worker processes do for their lifetime: the optimisers' linear algebra is small (a least-squares SVD,
+differential evolution's population), and BLAS's threads, left spinning after each call, took a core from the
+simulations that follow (measured: benchmarks/results/auto-workers-blas-2026-11-26.txt, `auto` on `cube` 18 %
+faster on one worker, 26 % on two).
 """
 
 from __future__ import annotations
@@ -43,7 +49,9 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg  # noqa: F401  (loads SciPy's own BLAS, so that threadpool_limits holds it too)
 from pebble import ProcessExpired, ProcessPool
+from threadpoolctl import threadpool_limits
 
 from simtune.controller import CONTROL_PERIOD
 from simtune.engines import Engine, engine_class
@@ -244,6 +252,7 @@ def _sigint_blocked() -> Iterator[None]:
 def _init_worker(objective: Objective) -> None:
     global _WORKER_OBJECTIVE
     _WORKER_OBJECTIVE = objective
+    threadpool_limits(1, user_api="blas")  # the worker's cores are the other workers' (see the module's text)
     # Ctrl-C reaches the whole process group: the coordinator stops the pool, workers must not print tracebacks
     # (SIGINT is blocked in them from the start, see _sigint_blocked; ignored, a pending one is dropped)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -321,11 +330,13 @@ class Evaluator:
         self.parent_energies: np.ndarray | None = None
         self.prune = prune
         self._pool: ProcessPool | None = None
+        self._blas_limit: threadpool_limits | None = None
         self._batch_failures: list[str] = []
         #: worker processes get chunks of a batch (one per worker) where the engine has a batch path
         self.chunked = self.workers > 1 and not self.threads and has_batch_path(objective.engine)
 
     def __enter__(self) -> Evaluator:
+        self._blas_limit = threadpool_limits(1, user_api="blas")  # lifted on exit (see the module's text)
         if self.workers > 1 and not self.threads:
             check_main_guarded(f"{self.workers} workers")
             # spawn: engines hold native handles that must not be shared through fork
@@ -343,6 +354,9 @@ class Evaluator:
             self._pool.join()
             self._pool = None
         self.objective.close()
+        if self._blas_limit is not None:
+            self._blas_limit.restore_original_limits()
+            self._blas_limit = None
 
     def _failed(self, reason: str) -> Score:
         self.failed_evaluations += 1

@@ -15,18 +15,18 @@ is often one basin away.  Then, in rounds:
 2. **local**: SciPy's ``least_squares`` (trust-region reflective, within the bounds, in the unit cube)
    from the best point of the run on the per-sample residuals (:func:`simtune.fitness.residuals`),
    with a forward-difference Jacobian whose D perturbed points go to the Evaluator as one batch (worker
-   processes, or the engine's batch path with ``--threads``); each trial point goes out with as many columns
-   of its own Jacobian as there are workers besides it, which the solver asks for next whenever the trial
-   lowers the cost (:func:`~simtune.optimize.refine.least_squares_phase`).  It ends when a solver step gains less than
-   ``STALL_FTOL`` of the cost (it stalls: back to the global phase, which looks for a better basin) or
-   after ``LOCAL_NFEV`` solver steps.  A point already refined, or where a local phase stalled, is not
+   processes, or the engine's batch path with ``--threads``); each trial point goes out with the trial points
+   the solver asks for next if it rejects it (most trials on the arms' objectives), as many as there are
+   workers besides it (:func:`~simtune.optimize.refine.least_squares_phase`).  It ends when a solver step
+   gains less than ``STALL_FTOL`` of the cost (it stalls: back to the global phase, which looks for a better
+   basin) or after ``LOCAL_NFEV`` solver steps.  A point already refined, or where a local phase stalled, is not
    refined again: the round's own best is then.
 
 Rounds go on until a budget of the settings is spent (time, evaluations, generations, target fitness),
 checked after every batch: a DE generation, a least-squares trial point or a Jacobian.  A generation of
 this optimiser is one such batch.
 
-The worker count shapes the batches (the speculative Jacobian columns), not the search: a point scored ahead
+The worker count shapes the batches (the points scored ahead), not the search: a point scored ahead
 counts towards the best point and the evaluation budget only once the solver asks for it, so runs of one seed
 on any worker count ask for the same points and stop at the same one; the run's best point is then the best
 of all it scored, which the points scored ahead can only improve.

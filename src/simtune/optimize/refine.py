@@ -8,7 +8,7 @@ position error).  It works in the unit cube (each parameter scaled to its
 range) with a forward-difference Jacobian of step ``step`` (in units of each
 range: simulations are not smooth at the scale of rounding errors), whose D
 evaluations go to the process pool as one batch; workers a trial point would
-leave idle evaluate the first columns of its own Jacobian meanwhile.
+leave idle evaluate the trials the solver asks for next if it rejects this one.
 
 Every evaluation, with its residual vector, lands in the run store, so a
 resumed run replays the refinement without simulating again.  The
@@ -20,6 +20,7 @@ budget.  The best point of the run is the best of both stages by fitness
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -45,17 +46,19 @@ def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float =
     :class:`BudgetSpent` is raised once a checkpoint says a budget is spent.  Returns SciPy's result.
 
     Workers a batch would leave idle do work the solver is likely to ask for next: the start point goes out
-    with its whole Jacobian (the solver always asks for it), and each trial point with the first columns of
-    its own Jacobian, as many as there are workers besides the trial's (:func:`speculative_columns`).  The
-    solver asks for that Jacobian as soon as the trial lowers the cost; a trial it rejects leaves those
-    points stored but unused.  Points scored ahead are held back from the search's best point until the
+    with its whole Jacobian (the solver always asks for it), and each trial point with the trial points the
+    solver will ask for if it rejects this one and the ones before (:func:`trials_after_rejection`: on the
+    arms' objectives most trials are rejected, the trust region shrinking each time), then, where the solver
+    would stop before asking for more, the first columns of the trial's own Jacobian - as many points as
+    there are workers besides the trial's (:func:`speculative_points`).  Points the solver does not ask for
+    stay stored but unused.  Points scored ahead are held back from the search's best point until the
     solver asks for them (:meth:`BatchSearch.hold`), so the search takes the same path on any number of
     workers; the run's best point is chosen among all of them at its end.
     """
     x0 = np.asarray(x0, dtype=float)
     u0 = search.to_unit(x0)
     cache: dict[bytes, np.ndarray] = {}
-    spare = speculative_columns(search.evaluator.workers)
+    spare = speculative_points(search.evaluator.workers)
 
     def vector(u: np.ndarray) -> np.ndarray:
         return x0.copy() if np.array_equal(u, u0) else search.from_unit(u)
@@ -83,9 +86,12 @@ def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float =
     def fun(u: np.ndarray) -> np.ndarray:
         u = np.asarray(u, dtype=float)
         if not known(u):
-            first = len(cache) == 0  # the start point: its Jacobian comes next, whatever its residuals
-            columns = jacobian_points(u, step)[0]
-            batch([u, *[p for p in (columns if first else columns[:spare]) if not known(p)]], asked=1)
+            columns = [p for p in jacobian_points(u, step)[0] if not known(p)]
+            if not cache:  # the start point: its Jacobian comes next, whatever its residuals
+                batch([u, *columns], asked=1)
+            else:
+                ahead = trials_after_rejection(solve, jacobian_at, cache, u, spare)
+                batch([u, *ahead, *columns[: spare - len(ahead)]], asked=1)
         search.release(key(u))
         return cache[key(u)]
 
@@ -97,12 +103,74 @@ def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float =
         missing = [p for p in points if not known(p)]
         if missing:
             batch(missing, asked=len(missing))
-        columns = [cache[key(p)] for p in points]
-        return np.stack([(r - r0) / hi for r, hi in zip(columns, h)], axis=1)
+        return jacobian_from(r0, [cache[key(p)] for p in points], h)
 
-    return least_squares(
-        fun, np.clip(u0, 0.0, 1.0), jac=jac, bounds=(0.0, 1.0), method="trf", max_nfev=max_nfev, ftol=ftol
-    )
+    def solve(residuals: Callable[[np.ndarray], np.ndarray], jacobian: Callable[[np.ndarray], np.ndarray]):
+        return least_squares(
+            residuals,
+            np.clip(u0, 0.0, 1.0),
+            jac=jacobian,
+            bounds=(0.0, 1.0),
+            method="trf",
+            max_nfev=max_nfev,
+            ftol=ftol,
+        )
+
+    def jacobian_at(u: np.ndarray) -> np.ndarray:  # for the solver's replays: the Jacobian from the cache alone
+        points, h = jacobian_points(np.asarray(u, dtype=float), step)
+        if not all(known(p) for p in points):
+            raise _Asked(None)
+        return jacobian_from(cache[key(u)], [cache[key(p)] for p in points], h)
+
+    return solve(fun, jac)
+
+
+class _Asked(Exception):
+    """A replay of the solver reached a point it has no residuals for (``point``; None: a Jacobian)."""
+
+    def __init__(self, point: np.ndarray | None):
+        super().__init__()
+        self.point = point
+
+
+def trials_after_rejection(
+    solve: Callable, jacobian_at: Callable, cache: dict[bytes, np.ndarray], trial: np.ndarray, n: int
+) -> list[np.ndarray]:
+    """The next ``n`` trial points the solver asks for if it rejects ``trial`` and each of them in turn (fewer
+    where it would stop, or take a step, before).
+
+    SciPy's trust-region solver keeps no state a caller can copy, so the solver is replayed: ``solve`` runs
+    it again from its start, on the residuals of ``cache`` (its Jacobians by ``jacobian_at``) and with the
+    points assumed rejected given residuals far worse than any known, until it asks for a point it has none
+    for - the one it would ask for next.  A rejected trial changes the solver's state only by being worse
+    than the current point (its residuals are not kept), so the point is the very one, bit for bit, the
+    solver asks for after a real rejection (where it is not - a trial exactly as good as the current point -
+    the point is never asked for: a wasted evaluation, not a changed path).  A replay costs the solver's own
+    linear algebra, no simulation.
+    """
+    worse = 10.0 * (1.0 + max(float(np.max(np.abs(r), initial=0.0)) for r in cache.values()))
+    rejected = {np.asarray(trial, dtype=float).tobytes()}
+    size = len(next(iter(cache.values())))
+    ahead: list[np.ndarray] = []
+
+    def residuals(u: np.ndarray) -> np.ndarray:
+        name = np.asarray(u, dtype=float).tobytes()
+        if name in rejected:
+            return np.full(size, worse)
+        if name in cache:
+            return cache[name]
+        raise _Asked(np.array(u, dtype=float))
+
+    while len(ahead) < n:
+        try:
+            solve(residuals, jacobian_at)
+            break  # it stops before asking for another point
+        except _Asked as asked:
+            if asked.point is None:
+                break
+            ahead.append(asked.point)
+            rejected.add(asked.point.tobytes())
+    return ahead
 
 
 def jacobian_points(u: np.ndarray, step: float) -> tuple[list[np.ndarray], np.ndarray]:
@@ -117,8 +185,13 @@ def jacobian_points(u: np.ndarray, step: float) -> tuple[list[np.ndarray], np.nd
     return points, h
 
 
-def speculative_columns(workers: int) -> int:
-    """Jacobian columns evaluated alongside a trial point: one for each worker the trial leaves idle."""
+def jacobian_from(r0: np.ndarray, columns: list[np.ndarray], h: np.ndarray) -> np.ndarray:
+    """The forward-difference Jacobian from the residuals at the point, at its D moved points and their steps."""
+    return np.stack([(r - r0) / hi for r, hi in zip(columns, h)], axis=1)
+
+
+def speculative_points(workers: int) -> int:
+    """Points evaluated alongside a trial point: one for each worker the trial leaves idle."""
     return max(0, workers - 1)
 
 
