@@ -214,6 +214,11 @@ def test_check_lists_every_problem_of_a_project_that_does_not_load(tmp_path):
     assert result.stderr.strip().splitlines() == [
         f"problem: {tmp_path / 'simtune.toml'}: robot.urdf: no URDF file {tmp_path / 'arm.urdf'}"
     ]
+    # --project, as tune, evaluate and report spell it, names the same project; two different ones are refused
+    spelled = cli("check", "--project", tmp_path)
+    assert (spelled.returncode, spelled.stderr) == (result.returncode, result.stderr)
+    both = cli("check", tmp_path, "--project", tmp_path / "other")
+    assert both.returncode == 2 and both.stderr.count("\n") == 1 and "two projects named" in both.stderr
 
 
 @pytest.mark.slow

@@ -29,14 +29,8 @@ from simtune.cli.output import err, fmt_g, out, print_json, split
 from simtune.console import text_table
 from simtune.errors import SimtuneError
 
-ProjectDirArg = Annotated[
-    Path | None,
-    typer.Argument(
-        help="Project folder to check (its simtune.toml); with --task, the project whose tasks are checked.",
-        show_default=False,
-        callback=path,
-    ),
-]
+PROJECT_DIR_HELP = "Project folder to check (its simtune.toml); with --task, the project whose tasks are checked."
+ProjectDirArg = Annotated[Path | None, typer.Argument(help=PROJECT_DIR_HELP, show_default=False, callback=path)]
 CheckTaskOpt = Annotated[
     str | None,
     typer.Option("--task", "-t", help="Task name, or several joined by commas (checked together)."),
@@ -45,6 +39,7 @@ CheckTaskOpt = Annotated[
 
 def check(
     project_dir: ProjectDirArg = None,
+    project: ProjectOpt = None,
     engine: Annotated[str | None, typer.Option("--engine", "-e", help="Physics engine (default mujoco).")] = None,
     task: CheckTaskOpt = None,
     data: DataOpt = None,
@@ -56,15 +51,18 @@ def check(
 ) -> None:
     """Before tuning: a project's files (simtune check DIR), or a task's data and what it can inform (--task).
 
-    simtune check DIR: robot, joints and links, recordings, start pose, engines; one line per finding,
-    exit 2 if any is a problem.  With --task T (and --data ROOT, or DIR's recordings): per task, lost
-    marker frames and the longest gap of each recording, how well the repeats agree, how far each starts
+    simtune check DIR (or --project DIR): robot, joints and links, recordings, start pose, engines; one line
+    per finding, exit 2 if any is a problem.  With --task T (and --data ROOT, or DIR's recordings): per task,
+    lost marker frames and the longest gap of each recording, how well the repeats agree, how far each starts
     from the simulated arm, each repeat's motion onset (and the command delay it implies); then the rank
     and singular values of the residuals' Jacobian at the generic point and, per active parameter,
     whether the recordings can inform it.
     """
     from simtune import api
 
+    if project is not None and project_dir is not None and project != project_dir:
+        raise SimtuneError(f"check: two projects named ({project_dir} and --project {project}); name one")
+    project_dir = project_dir or project
     if task is None:
         if project_dir is None:
             raise SimtuneError(
