@@ -33,9 +33,9 @@ resumed (:func:`timed_out`, :meth:`simtune.store.RunStore.release_failures`).
 
 While it is open the Evaluator holds BLAS (OpenBLAS under NumPy and SciPy) to one thread in this process, and
 its worker processes do for their lifetime: the optimisers' linear algebra is small (a least-squares SVD,
-differential evolution's population), and BLAS's threads, left spinning after each call, took a core from the
-simulations that follow (measured: benchmarks/results/auto-workers-blas-2026-11-26.txt, `auto` on `cube` 18 %
-faster on one worker, 26 % on two).
+differential evolution's population, the replays of the least-squares solver), and BLAS's threads, left
+spinning after each call, took a core from the worker processes' simulations (`auto` on `cube` with 2 workers:
+56 s with the limit against 62-69 s without; benchmarks/results/auto-workers-blas-2026-11-26.txt).
 """
 
 from __future__ import annotations
