@@ -148,6 +148,8 @@ def trials_after_rejection(
     the point is never asked for: a wasted evaluation, not a changed path).  A replay costs the solver's own
     linear algebra, no simulation.
     """
+    if n <= 0:
+        return []
     worse = 10.0 * (1.0 + max(float(np.max(np.abs(r), initial=0.0)) for r in cache.values()))
     rejected = {np.asarray(trial, dtype=float).tobytes()}
     size = len(next(iter(cache.values())))
