@@ -96,14 +96,14 @@ def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float =
         return cache[key(u)]
 
     def jac(u: np.ndarray) -> np.ndarray:
-        r0 = fun(u)
-        points, h = jacobian_points(np.asarray(u, dtype=float), step)
+        fun(u)  # scored already (the solver asks for a point's Jacobian after the point); released here
+        points, _ = jacobian_points(np.asarray(u, dtype=float), step)
         for p in points:  # asked for now: the columns scored ahead count before the batch of the others
             search.release(key(p))
         missing = [p for p in points if not known(p)]
         if missing:
             batch(missing, asked=len(missing))
-        return jacobian_from(r0, [cache[key(p)] for p in points], h)
+        return jacobian_at(u)  # the replays' own Jacobian: the same numbers by construction
 
     def solve(residuals: Callable[[np.ndarray], np.ndarray], jacobian: Callable[[np.ndarray], np.ndarray]):
         return least_squares(
@@ -116,7 +116,7 @@ def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float =
             ftol=ftol,
         )
 
-    def jacobian_at(u: np.ndarray) -> np.ndarray:  # for the solver's replays: the Jacobian from the cache alone
+    def jacobian_at(u: np.ndarray) -> np.ndarray:  # the Jacobian from the cache alone (as the replays need it)
         points, h = jacobian_points(np.asarray(u, dtype=float), step)
         if not all(known(p) for p in points):
             raise _Asked(None)
