@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import multiprocessing
 import os
 import signal
 import tempfile
@@ -44,7 +43,7 @@ from simtune.engines.base import Rollout
 from simtune.fitness import marker_positions
 from simtune.params import ParameterSpace
 from simtune.params.space import is_supported
-from simtune.spawn_guard import check_main_guarded
+from simtune.spawn_guard import adopt_environment, check_main_guarded, worker_context
 from simtune.tasks import TaskSpec
 
 #: A parameter that moves no sample of the visible track by more than this [m] is inactive.
@@ -164,7 +163,7 @@ def measure_activity(
 
 class _Probe:
     """The probe's rollouts: each parameter dict's visible track (None where the rollout blew up), here or on
-    ``workers`` processes (spawned: engines hold native handles that must not be shared through fork)."""
+    ``workers`` processes (:func:`~simtune.spawn_guard.worker_context`: none shares an engine with this one)."""
 
     def __init__(self, engine: str, task: TaskSpec, samples: int, workers: int):
         self.engine, self.task, self.samples, self.workers = engine, task, samples, workers
@@ -175,9 +174,9 @@ class _Probe:
             check_main_guarded(f"the activity probe's {self.workers} workers")
             self.pool = ProcessPoolExecutor(
                 self.workers,
-                mp_context=multiprocessing.get_context("spawn"),
+                mp_context=worker_context(),
                 initializer=_start_worker,
-                initargs=(self.engine, self.task, self.samples),
+                initargs=(self.engine, self.task, self.samples, dict(os.environ)),
             )
         else:
             _build_engine(self.engine, self.task, self.samples)
@@ -199,7 +198,8 @@ class _Probe:
 _SIM: list = []
 
 
-def _start_worker(engine: str, task: TaskSpec, samples: int) -> None:
+def _start_worker(engine: str, task: TaskSpec, samples: int, environ: dict[str, str]) -> None:
+    adopt_environment(environ)
     # Ctrl-C is the coordinating process's to handle (the run stops, saying how to resume); a worker would
     # only print a traceback
     signal.signal(signal.SIGINT, signal.SIG_IGN)

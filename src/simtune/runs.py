@@ -52,7 +52,7 @@ from simtune.params.space import is_supported
 from simtune.progress import TuneProgress
 from simtune.run_plan import RunConfig, RunPlan, plan_run
 from simtune.runlock import LOCK_FILE, check_free, run_lock
-from simtune.spawn_guard import check_main_guarded
+from simtune.spawn_guard import check_main_guarded, start_worker_server
 from simtune.store import STORE_FILE, RunStore, check_store_file
 from simtune.tasks import TaskSpec
 from simtune.tasks.spec import FINGERPRINT
@@ -246,6 +246,8 @@ def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> T
     config.check()
     check_free(run_dir)  # a run in progress there: say who runs it, at once
     _check_vacant(run_dir, locked=False)
+    if config.workers > 1 and not config.threads:
+        start_worker_server()  # its imports run while this process reads the recordings
     plan = plan_run(config)
     objective = plan.objective()  # checks engine, tasks, space and data before any folder is made
     generic = objective.score({})

@@ -1,7 +1,8 @@
 """Worker processes and the user's script: refuse, in one line, to start processes that would run it again.
 
-simtune's worker processes are spawned (engines hold native handles that must not be shared through fork),
-and a spawned process imports the main script again before it takes any work: a script that calls
+simtune's worker processes share no engine with their parent (engines hold native handles that must not be
+shared through fork): they are spawned, or forked from a clean fork server (:func:`worker_context`), and either
+way a worker imports the main script again before it takes any work: a script that calls
 simtune at its top level, outside ``if __name__ == "__main__":``, would start the same tune again in
 every worker.  Python's own check then fails inside the worker, where the parent cannot see it: the pool
 reports its workers expired, or - when what is sent to a worker is larger than a pipe holds (a real
@@ -12,7 +13,13 @@ first: where the call comes from the main script's top level, it says which line
 from __future__ import annotations
 
 import ast
+import multiprocessing
+import os
+import signal
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from multiprocessing.context import BaseContext
 from pathlib import Path
 
 from simtune.errors import SimtuneError
@@ -69,6 +76,64 @@ def check_main_guarded(what: str) -> None:
         return  # a main module we cannot read is not one we can point into
     if unguarded:
         raise SimtuneError(
-            f"{path}, line {line}: {what} would run this script again from its top (worker processes are "
-            f'spawned): put the simtune call under `if __name__ == "__main__":`, or use one worker'
+            f"{path}, line {line}: {what} would run this script again from its top (each worker process "
+            f'imports it again): put the simtune call under `if __name__ == "__main__":`, or use one worker'
         )
+
+
+#: what the fork server imports once, before it forks any worker: what every worker imports to run an evaluation
+#: (the evaluator pulls in simtune's objective, fitness and engine registry, NumPy and SciPy; MuJoCo is the default
+#: engine).  Only imports: no engine is built in the server, so a forked worker holds no native handle of another.
+PRELOAD = ["simtune.optimize.evaluator", "simtune.activity", "simtune.engines.mujoco.engine"]
+
+
+def worker_context() -> BaseContext:
+    """How simtune starts its worker processes: forked from a fork server where there is one (Linux), else spawned.
+
+    A spawned worker starts a new interpreter and imports simtune, NumPy, SciPy and MuJoCo (about a second, per
+    worker and per pool); the fork server imports them once (:data:`PRELOAD`) and forks each worker from that clean
+    process, so a pool's workers start in milliseconds.  Either way a worker runs the main script again (as
+    spawn does: :func:`check_main_guarded` applies to both) and shares no engine with the process that asked for
+    it.  Other systems (macOS, where forking after some system libraries is unsafe; Windows, which has no fork)
+    spawn.  :func:`start_worker_server` starts the server early, where a caller has other work to overlap it with.
+    """
+    if not sys.platform.startswith("linux") or "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(PRELOAD)
+    return context
+
+
+def start_worker_server() -> None:
+    """Start the fork server of :func:`worker_context` now (where it has one), so that its imports run while this
+    process does other work; a server already running is kept."""
+    if worker_context().get_start_method() == "forkserver":
+        from multiprocessing import forkserver
+
+        with sigint_blocked():  # the server's workers inherit it (see sigint_blocked)
+            forkserver.ensure_running()
+
+
+def adopt_environment(environ: dict[str, str]) -> None:
+    """In a worker: take ``environ``, its parent's environment when it asked for the worker.  A spawned worker
+    inherits it; a forked one would have the fork server's, as it was when the server started."""
+    os.environ.clear()
+    os.environ.update(environ)
+
+
+@contextmanager
+def sigint_blocked() -> Iterator[None]:
+    """Hold back Ctrl-C in this thread for a moment; a Ctrl-C meanwhile arrives when it ends.
+
+    Processes (worker processes, the fork server and so its workers) and the pool's threads, which start more
+    of them later, inherit the blocked signal from the thread that starts them, so a Ctrl-C while a worker is
+    still starting never reaches it: the coordinator alone handles Ctrl-C and stops the pool.
+    """
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)

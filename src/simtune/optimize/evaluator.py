@@ -40,12 +40,11 @@ spinning after each call, took a core from the worker processes' simulations (`a
 
 from __future__ import annotations
 
-import multiprocessing
+import os
 import signal
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, wait
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -58,7 +57,7 @@ from simtune.engines import Engine, engine_class
 from simtune.errors import SimtuneError
 from simtune.fitness import PENALTY, Score, TaskScore
 from simtune.objective import Objective
-from simtune.spawn_guard import check_main_guarded
+from simtune.spawn_guard import adopt_environment, check_main_guarded, sigint_blocked, worker_context
 from simtune.store import RunStore
 
 
@@ -230,31 +229,13 @@ def _batch_results(
 _WORKER_OBJECTIVE: Objective | None = None
 
 
-@contextmanager
-def _sigint_blocked() -> Iterator[None]:
-    """Hold back Ctrl-C in this thread for a moment; a Ctrl-C meanwhile arrives when it ends.
-
-    Worker processes (and the pool's threads, which start more of them later)
-    inherit the blocked signal from the thread that starts them, so a Ctrl-C
-    while a worker is still importing never reaches it: the coordinator alone
-    handles Ctrl-C and stops the pool.
-    """
-    if not hasattr(signal, "pthread_sigmask"):
-        yield
-        return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
-
-
-def _init_worker(objective: Objective) -> None:
+def _init_worker(objective: Objective, environ: dict[str, str]) -> None:
     global _WORKER_OBJECTIVE
+    adopt_environment(environ)
     _WORKER_OBJECTIVE = objective
     threadpool_limits(1, user_api="blas")  # the worker's cores are the other workers' (see the module's text)
     # Ctrl-C reaches the whole process group: the coordinator stops the pool, workers must not print tracebacks
-    # (SIGINT is blocked in them from the start, see _sigint_blocked; ignored, a pending one is dropped)
+    # (SIGINT is blocked in them from the start, see sigint_blocked; ignored, a pending one is dropped)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
@@ -339,12 +320,12 @@ class Evaluator:
         self._blas_limit = threadpool_limits(1, user_api="blas")  # lifted on exit (see the module's text)
         if self.workers > 1 and not self.threads:
             check_main_guarded(f"{self.workers} workers")
-            # spawn: engines hold native handles that must not be shared through fork
+            # worker_context: forked from a clean fork server, or spawned - no worker shares an engine with this process
             self._pool = ProcessPool(
                 self.workers,
                 initializer=_init_worker,
-                initargs=(self.objective,),
-                context=multiprocessing.get_context("spawn"),
+                initargs=(self.objective, dict(os.environ)),
+                context=worker_context(),
             )
         return self
 
@@ -399,7 +380,7 @@ class Evaluator:
 
         def schedule(unit: list[int]) -> None:
             future: Future
-            with _sigint_blocked():  # the pool's workers and threads start here, and inherit this
+            with sigint_blocked():  # the pool's workers and threads start here, and inherit this
                 if len(unit) == 1:
                     future = pool.schedule(_in_worker, (work, *jobs[unit[0]]))
                 else:
