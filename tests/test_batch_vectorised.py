@@ -131,3 +131,32 @@ def test_a_member_mujoco_warns_about_ends_as_alone():
         same_rollout(got[i], alone.rollout(members[i], n))
     alone.close()
     engine.close()
+
+
+def test_marker_budgets_watched_together_sum_and_stop_as_each_alone():
+    """Differential evolution's pruning monitor, advanced for many members by one NumPy computation, gives each
+    the sums (==) and the stopping sample it gets alone; the batch path watches its members that way."""
+    from simtune.engines.base import MarkerBudget
+
+    rng = np.random.default_rng(3)
+    n, m = 40, 9
+    targets = rng.normal(size=(n, 3))
+    offsets = rng.normal(scale=0.1, size=(m, 3))
+    pos = rng.normal(size=(n, m, 3))
+    rot = np.linalg.qr(rng.normal(size=(n, m, 3, 3)))[0]
+    budgets = rng.uniform(5.0, 60.0, size=m)
+    alone = [MarkerBudget(targets, o, b) for o, b in zip(offsets, budgets)]
+    together = [MarkerBudget(targets, o, b) for o, b in zip(offsets, budgets)]
+    stops_alone = [next((k for k in range(n) if alone[j](k, pos[k, j], rot[k, j])), None) for j in range(m)]
+    stops_together: list[int | None] = [None] * m
+    for k in range(n):
+        going = [j for j in range(m) if stops_together[j] is None]
+        stop = MarkerBudget.watch_all([together[j] for j in going], k, pos[k, going], rot[k, going])
+        for j in np.asarray(going)[stop]:
+            stops_together[j] = k
+    assert stops_together == stops_alone and len(set(stops_alone)) > 3  # members stop at different samples
+    assert [b.spent for b in together] == [b.spent for b in alone]
+    # the distance is the marker's (R @ offset + pos) from the target, as the fitness measures it
+    probe = MarkerBudget(targets, offsets[0], 1e9)
+    probe(0, pos[0, 0], rot[0, 0])
+    assert np.isclose(probe.spent, np.linalg.norm(pos[0, 0] + rot[0, 0] @ offsets[0] - targets[0]), rtol=1e-14)

@@ -19,6 +19,7 @@ from simtune.controller import CONTROLLER_PARAMETERS
 from simtune.data import TaskData, load_task_data
 from simtune.data.sanity import JointRange
 from simtune.engines import Engine, engine_class, make_engine
+from simtune.engines.base import MarkerBudget
 from simtune.errors import ConfigError, RecordingError, RecordingWarning, SimtuneError
 from simtune.fitness import (
     PENALTY,
@@ -412,16 +413,4 @@ def _pruning_monitor(
     n = len(reference.times)
     # the summed marker error that proves the bound exceeded (with a margin far above rounding, so the
     # rescored lower bound is sure to exceed it too)
-    return _exceeds(reference.wrist_mean, offset, ((bound - spent) * n * (1 + 1e-9) + 1e-12) / wrist_weight)
-
-
-def _exceeds(wrist_mean: np.ndarray, offset: np.ndarray, budget: float):
-    """A rollout monitor: true once the wrist error summed over samples so far exceeds ``budget``."""
-    accumulated = 0.0
-
-    def monitor(k, pos, rot) -> bool:
-        nonlocal accumulated
-        accumulated += float(np.linalg.norm(pos + rot @ offset - wrist_mean[k]))
-        return accumulated > budget
-
-    return monitor
+    return MarkerBudget(reference.wrist_mean, offset, ((bound - spent) * n * (1 + 1e-9) + 1e-12) / wrist_weight)

@@ -134,6 +134,50 @@ CHECK_EVERY = 10
 Monitor = Callable[[int, np.ndarray, np.ndarray], bool]
 
 
+def marker_distance(pos: np.ndarray, rot: np.ndarray, offset: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Distance from ``target`` of the marker at ``offset`` in the wrist's frame, for a wrist at ``pos`` turned by
+    ``rot``: arrays of (..., 3), (..., 3, 3), (..., 3), (..., 3); the distances (...).
+
+    Element-wise operations only, in a fixed order, so that one row and a stack of rows round alike: a batch's
+    members get the numbers each gets alone, bit for bit (a matrix product or a norm could sum in another order).
+    """
+    o = offset[..., None, :]  # each row's offset, against each of its rotation's rows
+    marker = rot[..., 0] * o[..., 0] + rot[..., 1] * o[..., 1] + rot[..., 2] * o[..., 2]
+    d = pos + marker - target
+    return np.sqrt(d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2])
+
+
+class MarkerBudget:
+    """A :data:`Monitor` that stops a rollout once the marker's distance from ``targets[k]``, summed over the
+    samples so far, exceeds ``budget`` (differential evolution's pruning of a trial that cannot beat its parent).
+
+    Called alone it watches one rollout; :meth:`watch_all` advances many of them by one sample with one NumPy
+    computation (a batch's members), with the same sums bit for bit (:func:`marker_distance`).
+    """
+
+    def __init__(self, targets: np.ndarray, offset: np.ndarray, budget: float):
+        self.targets, self.offset, self.budget = targets, np.asarray(offset, dtype=float), budget
+        self.spent = 0.0
+
+    def __call__(self, k: int, pos: np.ndarray, rot: np.ndarray) -> bool:
+        self.spent += float(marker_distance(pos, rot, self.offset, self.targets[k]))
+        return self.spent > self.budget
+
+    @staticmethod
+    def watch_all(monitors: Sequence[MarkerBudget], k: int, pos: np.ndarray, rot: np.ndarray) -> np.ndarray:
+        """Sample ``k`` of each monitor's rollout (rows of ``pos`` (m, 3) and ``rot`` (m, 3, 3)); whether each
+        stops.  Monitors of one target, as a batch's members of one task have."""
+        if not monitors:
+            return np.zeros(0, dtype=bool)
+        offsets = np.array([m.offset for m in monitors])
+        distances = marker_distance(pos, rot, offsets, monitors[0].targets[k])
+        stop = np.empty(len(monitors), dtype=bool)
+        for j, (m, d) in enumerate(zip(monitors, distances.tolist())):
+            m.spent += d
+            stop[j] = m.spent > m.budget
+        return stop
+
+
 @dataclass
 class Rollout:
     """What one simulated run of a task produced, sampled at the control rate."""

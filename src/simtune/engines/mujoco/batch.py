@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from simtune.controller import CONTROL_PERIOD, JointController
-from simtune.engines.base import CHECK_EVERY, OBJECT_LIMIT, WRIST_LIMIT, Monitor, Rollout, _first_bad
+from simtune.engines.base import CHECK_EVERY, OBJECT_LIMIT, WRIST_LIMIT, MarkerBudget, Monitor, Rollout, _first_bad
 
 if TYPE_CHECKING:
     from simtune.engines.mujoco.engine import MujocoEngine
@@ -260,17 +260,28 @@ class Batch:
         by their monitor (``checked``: the samples before passed the checks)."""
         for i, (run, why) in self.unstable(alive, k, checked).items():
             ended.setdefault(i, self.rollout(i, k, run, False, why))
-        for i in alive.tolist():
-            if i in ended:
-                continue
-            if k == self.n_samples - 1:
+        going = [i for i in alive.tolist() if i not in ended]
+        if k == self.n_samples - 1:
+            for i in going:
                 ended[i] = self.rollout(i, k, k + 1)
-            elif (monitor := self.monitors[i]) is not None:
-                try:
-                    if monitor(k, self.wrist_pos[i, k], self.wrist_rot[i, k]):
-                        ended[i] = self.rollout(i, k, k + 1, pruned=True)
-                except Exception as exc:  # as alone: the member's rollout raised
-                    ended[i] = exc
+            return
+        budgets = [i for i in going if isinstance(self.monitors[i], MarkerBudget)]
+        if len({id(self.monitors[i].targets) for i in budgets}) > 1:
+            budgets = []  # not one task's: each watched alone
+        if budgets:  # one NumPy computation for all (the same sums as alone, MarkerBudget.watch_all)
+            stop = MarkerBudget.watch_all(
+                [self.monitors[i] for i in budgets], k, self.wrist_pos[budgets, k], self.wrist_rot[budgets, k]
+            )
+            for i in np.asarray(budgets)[stop].tolist():
+                ended[i] = self.rollout(i, k, k + 1, pruned=True)
+        for i in going:
+            if (monitor := self.monitors[i]) is None or (isinstance(monitor, MarkerBudget) and budgets):
+                continue
+            try:
+                if monitor(k, self.wrist_pos[i, k], self.wrist_rot[i, k]):
+                    ended[i] = self.rollout(i, k, k + 1, pruned=True)
+            except Exception as exc:  # as alone: the member's rollout raised
+                ended[i] = exc
 
     def run(self, stepper: Stepper) -> Iterator[tuple[int, Rollout | Exception]]:
         """Every member's rollout (slot, rollout), or the error its simulation raised, yielded as each ends (in
