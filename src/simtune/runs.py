@@ -275,6 +275,8 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
             if stored is None:
                 raise never_set_up(run_dir)
             config = RunConfig.from_stored(stored, f"{path}")
+            if config.workers > 1 and not config.threads:
+                start_worker_server()  # its imports run while this process reads the recordings
             plan = plan_run(config)
             check_data_found(run_dir, plan)
             stored_fingerprint = store.get("fingerprint")
