@@ -7,9 +7,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import tempfile
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -90,7 +88,7 @@ def test_python_dash_m_simtune_cli_is_not_taken_for_an_unguarded_script(tmp_path
     assert (out / "run.sqlite").exists()
 
 
-def test_workers_start_from_the_fork_server_with_the_environment_of_the_moment_they_were_asked_for(monkeypatch):
+def test_workers_fork_from_the_server_with_the_environment_of_the_moment_they_were_asked_for(monkeypatch, tmp_path):
     """Workers fork from a server started before the pool (start_worker_server, as `simtune tune` starts it before
     reading the recordings), yet see the environment as it was when the Evaluator opened, as spawned ones do."""
     from test_batch import objective
@@ -103,13 +101,12 @@ def test_workers_start_from_the_fork_server_with_the_environment_of_the_moment_t
         assert worker_context().get_start_method() == "forkserver"
     start_worker_server()
     monkeypatch.setenv("SIMTUNE_WORKER_MARK", "set after the server started")
-    with tempfile.TemporaryDirectory() as tmp:
-        store = RunStore(Path(tmp) / "run", create=True)
-        with Evaluator(objective(), store, workers=2, threads=False) as evaluator:
-            assert evaluator._pool is not None
-            seen = evaluator._pool.schedule(os.getenv, ("SIMTUNE_WORKER_MARK",)).result(timeout=120)
-            assert seen == "set after the server started"
-            # and they evaluate: the batch path in each, as before
-            x = objective().vector_space().vector_within_bounds({})
-            assert np.isfinite(evaluator.evaluate(np.array([x, x + 1e-9]))).all()
-        store.close()
+    store = RunStore(tmp_path / "run", create=True)
+    with Evaluator(objective(), store, workers=2, threads=False) as evaluator:
+        assert evaluator._pool is not None
+        seen = evaluator._pool.schedule(os.getenv, ("SIMTUNE_WORKER_MARK",)).result(timeout=120)
+        assert seen == "set after the server started"
+        # and they evaluate: the batch path in each, as before
+        x = evaluator.objective.vector_space().vector_within_bounds({})
+        assert np.isfinite(evaluator.evaluate(np.array([x, x + 1e-9]))).all()
+    store.close()

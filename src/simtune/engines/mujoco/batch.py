@@ -274,8 +274,9 @@ class Batch:
             )
             for i in np.asarray(budgets)[stop].tolist():
                 ended[i] = self.rollout(i, k, k + 1, pruned=True)
+        watched = set(budgets)
         for i in going:
-            if (monitor := self.monitors[i]) is None or (isinstance(monitor, MarkerBudget) and budgets):
+            if i in watched or (monitor := self.monitors[i]) is None:
                 continue
             try:
                 if monitor(k, self.wrist_pos[i, k], self.wrist_rot[i, k]):
