@@ -28,11 +28,14 @@ squares runs each rollout to its end; DE's trials are mostly pruned early) - so 
 the first run's time over this one's, is the like-for-like figure; the evaluations scored ahead and never asked
 for are printed beside it.
 
-First, the host's own ceiling (--ceiling-repeats, 0 to skip): a batch of 7 members of the middle of the space
-scored over and over by one process alone, then by two processes at once (three turns each, alternating), each
-on its own (no pool, no coordinator, nothing shared): work that parallelises perfectly, so the ratio is what two
-workers can give at most on this machine (2 x alone / together, medians; below 2 where two cores are not two
-cores' worth).
+First (and again after the runs), the host's own ceiling (--ceiling-repeats, 0 to skip): a batch of 7 members of
+the middle of the space scored over and over by one process alone, then by two processes at once (three turns
+each, alternating), each on its own (no pool, no coordinator, nothing shared): work that parallelises perfectly,
+so the ratio is what two workers can give at most on this machine (2 x alone / together, medians; below 2 where
+two cores are not two cores' worth).  By makespan it is what a batch split in two halves gets, waiting for the
+later one: 2 x one process's turn alone / the later of the two processes' turns at once (a core the hypervisor
+stalls holds the whole batch back).  With a ceiling and 2 workers the last line is the bound the run's batches
+and this host set together: the schedule's efficiency at 2 x the ceiling by makespan.
 
 The load average is printed beside each run: the host is shared.  With --out the lines are appended to FILE.
 """
@@ -45,6 +48,7 @@ import statistics
 import tempfile
 import time
 from collections import defaultdict
+from dataclasses import dataclass
 from pathlib import Path
 
 from common import Transcript, add_data_option, make_parser, middle_batch
@@ -81,9 +85,9 @@ def schedule_efficiency(run: list[tuple[int, float]], workers: int) -> float:
 ROUNDS = 3
 
 
-def _batch_seconds(data: str, task: str, space: str, repeats: int, ready, go) -> float:
+def _batch_seconds(data: str, task: str, space: str, repeats: int, ready, go) -> tuple[float, float]:
     """Median seconds of one 7-member batch of ``task`` (the middle of ``space``), scored ``repeats`` times after
-    ``ready`` is set and ``go`` arrives (a process of :func:`parallel_ceiling`)."""
+    ``ready`` is set and ``go`` arrives, and the seconds of all of them (a process of :func:`parallel_ceiling`)."""
     objective, points = middle_batch(data, task, space, 7)
     params = [objective.vector_space().to_dict(x) for x in points]
     list(objective.score_batch(params))  # warm-up: engines and per-member copies built
@@ -94,17 +98,31 @@ def _batch_seconds(data: str, task: str, space: str, repeats: int, ready, go) ->
         t0 = time.perf_counter()
         list(objective.score_batch(params))
         times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+    return statistics.median(times), sum(times)
 
 
-def parallel_ceiling(data: str, task: str, space: str, repeats: int) -> tuple[float, float, float]:
-    """(seconds of a batch alone, the two processes' median seconds together, 2 x alone / together)."""
+@dataclass
+class Ceiling:
+    """What two processes give on this host, on work that parallelises perfectly."""
+
+    alone: float  # median seconds of a batch in one process alone
+    together: float  # median seconds of a batch in each of two processes at once
+    by_medians: float  # 2 x alone / together
+    by_makespan: float  # 2 x one process's turn / the later of two processes' turns (medians over the turns)
+
+
+def parallel_ceiling(data: str, task: str, space: str, repeats: int) -> Ceiling:
+    """The host's ceiling for two workers: a batch scored ``repeats`` times by one process alone, then by two
+    processes at once, taking turns.  By medians it is what each of two processes does beside the other; by
+    makespan, what a batch split in two halves gets, as it waits for the later half (the host's stalls of one
+    core included)."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
     context = multiprocessing.get_context("spawn")
     manager = context.Manager()
     seconds: dict[int, list[float]] = {1: [], 2: []}
+    turns: dict[int, list[float]] = {1: [], 2: []}  # a turn's seconds: alone, or the later of the two
     for _ in range(ROUNDS):  # alone and together take turns: the host's load drifts
         for count in (1, 2):
             ready, go = [manager.Event() for _ in range(count)], manager.Event()
@@ -113,10 +131,13 @@ def parallel_ceiling(data: str, task: str, space: str, repeats: int) -> tuple[fl
                 for r in ready:  # both built and warm before either starts timing
                     r.wait()
                 go.set()
-                seconds[count] += [f.result() for f in futures]
+                results = [f.result() for f in futures]
+            seconds[count] += [median for median, _ in results]
+            turns[count].append(max(total for _, total in results))
     manager.shutdown()
     alone, together = statistics.median(seconds[1]), statistics.median(seconds[2])
-    return alone, together, 2 * alone / together
+    makespan = 2 * statistics.median(turns[1]) / statistics.median(turns[2])
+    return Ceiling(alone, together, 2 * alone / together, makespan)
 
 
 def main() -> None:
@@ -142,15 +163,23 @@ def main() -> None:
         f"# auto_workers: mujoco, {args.task}, {args.space}, {args.max_seconds:g} s, threads {args.threads}, "
         f"data {args.data}, {os.cpu_count()} cores, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}"
     )
-    if args.ceiling_repeats > 0:
-        alone, together, ceiling = parallel_ceiling(str(args.data), args.task, args.space, args.ceiling_repeats)
+    ceilings: list[Ceiling] = []
+
+    def measure_ceiling(when: str) -> None:
+        ceiling = parallel_ceiling(str(args.data), args.task, args.space, args.ceiling_repeats)
+        ceilings.append(ceiling)
         say(
-            f"host ceiling: a 7-member batch takes {alone * 1e3:.0f} ms in one process alone, {together * 1e3:.0f} ms "
-            f"in each of two at once: two workers can give at most x{ceiling:.2f} (load average "
-            f"{os.getloadavg()[0]:.2f})"
+            f"host ceiling ({when}): a 7-member batch takes {ceiling.alone * 1e3:.0f} ms in one process alone, "
+            f"{ceiling.together * 1e3:.0f} ms in each of two at once: two workers can give at most "
+            f"x{ceiling.by_medians:.2f}; a batch split between them, which waits for the later half, "
+            f"x{ceiling.by_makespan:.2f} (load average {os.getloadavg()[0]:.2f})"
         )
+
+    if args.ceiling_repeats > 0:
+        measure_ceiling("before the runs")
     rates: dict[int, list[float]] = defaultdict(list)
     speedups: dict[int, list[float]] = defaultdict(list)
+    packing: dict[int, list[float]] = defaultdict(list)  # each run's schedule efficiency at its worker count
     worker_counts = [int(w) for w in args.workers.split(",")]
     for seed in [int(s) for s in args.seeds.split(",")]:
         first: tuple[int, float, int] | None = None  # the first worker count's used evaluations, time, simulated
@@ -184,6 +213,7 @@ def main() -> None:
             rate = simulated / elapsed
             if not oversubscribed:
                 rates[workers].append(rate)
+                packing[workers].append(schedule_efficiency(run, workers))
             sizes = sorted(n for n, _ in run)
             schedule = ", ".join(f"{w}: {schedule_efficiency(run, w):.2f}" for w in sorted({1, workers}))
             threads = " (threads of one process: the schedule, not the rate)" if oversubscribed else ""
@@ -213,6 +243,15 @@ def main() -> None:
         say(
             f"{workers} workers / {worker_counts[0]} on the same search: x{statistics.median(values):.2f} the speed "
             f"(median over seeds {args.seeds})"
+        )
+    if ceilings and packing.get(2):
+        measure_ceiling("after the runs")  # the host drifts: the bound is given for both
+        efficiency = statistics.median(packing[2])
+        low, high = sorted(c.by_makespan for c in ceilings)
+        say(
+            f"2 workers' bound here: the schedule's efficiency at 2 ({efficiency:.2f}, median) x the host's ceiling by "
+            f"makespan (x{low:.2f}-x{high:.2f}, before and after) = x{efficiency * low:.2f}-x{efficiency * high:.2f} "
+            f"the evaluations per second of 1 worker, with no coordinator's time and no cost of splitting a batch"
         )
     transcript.save()
 
