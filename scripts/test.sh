@@ -7,7 +7,8 @@
 #   scripts/test.sh ARGS...      any other arguments go to pytest
 #
 # The default tier runs on two pytest-xdist processes (-n 2): its tests are independent and mostly one-core
-# work.  The slow tier runs in one process: its kill, hang and time-out tests measure wall time themselves
+# work.  Each test file goes to one process (--dist loadfile), so that a file's module-wide fixture (a short
+# run that several of its tests read) is made once, not once in each process.  The slow tier runs in one process: its kill, hang and time-out tests measure wall time themselves
 # and must not share the two cores with another test.
 #
 # It installs the system packages the tests need when they are missing and it can (root, apt-get):
@@ -59,10 +60,10 @@ if [ "$ci" = 1 ]; then
     .venv/bin/ruff format --check src tests benchmarks
     .venv/bin/mypy
     # the slowest tests are listed so that the default tier's budget (3 minutes) stays visible in CI's log
-    .venv/bin/python -m pytest -n 2 --durations=25 "$@"
+    .venv/bin/python -m pytest -n 2 --dist loadfile --durations=25 "$@"
     .venv/bin/python -m pytest -m slow --durations=10 "$@"
 elif [[ " $* " == *" -m "* ]]; then
     .venv/bin/python -m pytest "$@"  # a chosen tier (-m slow): one process
 else
-    .venv/bin/python -m pytest -n 2 "$@"
+    .venv/bin/python -m pytest -n 2 --dist loadfile "$@"
 fi

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from scipy.optimize import least_squares
 
 from simtune.optimize.base import BatchSearch
@@ -39,6 +40,7 @@ def _phase(run_dir: Path, workers: int, max_nfev: int):
     return solution, sizes
 
 
+@pytest.mark.slow  # local phases on 1, 2 and 4 workers (about 23 s); the replay's own test is in the default tier
 def test_spare_workers_score_the_trials_after_a_rejection_and_the_solver_path_is_unchanged(tmp_path: Path) -> None:
     alone, alone_sizes = _phase(tmp_path / "one", workers=1, max_nfev=8)
     for workers in (2, 4):

@@ -39,12 +39,10 @@ def simtune(*args):
     return subprocess.run([sys.executable, "-m", "simtune.cli", *args], capture_output=True, text=True, timeout=300)
 
 
-# random search and Bayesian optimisation (about 10 s each) in the slow tier: their code paths are the simplest
-# and the one shared with cmaes; auto's (15 s) too: tests/test_pipeline.py keeps its phases in the default tier
-@pytest.mark.parametrize(
-    "optimizer",
-    [pytest.param(o, marks=[pytest.mark.slow] if o in ("random", "bo", "auto") else []) for o in OPTIMIZERS],
-)
+# whole runs of every optimiser (10-15 s each) in the slow tier; the default tier tunes end to end in
+# tests/test_tune.py (DE) and tests/test_api.py, and keeps auto's phases in tests/test_pipeline.py
+@pytest.mark.slow
+@pytest.mark.parametrize("optimizer", OPTIMIZERS)
 def test_optimizer_improves_is_deterministic_and_replays_from_the_store(optimizer, tmp_path):
     first = start_run(config(optimizer=optimizer), tmp_path / "a", show_progress=False)
     store = RunStore(tmp_path / "a")

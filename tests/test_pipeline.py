@@ -87,6 +87,7 @@ def _scored(run_dir) -> set[tuple]:
     return scored
 
 
+@pytest.mark.slow  # two whole `auto` runs (about 25 s): the slow tier
 def test_auto_takes_the_same_path_on_any_number_of_workers(tmp_path):
     alone = start_run(config(max_evaluations=45, threads=True), tmp_path / "one", show_progress=False)
     shared = start_run(config(max_evaluations=45, threads=True, workers=3), tmp_path / "three", show_progress=False)

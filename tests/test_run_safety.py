@@ -106,6 +106,7 @@ def copy_run(run_dir: Path, to: Path) -> Path:
 
 
 # --- one writer per run folder ------------------------------------------------------------------------------
+@pytest.mark.slow  # two `simtune tune` processes at once (about 11 s)
 def test_two_tunes_on_one_folder_one_runs_the_other_is_refused_at_once(tmp_path):
     out = tmp_path / "latest"
     first = subprocess.Popen(
