@@ -95,6 +95,12 @@ class RunConfig:
         if self.reference == "":
             self.reference = default_reference(self.paper_exact is True)
 
+    @property
+    def worker_processes(self) -> bool:
+        """Whether the run's evaluations go to worker processes (more than one worker, not on threads): what needs
+        a script's ``__main__`` guard and what the fork server is started for."""
+        return self.workers > 1 and not self.threads
+
     def record(self) -> dict:
         """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
         ``weights`` and ``joint_topic`` at their defaults (None), ``threads`` when off and ``repeats`` when

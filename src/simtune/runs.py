@@ -246,12 +246,12 @@ def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> T
     config.check()
     check_free(run_dir)  # a run in progress there: say who runs it, at once
     _check_vacant(run_dir, locked=False)
-    if config.workers > 1 and not config.threads:
+    if config.worker_processes:
         start_worker_server()  # its imports run while this process reads the recordings
     plan = plan_run(config)
     objective = plan.objective()  # checks engine, tasks, space and data before any folder is made
     generic = objective.score({})
-    if config.workers > 1 and not config.threads:  # before the folder: a script to fix leaves no run behind
+    if config.worker_processes:  # before the folder: a script to fix leaves no run behind
         check_main_guarded(f"{config.workers} workers")
     _make_folder(run_dir)
     with run_lock(run_dir):
@@ -275,7 +275,7 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
             if stored is None:
                 raise never_set_up(run_dir)
             config = RunConfig.from_stored(stored, f"{path}")
-            if config.workers > 1 and not config.threads:
+            if config.worker_processes:
                 start_worker_server()  # its imports run while this process reads the recordings
             plan = plan_run(config)
             check_data_found(run_dir, plan)
