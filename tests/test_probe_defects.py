@@ -257,6 +257,19 @@ def test_weights_zeroing_every_recorded_part_are_refused(tmp_path, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_weights_are_refused_before_the_inactive_parameters_are_probed(tmp_path, capsys, monkeypatch):
+    """The probe costs a fresh machine tens of seconds of rollouts (its cache is empty): a refusal that needs only
+    the recordings comes first."""
+    import simtune.run_plan
+
+    def probe(*args, **kwargs):
+        raise AssertionError("the inactive parameters were probed before the weights were checked")
+
+    monkeypatch.setattr(simtune.run_plan, "inactive_parameters", probe)
+    code, err = cli("tune", "--task", "cube", "--weights", "wrist=0,object=0", "--out", str(tmp_path), capsys=capsys)
+    one_line(code, err, "--weights")
+
+
 # --- 4. YAML task files: duplicate keys, YAML 1.2 numbers -------------------------------------------------------
 
 YAML_TASK = """\

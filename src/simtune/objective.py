@@ -183,32 +183,12 @@ class Objective:
         self.references = references
         self.space = space
         self.weights = FitnessWeights() if weights is None else weights
-        self._check_weights()
+        check_weights(self.tasks, references, self.weights)
         self._engines: dict[str, Engine] = {}
 
     def recorded_parts(self) -> list[str]:
         """The parts of the fitness the recordings hold (``wrist``, ``object``, ``joint``), in that order."""
-        held = {
-            part
-            for task in self.tasks
-            for part, there in (
-                ("wrist", self.references[task.name].wrist_mean is not None),
-                ("object", self._has_object_residual(task)),
-                ("joint", bool(self.references[task.name].joint_names)),
-            )
-            if there
-        }
-        return [part for part in ("wrist", "object", "joint") if part in held]
-
-    def _check_weights(self) -> None:
-        """Weights that zero every part the recordings hold would score every simulation 0: a ConfigError."""
-        parts = self.recorded_parts()
-        if parts and not any(getattr(self.weights, part) > 0 for part in parts):
-            zeroed = ",".join(f"{part}=0" for part in parts)
-            raise ConfigError(
-                f"--weights / weights: {zeroed} weighs nothing the recordings hold ({', '.join(parts)}): every "
-                "simulation would score 0; give one of them a weight above 0"
-            )
+        return recorded_parts(self.tasks, self.references)
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
@@ -283,7 +263,7 @@ class Objective:
         )
 
     def _has_object_residual(self, task: TaskSpec) -> bool:
-        return task.object is not None and self.references[task.name].object_final is not None
+        return _has_object_residual(task, self.references)
 
     def _residual_count(self, task: TaskSpec) -> int:
         reference = self.references[task.name]
@@ -368,6 +348,38 @@ class Objective:
         for engine in self._engines.values():
             engine.close()
         self._engines.clear()
+
+
+def _has_object_residual(task: TaskSpec, references: dict[str, TaskData]) -> bool:
+    return task.object is not None and references[task.name].object_final is not None
+
+
+def recorded_parts(tasks: Sequence[TaskSpec], references: dict[str, TaskData]) -> list[str]:
+    """The parts of the fitness the recordings of ``tasks`` hold (``wrist``, ``object``, ``joint``), in that
+    order."""
+    held = {
+        part
+        for task in tasks
+        for part, there in (
+            ("wrist", references[task.name].wrist_mean is not None),
+            ("object", _has_object_residual(task, references)),
+            ("joint", bool(references[task.name].joint_names)),
+        )
+        if there
+    }
+    return [part for part in ("wrist", "object", "joint") if part in held]
+
+
+def check_weights(tasks: Sequence[TaskSpec], references: dict[str, TaskData], weights: FitnessWeights) -> None:
+    """Weights that zero every part the recordings hold would score every simulation 0: a ConfigError.  It needs
+    the recordings only, so a run checks it before it probes or simulates anything."""
+    parts = recorded_parts(tasks, references)
+    if parts and not any(getattr(weights, part) > 0 for part in parts):
+        zeroed = ",".join(f"{part}=0" for part in parts)
+        raise ConfigError(
+            f"--weights / weights: {zeroed} weighs nothing the recordings hold ({', '.join(parts)}): every "
+            "simulation would score 0; give one of them a weight above 0"
+        )
 
 
 def generic_values(objective: Objective, names: list[str]) -> dict[str, float]:

@@ -21,7 +21,7 @@ from simtune.engines import Engine, engine_class
 from simtune.errors import ConfigError
 from simtune.fitness import FitnessWeights
 from simtune.limits import MAX_SEED
-from simtune.objective import Objective, load_references
+from simtune.objective import Objective, check_weights, load_references
 from simtune.optimize import get_optimizer
 from simtune.params import ParameterSpace, get_space
 from simtune.project import Project, get_project
@@ -271,10 +271,13 @@ class RunPlan:
         return active_space(self.full_space, self.inactive if inactive is None else inactive, self.config.only)
 
     def objective(self, inactive: dict[str, str] | None = None) -> Objective:
-        """The run's objective over :meth:`search_space` (``inactive``: a stored run's, else measured)."""
-        space = self.search_space(inactive)
+        """The run's objective over :meth:`search_space` (``inactive``: a stored run's, else measured).  Weights
+        that weigh nothing the recordings hold are refused before the inactive parameters are measured: a
+        one-line refusal, not one after a probe of many rollouts."""
         weights = self.config.weights
-        fitness_weights = None if weights is None else FitnessWeights.from_mapping(weights, "weights")
+        fitness_weights = FitnessWeights() if weights is None else FitnessWeights.from_mapping(weights, "weights")
+        check_weights(self.tasks, self.references, fitness_weights)
+        space = self.search_space(inactive)
         return Objective(self.config.engine, self.tasks, self.references, space, fitness_weights)
 
 
