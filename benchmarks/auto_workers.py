@@ -107,8 +107,11 @@ class Ceiling:
 
     alone: float  # median seconds of a batch in one process alone
     together: float  # median seconds of a batch in each of two processes at once
-    by_medians: float  # 2 x alone / together
     by_makespan: float  # 2 x one process's turn / the later of two processes' turns (medians over the turns)
+
+    @property
+    def by_medians(self) -> float:
+        return 2 * self.alone / self.together
 
 
 def parallel_ceiling(data: str, task: str, space: str, repeats: int) -> Ceiling:
@@ -137,7 +140,7 @@ def parallel_ceiling(data: str, task: str, space: str, repeats: int) -> Ceiling:
     manager.shutdown()
     alone, together = statistics.median(seconds[1]), statistics.median(seconds[2])
     makespan = 2 * statistics.median(turns[1]) / statistics.median(turns[2])
-    return Ceiling(alone, together, 2 * alone / together, makespan)
+    return Ceiling(alone, together, makespan)
 
 
 def main() -> None:
@@ -211,11 +214,12 @@ def main() -> None:
             simulated = sum(n for n, _ in run)
             evaluating = sum(seconds for _, seconds in run)
             rate = simulated / elapsed
+            efficiency = {w: schedule_efficiency(run, w) for w in sorted({1, workers})}
             if not oversubscribed:
                 rates[workers].append(rate)
-                packing[workers].append(schedule_efficiency(run, workers))
+                packing[workers].append(efficiency[workers])
             sizes = sorted(n for n, _ in run)
-            schedule = ", ".join(f"{w}: {schedule_efficiency(run, w):.2f}" for w in sorted({1, workers}))
+            schedule = ", ".join(f"{w}: {e:.2f}" for w, e in efficiency.items())
             threads = " (threads of one process: the schedule, not the rate)" if oversubscribed else ""
             if first is None:
                 first = (result.used_evaluations, elapsed, simulated)

@@ -8,8 +8,9 @@
 #
 # The default tier runs on two pytest-xdist processes (-n 2): its tests are independent and mostly one-core
 # work.  Each test file goes to one process (--dist loadfile), so that a file's module-wide fixture (a short
-# run that several of its tests read) is made once, not once in each process.  The slow tier runs in one process: its kill, hang and time-out tests measure wall time themselves
-# and must not share the two cores with another test.
+# run that several of its tests read) is made once, not once in each process.  The slow tier runs in one
+# process: its kill, hang and time-out tests measure wall time themselves and must not share the two cores
+# with another test.
 #
 # It installs the system packages the tests need when they are missing and it can (root, apt-get):
 # Debian's libode8 (the library the ODE engine's binding loads) and postgresql (a throwaway server

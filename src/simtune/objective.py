@@ -186,10 +186,6 @@ class Objective:
         check_weights(self.tasks, references, self.weights)
         self._engines: dict[str, Engine] = {}
 
-    def recorded_parts(self) -> list[str]:
-        """The parts of the fitness the recordings hold (``wrist``, ``object``, ``joint``), in that order."""
-        return recorded_parts(self.tasks, self.references)
-
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         state["_engines"] = {}  # engine handles stay in the process that made them
@@ -262,14 +258,11 @@ class Objective:
             rollout, self.references[task.name], params, weights=self.weights, joint_names=rollout_joint_names(task)
         )
 
-    def _has_object_residual(self, task: TaskSpec) -> bool:
-        return _has_object_residual(task, self.references)
-
     def _residual_count(self, task: TaskSpec) -> int:
         reference = self.references[task.name]
         n = len(reference.times)
         wrist = 3 * n if reference.wrist_mean is not None else 0
-        return wrist + 3 * self._has_object_residual(task) + n * len(reference.joint_names)
+        return wrist + 3 * _has_object_residual(task, self.references) + n * len(reference.joint_names)
 
     @property
     def residual_size(self) -> int:
