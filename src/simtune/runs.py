@@ -247,12 +247,13 @@ def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> T
     check_free(run_dir)  # a run in progress there: say who runs it, at once
     _check_vacant(run_dir, locked=False)
     if config.worker_processes:
+        # first: a script to fix leaves no run behind, and the inactive-parameter probe (its own worker
+        # processes, where its cache is empty) would otherwise meet the unguarded script first
+        check_main_guarded(f"{config.workers} workers")
         start_worker_server()  # its imports run while this process reads the recordings
     plan = plan_run(config)
     objective = plan.objective()  # checks engine, tasks, space and data before any folder is made
     generic = objective.score({})
-    if config.worker_processes:  # before the folder: a script to fix leaves no run behind
-        check_main_guarded(f"{config.workers} workers")
     _make_folder(run_dir)
     with run_lock(run_dir):
         _check_vacant(run_dir, locked=True)  # again: another process may have started a run meanwhile
