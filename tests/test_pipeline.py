@@ -110,3 +110,24 @@ def test_the_first_global_population_holds_the_openings_best_and_half_its_member
     near = int(pipeline.NEAR_SHARE * len(population))
     assert close[: 1 + near].all()
     assert close[1 + near :].sum() < len(population) - 1 - near  # the others spread over the box
+
+
+def test_rounds_converge_when_the_last_rounds_together_gain_less_than_the_tolerance():
+    patience, rtol = pipeline.PATIENCE, pipeline.ROUND_RTOL
+    flat = [1.0] + [1.0 - 0.4 * rtol * k / patience for k in range(1, patience + 1)]
+    assert pipeline.converged(flat)
+    assert not pipeline.converged(flat[:-1])  # not enough rounds yet
+    assert not pipeline.converged([1.0] + [1.0 - 2 * rtol * k for k in range(1, patience + 1)])  # still gaining
+    assert not pipeline.converged([float("inf")] * (patience + 1))  # nothing scored yet: no basin to judge
+
+
+def test_auto_without_a_budget_stops_when_converged_and_says_so(tmp_path):
+    """No budget but the default generations: the rounds stop on their own, long before them; the stop reason is
+    in the result, the store and the record."""
+    from simtune.store import read_record
+
+    result = start_run(config(only=["command_delay"], max_evaluations=None), tmp_path / "run", show_progress=False)
+    assert result.stop_reason == "converged" and result.message.startswith("converged")
+    assert result.converged and result.generations < 1000
+    record = read_record(tmp_path / "run")
+    assert record.stop_reason == "converged" and record.converged

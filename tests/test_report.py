@@ -352,13 +352,19 @@ def test_report_leaves_run_folders_untouched(report, grid):
 @pytest.mark.slow
 def test_single_run_folder_and_no_usable_run(grid, tmp_path):
     run = grid / "grid" / "mujoco-cube" / "seed1"
-    # an earlier report in the same folder: its figures and tables go, other files stay
+    # a folder of a user's files is refused, untouched; an earlier report there is replaced, the user's files stay
     (tmp_path / "one" / "figures").mkdir(parents=True)
     (tmp_path / "one" / "index.html").write_text("old report")
     (tmp_path / "one" / "figures" / "trajectory_old.png").write_bytes(b"old")
+    with pytest.raises(SimtuneError, match="did not write"):
+        make_report(run, tmp_path / "one", show_progress=False)
+    assert (tmp_path / "one" / "index.html").read_text() == "old report"
+    shutil.rmtree(tmp_path / "one")
+    make_report(run, tmp_path / "one", show_progress=False)
     (tmp_path / "one" / "figures" / "notes.txt").write_text("mine")
+    (tmp_path / "one" / "figures" / "trajectory_old.png").write_bytes(b"old")
     index = make_report(run, tmp_path / "one", show_progress=False)
-    assert not (tmp_path / "one" / "figures" / "trajectory_old.png").exists()
+    assert (tmp_path / "one" / "figures" / "trajectory_old.png").read_bytes() == b"old"
     assert (tmp_path / "one" / "figures" / "notes.txt").exists() and "old report" not in index.read_text()
     rows = list(csv.DictReader((tmp_path / "one" / "tables" / "runs.csv").read_text().splitlines()))
     assert len(rows) == 1 and Path(rows[0]["run"]) == run

@@ -22,6 +22,7 @@ from simtune.compare import curve_from_store
 from simtune.export import export_run
 from simtune.fitness import PENALTY, Score, TaskScore, pruned_message
 from simtune.reference import REFERENCE_DIR
+from simtune.reference.make import make as make_reference
 from simtune.report.collect import load_run
 from simtune.runs import BEST_PARAMS_FILE, RunConfig, resume_run, start_run
 from simtune.store import STORE_FILE, RunStore, read_record, vector_key
@@ -321,15 +322,24 @@ def test_scores_come_back_from_the_store_exactly(tmp_path, version):
 FIXTURES = Path(__file__).parent / "fixtures" / "stores"
 
 
-def fixture_run(version: int, root: Path, running: bool = False, **config) -> Path:
-    """A copy of the fixture run of store ``version``, its data folder this checkout's reference recordings (the
-    store names the absolute folder it was tuned on) and its stored configuration updated by ``config``; with
-    ``running``, as a run killed before its end leaves it (status "running")."""
+@pytest.fixture(scope="module")
+def published_reference(tmp_path_factory) -> Path:
+    """The reference recordings simtune shipped before the cube's phase-2 target was corrected, which the fixture
+    runs were tuned on: ``make(targets="published")`` writes them again byte for byte."""
+    root = tmp_path_factory.mktemp("published-reference")
+    make_reference(root, targets="published", truth_file=None)
+    return root
+
+
+def fixture_run(version: int, root: Path, data: Path, running: bool = False, **config) -> Path:
+    """A copy of the fixture run of store ``version``, its data folder ``data`` (the store names the absolute
+    folder it was tuned on) and its stored configuration updated by ``config``; with ``running``, as a run killed
+    before its end leaves it (status "running")."""
     run_dir = root / f"v{version}"
     shutil.copytree(FIXTURES / f"v{version}", run_dir)
     with closing(sqlite3.connect(run_dir / STORE_FILE)) as db, db:
         stored = json.loads(db.execute("SELECT value FROM meta WHERE key = 'config'").fetchone()[0])
-        stored.update(data=str(REFERENCE_DIR), **config)
+        stored.update(data=str(data), **config)
         db.execute("UPDATE meta SET value = ? WHERE key = 'config'", (json.dumps(stored),))
         if running:
             db.execute("UPDATE meta SET value = '\"running\"' WHERE key = 'status'")
@@ -364,8 +374,10 @@ def test_each_fixture_store_reads_as_the_same_record(version):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("version", [1, 2, 3])
-def test_each_fixture_store_reports_exports_and_resumes(version, tmp_path):
-    run_dir = fixture_run(version, tmp_path / "runs")
+def test_each_fixture_store_reports_exports_and_resumes(version, tmp_path, published_reference):
+    """With the schedule it ran: the fixtures were tuned before the cube's phase 2 was corrected, and their resumed
+    search takes its two generations from the store (a changed task would refuse to resume)."""
+    run_dir = fixture_run(version, tmp_path / "runs", published_reference)
     runner = CliRunner()
     reported = runner.invoke(app, ["report", str(run_dir), "--out", str(tmp_path / "report"), "-q"])
     assert reported.exit_code == 0, reported.output
@@ -375,10 +387,30 @@ def test_each_fixture_store_reports_exports_and_resumes(version, tmp_path):
     assert exported.exit_code == 0, exported.output
     assert (tmp_path / "export" / "scene_cube.xml").is_file()
     # killed with one generation more to go: its two are replayed from the store, the third is new
-    resumable = fixture_run(version, tmp_path / "resumed", running=True, max_generations=3)
+    resumable = fixture_run(version, tmp_path / "resumed", published_reference, running=True, max_generations=3)
     resumed = runner.invoke(app, ["resume", str(resumable), "-q", "--json"])
     assert resumed.exit_code == 0, resumed.output
     record = read_record(resumable)
     assert record.version == version and record.status == "finished"
     assert record.evaluations == 20 and [g["generation"] for g in record.generations] == [1, 2, 3]
     assert record.best is not None and record.best["score"]["fitness"] <= read_record(run_dir).best["score"]["fitness"]
+
+
+def test_a_fixture_store_runs_its_tasks_with_the_published_targets(published_reference, tmp_path):
+    """A store made before the correction names no targets: its plan runs the cube's published phase 2 (65 deg),
+    whose fingerprint is the one the store holds; a new run's plan runs the task file's (74 deg)."""
+    from simtune.run_plan import plan_run
+    from simtune.runs import fingerprint_differences, run_fingerprint
+
+    run_dir = fixture_run(3, tmp_path, published_reference)
+    record = read_record(run_dir)
+    config = RunConfig.from_stored(record.config, "fixture")
+    assert config.targets == "published" and "targets" not in record.config
+    plan = plan_run(config)
+    assert plan.tasks[0].phases[1].targets_deg[2] == 65.0
+    assert record.fingerprint is not None and fingerprint_differences(record.fingerprint, run_fingerprint(plan)) == []
+    new = plan_run(RunConfig(**{**config.record(), "targets": "task"}))
+    assert new.tasks[0].phases[1].targets_deg[2] == 74.0
+    assert fingerprint_differences(record.fingerprint, run_fingerprint(new)) == [
+        "the definition of task 'cube' changed"
+    ]

@@ -19,19 +19,29 @@ An inactive parameter's reason is the engine's own (``Engine.inactive_parameters
 it declared one; otherwise the measurement itself.  A parameter the engine declares
 inactive but that the probe sees moving stays active (the measurement decides).
 
-Results are cached per engine x task x space in a small JSON file (:func:`cache_dir`),
-keyed by the engine's version, the task's definition and the space's names and bounds.
+Results are cached per engine x task x space in a small JSON file (:func:`cache_dir`), keyed by
+what the outcome depends on (:func:`cache_key`): simtune's and the engine's versions, the task as the
+engine runs it with its robot by content (mesh and MJCF files by their bytes, never by their paths),
+the space's names and bounds, and the probe's settings.  So a second checkout of a project, in
+another folder, reads the first one's results instead of probing again.  A probe that is not cached
+says so in one line on stderr where someone watches (:func:`announcing`): the first run on a fresh
+machine spends its first seconds on it.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
 import signal
+import sys
 import tempfile
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict, dataclass
+from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -43,8 +53,10 @@ from simtune.engines.base import Rollout
 from simtune.fitness import marker_positions
 from simtune.params import ParameterSpace
 from simtune.params.space import is_supported
+from simtune.robot.description import Mesh, RobotDescription
 from simtune.spawn_guard import adopt_environment, check_main_guarded, worker_context
 from simtune.tasks import TaskSpec
+from simtune.tasks.spec import FINGERPRINT
 
 #: A parameter that moves no sample of the visible track by more than this [m] is inactive.
 TOLERANCE = 1e-6
@@ -231,15 +243,200 @@ def cache_dir() -> Path:
 
 
 def cache_key(engine: str, task: TaskSpec, space: ParameterSpace, points: int) -> str:
-    """What a probe's outcome depends on: simtune's and the engine's versions, the task, the space, the probe."""
+    """What a probe's outcome depends on, hashed: simtune's and the engine's versions, the task and its robot by
+    content (:func:`task_content`), the space's names and bounds, the probe's settings.
+
+    No path enters it: the same project in two folders (two clones, a copy) has the same key.
+
+    Args:
+        engine: the engine's registry name.
+        task: the task probed.
+        space: the parameters probed.
+        points: random base points besides the generic one.
+
+    Returns:
+        20 hex digits.
+    """
     what = {
         "simtune": simtune.__version__,
         "engine": f"{engine} {engine_class(engine).version()}",
-        "task": asdict(task),
+        "task": task_content(task),
         "space": [space.name, space.names, space.bounds],
         "probe": [PROBE_VERSION, TOLERANCE, points, PROBE_SEED],
     }
     return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:20]
+
+
+def task_content(task: TaskSpec) -> dict:
+    """The task as the engine runs it, as plain values: its fields without the catalogue entries that change no
+    simulation (description, recordings folder ...: ``tasks.spec.FINGERPRINT`` "never"), its robot by content
+    (:func:`robot_content`).
+
+    Args:
+        task: any task.
+
+    Returns:
+        A JSON-serialisable dict (tuples as lists) that holds no file path.
+    """
+    content = asdict(task)
+    for f in fields(task):
+        if f.metadata.get(FINGERPRINT) == "never":
+            content.pop(f.name)
+    content["robot"] = robot_content(task.robot)
+    return content
+
+
+def robot_content(robot: RobotDescription) -> dict:
+    """The robot as the engines build it: every value of its description, each mesh file by the hash of its bytes
+    and an MJCF by :func:`mjcf_content`, without where it was read from (``source``) or what is not part of its
+    identity (fields left out of comparisons: the loader's notes).
+
+    Args:
+        robot: any robot description.
+
+    Returns:
+        A JSON-serialisable dict that holds no file path.
+    """
+    content = asdict(robot)
+    for f in fields(robot):
+        if not f.compare:
+            content.pop(f.name)
+    content.pop("source")  # a path (or "bundled"): what was read from it is in the other values
+    if robot.mjcf is not None:
+        content["mjcf"] = mjcf_content(robot.mjcf)
+    for link, stored in zip(robot.links, content["links"]):
+        for shape, values in zip(link.shapes, stored["shapes"]):
+            values["kind"] = type(shape).__name__  # asdict drops the class: a sphere and a box differ by keys only
+            if isinstance(shape, Mesh):
+                values["path"] = file_digest(shape.path)
+    return content
+
+
+def file_digest(path: str | Path) -> str:
+    """SHA-256 of a file's bytes (read once per process while its modification time and size stay).
+
+    Args:
+        path: the file.
+
+    Returns:
+        64 hex digits; ``"missing <name>"`` for a file that cannot be read (the engine will say so when it builds
+        the robot; the key stays free of the folder).
+    """
+    try:
+        stat = os.stat(path)
+        return _file_digest(str(path), stat.st_mtime_ns, stat.st_size)
+    except OSError:
+        return f"missing {Path(path).name}"
+
+
+@functools.lru_cache(maxsize=1024)
+def _file_digest(path: str, mtime_ns: int, size: int) -> str:
+    with open(path, "rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()
+
+
+def mjcf_content(path: str | Path) -> dict:
+    """An MJCF robot as MuJoCo reads it: the model's XML as MuJoCo writes it back (includes inlined, file names as
+    the file gives them) and the bytes of every asset file it reads (meshes, textures, height fields).
+
+    Compiled at most once per process while the file's modification time and size stay (an edited include is seen
+    by the next process).
+
+    Args:
+        path: the MJCF file (``RobotDescription.mjcf``).
+
+    Returns:
+        ``{"xml": digest, "assets": [digest, ...]}``; where MuJoCo cannot say that much (a version without
+        ``MjSpec.to_xml`` or ``MjModel.paths``), ``{"file": digest}`` of the file alone.
+    """
+    try:
+        stat = os.stat(path)
+    except OSError:
+        return {"file": file_digest(path)}
+    xml, assets = _mjcf_read(str(path), stat.st_mtime_ns, stat.st_size)
+    if xml is None:
+        return {"file": file_digest(path)}
+    # the assets' paths are absolute (MuJoCo resolves them against the file's folder): only their bytes count
+    return {"xml": xml, "assets": [file_digest(asset) for asset in assets]}
+
+
+@functools.lru_cache(maxsize=64)
+def _mjcf_read(path: str, mtime_ns: int, size: int) -> tuple[str | None, tuple[str, ...]]:
+    """The digest of the MJCF's XML as MuJoCo writes it back, and the asset files it reads (None, () if it
+    cannot say)."""
+    try:
+        import mujoco
+
+        spec = mujoco.MjSpec.from_file(path)
+        model = spec.compile()
+        xml = spec.to_xml()
+        paths = bytes(model.paths)
+    except Exception:  # an old MuJoCo, or a file it refuses now: the engine says why when it builds the robot
+        return None, ()
+    assets = tuple(os.fsdecode(p) for p in paths.split(b"\0") if p)
+    return hashlib.sha256(xml.encode()).hexdigest(), assets
+
+
+#: whether a probe not cached says so on stderr: None (unset) where stderr is a terminal
+_ANNOUNCE: ContextVar[bool | None] = ContextVar("simtune_activity_announce", default=None)
+
+
+@contextmanager
+def announcing(enabled: bool) -> Iterator[None]:
+    """Within it, a probe that is not cached says so on stderr (``enabled``) or not, whatever stderr is.
+
+    Outside any, it says so only where stderr is a terminal: someone watches a first run's start there, while
+    a pipe or a log (scripts, tests that read stderr line by line) gets nothing.  A command's ``--quiet`` or
+    ``--json`` belongs inside ``announcing(False)``.
+
+    Args:
+        enabled: whether to say so.
+
+    Yields:
+        Nothing: the setting holds until the block ends.
+    """
+    token = _ANNOUNCE.set(enabled)
+    try:
+        yield
+    finally:
+        _ANNOUNCE.reset(token)
+
+
+def _announces() -> bool:
+    enabled = _ANNOUNCE.get()
+    if enabled is not None:
+        return enabled
+    try:
+        return sys.stderr is not None and sys.stderr.isatty()
+    except (AttributeError, ValueError):  # replaced by an object without isatty, or closed
+        return False
+
+
+def probe_note(engine: str, task: TaskSpec, space: ParameterSpace, points: int, workers: int, cached: bool) -> str:
+    """The line that announces a probe: what it measures, on which engine, at most how many rollouts of what length.
+
+    Args:
+        engine: the engine's registry name.
+        task: the task probed.
+        space: the parameters probed.
+        points: random base points besides the generic one.
+        workers: worker processes the rollouts run on.
+        cached: whether the outcome is stored for the next run.
+
+    Returns:
+        One line, without its newline.
+    """
+    supported = engine_class(engine).supported(task.robot)
+    probed = sum(is_supported(name, supported) for name in space.names)
+    # each base point: its own rollout, then each parameter at its lower and (if unmoved) its upper bound; the
+    # bound is what the first line of a fresh machine can promise (active parameters drop out after one point)
+    rollouts = (points + 1) * (1 + 2 * probed)
+    on = f" on {workers} workers" if workers > 1 else ""
+    after = "; cached afterwards" if cached else ""
+    return (
+        f"measuring which of {probed} parameters change the rollouts of task {task.name!r} ({engine}: up to "
+        f"{rollouts} rollouts of {task.duration:g} s{on}{after}) ..."
+    )
 
 
 #: probes already read or measured by this process (a run reads them several times while it starts)
@@ -255,7 +452,19 @@ def task_activity(
     workers: int = 1,
 ) -> dict[str, Activity]:
     """:func:`measure_activity` (on ``workers`` processes), from the cache when it holds this engine x task x
-    space (and into it after)."""
+    space (and into it after); a probe it runs says so first (:func:`probe_note`, see :func:`announcing`).
+
+    Args:
+        engine: the engine's registry name.
+        task: the task probed.
+        space: the parameters probed.
+        points: random base points besides the generic one.
+        use_cache: read and write the cache (False: measure, and keep nothing).
+        workers: worker processes for a probe that runs.
+
+    Returns:
+        Parameter name -> its :class:`Activity`, in the space's order.
+    """
     path = cache_dir() / "activity" / f"{engine}-{task.name}-{space.name}-{cache_key(engine, task, space, points)}.json"
     if use_cache and path in _MEMORY:
         return _MEMORY[path]
@@ -266,6 +475,8 @@ def task_activity(
             return _MEMORY[path]
         except (OSError, ValueError, KeyError, TypeError):
             pass  # not cached yet, or a damaged entry: measure again
+    if _announces():
+        print(probe_note(engine, task, space, points, workers, use_cache), file=sys.stderr, flush=True)
     found = measure_activity(engine, task, space, points, workers=workers)
     if use_cache:
         _write_cache(path, {name: asdict(a) for name, a in found.items()})

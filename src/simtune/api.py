@@ -22,6 +22,7 @@ import sqlite3
 import time
 from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass, field
+from datetime import date
 from pathlib import Path
 
 from simtune.alignment import DelayEstimate, aligned, estimate_delay
@@ -48,6 +49,7 @@ from simtune.runs import resume_run, run_uncertainty, start_run
 from simtune.sensitivity import evaluation_count, run_sensitivity
 from simtune.store import STORE_FILE, read_record
 from simtune.synth import SynthResult, load_truth, make_synthetic
+from simtune.tasks import check_targets, with_targets
 from simtune.tasks.spec import common_robot
 from simtune.transfer import run_transfer
 
@@ -91,6 +93,9 @@ class Result:
     repeats: str = "all"
     #: task -> the file names of the repeats that built its reference (evaluate; empty for a run read back)
     repeat_files: dict[str, list[str]] = field(default_factory=dict)
+    #: why a tuning run's search stopped (``converged``, ``max-seconds`` ...: simtune.optimize.base.STOP_REASONS);
+    #: None for an evaluation and for runs stored before it was kept
+    stop_reason: str | None = None
 
     @classmethod
     def from_score(cls, engine: str, x: Mapping[str, float], score: Score, generic: Score | dict, **more) -> Result:
@@ -185,6 +190,11 @@ def _reference(reference: object, paper_exact: bool = False) -> str:
     return default_reference(paper_exact) if reference is None else check_reference(reference)
 
 
+def _targets(targets: object, where: str) -> str:
+    """The targets asked for (:data:`simtune.tasks.TARGETS`); None: the task files' (``task``)."""
+    return "task" if targets is None else check_targets(targets, where)
+
+
 def _repeats(repeats: object) -> str:
     """The repeats asked for: ``all``, ``even`` or ``odd``; None: all."""
     return DEFAULT_REPEATS if repeats is None else check_repeats(repeats)
@@ -216,6 +226,7 @@ def evaluate(
     align_clock: bool | Collection[str] = False,
     reference: str | None = None,
     repeats: str | None = None,
+    targets: str | None = None,
 ) -> Result:
     """Fitness of ``params`` (a mapping, or a params file such as best_params.json; default: the engine's
     generic values) for ``engine`` on ``tasks`` (names or groups: comma-separated, or a list) of ``project``.
@@ -229,14 +240,18 @@ def evaluate(
     ``aligned`` (the default: the repeats shifted onto one clock, then averaged) or ``mean`` (the paper's plain
     mean of the repeats).  ``repeats``: which of each task's repeats build that reference, ``all`` (the default),
     ``even`` (the 1st, 3rd ... in sorted order) or ``odd`` (the 2nd, 4th ...): score on the repeats a run was not
-    tuned on; the result's ``repeat_files`` name them.  An argument of the wrong type or value is a
+    tuned on; the result's ``repeat_files`` name them.  ``targets``: the joint targets the tasks carry, ``task``
+    (the default: the task files') or ``published`` (where a task file corrects the published ones:
+    :data:`simtune.tasks.TARGETS`).  An argument of the wrong type or value is a
     :class:`~simtune.errors.ConfigError` naming it.
     """
     kind = _reference(reference)
     selection = _repeats(repeats)
     fitness_weights = _weights(weights)
     proj = _project(project)
-    specs = proj.parse_tasks(",".join(_names("tasks", tasks, "single,cube")))
+    specs = with_targets(
+        proj.parse_tasks(",".join(_names("tasks", tasks, "single,cube"))), _targets(targets, "targets")
+    )
     names = _aligned(align_clock, specs)
     given = _params(params)
     if joint_topic is not None and not isinstance(joint_topic, str):
@@ -322,13 +337,15 @@ def run_config(
     threads: bool = False,
     reference: str | None = None,
     repeats: str | None = None,
+    targets: str | None = None,
 ) -> RunConfig:
     """The configuration ``tune`` runs and stores, from the same arguments (``simtune tune``'s options).
 
     ``space``: None for the default (calibrated; extended with ``paper_exact``: :func:`default_space`);
     ``optimizer``: None for the default (auto; de with ``paper_exact``); ``reference``: None for the default
     (aligned; mean with ``paper_exact``); ``repeats``: which of each task's repeats it is tuned on (all, even or
-    odd; None: all).  The project is stored by its project
+    odd; None: all); ``targets``: the tasks' joint targets (task or published; None: task, published with
+    ``paper_exact``).  The project is stored by its project
     file (the bundled MICO project: not at all), ``data`` absolute.
     """
     proj = _project(project)
@@ -357,6 +374,7 @@ def run_config(
         threads=threads,
         reference=_reference(reference, paper_exact),
         repeats=_repeats(repeats),
+        targets="" if targets is None else _targets(targets, "targets"),
     )
 
 
@@ -579,11 +597,17 @@ def check(
     workers: int = 1,
     reference: str | None = None,
     repeats: str | None = None,
+    write_task: Path | str | None = None,
 ) -> dict:
     """Before tuning (``simtune check --task``): the recordings' quality per task (with the repeats' clock
-    shifts and the floor: their spread with and without alignment), and which active parameters the recordings
-    can inform (the Jacobian at the generic point, against ``reference``: aligned, the default, or mean), of the
-    repeats ``repeats`` selects (all, the default, even or odd; the result names the files used)."""
+    shifts and the floor: their spread with and without alignment), the rest pose after each phase against where
+    its targets put the arm (with proposed targets for a rest that lies far off), and which active parameters the
+    recordings can inform (the Jacobian at the generic point, against ``reference``: aligned, the default, or
+    mean), of the repeats ``repeats`` selects (all, the default, even or odd; the result names the files used).
+
+    ``write_task``: a new file to write the one checked task's file to, each phase whose rest lies far off given
+    its proposed targets (the former kept as ``published_targets_deg``, the evidence in a comment); the result's
+    ``written_task`` names it (None where no rest lies far off: nothing is written)."""
     kind = _reference(reference)
     selection = _repeats(repeats)
     proj = _project(project)
@@ -591,7 +615,35 @@ def check(
     if root is None:
         raise SimtuneError(f"check: the project {project} names no data root: give the recordings with --data")
     specs = proj.parse_tasks(_task_spec(tasks))
-    return run_check(engine, specs, root, space, workers, reference=kind, repeats=selection)
+    if write_task is not None and len(specs) != 1:
+        raise ConfigError(f"--write-task writes one task's file: check one task, not {len(specs)}")
+    out = None if write_task is None else _path("write_task", write_task)
+    result = run_check(engine, specs, root, space, workers, reference=kind, repeats=selection)
+    if out is not None:
+        result["written_task"] = _write_corrected_task(proj, specs[0], result["data_quality"][0], out)
+    return result
+
+
+def _write_corrected_task(proj: Project, task, quality: dict, out: Path) -> str | None:
+    """Write ``task``'s file corrected by the check's proposals (``quality``: its data-quality part) to ``out``."""
+    from simtune.tasks.correct import Correction, write_corrected_task
+
+    corrections, previous = {}, {}
+    for row in quality["rest_poses"]:
+        proposal = row.get("proposal")
+        if proposal is None or row.get("phase") is None:
+            continue  # a rest that is not far, or the start pose (not a phase's targets)
+        moved = ", ".join(f"{name} {a:g} -> {b:g} deg" for name, (a, b) in proposal["changed"].items())
+        evidence = (
+            f"simtune check ({date.today().isoformat()}): the recorded rest after {row['stretch']} lies "
+            f"{1000 * row['distance_m']:.1f} mm from where the former targets put the wrist;\n{moved} leaves "
+            f"{1000 * proposal['residual_after_m']:.1f} mm (inverse kinematics of the wrist's position)"
+        )
+        corrections[row["phase"]] = Correction(tuple(proposal["targets_deg"]), evidence)
+        previous[row["phase"]] = tuple(row["targets_deg"])
+    if not corrections:
+        return None
+    return str(write_corrected_task(proj.task_files[task.name], out, corrections, previous))
 
 
 def synth(
@@ -666,6 +718,7 @@ def _read_run(run_dir: Path) -> Result:
         wall_s=record.elapsed_s,
         reference=str(record.config.get("reference", "mean")),  # a run stored before the choice: the mean
         repeats=str(record.config.get("repeats", "all")),  # stored only when not all
+        stop_reason=record.stop_reason,
     )
 
 

@@ -98,6 +98,80 @@ def _repeat_rows(task: TaskSpec, aligned: TaskData, plain_agreement: np.ndarray,
 #: the stretch of each phase's end compared as its rest pose: from this long before the end ... [s]
 REST_WINDOW_S = (1.0, 0.2)  # ... to this long before it (the arm has settled; the next command not yet arrived)
 
+#: a far rest is put on one joint where that joint alone takes the rest to within this share of its distance
+#: (a script edited on one joint, a controller limit on one joint: the common causes), else on every joint
+SINGLE_JOINT_SHARE = 0.5
+#: the weight [m per rad] that keeps joints the recorded rest does not ask for where they are, in the every-joint
+#: fit: a millimetre of position is worth moving a joint by about 0.06 deg
+STAY_WEIGHT_M_PER_RAD = 0.001
+
+
+def _joint_range(task: TaskSpec, index: int, around: float) -> tuple[float, float]:
+    """Where driven joint ``index`` may be put [rad]: its limits, or half a turn either side of ``around``."""
+    joint = task.robot.joint_by_name[task.joints[index]]
+    if joint.lower is not None and joint.upper is not None:
+        return float(joint.lower), float(joint.upper)
+    return around - np.pi, around + np.pi
+
+
+def propose_targets(task: TaskSpec, targets_deg, gap_m) -> dict:
+    """The joint targets that put the tracked link's rest ``gap_m`` [m] (recorded minus simulated) from where
+    ``targets_deg`` put it: inverse kinematics of its position within the joint limits (the recordings' wrist
+    track holds no orientation here).
+
+    The simulated rest's own offset from the kinematic pose at the targets (gravity's sag, the controller's steady
+    error) is kept: the goal is the kinematic pose moved by the gap.  One joint alone is proposed where it takes the
+    rest within :data:`SINGLE_JOINT_SHARE` of the gap (the joint the best); otherwise every joint moves, each
+    weighed to stay where it is (:data:`STAY_WEIGHT_M_PER_RAD`).
+
+    Args:
+        task: the task (its robot, driven joints and tracked link).
+        targets_deg: the phase's targets (or the start pose) [deg], one per driven joint.
+        gap_m: the recorded rest minus the simulated one [m], (3,).
+    Returns:
+        ``targets_deg`` (the proposal), ``changed`` (the joints it moves: name -> [before, after] deg),
+        ``residual_before_m`` (the gap's length) and ``residual_after_m`` (what the kinematics leave of it).
+    """
+    from scipy.optimize import least_squares
+
+    robot, link = task.robot, task.tracked_link
+    q0 = np.radians(np.asarray(targets_deg, dtype=float))
+    goal = robot.forward_kinematics(q0, link)[0] + np.asarray(gap_m, dtype=float)
+
+    def miss(q: np.ndarray) -> np.ndarray:
+        return robot.forward_kinematics(q, link)[0] - goal
+
+    best_q, best_miss = q0, float(np.linalg.norm(gap_m))
+    for j in range(len(q0)):  # each joint alone: a grid over its range, then a bounded refinement
+        low, high = _joint_range(task, j, q0[j])
+        grid = np.linspace(low, high, 721)
+        trial = np.repeat(q0[None], len(grid), axis=0)
+        trial[:, j] = grid
+        start = grid[int(np.argmin([np.linalg.norm(miss(q)) for q in trial]))]
+        fit = least_squares(lambda x, j=j: miss(np.concatenate([q0[:j], x, q0[j + 1 :]])), [start], bounds=(low, high))
+        q = q0.copy()
+        q[j] = fit.x[0]
+        if np.linalg.norm(miss(q)) < best_miss:
+            best_q, best_miss = q, float(np.linalg.norm(miss(q)))
+    if best_miss > SINGLE_JOINT_SHARE * np.linalg.norm(gap_m):
+        ranges = np.array([_joint_range(task, j, q0[j]) for j in range(len(q0))])
+        fit = least_squares(
+            lambda q: np.concatenate([miss(q), STAY_WEIGHT_M_PER_RAD * (q - q0)]),
+            np.clip(q0, ranges[:, 0], ranges[:, 1]),
+            bounds=(ranges[:, 0], ranges[:, 1]),
+        )
+        if np.linalg.norm(miss(fit.x)) < best_miss:
+            best_q, best_miss = fit.x, float(np.linalg.norm(miss(fit.x)))
+    proposal = [round(float(v), 1) for v in np.degrees(best_q)]
+    proposal = [float(t) if abs(p - t) < 0.05 else p for p, t in zip(proposal, targets_deg)]
+    rounded = np.radians(proposal)
+    return {
+        "targets_deg": proposal,
+        "changed": {name: [float(t), p] for name, t, p in zip(task.joints, targets_deg, proposal) if p != float(t)},
+        "residual_before_m": float(np.linalg.norm(gap_m)),
+        "residual_after_m": float(np.linalg.norm(miss(rounded))),
+    }
+
 
 def rest_poses(
     task: TaskSpec, reference: TaskData, simulated: tuple[np.ndarray, np.ndarray], delay: float
@@ -118,16 +192,22 @@ def rest_poses(
             continue
         sim_pose, real_pose = marker[at_rest].mean(axis=0), reference.wrist_mean[recorded].mean(axis=0)
         distance = float(np.linalg.norm(sim_pose - real_pose))
-        rows.append(
-            {
-                "stretch": label,
-                "end_s": float(end),
-                "simulated_m": [float(v) for v in sim_pose],
-                "recorded_m": [float(v) for v in real_pose],
-                "distance_m": distance,
-                "far": distance > START_WARN_M,
-            }
-        )
+        # "phase N" (the N-th phase, from 1), or the start pose held before a first phase that starts later
+        phase = int(label.split()[-1]) - 1 if label.startswith("phase ") else -1
+        targets = task.start_pose_deg if phase < 0 else task.phases[phase].targets_deg
+        row = {
+            "stretch": label,
+            "end_s": float(end),
+            "simulated_m": [float(v) for v in sim_pose],
+            "recorded_m": [float(v) for v in real_pose],
+            "distance_m": distance,
+            "far": distance > START_WARN_M,
+            "phase": None if phase < 0 else phase,
+            "targets_deg": [float(v) for v in targets],
+        }
+        if row["far"]:
+            row["proposal"] = propose_targets(task, targets, real_pose - sim_pose)
+        rows.append(row)
     return rows
 
 

@@ -26,7 +26,7 @@ from simtune.optimize import get_optimizer
 from simtune.params import ParameterSpace, get_space
 from simtune.project import Project, get_project
 from simtune.robot.description import RobotDescription
-from simtune.tasks import TaskSpec, parse_tasks
+from simtune.tasks import TaskSpec, check_targets, parse_tasks
 from simtune.tasks.spec import common_robot
 
 #: ``simtune tune``'s space where none is given: ``calibrated`` fits both real tasks better and sooner than
@@ -90,10 +90,17 @@ class RunConfig:
     #: which of each task's repeats build the reference (held-out scoring): ``all``, ``even`` (the 1st, 3rd ...
     #: in sorted order) or ``odd`` (the 2nd, 4th ...); runs stored before this setting existed used all
     repeats: str = "all"
+    #: which targets the tasks' phases carry (simtune.tasks.TARGETS): ``task``, the task files' (what the robot
+    #: ran), or ``published``, a phase's published targets where its file corrects them (the bundled `cube`'s
+    #: phase 2); left empty: task, or published with paper_exact.  Runs stored before the correction ran the
+    #: published ones.
+    targets: str = ""
 
     def __post_init__(self) -> None:
         if self.reference == "":
             self.reference = default_reference(self.paper_exact is True)
+        if self.targets == "":
+            self.targets = "published" if self.paper_exact is True else "task"
 
     @property
     def worker_processes(self) -> bool:
@@ -103,9 +110,9 @@ class RunConfig:
 
     def record(self) -> dict:
         """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
-        ``weights`` and ``joint_topic`` at their defaults (None), ``threads`` when off and ``repeats`` when
-        ``all``, so that the stores of runs made before projects, joint logs, the batch path and the choice of
-        repeats and of new MICO runs compare equal."""
+        ``weights`` and ``joint_topic`` at their defaults (None), ``threads`` when off, ``repeats`` when
+        ``all`` and ``targets`` when ``published``, so that the stores of runs made before projects, joint logs,
+        the batch path, the choice of repeats and the corrected targets and of new MICO runs compare equal."""
         values = asdict(self)
         for key in ("project", "weights", "joint_topic"):
             if values[key] is None:
@@ -114,6 +121,8 @@ class RunConfig:
             del values["threads"]
         if values["repeats"] == "all":
             del values["repeats"]
+        if values["targets"] == "published":
+            del values["targets"]
         return values
 
     @classmethod
@@ -128,8 +137,8 @@ class RunConfig:
                     f"{where}: unknown key {key!r} in the stored configuration (written by another simtune version?)"
                 )
         # a run from before these settings searched every parameter, with one shared command delay, and scored
-        # against the plain mean of the repeats
-        values = {"keep_inactive": True, "task_delays": False, "reference": "mean", **values}
+        # against the plain mean of the repeats, on the targets as published (stored_targets)
+        values = {"keep_inactive": True, "task_delays": False, "reference": "mean", "targets": "published", **values}
         for f in fields(cls):
             if f.default is MISSING and f.name not in values:
                 raise ConfigError(f"{where}: the stored configuration has no {f.name!r}")
@@ -179,6 +188,7 @@ class RunConfig:
         get_optimizer(self.optimizer)
         check_reference(self.reference, f"{at}reference")
         check_repeats(self.repeats, f"{at}repeats")
+        check_targets(self.targets, f"{at}targets")
         if self.paper_exact:
             if self.reference != "mean":
                 raise ConfigError(
@@ -199,6 +209,14 @@ class RunConfig:
                 )
             if self.refine:
                 raise ConfigError(f"{at}--paper-exact ends with SciPy's own polish: drop --refine")
+            if self.targets != "published":
+                raise ConfigError(f"{at}--paper-exact runs the published targets: drop --targets {self.targets}")
+
+
+def stored_targets(config: dict) -> str:
+    """The targets (``task`` or ``published``) of a run from its stored configuration: a run stored without them
+    ran the published ones (before the task files corrected them, and every paper-exact run)."""
+    return str(config.get("targets", "published"))
 
 
 def new_run_config(
@@ -283,7 +301,7 @@ class RunPlan:
 
 def plan_run(config: RunConfig) -> RunPlan:
     """Resolve ``config`` once: its tasks (of its project), their robot, the engine class and the full space."""
-    tasks = parse_tasks(config.tasks, config.project)
+    tasks = parse_tasks(config.tasks, config.project, config.targets)
     robot = common_robot(tasks)
     engine = engine_class(config.engine)
     # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not

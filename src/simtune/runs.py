@@ -446,10 +446,12 @@ def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bo
                 search_elapsed_s=result.wall_s,
                 search_message=result.message,
                 search_converged=result.converged,
+                search_stop_reason=result.stop_reason,
             )
         else:  # the replay stopped on the evaluation count: say why the search stopped first
             result.message = store.get("search_message", result.message)
             result.converged = bool(store.get("search_converged", result.converged))
+            result.stop_reason = store.get("search_stop_reason", result.stop_reason)
         if config.refine:
             refined = least_squares_refine(
                 objective,
@@ -540,4 +542,5 @@ def _combine(search: TuneResult, refined: TuneResult) -> TuneResult:
         search.pruned_evaluations + refined.pruned_evaluations,
         search.steps + refined.steps,
         search.used_evaluations + refined.used_evaluations,
+        search.stop_reason,  # why the search stopped: the refinement runs after it either way
     )

@@ -47,6 +47,15 @@ def check(
     workers: WorkersOpt = 1,
     reference: ReferenceOpt = None,
     repeats: RepeatsOpt = None,
+    write_task: Annotated[
+        Path | None,
+        typer.Option(
+            "--write-task",
+            help="With --task T (one task): write T's task file, each phase whose rest lies far from its targets "
+            "given the proposed ones (the former kept as published_targets_deg, the evidence in a comment), to this "
+            "new file; never over the original or any file.",
+        ),
+    ] = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Before tuning: a project's files (simtune check DIR), or a task's data and what it can inform (--task).
@@ -54,7 +63,8 @@ def check(
     simtune check DIR (or --project DIR): robot, joints and links, recordings, start pose, engines; one line
     per finding, exit 2 if any is a problem.  With --task T (and --data ROOT, or DIR's recordings): per task,
     lost marker frames and the longest gap of each recording, how well the repeats agree, how far each starts
-    from the simulated arm, each repeat's motion onset (and the command delay it implies); then the rank
+    from the simulated arm, each repeat's motion onset (and the command delay it implies), each phase's rest
+    against where its targets put the arm (with proposed targets where it lies far off); then the rank
     and singular values of the residuals' Jacobian at the generic point and, per active parameter,
     whether the recordings can inform it.
     """
@@ -79,12 +89,20 @@ def check(
         workers=workers,
         reference=reference,
         repeats=repeats,
+        write_task=write_task,
     )
     if as_json:
         print_json(result)
         return
     _print_data_quality(result["data_quality"])
     _print_informed(result)
+    if write_task is not None:
+        written = result["written_task"]
+        out.print(
+            f"corrected task file: {written}" if written else "no rest lies far from its targets: no task file written",
+            highlight=False,
+            soft_wrap=True,
+        )
 
 
 def _check_project(project_dir: Path) -> None:
@@ -169,6 +187,19 @@ def _print_rest_poses(part: dict) -> None:
             f"{1000 * r['distance_m']:.1f}" + (" (far)" if r["far"] else ""),
         )
     out.print(table)
+    for r in part["rest_poses"]:
+        proposal = r.get("proposal")
+        if proposal is None:
+            continue
+        moved = ", ".join(f"{name} {a:g} -> {b:g} deg" for name, (a, b) in proposal["changed"].items())
+        out.print(
+            f"  proposed for {r['stretch']}: {moved or 'no joint change helps'} "
+            f"(targets {' '.join(f'{v:g}' for v in proposal['targets_deg'])} deg): "
+            f"{1000 * proposal['residual_before_m']:.1f} -> {1000 * proposal['residual_after_m']:.1f} mm "
+            "(kinematics of the wrist's position); `--write-task FILE` writes the task file with it",
+            highlight=False,
+            soft_wrap=True,
+        )
     far = [r["stretch"] for r in part["rest_poses"] if r["far"]]
     if far and len(far) < len(part["rest_poses"]):
         out.print(

@@ -17,6 +17,7 @@ import typer
 from simtune.data import REPEATS
 from simtune.data.clock import REFERENCES
 from simtune.limits import MAX_SEED
+from simtune.tasks import TARGETS
 
 #: the longest file or folder name common file systems allow [bytes]
 NAME_MAX = 255
@@ -162,6 +163,15 @@ RepeatSetOpt = Annotated[
         callback=repeats,
     ),
 ]
+
+
+#: what ``--targets`` is, said once for every command that runs a task's schedule
+TARGETS_HELP = (
+    "Which joint targets the tasks' phases carry: task (the task files' targets_deg: what the robot ran) or "
+    "published (a phase's published_targets_deg where its task file corrects the published schedule, as the "
+    "bundled cube's phase 2: docs/calibration.md). Default: task; published with --paper-exact."
+)
+TargetsOpt = Annotated[str | None, typer.Option("--targets", help=TARGETS_HELP, callback=one_of(TARGETS))]
 
 
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -23,6 +24,7 @@ from simtune.cli.options import (
     ReferenceOpt,
     RepeatsOpt,
     SeedOpt,
+    TargetsOpt,
     TaskOpt,
     TuneSpaceOpt,
     WeightsOpt,
@@ -141,6 +143,7 @@ def evaluate(
     align_clock: AlignClockOpt = None,
     reference: ReferenceOpt = None,
     repeats: RepeatsOpt = None,
+    targets: TargetsOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks.
@@ -161,6 +164,7 @@ def evaluate(
         align_clock=_tasks_to_align(align_clock, params_file, task, project),
         reference=reference,
         repeats=repeats,
+        targets=targets,
     )
     if as_json:
         print_json(evaluation_json(engine, task, score))
@@ -210,6 +214,7 @@ def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
         "optimizer": config.optimizer,
         "reference": config.reference,
         **({"repeats": config.repeats} if config.repeats != "all" else {}),
+        "targets": config.targets,
         "fitness": result.score.fitness,
         "wrist_error": result.score.wrist_error,
         "object_error": result.score.object_error,
@@ -220,6 +225,7 @@ def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
         "wall_s": result.wall_s,
         "best_params_file": str(run_dir / BEST_PARAMS_FILE),
         "message": result.message,
+        "stop_reason": result.stop_reason,
         "search_dimension": len(searched),
         "inactive_parameters": inactive,
     }
@@ -274,6 +280,7 @@ def tune(
     project: ProjectOpt = None,
     reference: ReferenceOpt = None,
     repeats: RepeatsOpt = None,
+    targets: TargetsOpt = None,
     quiet: QuietOpt = False,
     as_json: JsonOpt = False,
 ) -> None:
@@ -311,8 +318,13 @@ def tune(
         threads=threads,
         reference=reference,
         repeats=repeats,
+        targets=targets,
     )
-    result = api.start(config, out_dir, show_progress=not quiet and not as_json)
+    from simtune.activity import announcing
+
+    # the probe's note goes with the progress bar: a terminal's, never with --quiet or --json
+    with announcing(not quiet and not as_json and sys.stderr.isatty()):
+        result = api.start(config, out_dir, show_progress=not quiet and not as_json)
     report_tune(result, out_dir, config, as_json)
 
 
@@ -351,10 +363,12 @@ def resume(
     that failed by running past --eval-timeout are retried once.
     """
     from simtune import api
+    from simtune.activity import announcing
     from simtune.runs import RunConfig
     from simtune.store import STORE_FILE, read_record
 
-    result = api.resume(run_dir, show_progress=not quiet and not as_json, rescore=rescore)
+    with announcing(not quiet and not as_json and sys.stderr.isatty()):
+        result = api.resume(run_dir, show_progress=not quiet and not as_json, rescore=rescore)
     record = read_record(run_dir)
     config = RunConfig.from_stored(record.config, str(run_dir / STORE_FILE))
     rescored = record.rescored_from

@@ -24,6 +24,7 @@ from simtune.engines import engine_class
 from simtune.errors import SimtuneError
 from simtune.objective import recordings_folder
 from simtune.params import validate_params
+from simtune.run_plan import stored_targets
 from simtune.runlock import LOCK_FILE, RunBusy, check_free, describe_holder
 from simtune.runs import BEST_PARAMS_FILE
 from simtune.store import STORE_FILE, RunRecord, read_record
@@ -78,7 +79,7 @@ def read_run(run_dir: Path | str) -> TunedRun:
     if best.get("engine", engine) != engine:
         raise SimtuneError(f"{best_file}: engine {best.get('engine')!r} differs from the run's {engine!r}")
     cls = engine_class(engine)
-    tasks = parse_tasks(record.tasks, config.get("project"))
+    tasks = parse_tasks(record.tasks, config.get("project"), stored_targets(config))
     robot = common_robot(tasks)
     params = validate_params(best["params"], cls.supported(robot), engine, where=str(best_file), robot=robot)
     installed = cls.version()

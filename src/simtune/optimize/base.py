@@ -33,6 +33,12 @@ from simtune.objective import Objective
 from simtune.optimize.evaluator import Evaluator, TuneResult, TuneSettings
 from simtune.store import RunStore
 
+#: Why a search stops (``TuneResult.stop_reason``, the run store's ``search_stop_reason``, ``--json``'s
+#: ``stop_reason``): it met its convergence criterion; one of its budgets was spent (``--max-seconds``,
+#: ``--target-fitness``, ``--max-evaluations``, ``--max-generations``); or the optimiser ended by itself without a
+#: convergence criterion (``finished``).
+STOP_REASONS = ("converged", "max-seconds", "target-fitness", "max-evaluations", "max-generations", "finished")
+
 
 class BatchSearch:
     """Budget accounting and checkpoints for an optimiser that evaluates batches of vectors."""
@@ -69,7 +75,9 @@ class BatchSearch:
         self.history: list[float] = []
         self.best_x: np.ndarray | None = None
         self.best_fitness = float("inf")
+        #: why the search stopped, in words (``stopped after 60 s``), and as its code (:data:`STOP_REASONS`)
         self.stop_reason: str | None = None
+        self.stop_code: str | None = None
         #: points scored before the search asked for them (least squares' speculative Jacobian columns), by key:
         #: tracked when it asks (:meth:`release`) or at the end (:meth:`result`), never before, so that the
         #: search's path does not depend on how many workers scored ahead
@@ -116,19 +124,20 @@ class BatchSearch:
             caps.append(s.max_generations * self.generation_size)
         return max(0, min(caps) - self.used) if caps else None
 
-    def _check(self) -> str | None:
+    def _check(self) -> tuple[str, str] | None:
+        """The budget that is spent, as its code (:data:`STOP_REASONS`) and in words; None while none is."""
         s = self.settings
         if s.max_seconds is not None and self.elapsed() >= s.max_seconds:
-            return f"stopped after {s.max_seconds:g} s"
+            return "max-seconds", f"stopped after {s.max_seconds:g} s"
         if s.target_fitness is not None and self.best_fitness <= s.target_fitness:
-            return f"reached the target fitness {s.target_fitness:g}"
+            return "target-fitness", f"reached the target fitness {s.target_fitness:g}"
         if s.max_evaluations is not None and self.used >= s.max_evaluations:
-            return f"used its budget of {s.max_evaluations} evaluations"
+            return "max-evaluations", f"used its budget of {s.max_evaluations} evaluations"
         if s.max_generations is not None:
             if not self.generation_size and self.generations >= s.max_generations:
-                return f"reached {s.max_generations} generations"
+                return "max-generations", f"reached {s.max_generations} generations"
             if self.generation_size and self.used >= s.max_generations * self.generation_size:
-                return f"used {s.max_generations} generations of {self.generation_size} evaluations"
+                return "max-generations", f"used {s.max_generations} generations of {self.generation_size} evaluations"
         return None
 
     def starting_points(self) -> np.ndarray | None:
@@ -201,11 +210,21 @@ class BatchSearch:
         self.store.set(elapsed_s=elapsed)
         if self.settings.on_generation:
             self.settings.on_generation(generation, self.best_fitness)
-        self.stop_reason = self._check()
-        return self.stop_reason is not None
+        spent = self._check()
+        self.stop_code, self.stop_reason = spent if spent is not None else (None, None)
+        return spent is not None
 
-    def result(self, message: str | None = None, converged: bool = False) -> TuneResult:
-        """The :class:`TuneResult` of the search so far (best point, with its stored score)."""
+    def result(self, message: str | None = None, converged: bool = False, stop_reason: str | None = None) -> TuneResult:
+        """The :class:`TuneResult` of the search so far (best point, with its stored score).
+
+        Args:
+            message: why it stopped, in words (default: the budget that stopped it).
+            converged: whether the search met its own convergence criterion.
+            stop_reason: the code of why it stopped (:data:`STOP_REASONS`); default: the spent budget's code, else
+                ``converged`` or ``finished`` (the optimiser ended by itself).
+        Returns:
+            The best point with its stored score, the counts and the stop reason.
+        """
         used = self.used  # before the held points are let in: what the search asked for (a replay's budget)
         for key in list(self.held):  # the run's best point is the best of every point it scored
             self.release(key)
@@ -226,4 +245,5 @@ class BatchSearch:
             self.evaluator.pruned_evaluations,
             self.evaluator.steps,
             used,
+            stop_reason or self.stop_code or ("converged" if converged else "finished"),
         )

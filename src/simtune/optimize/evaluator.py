@@ -109,6 +109,8 @@ class TuneResult:
     pruned_evaluations: int = 0  # evaluations of this session stopped early (could not beat their parent)
     steps: int = 0  # physics steps simulated in this session
     used_evaluations: int = 0  # evaluations the search asked for (reused or simulated): what budgets count
+    #: why the search stopped, as a code (simtune.optimize.base.STOP_REASONS: converged, max-seconds ...)
+    stop_reason: str = "finished"
 
     @property
     def fitness(self) -> float:

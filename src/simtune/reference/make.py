@@ -112,15 +112,24 @@ def synthesize(
     return recordings
 
 
-def make(out: Path = REFERENCE_DIR, repeats: int = 3) -> None:
-    task = get_task(TASK)
+def make(
+    out: Path = REFERENCE_DIR, repeats: int = 3, targets: str = "task", truth_file: Path | None = TRUTH_FILE
+) -> None:
+    """Write the reference recordings of ``TASK`` into ``out/<task>/`` and, unless ``truth_file`` is None, the hidden
+    parameters there.
+
+    ``targets``: the task's joint targets (:data:`simtune.tasks.TARGETS`).  The shipped recordings run the bundled
+    task as it is (``task``: since 2026-11-27 the cube's phase 2 at 74 deg); ``published`` writes, byte for byte,
+    the recordings shipped before that correction, which the runs stored then were tuned on."""
+    task = get_task(TASK, targets=targets)
     folder = out / TASK
     folder.mkdir(parents=True, exist_ok=True)
     for rec in synthesize("mujoco", task, TRUTH, repeats=repeats, noise_m=0.002, jitter_s=0.05, seed=2021):
         write_qualisys_tsv(folder / rec.source.name, rec, header=True)
-    TRUTH_FILE.write_text(
-        json.dumps({"engine": "mujoco", "task": TASK, "noise_m": 0.002, "params": TRUTH}, indent=2) + "\n"
-    )
+    if truth_file is not None:
+        truth_file.write_text(
+            json.dumps({"engine": "mujoco", "task": TASK, "noise_m": 0.002, "params": TRUTH}, indent=2) + "\n"
+        )
 
 
 if __name__ == "__main__":

@@ -3,7 +3,8 @@
 :func:`make_report` reads run folders (or folders of them), groups the runs by
 engine x tasks x parameter space (repeats = seeds), and writes a
 self-contained ``index.html`` with every figure also as PNG and SVG, every
-table also as CSV and Markdown, and ``dr_ranges.yaml``.  See docs/report.md.
+table also as CSV and Markdown, and ``dr_ranges.yaml``; ``.simtune-report.json`` lists them, so that
+a later report into the folder replaces only those (:mod:`simtune.report.folder`).  See docs/report.md.
 
 matplotlib and the engines are imported only when a report is made, so that
 importing the command costs the CLI nothing.

@@ -6,6 +6,7 @@ The sections themselves are in :mod:`simtune.report.sections`, one function each
 from __future__ import annotations
 
 import datetime as _dt
+import tempfile
 import warnings
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -21,13 +22,12 @@ from simtune.errors import RecordingWarning, SimtuneError
 from simtune.fitness import RepeatFloor, reference_floor
 from simtune.report import tables as T
 from simtune.report.collect import Group, ReportedRun, Skipped, find_run_dirs, group_runs, load_run
+from simtune.report.folder import INDEX, SUBFOLDERS, install, owned_files
 from simtune.report.html import render
 from simtune.report.published import PublishedSim, find_published, score_published
 from simtune.report.sections import ReportData, ReportOutput, make_sections
 from simtune.report.simulate import GroupSimulation, References, nominal_values, simulate_group
 from simtune.tasks import TaskSpec
-
-INDEX = "index.html"
 
 Warn = Callable[[str], None]
 
@@ -89,7 +89,10 @@ def make_report(
     Run folders that are unfinished or unreadable are left out with a
     :class:`ReportWarning` naming them.  Raises :class:`SimtuneError` when no
     usable run is found, or for an unknown ``figure4_parameter`` (the parameter
-    of the paper's Figure 4).  ``project``: read the runs' tasks from this project folder instead of
+    of the paper's Figure 4), or when ``out`` holds files that no simtune report wrote
+    (:mod:`simtune.report.folder`).  The report is drawn in a scratch folder and moved into ``out``
+    only once complete: an error leaves ``out`` as it was, and only the files of an earlier report
+    there are ever replaced or removed.  ``project``: read the runs' tasks from this project folder instead of
     the one each run names (for a project moved since the runs).  ``reference``: re-score every run against
     ``aligned`` or ``mean``; None: each against its own (a run stored before the choice: the mean).  ``repeats``:
     re-score every run against the ``all``, ``even`` or ``odd`` repeats of each task; None: each against its own.
@@ -103,8 +106,32 @@ def make_report(
     published_folder = None if published_sims is None else Path(published_sims)
     if published_folder is not None and not published_folder.is_dir():
         raise SimtuneError(f"--published-sims {published_sims}: no such folder")
+    references = References(
+        None if reference is None else check_reference(reference, "--reference"),
+        None if repeats is None else check_repeats(repeats, "--repeats"),
+    )
     folder = Path(out)
-    _prepare(folder)
+    owned_files(folder)  # a folder of someone else's files is refused now, not after minutes of drawing
+    with tempfile.TemporaryDirectory(prefix="simtune-report-") as scratch:
+        _draw(inputs, run_dirs, published_folder, references, Path(scratch), show_progress, figure4_parameter, project)
+        install(Path(scratch), folder)
+    return folder / INDEX
+
+
+def _draw(
+    inputs: list[Path],
+    run_dirs: list[Path],
+    published_folder: Path | None,
+    references: References,
+    folder: Path,
+    show_progress: bool,
+    figure4_parameter: str,
+    project: Path | str | None,
+) -> None:
+    """Write the whole report into ``folder`` (an empty scratch folder); the arguments as
+    :func:`make_report` checked them."""
+    for sub in SUBFOLDERS:
+        (folder / sub).mkdir()
 
     problems: list[str] = []  # shown as warnings and at the top of the report
 
@@ -125,11 +152,6 @@ def make_report(
         # overview, convergence x 3, Figure 4, contact per engine, parameters per experiment, trajectories
         figures = 5 + len(engines) + len(experiments) + sum(len(g.task_names) for g in groups)
         progress.stage("scoring published simulations", 1 + len(engines) + len(groups) + figures + 1)
-
-        references = References(
-            None if reference is None else check_reference(reference),
-            None if repeats is None else check_repeats(repeats, "--repeats"),
-        )
         entries, published = _generic_entries(groups, published_folder, references, warn)
         progress.step()
         progress.describe("nominal parameter values")
@@ -152,10 +174,8 @@ def make_report(
         progress.describe("drawing figures and writing tables")
         sections = make_sections(data, ReportOutput(folder, warn, progress.step))
         progress.describe("writing index.html")
-        index = folder / INDEX
-        index.write_text(render("simtune report: simulator tuning results", _meta(data), problems, sections))
+        (folder / INDEX).write_text(render("simtune report: simulator tuning results", _meta(data), problems, sections))
         progress.finish()
-    return index
 
 
 def _generic_entries(
@@ -323,19 +343,3 @@ def _meta(data: ReportData) -> list[str]:
         f"{', '.join(sorted({g.space for g in data.groups}))}. Fitness is in metres (lower is better).",
         search,
     ]
-
-
-def _prepare(out: Path) -> None:
-    """Create the report folder; in one that holds an earlier report, remove that report's figures and tables
-    (so every file there belongs to the new report)."""
-    try:
-        if (out / INDEX).is_file():
-            for sub, suffixes in (("figures", (".png", ".svg")), ("tables", (".csv", ".md"))):
-                if (out / sub).is_dir():
-                    for old in (out / sub).iterdir():
-                        if old.is_file() and old.suffix in suffixes:
-                            old.unlink()
-        (out / "figures").mkdir(parents=True, exist_ok=True)
-        (out / "tables").mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise SimtuneError(f"--out {out}: cannot write the report folder ({exc.strerror})") from None

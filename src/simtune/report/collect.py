@@ -21,6 +21,7 @@ import numpy as np
 
 from simtune.errors import SimtuneError
 from simtune.optimize.pipeline import global_population_size, random_start
+from simtune.run_plan import stored_targets
 from simtune.store import STORE_FILE, RunRecord, RunStore, read_record
 from simtune.tasks import TaskSpec, get_task, parse_tasks
 
@@ -55,6 +56,7 @@ class ReportedRun:
     random_start_fitness: list[float] = field(default_factory=list)  # of those of them it scored
     de_settings: dict | None = None  # SciPy's settings of a differential-evolution run (None: other optimiser)
     converged: bool = False  # the search met its convergence criterion (store meta search_converged)
+    stop_reason: str | None = None  # why the search stopped (store meta search_stop_reason; None: not kept then)
     project: str | None = None  # the project (file or folder) of its tasks; None: the bundled MICO project
     #: parameters of the run's space that change no rollout of its tasks, and why (store meta inactive_parameters)
     inactive: dict = field(default_factory=dict)
@@ -62,8 +64,8 @@ class ReportedRun:
     uncertainty: dict | None = None
 
     def task(self, name: str) -> TaskSpec:
-        """The definition of the run's task ``name``, from the run's project."""
-        return get_task(name, self.project)
+        """The definition of the run's task ``name``, from the run's project, with the targets the run ran."""
+        return get_task(name, self.project, stored_targets(self.config))
 
     @property
     def reference(self) -> str:
@@ -275,6 +277,7 @@ def load_run(run_dir: Path, label: str | None = None, project: str | None = None
             random_start_fitness=random_fitness,
             de_settings=stored.de_settings,
             converged=stored.converged,
+            stop_reason=stored.stop_reason,
             inactive=stored.inactive,
             uncertainty=stored.uncertainty,
         )

@@ -22,7 +22,10 @@ def report(
         typer.Option(
             "--out",
             "-o",
-            help="Report folder to write: index.html, figures/ (PNG, SVG), tables/ (CSV, Markdown), dr_ranges.yaml.",
+            help="Report folder to write: index.html, figures/ (PNG, SVG), tables/ (CSV, Markdown), dr_ranges.yaml, "
+            "and .simtune-report.json listing them. A new or empty folder, or one an earlier report made: only the "
+            "files that report listed are replaced or removed, any other file is left alone; a folder with other "
+            "files and no such list is refused.",
             show_default=False,
         ),
     ],
@@ -75,6 +78,11 @@ def report(
     differ only in their seed are repeats.  An unfinished or unreadable
     run folder is named in a warning and left out.  index.html is
     self-contained (figures embedded) and opens offline; see docs/report.md.
+
+    The report never deletes or overwrites a file it did not write: it is
+    drawn completely before --out is touched (a bad input leaves an earlier
+    report there as it was), and into a folder that holds files it refuses
+    unless an earlier report made it.
     """
     from rich.console import Console
 

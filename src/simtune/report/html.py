@@ -6,6 +6,7 @@ import base64
 import html
 from dataclasses import dataclass, field
 
+from simtune.report.folder import generator_tag
 from simtune.table import Table
 
 LONG_TABLE = 40  # rows; longer tables start folded
@@ -78,6 +79,7 @@ def render(title: str, meta: list[str], warnings: list[str], sections: list[Sect
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
         '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        generator_tag(),  # marks the page as simtune's, should the folder lose its manifest
         f"<title>{html.escape(title)}</title><style>{CSS}</style></head><body><main>",
         f"<h1>{html.escape(title)}</h1>",
     ]

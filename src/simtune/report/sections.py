@@ -27,13 +27,12 @@ from simtune.report import figures as F
 from simtune.report import tables as T
 from simtune.report.collect import Group, ReportedRun
 from simtune.report.dr import dr_ranges, write_dr_yaml
+from simtune.report.folder import DR_FILE
 from simtune.report.html import FigureRef, Section
 from simtune.report.published import PublishedSim
 from simtune.report.simulate import GroupSimulation
 from simtune.table import Table
 from simtune.tasks import TaskSpec
-
-DR_FILE = "dr_ranges.yaml"
 
 
 @dataclass

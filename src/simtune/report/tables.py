@@ -914,6 +914,7 @@ def runs_table(runs: list[ReportedRun]) -> Table:
         Column("generations", "d"),
         Column("evaluations", "d"),
         Column("wall time [s]", ".1f"),
+        Column("stopped"),
         Column("stop reason"),
     ]
     rows = [
@@ -931,6 +932,7 @@ def runs_table(runs: list[ReportedRun]) -> Table:
             len(r.generations),
             r.evaluations,
             r.elapsed_s,
+            r.stop_reason or "",
             r.message,
         ]
         for r in runs
@@ -940,5 +942,7 @@ def runs_table(runs: list[ReportedRun]) -> Table:
         "Table 9. Every run in the report",
         columns,
         rows,
-        note="Best fitness = the run's best stored evaluation.",
+        note="Best fitness = the run's best stored evaluation. Stopped: converged (the search met its own "
+        "criterion), max-seconds, max-evaluations, max-generations or target-fitness (a budget), finished (the "
+        "optimiser ended by itself); empty for runs stored before it was kept.",
     )

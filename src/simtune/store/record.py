@@ -45,6 +45,8 @@ class RunRecord:
     de_settings: dict | None
     #: the search met its convergence criterion
     converged: bool
+    #: why the search stopped (simtune.optimize.base.STOP_REASONS); None for runs stored before it was kept
+    stop_reason: str | None
     #: the Gauss-Newton uncertainty at the best point (``simtune uncertainty``), if computed
     uncertainty: dict | None
     evaluations: int
@@ -119,6 +121,7 @@ def read_record(run_dir: Path | str) -> RunRecord:
             best=store.best_evaluation(),
             de_settings=store.get("de_settings"),
             converged=bool(store.get("search_converged", False)),
+            stop_reason=store.get("search_stop_reason"),
             uncertainty=store.get("uncertainty"),
             evaluations=store.count_evaluations(),
             outcomes=store.count_outcomes(),

@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from simtune.errors import ConfigError
 from simtune.tasks.spec import MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
 
 if TYPE_CHECKING:
@@ -23,18 +24,37 @@ def _project(project: Project | Path | str | None) -> Project:
     return get_project(project)
 
 
-def get_task(name: str, project: Project | Path | str | None = None) -> TaskSpec:
-    """The task ``name`` of ``project`` (a Project, its folder, or None: the bundled MICO project)."""
-    return _project(project).task(name)
+#: Which targets a task's phases carry: ``task``, the task file's ``targets_deg`` (what the robot ran); ``published``,
+#: a phase's ``published_targets_deg`` where the file corrects what was first published (:meth:`TaskSpec.as_published`)
+TARGETS = ("task", "published")
+
+
+def check_targets(targets: object, where: str = "targets") -> str:
+    """``targets`` if it is one of :data:`TARGETS`; a one-line ConfigError naming ``where`` otherwise."""
+    if targets not in TARGETS:
+        raise ConfigError(f"{where} must be one of {', '.join(TARGETS)}, got {targets!r}")
+    return str(targets)
+
+
+def with_targets(tasks: list[TaskSpec], targets: str) -> list[TaskSpec]:
+    """``tasks`` carrying ``targets`` (:data:`TARGETS`): as given, or each with its published schedule."""
+    return [t.as_published() for t in tasks] if check_targets(targets) == "published" else list(tasks)
+
+
+def get_task(name: str, project: Project | Path | str | None = None, targets: str = "task") -> TaskSpec:
+    """The task ``name`` of ``project`` (a Project, its folder, or None: the bundled MICO project), carrying
+    ``targets`` (:data:`TARGETS`)."""
+    return with_targets([_project(project).task(name)], targets)[0]
 
 
 def all_task_names(project: Project | Path | str | None = None) -> list[str]:
     return _project(project).task_names()
 
 
-def parse_tasks(spec: str, project: Project | Path | str | None = None) -> list[TaskSpec]:
-    """Tasks named by ``spec``: one name, a group, or a comma-separated list of them."""
-    return _project(project).parse_tasks(spec)
+def parse_tasks(spec: str, project: Project | Path | str | None = None, targets: str = "task") -> list[TaskSpec]:
+    """Tasks named by ``spec``: one name, a group, or a comma-separated list of them, carrying ``targets``
+    (:data:`TARGETS`: the task files' targets, or the published ones where a file corrects them)."""
+    return with_targets(_project(project).parse_tasks(spec), targets)
 
 
 def __getattr__(name: str) -> Any:
@@ -50,11 +70,14 @@ __all__ = [
     "GROUPS",
     "MATERIALS",
     "SHAPES",
+    "TARGETS",
     "TASKS",
     "ObjectSpec",
     "Phase",
     "TaskSpec",
     "all_task_names",
+    "check_targets",
     "get_task",
     "parse_tasks",
+    "with_targets",
 ]

@@ -206,7 +206,7 @@ TASK_KEYS = (
     "schedule_episode",
 )
 CONTROLLER_KEYS = ("law", "gain", "max_velocity_deg")
-PHASE_KEYS = ("start", "targets_deg")
+PHASE_KEYS = ("start", "targets_deg", "published_targets_deg")
 OBJECT_KEYS = ("shape", "material", "mass", "size", "xy", "rpy", "mocap_body")
 MOCAP_KEYS = ("link", "body", "base_body")
 
@@ -238,15 +238,19 @@ def load_task_file(
     description = MICO if robot is None or robot.description is None else robot.description
     kp, max_velocity = _controller(keys)
     offset = keys.numbers("target_offset_deg", len(joints), per_joint)
+    published: tuple[Phase, ...] | None = None
     if keys.has("schedule_lerobot") or keys.has("schedule_episode"):
         phases, start_pose = lerobot_schedule(keys, path, joints, lerobot, description, start_pose, duration)
     else:
-        phases = _schedule(keys, joints, per_joint, path)
+        phases, published = _schedule(keys, joints, per_joint, path)
     start_pose = start_pose or (0.0,) * len(joints)
     if offset is not None and reaimed:
-        phases = tuple(Phase(p.start, tuple(t + d for t, d in zip(p.targets_deg, offset))) for p in phases)
+        phases = _offset(phases, offset)
+        published = None if published is None else _offset(published, offset)
     if robot is not None and robot.description is not None:
         _check_limits(keys, robot.description, joints, start_pose, phases)
+        if published is not None:
+            _check_limits(keys, robot.description, joints, start_pose, published, "published_targets_deg")
     if phases[-1].start >= duration:
         key = "schedule_csv" if keys.has("schedule_csv") else f"phases[{len(phases) - 1}].start"
         raise keys.error(key, f"starts at {phases[-1].start:g} s, not before the task's end (duration {duration:g} s)")
@@ -274,6 +278,7 @@ def load_task_file(
         recordings=recordings,
         start_from_recordings=start_from_recordings,
         lerobot=lerobot,
+        published_phases=published,
         **carried,
     )
 
@@ -315,11 +320,21 @@ def _mocap(keys: Keys, robot: RobotNames | None) -> tuple[str, str | None, str |
     return link, mocap.string("body", required=True), mocap.string("base_body")
 
 
+def _offset(phases: tuple[Phase, ...], offset: tuple[float, ...]) -> tuple[Phase, ...]:
+    """``phases`` with ``offset`` [deg] added to every target row (``target_offset_deg``)."""
+    return tuple(Phase(p.start, tuple(t + d for t, d in zip(p.targets_deg, offset))) for p in phases)
+
+
 def _check_limits(
-    keys: Keys, robot: RobotDescription, joints: tuple[str, ...], start: tuple[float, ...], phases: tuple[Phase, ...]
+    keys: Keys,
+    robot: RobotDescription,
+    joints: tuple[str, ...],
+    start: tuple[float, ...],
+    phases: tuple[Phase, ...],
+    targets_key: str = "targets_deg",
 ) -> None:
     """Every start angle and target within its joint's limits (a joint without limits takes any angle)."""
-    rows = [("start_pose_deg", start), *((f"phases[{k}].targets_deg", p.targets_deg) for k, p in enumerate(phases))]
+    rows = [("start_pose_deg", start), *((f"phases[{k}].{targets_key}", p.targets_deg) for k, p in enumerate(phases))]
     for key, row in rows:
         for i, (name, angle) in enumerate(zip(joints, row)):
             joint = robot.joint_by_name[name]
@@ -346,8 +361,11 @@ def _controller(keys: Keys) -> tuple[float, float]:
     return gain, max_velocity
 
 
-def _schedule(keys: Keys, joints: tuple[str, ...], per_joint: str, path: Path) -> tuple[Phase, ...]:
-    """The target schedule: ``[[phases]]`` or ``schedule_csv``, exactly one of them, in time order."""
+def _schedule(
+    keys: Keys, joints: tuple[str, ...], per_joint: str, path: Path
+) -> tuple[tuple[Phase, ...], tuple[Phase, ...] | None]:
+    """The target schedule: ``[[phases]]`` or ``schedule_csv``, exactly one of them, in time order; and the
+    published schedule where a phase corrects its published targets (``published_targets_deg``), else None."""
     if keys.has("phases") == keys.has("schedule_csv"):
         raise keys.error(
             "phases", "give the schedule as [[phases]], schedule_csv or schedule_lerobot (exactly one of them)"
@@ -355,11 +373,12 @@ def _schedule(keys: Keys, joints: tuple[str, ...], per_joint: str, path: Path) -
     if keys.has("schedule_csv"):
         csv_name = keys.string("schedule_csv")
         assert csv_name is not None
-        return read_schedule_csv(path.parent / csv_name, joints, f"{path}: schedule_csv: ")
+        return read_schedule_csv(path.parent / csv_name, joints, f"{path}: schedule_csv: "), None
     tables = keys.tables("phases", PHASE_KEYS) or []
     if not tables:
         raise keys.error("phases", "the schedule has no phase")
     phases: list[Phase] = []
+    published: list[Phase] = []
     for phase in tables:
         start = phase.number("start", required=True)
         if start < 0:
@@ -370,7 +389,10 @@ def _schedule(keys: Keys, joints: tuple[str, ...], per_joint: str, path: Path) -
             )
         targets = phase.numbers("targets_deg", len(joints), per_joint, required=True)
         phases.append(Phase(start, targets))
-    return tuple(phases)
+        # the targets a paper or an earlier file gave, where the recordings showed the robot ran others
+        published.append(Phase(start, phase.numbers("published_targets_deg", len(joints), per_joint) or targets))
+    corrected = any(p != q for p, q in zip(published, phases))
+    return tuple(phases), (tuple(published) if corrected else None)
 
 
 def read_schedule_csv(path: Path, joints: tuple[str, ...], where: str) -> tuple[Phase, ...]:

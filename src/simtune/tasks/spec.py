@@ -137,6 +137,9 @@ class TaskSpec:
     start_from_recordings: bool = field(default=False, metadata={FINGERPRINT: "default"})
     #: how the task reads LeRobot datasets (its task file's ``[recordings]`` table: angle unit, names, episodes)
     lerobot: LeRobotReading | None = field(default=None, metadata={FINGERPRINT: "default"})
+    #: the schedule as first published, where the task file corrects it (a phase's ``published_targets_deg``):
+    #: what ``--paper-exact`` and ``--targets published`` run (:meth:`as_published`); None: ``phases`` is it
+    published_phases: tuple[Phase, ...] | None = field(default=None, metadata={FINGERPRINT: "default"})
 
     def __post_init__(self) -> None:
         robot = self.robot
@@ -169,6 +172,15 @@ class TaskSpec:
                     f"task {self.name!r}: phase {k} has {len(phase.targets_deg)} joint targets, "
                     f"robot {robot.name!r} drives {n} joints"
                 )
+
+    def as_published(self) -> TaskSpec:
+        """The task with its published schedule (``published_phases``), itself where the file corrects nothing.
+
+        It is the task as it was before the correction, field for field: its fingerprint is the one runs made
+        before the correction stored, so that they resume, report and export with the schedule they ran."""
+        if self.published_phases is None:
+            return self
+        return replace(self, phases=self.published_phases, published_phases=None)
 
     def started_at(self, xy: tuple[float, float]) -> TaskSpec:
         """The task with its object starting at ``xy`` [m] (resting on the floor, turned as before)."""

@@ -1,0 +1,114 @@
+"""A task file corrected to the targets the robot ran: ``simtune check --task T --write-task FILE``.
+
+The check measures where the real arm rested after each phase and, where that lies far from where the
+phase's targets put it, proposes targets that put it there (:func:`simtune.check.propose_targets`).  This module
+writes the task file again with those targets: the file's own text, line for line, with each corrected phase's
+``targets_deg`` replaced, its former targets kept as ``published_targets_deg`` (docs/task-files.md, "Corrected
+targets") and the evidence in a comment.  It edits the text rather than writing the parsed task back so that
+the user's comments, order and spelling stay; only TOML files whose schedule is ``[[phases]]`` can be edited so.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from simtune.errors import SimtuneError
+
+_PHASES = re.compile(r"^\s*\[\[\s*phases\s*\]\]\s*(#.*)?$")
+_TABLE = re.compile(r"^\s*\[")
+_TARGETS = re.compile(r"^(\s*)targets_deg\s*=\s*\[[^\]]*\]\s*(#.*)?$")
+_PUBLISHED = re.compile(r"^\s*published_targets_deg\s*=")
+
+
+@dataclass(frozen=True)
+class Correction:
+    """One phase's new targets and why: ``evidence`` is said in the comment above them."""
+
+    targets_deg: tuple[float, ...]
+    evidence: str
+
+
+def _numbers(values) -> str:
+    return "[" + ", ".join(f"{v:g}" for v in values) + "]"
+
+
+def corrected_text(
+    text: str, source: Path, corrections: Mapping[int, Correction], previous: Mapping[int, tuple]
+) -> str:
+    """``text`` (a TOML task file) with the phases of ``corrections`` (by index, from 0) given their new targets.
+
+    Args:
+        text: the task file's text.
+        source: its path (named in errors).
+        corrections: phase index -> its new targets and the evidence for them.
+        previous: phase index -> the targets the file gives it now [deg], kept as its published ones unless the
+            phase already names published targets.
+    Returns:
+        The corrected text.
+    Raises:
+        SimtuneError: the file's schedule is not ``[[phases]]`` tables with one ``targets_deg = [...]`` line each.
+    """
+    lines = text.splitlines(keepends=True)
+    starts = [i for i, line in enumerate(lines) if _PHASES.match(line)]
+    if not starts:
+        raise SimtuneError(f"{source}: no [[phases]] tables to correct (a schedule_csv or a LeRobot schedule is data)")
+    ends = [*starts[1:], len(lines)]
+    for i, (first, end) in enumerate(zip(starts, ends)):
+        for j in range(first + 1, end):  # a phase table ends at the next table header
+            if _TABLE.match(lines[j]):
+                ends[i] = j
+                break
+    edits: dict[int, list[str]] = {}
+    for phase, correction in corrections.items():
+        if not 0 <= phase < len(starts):
+            raise SimtuneError(f"{source}: it has {len(starts)} [[phases]] tables, not a phase {phase + 1}")
+        table = range(starts[phase] + 1, ends[phase])
+        found = [j for j in table if _TARGETS.match(lines[j])]
+        if len(found) != 1:
+            raise SimtuneError(
+                f"{source}: phases[{phase}] has no single one-line `targets_deg = [...]` to correct: edit it by hand"
+            )
+        j = found[0]
+        match = _TARGETS.match(lines[j])
+        assert match is not None
+        indent = match.group(1)
+        newline = "\n" if lines[j].endswith("\n") else ""
+        replacement = [f"{indent}# {line}\n" for line in correction.evidence.splitlines()]
+        replacement.append(f"{indent}targets_deg = {_numbers(correction.targets_deg)}{newline or chr(10)}")
+        if not any(_PUBLISHED.match(lines[k]) for k in table):
+            replacement.append(f"{indent}published_targets_deg = {_numbers(previous[phase])}{newline}")
+        edits[j] = replacement
+    return "".join(line for k, old in enumerate(lines) for line in edits.get(k, [old]))
+
+
+def write_corrected_task(
+    source: Path, out: Path, corrections: Mapping[int, Correction], previous: Mapping[int, tuple]
+) -> Path:
+    """Write ``source`` corrected by ``corrections`` (:func:`corrected_text`) to the new file ``out``.
+
+    Args:
+        source: the task file as it is (never written).
+        out: where the corrected file goes: a new file, not ``source``.
+        corrections: phase index -> new targets and evidence.
+        previous: phase index -> the targets ``source`` gives it [deg].
+    Returns:
+        ``out``.
+    Raises:
+        SimtuneError: ``out`` is ``source`` or exists already, its folder does not, or ``source`` cannot be edited.
+    """
+    source, out = Path(source), Path(out)
+    if out.resolve() == source.resolve():
+        raise SimtuneError(f"--write-task {out}: that is the task file itself; write the corrected one beside it")
+    if out.exists():
+        raise SimtuneError(f"--write-task {out}: the file exists; name a new one (simtune never writes over a file)")
+    if not out.parent.is_dir():
+        raise SimtuneError(f"--write-task {out}: no folder {out.parent}")
+    if source.suffix.lower() != ".toml":
+        raise SimtuneError(f"{source}: only TOML task files are corrected here; edit its targets_deg by hand")
+    text = corrected_text(source.read_text(encoding="utf-8"), source, corrections, previous)
+    with open(out, "x", encoding="utf-8") as fh:  # "x": never over a file that appeared meanwhile
+        fh.write(text)
+    return out
