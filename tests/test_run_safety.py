@@ -396,6 +396,38 @@ def test_resume_of_a_store_with_a_damaged_page_is_one_line(finished_run, tmp_pat
     one_line_error(run(resume_cmd(run_dir)), str(path), "damaged")
 
 
+def test_report_and_export_refuse_a_store_with_a_damaged_page_as_resume_does(finished_run, tmp_path):
+    """They used to read around the damage and report or export from it without a word."""
+    run_dir = copy_run(finished_run, tmp_path / "run")
+    path = run_dir / STORE_FILE
+    store = RunStore(run_dir)
+    page_size = store.db.execute("PRAGMA page_size").fetchone()[0]
+    root = store.db.execute("SELECT rootpage FROM sqlite_master WHERE name = 'generations'").fetchone()[0]
+    store.close()
+    with open(path, "r+b") as fh:
+        fh.seek((root - 1) * page_size)
+        fh.write(np.random.default_rng(1).bytes(page_size))
+    export = [sys.executable, "-m", "simtune.cli", "export", str(run_dir), "--out", str(tmp_path / "export")]
+    one_line_error(run(export), str(path), "damaged")
+    # a report skips an unusable run of several with a warning naming it: here the only one, so nothing to report
+    report = run([sys.executable, "-m", "simtune.cli", "report", str(run_dir), "--out", str(tmp_path / "report")])
+    assert report.returncode == 2 and "Traceback" not in report.stderr
+    assert f"{path} is damaged" in report.stderr and "no finished runs to report" in report.stderr
+    assert not (tmp_path / "export").exists() and not (tmp_path / "report").exists()
+
+
+def test_resuming_a_finished_run_keeps_its_wall_time(finished_run, tmp_path):
+    """A finished run resumed replays its search from the store: no tuning time, the same stored wall time."""
+    from simtune.store import read_record
+
+    run_dir = copy_run(finished_run, tmp_path / "run")
+    before = read_record(run_dir).elapsed_s
+    for _ in range(2):
+        again = resume_run(run_dir, show_progress=False)
+        assert again.new_evaluations == 0 and again.wall_s == before
+    assert read_record(run_dir).elapsed_s == before
+
+
 def test_resume_names_an_unknown_key_of_the_stored_configuration(finished_run, tmp_path):
     run_dir = copy_run(finished_run, tmp_path / "run")
     store = RunStore(run_dir)

@@ -17,6 +17,7 @@ one-line :class:`~simtune.errors.SimtuneError` for bad input.  docs/api.md has t
 
 from __future__ import annotations
 
+import math
 import os
 import sqlite3
 import time
@@ -36,6 +37,7 @@ from simtune.export import ExportResult, export_run, export_runs
 from simtune.fitness import FitnessWeights, Score, TaskScore
 from simtune.grid import GridIndex, GridSpec, run_grid
 from simtune.grid import plan_grid as _plan_grid
+from simtune.limits import MAX_SEED, MAX_WORKERS
 from simtune.objective import Objective, load_references
 from simtune.optimize import TuneResult
 from simtune.params import get_space, read_params_file, validate_params
@@ -121,6 +123,27 @@ def load_project(path: Path | str | None = None) -> Project:
 
 
 # --- the arguments, each checked where it enters: a ConfigError naming it, never a TypeError deep inside ------------
+
+
+def _count(name: str, value: object, low: int = 1, high: int | None = None) -> int:
+    """``value`` if it is an integer from ``low`` to ``high`` (None: no upper limit); a ConfigError naming ``name``
+    otherwise (a bool, a float, a string or None included: a count the user typed wrongly is not guessed)."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < low or (high is not None and value > high):
+        span = f"from {low} to {high}" if high is not None else f"of at least {low}"
+        raise ConfigError(f"{name} must be an integer {span}, got {value!r}")
+    return value
+
+
+def _workers(value: object) -> int:
+    """A worker count: 1 to :data:`~simtune.limits.MAX_WORKERS`."""
+    return _count("workers", value, 1, MAX_WORKERS)
+
+
+def _seconds(name: str, value: object) -> float:
+    """A budget in seconds: a finite number above 0."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
+        raise ConfigError(f"{name} must be a finite number of seconds above 0, got {value!r}")
+    return float(value)
 
 
 def _path(name: str, value: object) -> Path:
@@ -350,7 +373,7 @@ def run_config(
     """
     proj = _project(project)
     fitness_weights = _weights(weights)
-    return new_run_config(
+    config = new_run_config(
         engine,
         _task_spec(tasks),
         default_space(paper_exact) if space is None else space,
@@ -376,6 +399,8 @@ def run_config(
         repeats=_repeats(repeats),
         targets="" if targets is None else _targets(targets, "targets"),
     )
+    config.check()  # a value of the wrong type or range: one line naming it, before anything runs
+    return config
 
 
 def tune(
@@ -409,7 +434,7 @@ def resume(run_dir: Path | str, *, rescore: bool = False, show_progress: bool = 
 
 def uncertainty(run_dir: Path | str, workers: int = 1) -> dict:
     """How well the recordings pin each parameter at a finished run's best point (``simtune uncertainty``)."""
-    return run_uncertainty(_path("run_dir", run_dir), workers)
+    return run_uncertainty(_path("run_dir", run_dir), _workers(workers))
 
 
 def compare(
@@ -445,6 +470,7 @@ def compare(
         repeats=repeats,
     )
     # none named: run_compare says to name at least one
+    seeds, budget = _count("seeds", seeds), _count("budget", budget)
     return run_compare(base, _listed(optimizers), seeds, budget, _path("out", out), target, on_run=on_run)
 
 
@@ -519,12 +545,12 @@ def sensitivity(
         _study_root(data),
         space,
         _path("out", out),
-        samples=samples,
+        samples=_count("samples", samples),
         method=method,
         only=None if only is None else _names("only", only, "command_delay"),
-        seed=seed,
-        workers=workers,
-        eval_timeout=eval_timeout,
+        seed=_count("seed", seed, 0, MAX_SEED),
+        workers=_workers(workers),
+        eval_timeout=None if eval_timeout is None else _seconds("eval_timeout", eval_timeout),
         on_evaluation=on_evaluation,
     )
 
@@ -534,13 +560,16 @@ def sensitivity_evaluations(
 ) -> int:
     """The evaluations :func:`sensitivity` runs with these arguments (its progress bar's total)."""
     names = None if only is None else _names("only", only, "command_delay")
+    samples = _count("samples", samples)
     return evaluation_count(method, samples, len(get_space(space, engine_class(engine).supported(), names)))
 
 
 def demo(out: Path | str = "runs/demo", workers: int = 2, max_seconds: float = 120.0, console=None) -> dict:
     """``simtune demo``: tune MuJoCo to the shipped reference recording, printing generic vs tuned on ``console``
     (a rich Console; None: standard output); the two fitness values."""
-    return run_demo(_path("out", out), workers=workers, max_seconds=max_seconds, console=console)
+    return run_demo(
+        _path("out", out), workers=_workers(workers), max_seconds=_seconds("max_seconds", max_seconds), console=console
+    )
 
 
 def grid_spec(
@@ -618,7 +647,7 @@ def check(
     if write_task is not None and len(specs) != 1:
         raise ConfigError(f"--write-task writes one task's file: check one task, not {len(specs)}")
     out = None if write_task is None else _path("write_task", write_task)
-    result = run_check(engine, specs, root, space, workers, reference=kind, repeats=selection)
+    result = run_check(engine, specs, root, space, _workers(workers), reference=kind, repeats=selection)
     if out is not None:
         result["written_task"] = _write_corrected_task(proj, specs[0], result["data_quality"][0], out)
     return result

@@ -2,3 +2,7 @@
 
 #: seeds must fit every random generator the optimisers use (NumPy's legacy seeding takes 32 bits)
 MAX_SEED = 2**32 - 1
+
+#: worker processes (or threads) one command may start: far above any machine simtune runs on (each worker holds
+#: its engines), low enough that a mistyped count is refused rather than forking until the machine stalls
+MAX_WORKERS = 256

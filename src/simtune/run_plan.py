@@ -20,7 +20,7 @@ from simtune.data.clock import check_reference, default_reference
 from simtune.engines import Engine, engine_class
 from simtune.errors import ConfigError
 from simtune.fitness import FitnessWeights
-from simtune.limits import MAX_SEED
+from simtune.limits import MAX_SEED, MAX_WORKERS
 from simtune.objective import Objective, check_weights, load_references
 from simtune.optimize import get_optimizer
 from simtune.params import ParameterSpace, get_space
@@ -161,9 +161,10 @@ class RunConfig:
                 raise bad(key, "a string or null")
         if not _is_int(self.seed) or not 0 <= self.seed <= MAX_SEED:
             raise bad("seed", f"an integer from 0 to {MAX_SEED}")
-        for key in ("workers", "max_generations"):
-            if not _is_int(getattr(self, key)) or getattr(self, key) < 1:
-                raise bad(key, "an integer of at least 1")
+        if not _is_int(self.workers) or not 1 <= self.workers <= MAX_WORKERS:
+            raise bad("workers", f"an integer from 1 to {MAX_WORKERS}")
+        if not _is_int(self.max_generations) or self.max_generations < 1:
+            raise bad("max_generations", "an integer of at least 1")
         if self.max_evaluations is not None and (not _is_int(self.max_evaluations) or self.max_evaluations < 1):
             raise bad("max_evaluations", "an integer of at least 1")
         for key in ("max_seconds", "eval_timeout"):

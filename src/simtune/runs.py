@@ -217,7 +217,10 @@ def _make_folder(run_dir: Path) -> None:
         raise SimtuneError(f"cannot create run folder {run_dir}: {exc.strerror}") from None
 
 
-def _create_store(run_dir: Path, plan: RunPlan, objective: Objective, generic, **meta) -> RunStore:
+def _create_store(run_dir: Path, plan: RunPlan, objective: Objective, generic, started: float, **meta) -> RunStore:
+    """The new run's store, set up; ``started``: when the command began (``time.perf_counter``), so that the
+    start-up (reading the recordings, the inactive-parameter probe, the generic score) counts against
+    ``--max-seconds`` as the search does: a budget is the command's wall time."""
     store = RunStore(run_dir, create=True)
     supported = plan.engine.supported(plan.robot)
     store.set(
@@ -233,7 +236,8 @@ def _create_store(run_dir: Path, plan: RunPlan, objective: Objective, generic, *
         inactive_parameters=plan.inactive,
         fingerprint=run_fingerprint(plan),
         status="running",
-        elapsed_s=0.0,
+        elapsed_s=(setup := time.perf_counter() - started),
+        setup_s=setup,
         **meta,
     )
     store.set(config=plan.config.record())  # last: a store with a configuration is a run that was fully set up
@@ -242,6 +246,7 @@ def _create_store(run_dir: Path, plan: RunPlan, objective: Objective, generic, *
 
 def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> TuneResult:
     """Create ``run_dir`` and tune.  A folder that holds a run (use resume) or other files is refused."""
+    started = time.perf_counter()
     run_dir = Path(run_dir)
     config.check()
     check_free(run_dir)  # a run in progress there: say who runs it, at once
@@ -257,7 +262,7 @@ def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> T
     _make_folder(run_dir)
     with run_lock(run_dir):
         _check_vacant(run_dir, locked=True)  # again: another process may have started a run meanwhile
-        store = _create_store(run_dir, plan, objective, generic)
+        store = _create_store(run_dir, plan, objective, generic, started)
         return _run_interruptible(objective, plan, store, show_progress)
 
 
@@ -416,6 +421,10 @@ def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bo
     max_seconds, target, max_evaluations = config.max_seconds, config.target_fitness, config.max_evaluations
     searched = store.get("search_evaluations")
     elapsed_at_start = store.get("elapsed_s", 0.0)
+    # a finished run resumed: its search and refinement are replayed from the store, nothing new is simulated, and
+    # its wall time and uncertainty stay what they were (a replay is not tuning time)
+    finished = store.get("status") == "finished"
+    stored_uncertainty = store.get("uncertainty") if finished else None
     initial = store.get("initial_population")
     if searched is not None:
         # the search finished in an earlier session (a refinement followed): replay it to the same point,
@@ -477,18 +486,38 @@ def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bo
             "params": result.params,
         },
     )
+    if finished:
+        result.wall_s = elapsed_at_start
+        store.set(elapsed_s=elapsed_at_start)
     store.set(status="finished", message=result.message, best_fitness=result.score.fitness)
     # after the run is finished: a kill meanwhile loses only this summary (`simtune uncertainty RUN` redoes it)
-    store.set(uncertainty=_uncertainty_or_reason(objective, plan, store, result.x))
+    if stored_uncertainty is None:
+        store.set(uncertainty=_uncertainty_or_reason(objective, plan, store, result))
     store.close()
     return result
 
 
-def _uncertainty_or_reason(objective: Objective, plan: RunPlan, store: RunStore, x) -> dict:
-    """The Gauss-Newton uncertainty at the best point, or why it could not be computed (the run stands either way)."""
+def _uncertainty_or_reason(objective: Objective, plan: RunPlan, store: RunStore, result: TuneResult) -> dict:
+    """The Gauss-Newton uncertainty at the best point, or why it could not be computed (the run stands either way).
+
+    Its 2D + 1 rollouts are left out where ``--max-seconds`` cannot hold them (at the search's own pace): the
+    budget is the command's wall time, and ``simtune uncertainty RUN`` computes them when wanted."""
+    cap, elapsed = plan.config.max_seconds, store.get("elapsed_s", result.wall_s)
+    if cap is not None and result.new_evaluations > 0:
+        dimension = len(objective.vector_space().names)
+        # the search's seconds per evaluation (its batches were as wide as the uncertainty's one batch), its
+        # start-up (store meta setup_s) left out
+        searching = max(result.wall_s - store.get("setup_s", 0.0), 0.0)
+        needed = (2 * dimension + 1) * searching / max(result.used_evaluations, result.new_evaluations, 1)
+        if elapsed + needed > cap:
+            return {
+                "error": f"not computed: its {2 * dimension + 1} rollouts (about {needed:.0f} s) would run past "
+                f"--max-seconds {cap:g}; `simtune uncertainty {store.run_dir}` computes them",
+                "parameters": [],
+            }
     try:
         inactive = store.get("inactive_parameters") or {}
-        return uncertainty(objective, x, plan.full_space, inactive, plan.config.workers)
+        return uncertainty(objective, result.x, plan.full_space, inactive, plan.config.workers)
     except (SimtuneError, ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
         return {"error": f"{type(exc).__name__}: {exc}", "parameters": []}
 

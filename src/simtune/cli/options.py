@@ -16,7 +16,7 @@ import typer
 
 from simtune.data import REPEATS
 from simtune.data.clock import REFERENCES
-from simtune.limits import MAX_SEED
+from simtune.limits import MAX_SEED, MAX_WORKERS
 from simtune.tasks import TARGETS
 
 #: the longest file or folder name common file systems allow [bytes]
@@ -218,7 +218,12 @@ OnlyOpt = Annotated[
     str | None,
     typer.Option(help="Only these parameters of the space (comma-separated); the rest keep their generic values."),
 ]
-WorkersOpt = Annotated[int, typer.Option("--workers", "-w", min=1, help="Processes evaluating in parallel.")]
+WorkersOpt = Annotated[
+    int,
+    typer.Option(
+        "--workers", "-w", min=1, max=MAX_WORKERS, help=f"Processes evaluating in parallel (1-{MAX_WORKERS})."
+    ),
+]
 #: what each optimiser is, said once for every command's --optimizer
 OPTIMIZER_HELP = (
     "auto: a least-squares opening from the generic point with each task's clock aligned to its recordings, then "

@@ -100,11 +100,14 @@ class RunRecord:
 def read_record(run_dir: Path | str) -> RunRecord:
     """The run in ``run_dir`` as its store holds it, read without writing anything.
 
-    Raises :class:`~simtune.errors.SimtuneError` for a folder without a store or a store of an unknown version,
-    :class:`sqlite3.Error` for a damaged one and :class:`ValueError` for unreadable meta values.
+    Raises :class:`~simtune.errors.SimtuneError` for a folder without a store, a store of an unknown version or
+    one whose pages SQLite's quick check finds damaged, :class:`sqlite3.Error` for one it cannot open and
+    :class:`ValueError` for unreadable meta values.
     """
     store = RunStore.open_read_only(Path(run_dir))
     try:
+        # a store damaged by garbage is refused here as resume refuses it: report and export read through here
+        store.verify()
         return RunRecord(
             path=Path(run_dir),
             version=store.version,
