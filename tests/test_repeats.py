@@ -191,7 +191,7 @@ def test_evaluate_scores_against_the_repeats_asked_for() -> None:
 
 
 def test_check_says_which_repeats_it_used(capsys) -> None:
-    from simtune.cli.data_commands import _print_data_quality
+    from simtune.cli.check_output import print_data_quality
 
     task = get_project(None).parse_tasks("cube")[0]
     with warnings.catch_warnings():
@@ -201,7 +201,7 @@ def test_check_says_which_repeats_it_used(capsys) -> None:
     files = sorted(p.name for p in (REFERENCE_DIR / "cube").iterdir())
     assert summary["repeat_selection"] == "even" and summary["repeat_files"] == files[0::2]
     assert [r["file"] for r in summary["repeats"]] == files[0::2] and summary["held_out"] == files[1::2]
-    _print_data_quality([summary])
+    print_data_quality([summary])
     printed = capsys.readouterr().out
     assert "repeats even" in printed and f"held out: {files[1]}" in printed
     plain, _ = task_quality("mujoco", task, REFERENCE_DIR)

@@ -363,6 +363,7 @@ def _check_parameters(run_dir: Path, objective: Objective, store: RunStore, conf
 
 def _rescore(run_dir: Path, store: RunStore, plan: RunPlan, changes: list[str], show_progress: bool) -> TuneResult:
     """A new run in ``run_dir`` from the old run's last search population, on the data as it is now."""
+    started = time.perf_counter()
     checkpoint = store.last_checkpoint(up_to=store.get("search_generations"))
     # the new data must load before the old run is moved aside
     objective = plan.objective(store.get("inactive_parameters"))
@@ -376,6 +377,7 @@ def _rescore(run_dir: Path, store: RunStore, plan: RunPlan, changes: list[str], 
         plan,
         objective,
         generic,
+        started,
         initial_population=None if population is None else population.tolist(),
         rescored_from={
             "store": str(kept.relative_to(run_dir)),

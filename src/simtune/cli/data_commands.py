@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
+from simtune.cli.check_output import print_data_quality, print_informed
 from simtune.cli.options import (
     DataOpt,
     EngineOpt,
@@ -25,8 +26,7 @@ from simtune.cli.options import (
     path,
     seed_option,
 )
-from simtune.cli.output import err, fmt_g, out, print_json, split
-from simtune.console import text_table
+from simtune.cli.output import err, out, print_json, split
 from simtune.errors import SimtuneError
 
 PROJECT_DIR_HELP = "Project folder to check (its simtune.toml); with --task, the project whose tasks are checked."
@@ -94,8 +94,8 @@ def check(
     if as_json:
         print_json(result)
         return
-    _print_data_quality(result["data_quality"])
-    _print_informed(result)
+    print_data_quality(result["data_quality"])
+    print_informed(result)
     if write_task is not None:
         written = result["written_task"]
         out.print(
@@ -115,117 +115,6 @@ def _check_project(project_dir: Path) -> None:
         stream.print(escape(str(finding)), highlight=False, soft_wrap=True)
     if any(f.level == "problem" for f in findings):
         raise typer.Exit(2)
-
-
-def _print_data_quality(parts: list[dict]) -> None:
-    for part in parts:
-        selection = f", repeats {part['repeat_selection']}" if "repeat_selection" in part else ""
-        table = text_table(
-            f"{part['task']}: {len(part['repeats'])} repeats, spread {1000 * part['repeat_spread_m']:.1f} mm "
-            f"(reference: {part['reference']}{selection})",
-            (
-                "file",
-                "lost frames",
-                "longest gap [s]",
-                "to mean [mm]",
-                "as recorded [mm]",
-                "start distance [mm]",
-                "onset [s]",
-                "shift [s]",
-                "floor",
-            ),
-        )
-        for r in part["repeats"]:
-            table.add_row(
-                r["file"],
-                str(r["lost_frames"]),
-                f"{r['longest_gap_s']:.2f}",
-                f"{1000 * r['distance_to_mean_m']:.1f}" + (" (outlier)" if r["outlier"] else ""),
-                f"{1000 * r['distance_to_mean_unaligned_m']:.1f}",
-                f"{1000 * r['start_distance_m']:.1f}",
-                fmt_g(r["onset_s"]),
-                f"{r['shift_s']:+.3f}" + (" (outlier)" if r["shift_outlier"] else ""),
-                f"{r['floor_fitness']:.4f}",
-            )
-        out.print(table)
-        if "repeat_selection" in part:
-            held = ", ".join(part["held_out"]) or "none"
-            out.print(
-                f"  repeats {part['repeat_selection']}: the {len(part['repeats'])} above, of "
-                f"{len(part['repeats']) + len(part['held_out'])} usable; held out: {held}",
-                highlight=False,
-                soft_wrap=True,
-            )
-        for line in part["left_out"]:
-            out.print(f"  {'left out' if 'left out' in line else 'warning'}: {escape(line)}")
-        out.print(
-            f"  repeat spread {1000 * part['repeat_spread_unaligned_m']:.1f} mm as recorded, "
-            f"{1000 * part['repeat_spread_aligned_m']:.1f} mm with the clocks aligned (shifts "
-            f"{part['shift_range_s'][0]:+.3f} to {part['shift_range_s'][1]:+.3f} s); floor: the aligned mean "
-            f"scores {part['floor_fitness']:.4f} against the repeats (mean), what a tuned simulation compares with"
-        )
-        out.print(
-            f"  motion onset {fmt_g(part['onset_mean_s'])} s (std {fmt_g(part['onset_std_s'])} s); the generic "
-            f"simulation moves at {fmt_g(part['simulated_onset_s'])} s: command delay about "
-            f"{fmt_g(part['implied_command_delay_s'])} s"
-        )
-        _print_rest_poses(part)
-
-
-def _print_rest_poses(part: dict) -> None:
-    table = text_table(
-        f"{part['task']}: rest poses - where each phase's targets put the marker (generic simulation) against the "
-        "recorded wrist over the phase's last second",
-        ("stretch", "ends [s]", "simulated [mm]", "recorded [mm]", "apart [mm]"),
-    )
-    for r in part["rest_poses"]:
-        table.add_row(
-            r["stretch"],
-            f"{r['end_s']:g}",
-            " ".join(f"{1000 * v:.0f}" for v in r["simulated_m"]),
-            " ".join(f"{1000 * v:.0f}" for v in r["recorded_m"]),
-            f"{1000 * r['distance_m']:.1f}" + (" (far)" if r["far"] else ""),
-        )
-    out.print(table)
-    for r in part["rest_poses"]:
-        proposal = r.get("proposal")
-        if proposal is None:
-            continue
-        moved = ", ".join(f"{name} {a:g} -> {b:g} deg" for name, (a, b) in proposal["changed"].items())
-        out.print(
-            f"  proposed for {r['stretch']}: {moved or 'no joint change helps'} "
-            f"(targets {' '.join(f'{v:g}' for v in proposal['targets_deg'])} deg): "
-            f"{1000 * proposal['residual_before_m']:.1f} -> {1000 * proposal['residual_after_m']:.1f} mm "
-            "(kinematics of the wrist's position); `--write-task FILE` writes the task file with it",
-            highlight=False,
-            soft_wrap=True,
-        )
-    far = [r["stretch"] for r in part["rest_poses"] if r["far"]]
-    if far and len(far) < len(part["rest_poses"]):
-        out.print(
-            f"  note: the real arm rested elsewhere than the targets of {', '.join(far)} put it, while the other rests "
-            "agree: check those targets (a tuned calibration moves every pose at once and cannot take this up)",
-            highlight=False,
-            soft_wrap=True,
-        )
-
-
-def _print_informed(result: dict) -> None:
-    jac = result["jacobian"]
-    shown = ", ".join(f"{v:.3g}" for v in jac["singular_values"])
-    out.print(
-        f"Jacobian at the generic point: rank {jac['rank']} of {jac['searched']} active parameters "
-        f"({jac['cutoff']}); singular values: {shown}"
-    )
-    table = text_table("what the recordings can inform", ("parameter", "informed", "sensitivity", "note"))
-    for p in sorted(result["parameters"], key=lambda p: -p["sensitivity"]):
-        table.add_row(
-            p["name"],
-            "yes" if p["informed"] else "no",
-            f"{p['sensitivity']:.3g}",
-            f"inactive: {p['inactive']}" if "inactive" in p else "",
-        )
-    out.print(table)
 
 
 SynthTaskOpt = Annotated[

@@ -15,9 +15,28 @@ err = Console(stderr=True)
 out = Console()
 
 
+#: The warnings this process has printed: each is printed once per command.
+_shown: set[str] = set()
+
+
 def show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    """``warnings.showwarning`` for the command line: one ``warning:`` line on stderr."""
-    err.print(f"[yellow]warning:[/] {message}", highlight=False, soft_wrap=True)
+    """``warnings.showwarning`` for the command line: one ``warning:`` line on stderr, once per distinct text.
+
+    Python's own once-per-place rule does not hold across loads: it forgets what it has shown whenever the
+    warning filters change, and every ``catch_warnings`` block changes them (the C3D reader opens one per file,
+    MuJoCo's scene builder one per model), so a command that loads the recordings more than once (``compare``
+    and ``transfer`` load them per run) would print the same data warning again whenever such a block ran in
+    between.  Here the text decides.
+
+    Args:
+        message: the warning (its text is printed, markup-escaped).
+        category, filename, lineno, file, line: as :func:`warnings.showwarning` passes them; unused.
+    """
+    text = str(message)
+    if text in _shown:
+        return
+    _shown.add(text)
+    err.print(f"[yellow]warning:[/] {escape(text)}", highlight=False, soft_wrap=True)
 
 
 def fmt(value: float | None) -> str:
@@ -47,38 +66,103 @@ def print_json(payload) -> None:
     print(json.dumps(payload))
 
 
+def _tightness(entry: dict) -> str:
+    """An identified parameter's 95 % half-width, and as a share of its value where the value is not zero."""
+    half = (entry["high"] - entry["low"]) / 2
+    share = f" ({100 * half / abs(entry['value']):.2g} % of the value)" if entry["value"] else ""
+    return f"+-{half:.2g}{share}"
+
+
+def _rank_in_words(summary: dict) -> str:
+    """What the Jacobian's rank and condition number say, in words (the rank: its singular values above
+    ``RCOND`` x the largest, :func:`simtune.uncertainty.directions`)."""
+    from simtune.uncertainty import RCOND  # here: the module imports the engines, and only this needs it
+
+    rank, searched = summary["rank"], summary["searched"]
+    text = (
+        f"the recordings respond to {rank} of the {searched} independent directions in which the searched "
+        "parameters can move together (rank of the Jacobian)"
+    )
+    if rank < searched:
+        text += (
+            f"; along the other {searched - rank} the simulated motion changes by less than {RCOND:g} of its "
+            "largest response"
+        )
+    if summary.get("condition_number") is not None and rank > 1:
+        text += (
+            f"; the strongest of the {rank} moves it {fmt_g(summary['condition_number'])} times more than the "
+            "weakest (condition number)"
+        )
+    return text
+
+
+def _unbounded_groups(entries: list[dict], non_smooth: set[str]) -> list[tuple[str, list[dict]]]:
+    """The parameters the recordings do not pin, grouped by why (:mod:`simtune.uncertainty` decides each)."""
+    loose = [e for e in entries if not e["identifiable"]]
+    groups = [
+        (
+            "change no simulated motion of these tasks, so no recording can pin them "
+            "(`simtune params --task TASK` says why)",
+            [e for e in loose if not e["active"]],
+        ),
+        (
+            "make the motion jump rather than slope at this point (forward and backward differences disagree), "
+            "so no local slope bounds them",
+            [e for e in loose if e["active"] and e["name"] in non_smooth],
+        ),
+        (
+            "are not pinned on their own: they trade off against other parameters, or their 95 % interval is "
+            "wider than their range",
+            [e for e in loose if e["active"] and e["name"] not in non_smooth],
+        ),
+    ]
+    return [(why, members) for why, members in groups if members]
+
+
 def print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
-    """The uncertainty table: every parameter (or, ``short``, the searched ones) with its 95 % interval."""
+    """How well the recordings pin the parameters at a run's best point, for someone reading it the first time.
+
+    First the identified parameters with their 95 % intervals and how tight they are (a table whose names are
+    never cut: they fold at a narrow terminal), then the Jacobian's rank in words, then the unbounded ones in one
+    line per reason, then the most correlated pairs.
+
+    Args:
+        summary: :func:`simtune.uncertainty.uncertainty`'s summary as a run stores it (``error`` where it failed).
+        short: after ``tune``: unbounded parameters by name only, and a pointer to ``simtune uncertainty``;
+            otherwise each with its value.
+        run_dir: the run's folder, for that pointer.
+    """
     if summary.get("error"):
         out.print(f"  uncertainty not computed: {escape(summary['error'])}")
         return
-    rows = summary["parameters"]
-    if short:  # the pinned ones; the others named in one line
-        loose = [e["name"] for e in rows if e["active"] and not e["identifiable"]]
-        rows = [e for e in rows if e["identifiable"]]
-    table = text_table(
-        f"uncertainty at the best point: rank {summary['rank']} of {summary['searched']} searched, "
-        f"condition number {fmt_g(summary['condition_number'])}",
-        ("parameter", "value", "95 % low", "95 % high", "active", "identifiable"),
-    )
-    for e in rows:
-        table.add_row(
-            e["name"],
-            fmt_g(e["value"]),
-            fmt_g(e["low"]) if e["low"] is not None else "unbounded",
-            fmt_g(e["high"]) if e["high"] is not None else "unbounded",
-            "yes" if e["active"] else "no",
-            "yes" if e["identifiable"] else "no",
-        )
-    out.print(table)
+    entries = summary["parameters"]
+    identified = [e for e in entries if e["identifiable"]]
+    searched = summary["searched"]
+    out.print("uncertainty at the best point (Gauss-Newton, 95 % intervals):", highlight=False)
+    if identified:
+        out.print(f"  identified: {len(identified)} of the {searched} searched parameters", highlight=False)
+        table = text_table("", ("parameter", "value", "95 % interval", "tightness"))
+        # a name is what the reader acts on: it keeps its whole width, and folds rather than being cut
+        table.columns[0].min_width = min(max(len(e["name"]) for e in identified), max(out.width // 2, 12))
+        table.columns[0].overflow = "fold"
+        for e in identified:
+            table.add_row(e["name"], fmt_g(e["value"]), f"{fmt_g(e['low'])} to {fmt_g(e['high'])}", _tightness(e))
+        out.print(table)
+    else:
+        out.print(f"  identified: none of the {searched} searched parameters (why: below)", highlight=False)
+    out.print(f"  {escape(_rank_in_words(summary))}", highlight=False)
+    for why, members in _unbounded_groups(entries, set(summary.get("non_smooth") or ())):
+        names = (e["name"] if short or e["value"] is None else f"{e['name']} {fmt_g(e['value'])}" for e in members)
+        out.print(f"  unbounded, {len(members)} that {escape(why)}: {', '.join(names)}", highlight=False)
     pairs = summary.get("correlated_pairs") or []
     if pairs:
         listed = ", ".join(f"{p['a']} ~ {p['b']} ({p['correlation']:+.2f})" for p in pairs[:3])
-        out.print(f"  most correlated: {listed}")
+        out.print(f"  most correlated (one can partly make up for the other): {listed}", highlight=False)
     if short:
-        if loose:
-            out.print(f"  unbounded (the recordings cannot pin them here): {', '.join(loose)}")
-        out.print(f"  `simtune uncertainty {run_dir}` lists every parameter (--json for scripts)")
+        out.print(
+            f"  `simtune uncertainty {escape(str(run_dir))}` recomputes it with every value (--json for scripts)",
+            highlight=False,
+        )
 
 
 def evaluation_json(engine: str, task: str, score) -> dict:

@@ -88,7 +88,15 @@ ThreadsOpt = Annotated[
         "benchmarks/batch_threads.py.",
     ),
 ]
-MaxSecondsOpt = Annotated[float | None, max_seconds_option("Stop after this much wall time [s].")]
+MaxSecondsOpt = Annotated[
+    float | None,
+    max_seconds_option(
+        "A cap on the command's wall time [s]: the start-up (reading the recordings, the inactive-parameter probe) "
+        "counts, the search stops at the first batch past it, and the uncertainty after the search is left out "
+        "where the cap cannot hold it (`simtune uncertainty RUN` computes it). Without a cap auto stops when "
+        "converged."
+    ),
+]
 MaxGenerationsOpt = Annotated[
     int,
     max_generations_option(
