@@ -55,7 +55,7 @@ def load_task_recordings(
         base_body=task.base_body,
         joint_names=rollout_joint_names(task),
         joint_topic=joint_topic,
-        lerobot=reading_for(task),
+        lerobot=reading_for(task, joint_ranges(task)),  # its stated unit is checked against them too
         joint_ranges=joint_ranges(task),
         reference=reference,
         repeats=repeats,

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -32,6 +32,14 @@ import numpy as np
 
 from simtune.data._table import read_bytes
 from simtune.data.recording import MAX_ABS_JOINT_RAD, Recording, finish_recording
+from simtune.data.sanity import (
+    MIN_DURATION_SHARE,
+    JointRange,
+    UnitsProblem,
+    check_time,
+    declared_units_problem,
+    schedule_units_problem,
+)
 from simtune.errors import RecordingError
 
 #: the dataset's description, relative to its folder
@@ -58,12 +66,16 @@ class LeRobotReading:
     ``joints`` maps a dataset name to a robot joint ("" leaves the name out); ``episodes`` are the
     episodes that are repeats of the task (None: all); ``undriven`` are the robot's joints that the
     task does not drive (names of them are left out; filled in when a task's recordings are read).
+    ``ranges`` are what each driven joint's angles should fit (the task's start angle and commanded range, the
+    joint's limits; filled in when a task's recordings are read): the stated unit is checked against them
+    (:func:`simtune.data.sanity.declared_units_problem`), not taken as given; empty: not checked.
     """
 
     units: str | None = None
     joints: tuple[tuple[str, str], ...] = ()
     episodes: tuple[int, ...] | None = None
     undriven: tuple[str, ...] = ()
+    ranges: tuple[tuple[str, JointRange], ...] = ()
 
     def dataset_name(self, joint: str) -> str:
         """The name a written dataset gives ``joint``: the one ``joints`` maps to it, else ``<joint>.pos``."""
@@ -440,13 +452,55 @@ def read_lerobot_dataset(
     info = read_info(root)
     columns = pick_columns(root, info, STATE, joint_names, reading)
     factor = to_radians(root, reading, f"features.{STATE}")
+    ranges = dict(reading.ranges)
     recordings = []
     for episode in read_episodes(root, [STATE], reading.episodes):
         joints = _angles(episode, columns, factor, root)
+        if ranges:
+            _check_stated_units(root, episode, columns, ranges, str(reading.units))
         source = root / f"episode_{episode.index:06d}"
         frames = np.arange(1, len(episode.time) + 1)
         recordings.append(finish_recording(source, _shown(root, source), episode.time, frames, {}, {}, joints, "frame"))
     return recordings
+
+
+def _check_stated_units(
+    root: Path, episode: Episode, columns: Columns, ranges: dict[str, JointRange], unit: str
+) -> None:
+    """Units check of an episode read in the stated unit: a dataset in radians stated as degrees moves 57 times
+    too little, one in degrees stated as radians leaves the joints' limits; either names the row, the entry and
+    the unit the data looks like."""
+    values = {joint: episode.vectors[columns.feature][:, entry] for entry, joint in columns.picked}
+    problem = declared_units_problem(values, ranges, unit)
+    if problem is not None:
+        raise RecordingError(units_message(root, episode, columns, problem, unit))
+
+
+def units_message(root: Path, episode: Episode, columns: Columns, problem: UnitsProblem, unit: str) -> str:
+    """The one-line message of a units check's ``problem`` in an episode of the dataset in ``root``.
+
+    Args:
+        root: the dataset's folder.
+        episode: the episode, as read.
+        columns: the feature's entries that drive joints (the problem's joint among them).
+        problem: what :mod:`simtune.data.sanity`'s units checks found.
+        unit: the unit the task file states.
+
+    Returns:
+        ``<file> row N: units check: <feature>[k] ('<name>'), episode E, stated "<unit>", ...`` with the key to set.
+    """
+    entry = next(k for k, joint in columns.picked if joint == problem.joint)
+    row = int(episode.rows[problem.frame]) + 1
+    hint = (
+        f'units = "{problem.other}" in the task file\'s [recordings] table if so'
+        if problem.other is not None
+        else "check the dataset's unit and its joints' zero (LeRobot can also store -100..100 of a calibrated range)"
+    )
+    return (
+        f"{_shown(root, episode.file)} row {row}: units check: {columns.feature}[{entry}] "
+        f'({columns.names[entry]!r}, joint {problem.joint!r}) in episode {episode.index}, stated "{unit}", '
+        f"{problem.text}: {hint}"
+    )
 
 
 @dataclass(frozen=True)
@@ -464,9 +518,27 @@ def read_lerobot_actions(
     episode: int | None,
     joint_names: Collection[str] | None = None,
     reading: LeRobotReading | None = None,
+    *,
+    duration_s: float | None = None,
+    limits: Mapping[str, tuple[float | None, float | None]] | None = None,
 ) -> Actions:
     """The ``action`` vectors of one episode (None: the dataset's first) as targets of the joints they name,
-    and the episode's first ``observation.state`` where the dataset has that feature."""
+    and the episode's first ``observation.state`` where the dataset has that feature.
+
+    Args:
+        root: the dataset's folder.
+        episode: the episode to read (None: the dataset's first).
+        joint_names: the driven joints (None: any name).
+        reading: the task file's ``[recordings]`` table: the stated unit, the names' joints.
+        duration_s: the task's duration [s]: the episode is checked as a recording of the task is
+            (:func:`check_schedule_episode`); None: not checked.
+        limits: per driven joint its limits [rad] (None: unlimited): the stated unit is checked against them and
+            against what angles in each unit look like (:func:`simtune.data.sanity.schedule_units_problem`);
+            None: not checked.
+
+    Returns:
+        The episode's times (as stored), targets and first measured angles, in radians.
+    """
     root = Path(root)
     reading = reading or LeRobotReading()
     info = read_info(root)
@@ -477,7 +549,45 @@ def read_lerobot_actions(
     chosen = read_episodes(root, features, None if episode is None else [episode])[0]
     targets = _angles(chosen, action, factor, root)
     start = {} if state is None else {j: float(q[0]) for j, q in _angles(chosen, state, factor, root).items()}
+    if limits is not None:
+        for columns in [action] if state is None else [action, state]:
+            values = {joint: chosen.vectors[columns.feature][:, entry] for entry, joint in columns.picked}
+            problem = schedule_units_problem(values, limits, str(reading.units))
+            if problem is not None:
+                raise RecordingError(units_message(root, chosen, columns, problem, str(reading.units)))
+    if duration_s is not None:
+        check_schedule_episode(root, chosen, targets, duration_s)
     return Actions(chosen.time.copy(), targets, start, chosen.index)
+
+
+def check_schedule_episode(root: Path, episode: Episode, targets: dict[str, np.ndarray], duration_s: float) -> None:
+    """An episode whose actions are a task's schedule, checked by the rules a recording of the task meets
+    (docs/recordings.md): at least 2 frames, timestamps in seconds (no frame more than
+    :data:`~simtune.data.sanity.MAX_DURATION_MULTIPLE` x the task's duration after the first) and covering
+    :data:`~simtune.data.sanity.MIN_DURATION_SHARE` of the task's duration.  Without them a schedule of timestamps
+    in milliseconds, of one frame or of half the task would collapse or hold its last action.
+
+    Args:
+        root: the dataset's folder.
+        episode: the episode, as read.
+        targets: its commanded angles [rad] per driven joint.
+        duration_s: the task's duration [s].
+
+    Raises:
+        RecordingError: one line naming the dataset, the episode (``<dataset>/episode_NNNNNN``) and what is wrong.
+    """
+    source = root / f"episode_{episode.index:06d}"
+    display = _shown(root, source)
+    frames = np.arange(1, len(episode.time) + 1)
+    rec = finish_recording(source, display, episode.time, frames, {}, {}, dict(targets), "frame")
+    check_time(rec, display, duration_s)
+    lasts = float(rec.time[-1] - rec.time[0])
+    if lasts < MIN_DURATION_SHARE * duration_s:
+        raise RecordingError(
+            f"{display}: duration check: lasts {lasts:.4g} s ({len(rec.time)} frames), less than "
+            f"{MIN_DURATION_SHARE:.0%} of the task's {duration_s:g} s: as its schedule it would hold its last action "
+            "for the rest of the task (shorten the task's duration, or pick a longer episode)"
+        )
 
 
 # --- writing -----------------------------------------------------------------------------------------------------

@@ -185,16 +185,23 @@ class JointRange:
     lower: float | None = None
     upper: float | None = None
 
+    def beyond_limits(self, angles: np.ndarray) -> tuple[float, int, str]:
+        """How far [rad] ``angles`` lie beyond the joint's limits and their margin (0: not at all), at which frame,
+        and the limits, for messages."""
+        worst = (0.0, 0, "")
+        if self.lower is None or self.upper is None:
+            return worst
+        low, high = int(np.argmin(angles)), int(np.argmax(angles))
+        limits = f"outside its limits [{self.lower:.4g}, {self.upper:.4g}] rad"
+        worst = max(worst, (self.lower - LIMIT_MARGIN_RAD - angles[low], low, limits), key=lambda w: w[0])
+        return max(worst, (angles[high] - self.upper - LIMIT_MARGIN_RAD, high, limits), key=lambda w: w[0])
+
     def stray(self, angles: np.ndarray) -> tuple[float, int, str]:
         """How far [rad] ``angles`` stray beyond this range (0: not at all), at which frame, and what they leave."""
-        worst = (0.0, 0, "")
-        low, high = int(np.argmin(angles)), int(np.argmax(angles))
-        if self.lower is not None and self.upper is not None:
-            limits = f"outside its limits [{self.lower:.4g}, {self.upper:.4g}] rad"
-            worst = max(worst, (self.lower - LIMIT_MARGIN_RAD - angles[low], low, limits), key=lambda w: w[0])
-            worst = max(worst, (angles[high] - self.upper - LIMIT_MARGIN_RAD, high, limits), key=lambda w: w[0])
+        worst = self.beyond_limits(angles)
         if worst[0] > 0:
             return worst  # the limits first: what no joint can do says most
+        low, high = int(np.argmin(angles)), int(np.argmax(angles))
         start = f"far from the task's start angle {self.start:.4g} rad"
         worst = max(worst, (abs(angles[0] - self.start) - JOINT_MARGIN_RAD, 0, start), key=lambda w: w[0])
         commanded = f"beyond what the task commands ({self.low:.4g} to {self.high:.4g} rad)"
@@ -203,10 +210,40 @@ class JointRange:
 
 
 def check_joint_units(rec: Recording, ranges: Mapping[str, JointRange], display: str) -> None:
-    """Units check of a joint log whose unit nobody declared: a log in degrees that stays within two turns
-    passes the readers as radians.  Where its angles read as radians stray beyond the joints' limits, the task's
-    start pose or what it commands, and read as degrees fit (:data:`DEGREES_FIT_SHARE`), it is in degrees: an
-    error naming the file, the joint and the key that declares the unit."""
+    """Units check of a joint log: a log in degrees that stays within two turns passes the readers as radians.
+
+    Joints whose unit nobody declared: where their angles read as radians stray beyond the joints' limits, the
+    task's start pose or what it commands, and read as degrees fit (:data:`DEGREES_FIT_SHARE`), the log is in
+    degrees: an error naming the file, the joint and the key that declares the unit.  Joints whose CSV column
+    declares its unit (``joint_2 [deg]``) are checked in that unit (:func:`declared_units_problem`).
+
+    Args:
+        rec: the joint log, its angles in radians (``rec.joint_units``: the joints whose unit its file declares).
+        ranges: per driven joint, what its angles should fit (the task's and the arm's).
+        display: the log's name in messages.
+
+    Raises:
+        RecordingError: the log does not fit in the unit it was read in, naming the file, frame and joint.
+    """
+    _check_undeclared_units(rec, ranges, display)
+    for unit in sorted(set(rec.joint_units.values())):
+        names = [j for j in rec.joints if rec.joint_units.get(j) == unit and j in ranges]
+        raw = {j: rec.joints[j] / ANGLE_FACTORS[unit] for j in names}  # the numbers as the file holds them
+        problem = declared_units_problem(raw, ranges, unit)
+        if problem is not None:
+            hint = (
+                f"declare '{problem.joint} [{problem.other}]' in its header if so"
+                if problem.other is not None
+                else "check the log's unit and its joints' zero against the robot model's"
+            )
+            raise RecordingError(
+                f"{display} {rec.where(problem.frame)}: units check: joint {problem.joint!r}, declared [{unit}], "
+                f"{problem.text}: {hint}"
+            )
+
+
+def _check_undeclared_units(rec: Recording, ranges: Mapping[str, JointRange], display: str) -> None:
+    """:func:`check_joint_units` of the joints whose unit nobody declared (read as radians)."""
     names = [j for j in rec.joints if j in ranges and j not in rec.joint_units]
     if not names:
         return
@@ -225,3 +262,186 @@ def check_joint_units(rec: Recording, ranges: Mapping[str, JointRange], display:
         f"it is in degrees: declare units = \"deg\" in the [recordings] table of the task file (or '{joint} [deg]' "
         'in a CSV\'s header); units = "rad" if it is radians'
     )
+
+
+# --- declared units ----------------------------------------------------------------------------------------------
+
+#: the angle units a joint log may be declared in, the factor to radians and the word for messages
+ANGLE_FACTORS = {"rad": 1.0, "deg": math.pi / 180.0}
+UNIT_WORDS = {"rad": "radians", "deg": "degrees"}
+#: A joint that the task commands over at least this span [rad] (its start angle and targets) tells a declared
+#: unit by how far the log moves it: an arm following a clamped P velocity law covers much of what it is commanded.
+MIN_COMMANDED_SPAN_RAD = math.radians(10.0)
+#: Read in its declared unit, a log moving every such joint less than this share of its commanded span moves too
+#: little for that unit ...
+SMALL_MOTION_SHARE = 0.1
+#: ... when read in the other unit it fits the task and moves some such joint at least this share (a log in
+#: radians read as degrees moves 57 times less than it did).
+OTHER_MOTION_SHARE = 0.25
+#: A schedule stated in degrees, with nothing of the task to compare it with, looks like radians when every value
+#: lies within one turn's number of 0 (radians of a joint's angle; degrees of any real motion soon leave +-6.28) ...
+ONE_TURN = 2.0 * math.pi
+#: ... read as degrees no joint moves as much as this [rad] (5.7 deg), read as radians some joint does, and read as
+#: radians it fits the joints' limits.
+TINY_MOTION_RAD = 0.1
+
+
+@dataclass(frozen=True)
+class UnitsProblem:
+    """A joint log that does not fit in its declared unit: the joint and 0-based frame to name, the message's
+    body (what the log reads and what that leaves) and the unit it looks like (None: neither unit fits)."""
+
+    joint: str
+    frame: int
+    text: str
+    other: str | None
+
+
+def _other(unit: str) -> str:
+    return "deg" if unit == "rad" else "rad"
+
+
+def _reads(value: float, unit: str) -> str:
+    """``10.47 rad`` or ``0.87 deg (0.01518 rad)`` for messages."""
+    if unit == "rad":
+        return f"{value:.4g} rad"
+    return f"{value:.4g} deg ({value * ANGLE_FACTORS[unit]:.4g} rad)"
+
+
+def declared_units_problem(
+    values: Mapping[str, np.ndarray], ranges: Mapping[str, JointRange], unit: str
+) -> UnitsProblem | None:
+    """Units check of a joint log whose unit is declared: the declaration is checked, not taken as given.
+
+    The log is refused when, read in ``unit``:
+
+    * a joint lies beyond its limits (+- :data:`LIMIT_MARGIN_RAD`), which no joint does, in either unit;
+    * a joint strays beyond the task's start angle or commanded range (+- :data:`JOINT_MARGIN_RAD`) while read in
+      the other unit the log fits (:data:`DEGREES_FIT_SHARE`, as for undeclared logs);
+    * every joint commanded over :data:`MIN_COMMANDED_SPAN_RAD` or more moves less than
+      :data:`SMALL_MOTION_SHARE` of its commanded span, while read in the other unit the log fits the task and
+      moves some such joint :data:`OTHER_MOTION_SHARE` of it or more (radians declared as degrees).
+
+    A log in the declared unit that follows the task never meets any of these.
+
+    Args:
+        values: per joint, its angles as logged (numbers in ``unit``), in frame order.
+        ranges: per driven joint, what its angles should fit [rad]; joints without one are not checked.
+        unit: the declared unit, ``"deg"`` or ``"rad"``.
+
+    Returns:
+        The problem, or None when the log fits in its declared unit.
+    """
+    names = [j for j in values if j in ranges]
+    if not names:
+        return None
+    other = _other(unit)
+    declared = {j: np.asarray(values[j], dtype=float) * ANGLE_FACTORS[unit] for j in names}
+    alternative = {j: np.asarray(values[j], dtype=float) * ANGLE_FACTORS[other] for j in names}
+    other_stray = max(ranges[j].stray(alternative[j])[0] for j in names)
+    beyond = {j: ranges[j].beyond_limits(declared[j]) for j in names}
+    joint = max(names, key=lambda j: beyond[j][0])
+    if beyond[joint][0] <= 0:
+        strays = {j: ranges[j].stray(declared[j]) for j in names}
+        joint = max(names, key=lambda j: strays[j][0])
+        if strays[joint][0] > 0 and other_stray <= DEGREES_FIT_SHARE * strays[joint][0]:
+            beyond = strays  # beyond the commands and the other unit fits: that unit
+    stray, frame, what = beyond[joint]
+    if stray > 0:
+        fits = other_stray <= DEGREES_FIT_SHARE * stray
+        value = float(values[joint][frame])
+        read = f"read as {UNIT_WORDS[other]} ({alternative[joint][frame]:.4g} rad)"
+        if fits:
+            text = (
+                f"reads {_reads(value, unit)}, {what}; {read} the log fits the joints' limits and the task's start "
+                f"pose and targets: it looks like {UNIT_WORDS[other]}"
+            )
+            return UnitsProblem(joint, frame, text, other)
+        text = f"reads {_reads(value, unit)}, {what}; {read} it fits no better: neither unit fits the robot model"
+        return UnitsProblem(joint, frame, text, None)
+    return _small_motion(values, declared, alternative, ranges, unit, other_stray)
+
+
+def _small_motion(
+    values: Mapping[str, np.ndarray],
+    declared: dict[str, np.ndarray],
+    alternative: dict[str, np.ndarray],
+    ranges: Mapping[str, JointRange],
+    unit: str,
+    other_stray: float,
+) -> UnitsProblem | None:
+    """The third rule of :func:`declared_units_problem`: a log that moves far too little in its declared unit."""
+    spans = {j: ranges[j].high - ranges[j].low for j in declared}
+    judged = [j for j in declared if spans[j] >= MIN_COMMANDED_SPAN_RAD]
+    if not judged or other_stray > 0:
+        return None
+    share = {j: float(np.ptp(declared[j])) / spans[j] for j in judged}
+    other_share = max(float(np.ptp(alternative[j])) / spans[j] for j in judged)
+    if max(share.values()) >= SMALL_MOTION_SHARE or other_share < OTHER_MOTION_SHARE:
+        return None
+    joint = max(judged, key=lambda j: spans[j])
+    frame = int(np.argmax(np.abs(declared[joint] - declared[joint][0])))
+    other = _other(unit)
+    moved = float(np.ptp(np.asarray(values[joint], dtype=float)))
+    text = (
+        f"moves {_reads(moved, unit)}, {share[joint]:.1%} of the {math.degrees(spans[joint]):.4g} deg the task "
+        f"commands it over (no joint moves {SMALL_MOTION_SHARE:.0%} of its commanded span); read as "
+        f"{UNIT_WORDS[other]} it moves {float(np.ptp(alternative[joint])):.4g} rad and fits the joints' limits and "
+        f"the task's start pose and targets: it looks like {UNIT_WORDS[other]}"
+    )
+    return UnitsProblem(joint, frame, text, other)
+
+
+def schedule_units_problem(
+    values: Mapping[str, np.ndarray], limits: Mapping[str, tuple[float | None, float | None]], unit: str
+) -> UnitsProblem | None:
+    """Units check of a schedule stated in a unit (a LeRobot episode's actions and first state), which has nothing
+    of the task to be compared with: only the joints' limits and what angles in each unit look like.
+
+    Refused: a value beyond its joint's limits (+- :data:`LIMIT_MARGIN_RAD`); and, stated in degrees, a schedule
+    that looks like radians: every value within :data:`ONE_TURN` of 0, no joint moving :data:`TINY_MOTION_RAD`
+    read as degrees but some joint moving that much read as radians, within the joints' limits.  A schedule in
+    degrees that stays that close to 0 and moves that little cannot be told from radians.
+
+    Args:
+        values: per joint, its commanded angles as stated (numbers in ``unit``), in frame order.
+        limits: per angular joint, its lower and upper limit [rad] (None, None: unlimited, a continuous joint);
+            joints without an entry (a prismatic joint) are not checked.
+        unit: the stated unit, ``"deg"`` or ``"rad"``.
+
+    Returns:
+        The problem, or None when the schedule fits in its stated unit.
+    """
+    other = _other(unit)
+    ranges = {j: JointRange(0.0, 0.0, 0.0, *limits[j]) for j in values if j in limits}  # limits only
+    raw = {j: np.asarray(q, dtype=float) for j, q in values.items() if j in ranges}
+    if not raw:
+        return None
+    beyond = {j: ranges[j].beyond_limits(raw[j] * ANGLE_FACTORS[unit]) for j in raw}
+    other_beyond = max(ranges[j].beyond_limits(raw[j] * ANGLE_FACTORS[other])[0] for j in raw)
+    joint = max(raw, key=lambda j: beyond[j][0])
+    stray, frame, what = beyond[joint]
+    if stray > 0:
+        value = float(raw[joint][frame])
+        if other_beyond <= 0:
+            text = (
+                f"reads {_reads(value, unit)}, {what}; read as {UNIT_WORDS[other]} "
+                f"({value * ANGLE_FACTORS[other]:.4g} rad) every value fits the joints' limits: "
+                f"it looks like {UNIT_WORDS[other]}"
+            )
+            return UnitsProblem(joint, frame, text, other)
+        return UnitsProblem(joint, frame, f"reads {_reads(value, unit)}, {what}, in either unit", None)
+    if unit != "deg" or other_beyond > 0:
+        return None
+    largest = max(float(np.max(np.abs(q))) for q in raw.values())
+    moves = {j: float(np.ptp(q)) for j, q in raw.items()}
+    joint = max(raw, key=lambda j: moves[j])
+    if largest > ONE_TURN or not TINY_MOTION_RAD <= moves[joint] < TINY_MOTION_RAD / ANGLE_FACTORS["deg"]:
+        return None
+    frame = int(np.argmax(np.abs(raw[joint] - raw[joint][0])))
+    text = (
+        f"moves {_reads(moves[joint], unit)} and no joint more, every value within {ONE_TURN:.3g} of 0, as a "
+        f"radians log's numbers are; read as radians it moves {moves[joint]:.4g} rad within the joints' limits: "
+        "it looks like radians (a schedule in degrees this small cannot be told from one in radians)"
+    )
+    return UnitsProblem(joint, frame, text, "rad")

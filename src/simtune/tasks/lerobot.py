@@ -8,7 +8,7 @@ reads one states it: ``[recordings] units = "deg"`` (LeRobot's SO-100/SO-101) or
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -17,6 +17,7 @@ import numpy as np
 
 from simtune.data.lerobot import ANGLE_UNITS, LeRobotReading, read_lerobot_actions, write_lerobot_dataset
 from simtune.data.recording import Recording
+from simtune.data.sanity import JointRange
 from simtune.errors import ConfigError, ProjectError, RecordingError
 from simtune.robot.description import RobotDescription
 from simtune.tasks.spec import Phase, TaskSpec
@@ -73,9 +74,38 @@ def undriven_joints(robot: RobotDescription, driven: Sequence[str]) -> tuple[str
     return tuple(j.name for j in robot.joints if j.name not in driven)
 
 
-def reading_for(task: TaskSpec) -> LeRobotReading:
-    """How ``task`` reads a LeRobot dataset: its task file's ``[recordings]`` table, with its robot's other joints."""
-    return replace(task.lerobot or LeRobotReading(), undriven=undriven_joints(task.robot, task.joints))
+def reading_for(task: TaskSpec, ranges: Mapping[str, JointRange] | None = None) -> LeRobotReading:
+    """How ``task`` reads a LeRobot dataset.
+
+    Args:
+        task: the task whose recordings are read.
+        ranges: what each driven joint's angles should fit (``simtune.objective.joint_ranges``); None: the stated
+            unit is taken as given.
+
+    Returns:
+        Its task file's ``[recordings]`` table, with its robot's other joints and ``ranges``, against which the
+        stated unit is checked.
+    """
+    return replace(
+        task.lerobot or LeRobotReading(),
+        undriven=undriven_joints(task.robot, task.joints),
+        ranges=tuple((ranges or {}).items()),
+    )
+
+
+def joint_limits(robot: RobotDescription, joints: Sequence[str]) -> dict[str, tuple[float | None, float | None]]:
+    """The limits of ``joints``' angular joints, which a schedule's stated unit is checked against.
+
+    Args:
+        robot: the task's robot.
+        joints: the joints the task drives.
+
+    Returns:
+        Per revolute or continuous joint, its lower and upper limit [rad] (None, None: a continuous joint's); a
+        prismatic joint has no entry (its values are no angles to tell a unit by).
+    """
+    angular = [robot.joint_by_name[j] for j in joints if robot.joint_by_name[j].kind in ("revolute", "continuous")]
+    return {j.name: (j.lower, j.upper) for j in angular}
 
 
 def lerobot_schedule(
@@ -92,6 +122,11 @@ def lerobot_schedule(
 
     Returns the phases and the start pose: ``start_pose`` when the file gives one, else the episode's first
     ``observation.state``.  A driven joint that the actions do not name is held at its start angle.
+
+    The episode is checked as a recording of the task is (at least 2 frames, timestamps in seconds, covering the
+    task's duration), and the stated unit against the joints' limits and what angles in each unit look like: a
+    schedule that would collapse, hold its last action or move 57 times too far or too little is a ProjectError
+    naming the file, the dataset and the episode.
     """
     given = [k for k in SCHEDULE_KEYS if keys.has(k)]
     if not keys.has("schedule_lerobot"):
@@ -105,7 +140,9 @@ def lerobot_schedule(
         raise keys.error("schedule_episode", f"expected an episode number (0 or more), got {episode!r}")
     reading = replace(reading or LeRobotReading(), undriven=undriven_joints(robot, joints))
     try:
-        actions = read_lerobot_actions(path.parent / folder, episode, joints, reading)
+        actions = read_lerobot_actions(
+            path.parent / folder, episode, joints, reading, duration_s=duration, limits=joint_limits(robot, joints)
+        )
     except RecordingError as exc:
         raise ProjectError(f"{path}: schedule_lerobot: {exc}") from None
     if start_pose is None:
