@@ -83,3 +83,21 @@ def test_check_writes_the_corrected_task_file(tmp_path):
     assert result["written_task"] == str(tmp_path / "cube.toml")
     text = (tmp_path / "cube.toml").read_text()
     assert "published_targets_deg = [0, -60, 65, 90, 0, 0]" in text and "# simtune check (" in text
+
+
+def test_a_start_pose_far_from_the_first_recorded_second_gets_one_proposed(tmp_path):
+    """The reference starts every joint at 0: a task that says joint 2 starts at 20 deg is far off at the start, and
+    the check puts joint 2 back near 0; the task as shipped starts within its marker offset (not far)."""
+    project = published_cube_project(tmp_path)
+    task_file = project / "tasks" / "cube.toml"
+    task_file.write_text(
+        task_file.read_text().replace("start_pose_deg = [0, 0, 0, 0, 0, 0]", "start_pose_deg = [0, 20, 0, 0, 0, 0]")
+    )
+    summary, _ = task_quality("mujoco", load_project(project).task("cube"), REFERENCE_DIR)
+    start = summary["start_pose"]
+    assert start["far"] and list(start["proposal"]["changed"]) == ["joint_2"]
+    assert abs(start["proposal"]["changed"]["joint_2"][1]) < 3 and start["proposal"]["residual_after_m"] < 0.03
+    shipped, _ = task_quality(
+        "mujoco", load_project(published_cube_project(tmp_path / "as-shipped")).task("cube"), REFERENCE_DIR
+    )
+    assert not shipped["start_pose"]["far"] and "proposal" not in shipped["start_pose"]

@@ -265,6 +265,18 @@ def task_quality(
         "implied_command_delay_s": delay,
         "rest_poses": rest_poses(task, chosen, (rollout.times, sim_marker), max(delay or 0.0, 0.0)),
     }
+    # the start pose as the first recorded second puts it: targets proposed where it lies far off, as for a rest
+    recorded_start = chosen.wrist_start_mean
+    if recorded_start is not None:
+        gap = recorded_start - sim_marker[0]
+        summary["start_pose"] = {
+            "start_pose_deg": [float(v) for v in task.start_pose_deg],
+            "recorded_m": [float(v) for v in recorded_start],
+            "distance_m": float(np.linalg.norm(gap)),
+            "far": bool(np.linalg.norm(gap) > START_WARN_M),
+        }
+        if summary["start_pose"]["far"]:
+            summary["start_pose"]["proposal"] = propose_targets(task, task.start_pose_deg, gap)
     if repeats != "all":  # which repeats the check used (the rows name them) and which it held out
         summary["repeat_selection"] = repeats
         summary["repeat_files"] = [row["file"] for row in rows]

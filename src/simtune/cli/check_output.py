@@ -92,6 +92,17 @@ def _print_rest_poses(part: dict) -> None:
             highlight=False,
             soft_wrap=True,
         )
+    start = part.get("start_pose") or {}
+    if start.get("proposal"):
+        proposal = start["proposal"]
+        moved = ", ".join(f"{name} {a:g} -> {b:g} deg" for name, (a, b) in proposal["changed"].items())
+        out.print(
+            f"  the first recorded second lies {1000 * start['distance_m']:.1f} mm from the start pose's: proposed "
+            f"start_pose_deg {' '.join(f'{v:g}' for v in proposal['targets_deg'])} ({moved or 'no joint change helps'}"
+            f"; {1000 * proposal['residual_after_m']:.1f} mm left)",
+            highlight=False,
+            soft_wrap=True,
+        )
     far = [r["stretch"] for r in part["rest_poses"] if r["far"]]
     if far and len(far) < len(part["rest_poses"]):
         out.print(
