@@ -48,3 +48,17 @@ def test_sample_counts_seeds_and_budgets_of_the_studies_are_checked(tmp_path):
     with pytest.raises(ConfigError, match="max_seconds must be a finite number of seconds above 0"):
         st.demo(tmp_path / "demo", max_seconds=-3)
     assert not (tmp_path / "c").exists() and not (tmp_path / "demo").exists()
+
+
+def test_only_parameters_that_change_no_rollout_are_refused_before_the_search(tmp_path):
+    """`tune --only P` with P inactive used to run its whole budget, then blame --keep-inactive, a flag not given."""
+    from simtune.errors import RecordingWarning
+    from simtune.run_plan import plan_run
+
+    config = st.run_config("mujoco", "cube", only="max_velocity_joint_1", max_seconds=30)
+    with pytest.raises(ConfigError, match=r"--only: it changes no rollout of cube \(max_velocity_joint_1: task 'cube'"):
+        st.start(config, tmp_path / "run")
+    assert not (tmp_path / "run").exists()
+    mixed = plan_run(st.run_config("mujoco", "cube", only="max_velocity_joint_1,command_delay"))
+    with pytest.warns(RecordingWarning, match="max_velocity_joint_1 change"):
+        assert mixed.search_space().names == ["max_velocity_joint_1", "command_delay"]

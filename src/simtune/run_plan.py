@@ -10,6 +10,7 @@ the engine class, the parameter space, the inactive parameters, the references a
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import MISSING, asdict, dataclass, fields
 from functools import cached_property
 from pathlib import Path
@@ -18,7 +19,7 @@ from simtune.activity import active_space, declared_inactive, inactive_parameter
 from simtune.data import TaskData, check_repeats
 from simtune.data.clock import check_reference, default_reference
 from simtune.engines import Engine, engine_class
-from simtune.errors import ConfigError
+from simtune.errors import ConfigError, RecordingWarning
 from simtune.fitness import FitnessWeights
 from simtune.limits import MAX_SEED, MAX_WORKERS
 from simtune.objective import Objective, check_weights, load_references
@@ -287,7 +288,23 @@ class RunPlan:
         them.  Parameters named by ``--only`` stay whether active or not: the user asked for them."""
         if self.keeps_inactive:
             return self.full_space
-        return active_space(self.full_space, self.inactive if inactive is None else inactive, self.config.only)
+        inactive = self.inactive if inactive is None else inactive
+        named = self.config.only or []
+        idle = [name for name in named if name in inactive]
+        if named and len(idle) == len(named):  # nothing the search could move: say so before any budget is spent
+            why = "; ".join(f"{name}: {inactive[name]}" for name in idle[:3])
+            raise ConfigError(
+                f"--only: {'it changes' if len(idle) == 1 else 'they change'} no rollout of {self.config.tasks} "
+                f"({why}): nothing to tune; `simtune params --task {self.config.tasks}` lists the active parameters"
+            )
+        if idle:
+            warnings.warn(
+                f"--only: {', '.join(idle)} change(s) no rollout of {self.config.tasks} and stay in the search "
+                "without effect (`simtune params --task " + self.config.tasks + "` says why)",
+                RecordingWarning,
+                stacklevel=2,
+            )
+        return active_space(self.full_space, inactive, named)
 
     def objective(self, inactive: dict[str, str] | None = None) -> Objective:
         """The run's objective over :meth:`search_space` (``inactive``: a stored run's, else measured).  Weights

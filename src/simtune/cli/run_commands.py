@@ -256,7 +256,8 @@ def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
     if record.uncertainty:
         print_uncertainty(record.uncertainty, short=True, run_dir=run_dir)
     if inactive:
-        kept = "kept in the search (--keep-inactive)" if set(inactive) & set(searched) else "left out of the search"
+        flag = "--keep-inactive" if config.keep_inactive or config.paper_exact else "named by --only"
+        kept = f"kept in the search ({flag})" if set(inactive) & set(searched) else "left out of the search"
         out.print(
             f"  search dimension D = {len(searched)}; {len(inactive)} parameters change no rollout of "
             f"{config.tasks} and were {kept} (`simtune params --task {config.tasks}` says why)"
