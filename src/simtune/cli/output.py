@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import json
+import textwrap
 from pathlib import Path
 
 from rich.console import Console
 from rich.markup import escape
+from rich.measure import Measurement
 
 from simtune.console import text_table
 from simtune.errors import SimtuneError
@@ -15,7 +17,7 @@ err = Console(stderr=True)
 out = Console()
 
 
-#: The warnings this process has printed: each is printed once per command.
+#: The texts of the warnings this process has printed: a command prints each once (:func:`show_warning`).
 _shown: set[str] = set()
 
 
@@ -69,8 +71,8 @@ def print_json(payload) -> None:
 def _tightness(entry: dict) -> str:
     """An identified parameter's 95 % half-width, and as a share of its value where the value is not zero."""
     half = (entry["high"] - entry["low"]) / 2
-    share = f" ({100 * half / abs(entry['value']):.2g} % of the value)" if entry["value"] else ""
-    return f"+-{half:.2g}{share}"
+    share = f" ({100 * half / abs(entry['value']):.2g} %)" if entry["value"] else ""
+    return f"{half:.2g}{share}"
 
 
 def _rank_in_words(summary: dict) -> str:
@@ -79,19 +81,20 @@ def _rank_in_words(summary: dict) -> str:
     from simtune.uncertainty import RCOND  # here: the module imports the engines, and only this needs it
 
     rank, searched = summary["rank"], summary["searched"]
-    text = (
-        f"the recordings respond to {rank} of the {searched} independent directions in which the searched "
-        "parameters can move together (rank of the Jacobian)"
-    )
-    if rank < searched:
+    text = f"rank {rank} of {searched}: the recordings respond to "
+    if rank == searched:
+        text += "the one direction" if rank == 1 else f"all {searched} independent directions"
+        text += " in which the searched parameters can move"
+    else:
         text += (
-            f"; along the other {searched - rank} the simulated motion changes by less than {RCOND:g} of its "
-            "largest response"
+            f"{rank} of the {searched} independent directions in which the searched parameters can move; "
+            + ("the other one changes" if searched - rank == 1 else f"the other {searched - rank} change")
+            + f" the motion less than {RCOND:g} times as much as the strongest"
         )
     if summary.get("condition_number") is not None and rank > 1:
         text += (
-            f"; the strongest of the {rank} moves it {fmt_g(summary['condition_number'])} times more than the "
-            "weakest (condition number)"
+            f". Condition number {fmt_g(summary['condition_number'])}: the strongest of the {rank} moves the "
+            "motion that many times more than the weakest"
         )
     return text
 
@@ -101,30 +104,44 @@ def _unbounded_groups(entries: list[dict], non_smooth: set[str]) -> list[tuple[s
     loose = [e for e in entries if not e["identifiable"]]
     groups = [
         (
-            "change no simulated motion of these tasks, so no recording can pin them "
-            "(`simtune params --task TASK` says why)",
+            "change no simulated motion of these tasks (`simtune params --task TASK` says why)",
             [e for e in loose if not e["active"]],
         ),
         (
-            "make the motion jump rather than slope at this point (forward and backward differences disagree), "
-            "so no local slope bounds them",
+            "make the motion jump rather than slope here (forward and backward differences disagree)",
             [e for e in loose if e["active"] and e["name"] in non_smooth],
         ),
         (
-            "are not pinned on their own: they trade off against other parameters, or their 95 % interval is "
-            "wider than their range",
+            "trade off against other parameters, or their 95 % interval is wider than their range",
             [e for e in loose if e["active"] and e["name"] not in non_smooth],
         ),
     ]
     return [(why, members) for why, members in groups if members]
 
 
+def _say(text: str, indent: int = 2) -> None:
+    """``text`` as written (no markup), wrapped at spaces with every line indented by ``indent``: a wrapped line
+    still reads as part of its item, and a parameter name (no spaces) is never broken, however narrow the
+    terminal."""
+    pad = " " * indent
+    lines = textwrap.wrap(
+        text,
+        max(out.width, 40),
+        initial_indent=pad,
+        subsequent_indent=pad,
+        break_long_words=False,
+        break_on_hyphens=False,
+    )
+    for line in lines:
+        out.print(line, markup=False, highlight=False, soft_wrap=True)
+
+
 def print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
     """How well the recordings pin the parameters at a run's best point, for someone reading it the first time.
 
-    First the identified parameters with their 95 % intervals and how tight they are (a table whose names are
-    never cut: they fold at a narrow terminal), then the Jacobian's rank in words, then the unbounded ones in one
-    line per reason, then the most correlated pairs.
+    First the identified parameters with their 95 % intervals and how tight they are (a table where it fits the
+    terminal whole, else one line each: a name is never cut short), then the Jacobian's rank in words, then the
+    unbounded ones in one group per reason, then the most correlated pairs.
 
     Args:
         summary: :func:`simtune.uncertainty.uncertainty`'s summary as a run stores it (``error`` where it failed).
@@ -133,36 +150,48 @@ def print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
         run_dir: the run's folder, for that pointer.
     """
     if summary.get("error"):
-        out.print(f"  uncertainty not computed: {escape(summary['error'])}")
+        _say(f"uncertainty not computed: {summary['error']}")
         return
     entries = summary["parameters"]
     identified = [e for e in entries if e["identifiable"]]
     searched = summary["searched"]
-    out.print("uncertainty at the best point (Gauss-Newton, 95 % intervals):", highlight=False)
+    _say("uncertainty at the best point (Gauss-Newton, 95 % intervals):", 0)
     if identified:
-        out.print(f"  identified: {len(identified)} of the {searched} searched parameters", highlight=False)
-        table = text_table("", ("parameter", "value", "95 % interval", "tightness"))
-        # a name is what the reader acts on: it keeps its whole width, and folds rather than being cut
-        table.columns[0].min_width = min(max(len(e["name"]) for e in identified), max(out.width // 2, 12))
-        table.columns[0].overflow = "fold"
-        for e in identified:
-            table.add_row(e["name"], fmt_g(e["value"]), f"{fmt_g(e['low'])} to {fmt_g(e['high'])}", _tightness(e))
-        out.print(table)
+        _say(f"identified: {len(identified)} of the {searched} searched parameters")
+        table = text_table("", ("parameter", "value", "95 % interval", "+- (of value)"))
+        cells = [
+            (e["name"], fmt_g(e["value"]), f"{fmt_g(e['low'])} to {fmt_g(e['high'])}", _tightness(e))
+            for e in identified
+        ]
+        for row in cells:
+            table.add_row(*row)
+        # the table only where it fits whole: Rich squeezes a table wider than the terminal by cutting its cells
+        # short ("max_torque_join…") or folding them; narrower, one line each, broken only between words
+        if Measurement.get(out, out.options.update(max_width=10_000), table).maximum <= out.width:
+            out.print(table)
+        else:
+            for name, value, interval, tightness in cells:
+                _say(f"{name} = {value}, 95 % {interval}, +-{tightness}", 4)
     else:
-        out.print(f"  identified: none of the {searched} searched parameters (why: below)", highlight=False)
-    out.print(f"  {escape(_rank_in_words(summary))}", highlight=False)
-    for why, members in _unbounded_groups(entries, set(summary.get("non_smooth") or ())):
-        names = (e["name"] if short or e["value"] is None else f"{e['name']} {fmt_g(e['value'])}" for e in members)
-        out.print(f"  unbounded, {len(members)} that {escape(why)}: {', '.join(names)}", highlight=False)
+        _say(f"identified: none of the {searched} searched parameters (why: below)")
+    _say(_rank_in_words(summary))
+    groups = _unbounded_groups(entries, set(summary.get("non_smooth") or ()))
+    if groups:
+        _say(f"not identified ({sum(len(m) for _, m in groups)}, intervals unbounded), by reason:")
+    for why, members in groups:
+        _say(f"{len(members)} {why}:", 4)
+        _say(
+            ", ".join(
+                e["name"] if short or e["value"] is None else f"{e['name']} = {fmt_g(e['value'])}" for e in members
+            ),
+            6,
+        )
     pairs = summary.get("correlated_pairs") or []
     if pairs:
         listed = ", ".join(f"{p['a']} ~ {p['b']} ({p['correlation']:+.2f})" for p in pairs[:3])
-        out.print(f"  most correlated (one can partly make up for the other): {listed}", highlight=False)
+        _say(f"most correlated (one can partly make up for the other): {listed}")
     if short:
-        out.print(
-            f"  `simtune uncertainty {escape(str(run_dir))}` recomputes it with every value (--json for scripts)",
-            highlight=False,
-        )
+        _say(f"`simtune uncertainty {run_dir}` recomputes it with every value (--json for scripts)")
 
 
 def evaluation_json(engine: str, task: str, score) -> dict:
