@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from simtune.errors import ProjectError
+from simtune.geometry import rpy_matrix
 from simtune.project import load_project
-from simtune.robot.description import RobotDescription
+from simtune.robot.description import ZERO3, RobotDescription
 from simtune.robot.urdf import load_urdf
 
 #: How far the example reach turns each joint [deg] (less where its limits leave less room).
@@ -31,6 +32,11 @@ CLEARANCE_M = 0.05
 #: [deg] it tries per joint.
 START_CLEARANCE_M = 0.1
 START_CANDIDATES_DEG = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0, 120.0, -120.0)
+#: How many driven joints (the first, from the root) that search turns; the others stay at 0 in their limits.
+#: Every arm simtune knows has fewer (the joints that lift an arm off the floor are its first few); the cap
+#: keeps the search linear in a long chain's length (a 1000-joint chain: about a second), where each joint it
+#: turns costs a walk down the whole chain per candidate angle.
+START_SEARCH_JOINTS = 12
 
 
 def _toml(value) -> str:
@@ -56,29 +62,110 @@ def _room(robot: RobotDescription, name: str) -> tuple[float, float]:
     return lower + margin, upper - margin
 
 
+class _ChainHeights:
+    """The heights of the link frames on the chain from the root to the tracked link, all of them in one walk
+    down it, for :func:`clearance` and the start pose's search.
+
+    ``forward_kinematics`` per link walked the chain again for every link, and the search asks for every
+    joint and every candidate angle: cubic in the joint count (a 100-joint chain kept ``init`` silent for
+    three minutes).  Here a walk is linear, each joint's turn is made once, and the search walks on from the
+    joint it varies, the frames above it kept.  Each step is ``forward_kinematics``' own arithmetic in its
+    order, so the heights, and the pose chosen, are the same to the last bit.
+    """
+
+    def __init__(self, robot: RobotDescription) -> None:
+        self.joints = robot.chain(robot.tracked_link)
+        names = [j.name for j in self.joints]
+        second = robot.arm_joints[1] if robot.n_joints > 1 else robot.arm_joints[0]
+        last = len(self.joints) - 1
+        # the links that the driven joints can raise or lower: those below the second driven joint (else the
+        # tracked link alone)
+        counted = range(names.index(second) + 1, last + 1) if second in names else range(last, last + 1)
+        self.counted = set(counted) or {last}
+        self.chain_index = {name: k for k, name in enumerate(names)}
+        self.arm_joints = robot.arm_joints
+        arm_index = {name: i for i, name in enumerate(robot.arm_joints)}
+        # per joint, what a step needs (looked up once: the search takes hundreds of thousands of steps)
+        self.steps = [
+            (
+                j,
+                np.asarray(j.xyz, dtype=float),
+                rpy_matrix(j.rpy),
+                j.moves,
+                j.kind == "prismatic",
+                arm_index.get(j.name),
+                k in self.counted,
+            )
+            for k, j in enumerate(self.joints)
+        ]
+        self.base = np.array(robot.base_position, dtype=float)
+        self.base_rot = rpy_matrix(robot.base_rpy) if robot.base_rpy != ZERO3 else np.eye(3)
+        self._motions: dict[tuple[int, float], tuple[np.ndarray, np.ndarray]] = {}
+
+    def _walk(self, q: np.ndarray, first: int, end: int, pos, rot, lowest: float):
+        """(position, rotation, lowest counted height) after the chain's joints ``first`` to ``end - 1``, from
+        the frame ``pos``/``rot`` above joint ``first``; ``q``: the driven joints' positions [rad]."""
+        motions = self._motions
+        for k in range(first, end):
+            joint, offset, turn, moves, prismatic, index, counted = self.steps[k]
+            pos = pos + rot @ offset
+            rot = rot @ turn
+            if moves:
+                value = q[index] if index is not None else 0.0
+                key = (k, float(value))
+                motion = motions.get(key)
+                if motion is None:
+                    motion = motions[key] = joint.motion(value)
+                if prismatic:
+                    pos = pos + rot @ motion[0]
+                else:
+                    rot = rot @ motion[1]
+            if counted:
+                height = float(pos[2])
+                lowest = min(lowest, height)
+        return pos, rot, lowest
+
+    def lowest(self, q_deg) -> float:
+        """The height [m] of the lowest counted link frame at driven joint positions ``q_deg`` [deg]."""
+        q = np.radians(np.asarray(q_deg, dtype=float))
+        return self._walk(q, 0, len(self.joints), self.base, self.base_rot, math.inf)[2]
+
+    def highest_choice(self, q_deg: list[float], i: int, options: list[float]) -> float:
+        """Of ``options`` [deg] for driven joint ``i`` (the others at ``q_deg``), the first that leaves the
+        lowest counted link frame highest, as ``max(options, key=clearance)`` picks it."""
+        k = self.chain_index.get(self.arm_joints[i])
+        if k is None:  # off the chain: no option moves a counted frame, so all tie and the first is picked
+            return options[0]
+        q = np.radians(np.asarray(q_deg, dtype=float))
+        pos, rot, lowest = self._walk(q, 0, k, self.base, self.base_rot, math.inf)  # the frames above it stay
+        best, best_height = options[0], -math.inf
+        for angle in options:
+            q = np.radians(np.asarray([*q_deg[:i], angle, *q_deg[i + 1 :]], dtype=float))
+            height = self._walk(q, k, len(self.joints), pos, rot, lowest)[2]
+            if height > best_height:
+                best, best_height = angle, height
+        return best
+
+
 def clearance(robot: RobotDescription, q_deg) -> float:
     """The height [m] of the lowest link frame that the driven joints can raise or lower (those below the second
     driven joint, up to the tracked link) at ``q_deg``."""
-    q = np.radians(np.asarray(q_deg, dtype=float))
-    chain = [j.child for j in robot.chain(robot.tracked_link)]
-    names = [robot.parent_joint[link].name for link in chain]
-    second = robot.arm_joints[1] if robot.n_joints > 1 else robot.arm_joints[0]
-    moved = chain[names.index(second) + 1 :] if second in names else chain[-1:]
-    return min(float(robot.forward_kinematics(q, link)[0][2]) for link in moved or chain[-1:])
+    return _ChainHeights(robot).lowest(q_deg)
 
 
 def _start_pose(robot: RobotDescription) -> list[float]:
     """Each joint at 0 moved inside its limits; where that leaves the arm within ``START_CLEARANCE_M`` of the
-    floor (a UR lies stretched out at its zeros), each joint in turn set to the angle of
-    ``START_CANDIDATES_DEG`` that lifts the arm's lowest frame highest."""
+    floor (a UR lies stretched out at its zeros), each joint in turn (the first ``START_SEARCH_JOINTS``) set to
+    the angle of ``START_CANDIDATES_DEG`` that lifts the arm's lowest frame highest."""
     rooms = [_room(robot, name) for name in robot.arm_joints]
     start = [min(max(0.0, low), high) for low, high in rooms]
-    if clearance(robot, start) >= START_CLEARANCE_M:
+    heights = _ChainHeights(robot)
+    if heights.lowest(start) >= START_CLEARANCE_M:
         return start
     for _ in range(2):
-        for i, (low, high) in enumerate(rooms):
+        for i, (low, high) in enumerate(rooms[:START_SEARCH_JOINTS]):
             options = sorted({min(max(c, low), high) for c in START_CANDIDATES_DEG}, key=abs)
-            start[i] = max(options, key=lambda a: clearance(robot, [*start[:i], a, *start[i + 1 :]]))
+            start[i] = heights.highest_choice(start, i, options)
     return start
 
 

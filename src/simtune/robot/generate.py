@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Protocol
@@ -102,7 +103,7 @@ def _mjcf_placement(shape) -> str:
 
 
 def _mjcf_geom(link: Link, index: int, shape) -> str:
-    name = f'name="{geom_name(link.name, index)}" class="arm"'
+    name = f'name={quoteattr(geom_name(link.name, index))} class="arm"'
     where = _mjcf_placement(shape)
     if isinstance(shape, Box):
         return f'<geom {name} type="box" {where} size="{_f(shape.half)}"/>'
@@ -145,7 +146,8 @@ def _mjcf_link(robot: RobotDescription, link: Link, joint: Joint | None, indent:
         kind = "slide" if joint.kind == "prismatic" else "hinge"
         limit = f' range="{joint.lower:.9g} {joint.upper:.9g}"' if joint.limited else ""
         damping = f' damping="{joint.damping:.9g}"' if joint.damping else ""
-        lines.append(f'{inner}<joint name="{joint.name}" type="{kind}" axis="{_f(joint.axis)}"{limit}{damping}/>')
+        name = quoteattr(joint.name)  # a URDF's names may hold quotes, < and &
+        lines.append(f'{inner}<joint name={name} type="{kind}" axis="{_f(joint.axis)}"{limit}{damping}/>')
     for i, shape in enumerate(link.shapes):
         lines.append(f"{inner}{_mjcf_geom(link, i, shape)}")
     for child_joint in robot.children(link.name):
@@ -204,7 +206,7 @@ def scene_mjcf(robot: RobotDescription, obj: SceneObject | None = None) -> str:
     actuators = [
         # A velocity servo; its force limit (max torque) is set per evaluation.  Its gain (servo_gains) keeps
         # the largest command step's force within the generic limit: for the MICO, 70 N m below 100.
-        f'    <velocity name="{j}" joint="{j}" kv="{gains[i]:.9g}" '
+        f'    <velocity name={quoteattr(j)} joint={quoteattr(j)} kv="{gains[i]:.9g}" '
         f'forcerange="{-robot.generic_effort(i):.9g} {robot.generic_effort(i):.9g}"/>'
         for i, j in enumerate(robot.arm_joints)
         if robot.mjcf is None
@@ -285,9 +287,9 @@ def _urdf_joint(joint: Joint) -> list[str]:
     else:
         kind = "revolute" if joint.limited else "continuous"
     lines = [
-        f'  <joint name="{joint.name}" type="{kind}">',
-        f'    <parent link="{joint.parent}"/>',
-        f'    <child link="{joint.child}"/>',
+        f'  <joint name={quoteattr(joint.name)} type="{kind}">',  # names may hold quotes, < and &
+        f"    <parent link={quoteattr(joint.parent)}/>",
+        f"    <child link={quoteattr(joint.child)}/>",
         f'    <origin xyz="{_f(joint.xyz)}" rpy="{_f(joint.rpy)}"/>',
     ]
     if kind != "fixed":
@@ -322,7 +324,8 @@ def robot_urdf_file(robot: RobotDescription, hulls: bool = False) -> str:
     """Path of the generated URDF on disk, for engines whose loaders read files; written once per content."""
     text = robot_urdf(robot, hulls)
     digest = hashlib.sha1(text.encode()).hexdigest()[:12]
-    path = Path(tempfile.gettempdir()) / f"simtune-{robot.name}-{digest}.urdf"
+    stem = re.sub(r"[^\w.-]", "_", robot.name)[:40]  # a URDF's robot name may hold "/" or be empty
+    path = Path(tempfile.gettempdir()) / f"simtune-{stem}-{digest}.urdf"
     if not path.exists():
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_text(text)

@@ -20,9 +20,15 @@ Published descriptions are read as the engines read them:
   warning, as the engines' own parsers tolerate them.
 - Physically impossible values stop at load with one line naming the URDF, the link or joint and the
   value: a mass that is negative or not finite, an inertia that is not positive semi-definite, a zero
-  axis on a movable joint, a lower limit above the upper one.  A body that moves but has no mass (no
-  ``<inertial>`` anywhere on it) gets :data:`FLOOR_MASS` with a warning, since no engine simulates a
+  axis on a movable joint, a lower limit above the upper one, a negative effort, velocity or damping, a
+  box, sphere or cylinder size that is not above 0, a mesh scale of 0.  A body that moves but has no mass
+  (no ``<inertial>`` anywhere on it) gets :data:`FLOOR_MASS` with a warning, since no engine simulates a
   massless moving body.
+- So do files the engines would crash or hang on: a number that is not finite (``inf``, ``nan``) or not a
+  number in any origin, axis, limit, dynamics, mimic, mass, inertia or geometry attribute of a link or
+  joint; a link or joint without a name or with another's name; a joint naming a link the file lacks; links
+  that do not form a tree (a link with two parents, a joint from a link to itself, a loop).  Each is one
+  line naming the URDF (and the line, where the XML says it), the link or joint and the attribute.
 
 Movable joints that are not driven are held at a fixed pose: at the position the caller gives, else at
 0 clamped into its limits, a mimic joint at its multiplier and offset from the joint it follows.  A
@@ -39,6 +45,7 @@ import warnings
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -116,12 +123,15 @@ def resolve_mesh(filename: str, urdf: Path, package_path: Iterable[str | Path] =
 def _shape(geometry, origin, urdf: Path, where: str, package_path: Iterable[str | Path]) -> Shape:
     xyz, rpy = _origin(origin)
     if geometry.box is not None:
-        half = _vec(np.asarray(geometry.box.size, dtype=float) / 2)
-        return Box(xyz, half, rpy)
+        size = _sizes(np.asarray(geometry.box.size, dtype=float), urdf, where, "box size")
+        return Box(xyz, _vec(size / 2), rpy)
     if geometry.sphere is not None:
-        return Sphere(xyz, float(geometry.sphere.radius), rpy)
+        (radius,) = _sizes(np.array([geometry.sphere.radius], dtype=float), urdf, where, "sphere radius")
+        return Sphere(xyz, float(radius), rpy)
     if geometry.cylinder is not None:
-        return Cylinder(xyz, float(geometry.cylinder.radius), float(geometry.cylinder.length), rpy)
+        (radius,) = _sizes(np.array([geometry.cylinder.radius], dtype=float), urdf, where, "cylinder radius")
+        (length,) = _sizes(np.array([geometry.cylinder.length], dtype=float), urdf, where, "cylinder length")
+        return Cylinder(xyz, float(radius), float(length), rpy)
     if geometry.mesh is not None:
         name = geometry.mesh.filename
         path = resolve_mesh(name, urdf, package_path)
@@ -131,8 +141,19 @@ def _shape(geometry, origin, urdf: Path, where: str, package_path: Iterable[str 
         path = engine_mesh(path, f"{urdf}: {where}")
         scale = geometry.mesh.scale
         scale3 = (1.0, 1.0, 1.0) if scale is None else _vec(np.broadcast_to(np.asarray(scale, dtype=float), 3))
+        if 0.0 in scale3:  # flat: MuJoCo, ODE and Drake refuse it (a negative scale mirrors: all read it)
+            raise RobotError(f"{urdf}: {where}: mesh scale {scale3} flattens the mesh (no scale may be 0)")
         return Mesh(str(path), scale3, xyz, rpy)
     raise RobotError(f"{urdf}: {where}: a collision element without a geometry simtune knows")
+
+
+def _sizes(values: np.ndarray, urdf: Path, where: str, field_: str) -> np.ndarray:
+    """``values`` if every one is above 0; else one line naming the field.  A negative box side makes ODE
+    abort the process; a zero box or cylinder side makes Drake do so, and MuJoCo refuses any zero size."""
+    if np.any(values <= 0):
+        shown = f"{float(values[0]):g}" if values.size == 1 else str(_vec(values))
+        raise RobotError(f"{urdf}: {where}: {field_} {shown} is not possible (a size is > 0)")
+    return values
 
 
 #: The mass [kg] and inertia [kg m^2] of a moving body the URDF gives no mass: light enough to change
@@ -267,6 +288,8 @@ def _parse(path: Path):
             raise RobotError(f"{path} line {again.lineno}: not valid XML ({again.msg})") from None
     if root.tag != "robot":
         raise RobotError(f"{path}: not a URDF: its root element is <{root.tag}>, a URDF's is <robot>")
+    _check_names(root, path)
+    _check_numbers(root, path)
     try:
         return yourdfpy.URDF.load(
             io.BytesIO(text),
@@ -277,6 +300,122 @@ def _parse(path: Path):
         ).robot
     except (ValueError, KeyError, AttributeError, TypeError) as exc:
         raise RobotError(f"{path}: not a URDF simtune can read ({type(exc).__name__}: {exc})") from None
+
+
+def _check_names(root, path: Path) -> None:
+    """One line for a ``<link>`` or ``<joint>`` without a name, or with the name of another of its kind: the
+    engines address links and joints by name (PyBullet crashes on a joint name used twice or empty)."""
+    for kind in ("link", "joint"):
+        first_line: dict[str, int | None] = {}
+        for element in root.findall(kind):
+            name = element.get("name")
+            if not name:
+                what = "an empty name" if name is not None else "no name"
+                raise RobotError(f"{path} line {element.sourceline}: a <{kind}> has {what}: every {kind} needs its own")
+            if name in first_line:
+                raise RobotError(
+                    f"{path} line {element.sourceline}: {kind} {name!r} is defined twice (first on line "
+                    f"{first_line[name]}): {kind} names must be unique"
+                )
+            first_line[name] = element.sourceline
+
+
+#: The numeric attributes of a link's or joint's elements that the URDF reader parses, with how many numbers
+#: each holds (0: a mesh's scale, one or three, or none for the default).  Each is checked before the reader
+#: parses it: the reader turns an infinite origin into NaN (losing what was written, with NumPy warnings) and
+#: a NaN into a ``LinAlgError`` deep in the loader.
+_NUMBERS: dict[str, dict[str, int]] = {
+    "origin": {"xyz": 3, "rpy": 3},
+    "axis": {"xyz": 3},
+    "limit": {"lower": 1, "upper": 1, "effort": 1, "velocity": 1},
+    "dynamics": {"damping": 1, "friction": 1},
+    "mimic": {"multiplier": 1, "offset": 1},
+    "safety_controller": {"soft_lower_limit": 1, "soft_upper_limit": 1, "k_position": 1, "k_velocity": 1},
+    "calibration": {"rising": 1, "falling": 1},
+    "mass": {"value": 1},
+    "inertia": {"ixx": 1, "ixy": 1, "ixz": 1, "iyy": 1, "iyz": 1, "izz": 1},
+    "box": {"size": 3},
+    "sphere": {"radius": 1},
+    "cylinder": {"radius": 1, "length": 1},
+    "mesh": {"scale": 0},
+}
+
+
+def _part(owner, element) -> str:
+    """Where ``element`` sits in link or joint ``owner``: ``link 'a' collision 2``, ``link 'a' inertial``, or the
+    owner alone for a joint's own elements."""
+    where = f"{owner.tag} {owner.get('name')!r}"
+    part = element
+    while part.getparent() is not owner:
+        part = part.getparent()
+    if part.tag in ("collision", "visual"):
+        return f"{where} {part.tag} {owner.findall(part.tag).index(part) + 1}"
+    return f"{where} {part.tag}" if part.tag == "inertial" else where
+
+
+def _check_numbers(root, path: Path) -> None:
+    """One line, naming the URDF's line, the link or joint and the attribute, for a numeric attribute (of
+    :data:`_NUMBERS`) that is not a number, has too few or too many numbers, or is not finite."""
+    for owner in (*root.findall("link"), *root.findall("joint")):
+        for element in owner.iter():
+            attributes = _NUMBERS.get(element.tag) if element is not owner else None
+            for attribute, count in (attributes or {}).items():
+                text = element.get(attribute)
+                if text is None:
+                    continue
+                # the reader splits box sizes and mesh scales at commas too
+                words = text.replace(",", " ").split() if element.tag in ("box", "mesh") else text.split()
+                field_ = "mass" if element.tag == "mass" else f"{element.tag} {attribute}"
+                where = f"{path} line {element.sourceline}: {_part(owner, element)}: {field_}"
+                if len(words) not in ((0, 1, 3) if count == 0 else (count,)):
+                    expected = "1 or 3 numbers" if count == 0 else f"{count} number{'s' if count > 1 else ''}"
+                    raise RobotError(f"{where} {text.strip()!r} is not {expected}")
+                try:
+                    values = [float(w) for w in words]
+                except ValueError:
+                    raise RobotError(f"{where} {text.strip()!r} is not a number") from None
+                if not all(math.isfinite(v) for v in values):
+                    shown = words[0] if len(words) == 1 else repr(" ".join(words))
+                    raise RobotError(f"{where} {shown} is not finite")
+
+
+def _check_tree(robot, path: Path) -> None:
+    """One line for links that do not form a tree: a joint naming a link the URDF lacks, a joint from a link
+    to itself, a link with two parents, or a loop (the loader would walk a loop for ever)."""
+    links = {link.name for link in robot.links}
+    if not links:
+        raise RobotError(f"{path}: no <link>: a URDF's robot is made of links")
+    parent_joint: dict[str, Any] = {}  # link -> yourdfpy's joint whose child it is
+    for j in robot.joints:
+        for role, link in (("parent", j.parent), ("child", j.child)):
+            if link not in links:
+                raise RobotError(f"{path}: joint {j.name!r}: {role} link {link!r} is not a link of the URDF")
+        if j.parent == j.child:
+            raise RobotError(f"{path}: joint {j.name!r}: link {j.parent!r} is both its parent and its child")
+        if j.child in parent_joint:
+            other = parent_joint[j.child].name
+            raise RobotError(
+                f"{path}: link {j.child!r} is the child of two joints, {other!r} and {j.name!r}: a URDF's links "
+                "form a tree (one parent each)"
+            )
+        parent_joint[j.child] = j
+    # one parent each: a link that no walk up from it leaves (to a root) is on a loop or below one
+    done: set[str] = set()
+    for start in (link.name for link in robot.links):  # in the file's order: the same line every time
+        trail: list[str] = []
+        on_trail: set[str] = set()
+        link = start
+        while link in parent_joint and link not in done:
+            if link in on_trail:
+                loop = trail[trail.index(link) :][::-1]  # walked up: named down, parent to child
+                joints = [parent_joint[k] for k in loop]
+                names = ", ".join(repr(j.name) for j in joints)
+                links_ = " -> ".join(map(repr, [joints[0].parent, *loop]))
+                raise RobotError(f"{path}: joints {names} form a loop ({links_}): a URDF's links form a tree")
+            trail.append(link)
+            on_trail.add(link)
+            link = parent_joint[link].parent
+        done.update(trail)
 
 
 def _check_joint(joint, path: Path) -> None:
@@ -293,12 +432,27 @@ def _check_joint(joint, path: Path) -> None:
         if not np.all(np.isfinite(axis)) or float(np.linalg.norm(axis)) < 1e-12:
             raise RobotError(f"{path}: joint {joint.name!r}: axis {_vec(axis)} has no direction")
     limit = joint.limit
+    if limit is not None:
+        # 0 is ROS-Industrial's "not given": kept.  Below 0 Drake stops the process (joint.h's velocity limits)
+        # or refuses the robot, and no engine means anything by it.
+        for name_, value in (("effort", limit.effort), ("velocity", limit.velocity)):
+            if value is not None and float(value) < 0:
+                raise RobotError(
+                    f"{path}: joint {joint.name!r}: limit {name_} {float(value):g} is negative (a limit is >= 0; "
+                    "0 or none: not given)"
+                )
     if joint.type != "continuous" and limit is not None and limit.lower is not None and limit.upper is not None:
         lower, upper = float(limit.lower), float(limit.upper)
         if not (math.isfinite(lower) and math.isfinite(upper)):
             raise RobotError(f"{path}: joint {joint.name!r}: limits [{lower:g}, {upper:g}] are not finite")
         if lower > upper:
             raise RobotError(f"{path}: joint {joint.name!r}: lower limit {lower:g} is above upper limit {upper:g}")
+    dynamics = joint.dynamics
+    if dynamics is not None and dynamics.damping is not None and float(dynamics.damping) < 0:
+        raise RobotError(
+            f"{path}: joint {joint.name!r}: dynamics damping {float(dynamics.damping):g} is negative (damping "
+            "takes energy out, it is >= 0)"
+        )
 
 
 def gripper_reason(joint) -> str:
@@ -533,8 +687,16 @@ def load_urdf(
     robot = _parse(path)
     held = dict(held or {})
     link_names = [link.name for link in robot.links]
+    _check_tree(robot, path)
     for j in robot.joints:
         _check_joint(j, path)
+    # the caller's numbers too: a NaN pose would reach the loader's rotations (a LinAlgError) and the engines
+    for what, values in (("base_position", base_position), ("base_rpy", base_rpy)):
+        if not np.all(np.isfinite(np.asarray(values, dtype=float))):
+            raise RobotError(f"{path}: {what} {tuple(values)} is not finite")
+    for joint_name, position in held.items():
+        if not math.isfinite(float(position)):
+            raise RobotError(f"{path}: held joint {joint_name!r}: position {position} is not finite")
     tree = _tree(robot, path, _vec(base_position), _vec(base_rpy))
     driven, tracked_link, notes = _arm_choice(
         tree, path, link_names, None if arm_joints is None else list(arm_joints), tracked_link
