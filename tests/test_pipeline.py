@@ -133,3 +133,8 @@ def test_auto_without_a_budget_stops_when_converged_and_says_so(tmp_path):
     assert result.converged and result.generations < 1000
     record = read_record(tmp_path / "run")
     assert record.stop_reason == "converged" and record.converged
+    # the verdict after it: the reference's floor (3 noisy repeats) and the delay, far from its generic 0 s
+    verdict = record.verdict
+    assert verdict is not None and 0 < verdict["floor"] < result.fitness
+    assert verdict["over_floor"] == pytest.approx(result.fitness / verdict["floor"])
+    assert [m["name"] for m in verdict["moved"]] == ["command_delay"] and verdict["moved"][0]["generic"] == 0.0

@@ -56,7 +56,7 @@ from simtune.spawn_guard import check_main_guarded, start_worker_server
 from simtune.store import STORE_FILE, RunStore, check_store_file
 from simtune.tasks import TaskSpec
 from simtune.tasks.spec import FINGERPRINT
-from simtune.uncertainty import uncertainty
+from simtune.uncertainty import uncertainty, verdict
 
 BEST_PARAMS_FILE = "best_params.json"
 #: where ``resume --rescore`` keeps the run it replaces
@@ -495,6 +495,12 @@ def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bo
     # after the run is finished: a kill meanwhile loses only this summary (`simtune uncertainty RUN` redoes it)
     if stored_uncertainty is None:
         store.set(uncertainty=_uncertainty_or_reason(objective, plan, store, result))
+    if store.get("verdict") is None:  # cheap: the floor of the loaded references and the generic values
+        try:
+            summary = store.get("uncertainty")
+            store.set(verdict=verdict(objective, plan.references, result.params, result.score.fitness, summary))
+        except SimtuneError as exc:  # the run stands without it
+            store.set(verdict={"error": str(exc), "floor": None, "over_floor": None, "moved": []})
     store.close()
     return result
 

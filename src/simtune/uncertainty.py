@@ -259,3 +259,60 @@ def uncertainty(
         entries.append(entry)
     result["parameters"] = entries
     return result
+
+
+#: a tuned value this far from its generic one (share of its range) is named in the verdict after a tune
+MOVED_SHARE = 0.25
+
+
+def verdict(
+    objective: Objective, references: dict, best: dict[str, float], fitness: float, summary: dict | None
+) -> dict:
+    """What a newcomer needs after a tune: how close the fit is to what the data allow, and which parameters moved
+    far from their generic values and whether the recordings pin them.
+
+    Args:
+        objective: the run's objective (its space, tasks and weights).
+        references: task -> the run's reference (:class:`~simtune.data.TaskData`); the floor needs aligned ones.
+        best: the tuned parameter values (name -> value).
+        fitness: the tuned fitness.
+        summary: the run's uncertainty summary (:func:`uncertainty`), or None / one with an ``error``.
+    Returns:
+        ``floor`` (the fitness of the aligned mean against each repeat, summed over the tasks: what a simulation as
+        good as the arm's own repeats scores; None against the plain mean or with one repeat), ``over_floor``
+        (fitness / floor) and ``moved``: per parameter more than :data:`MOVED_SHARE` of its range from its generic
+        value, its ``name``, ``generic``, ``tuned``, ``share`` of the range and ``pinned`` (its 95 % interval is
+        bounded; None where no uncertainty was computed), the farthest first.
+    """
+    from simtune.fitness import reference_floor
+
+    floor: float | None = None
+    try:
+        floors = [reference_floor(ref, objective.weights).floor for ref in references.values()]
+        floor = float(sum(floors)) if floors and all(math.isfinite(f) and f > 0 for f in floors) else None
+    except (ValueError, TypeError):
+        floor = None  # the plain mean, joint logs only or one repeat: no floor to compare with
+    space = objective.vector_space()
+    generic = generic_values(objective, space.names)
+    pinned = {}
+    if summary and not summary.get("error"):
+        pinned = {p["name"]: bool(p.get("identifiable")) for p in summary.get("parameters", [])}
+    moved: list[dict] = []
+    for p in space.parameters:
+        width = p.high - p.low
+        if p.name not in best or p.name not in generic or width <= 0:
+            continue
+        share = abs(best[p.name] - generic[p.name]) / width
+        if share > MOVED_SHARE:
+            moved.append(
+                {
+                    "name": p.name,
+                    "unit": p.unit,
+                    "generic": float(generic[p.name]),
+                    "tuned": float(best[p.name]),
+                    "share": float(share),
+                    "pinned": pinned.get(p.name) if pinned else None,
+                }
+            )
+    moved.sort(key=lambda m: -m["share"])
+    return {"floor": floor, "over_floor": None if not floor else float(fitness / floor), "moved": moved}

@@ -258,3 +258,24 @@ def print_evaluation(score, title: str) -> None:
                 highlight=False,
                 soft_wrap=True,
             )
+
+
+def print_verdict(verdict: dict | None) -> None:
+    """After a tune: how close to the data's floor, and which parameters moved far and whether they are pinned."""
+    if not verdict:
+        return
+    if verdict.get("floor"):
+        out.print(
+            f"  verdict: {verdict['over_floor']:.1f} x the recordings' floor {verdict['floor']:.4f} (the aligned mean "
+            "against each repeat: what a simulation as good as the arm's own repeats scores)",
+            highlight=False,
+            soft_wrap=True,
+        )
+    for m in verdict.get("moved", [])[:6]:
+        pinned = {True: "pinned by the recordings", False: "not pinned: the recordings allow a wide range"}
+        out.print(
+            f"    {m['name']} {m['generic']:.4g} -> {m['tuned']:.4g} {m['unit']} ({100 * m['share']:.0f} % of its "
+            f"range from generic; {pinned.get(m['pinned'], 'uncertainty not computed')})",
+            highlight=False,
+            soft_wrap=True,
+        )

@@ -45,6 +45,7 @@ from simtune.cli.output import (
     print_evaluation,
     print_json,
     print_uncertainty,
+    print_verdict,
 )
 from simtune.errors import SimtuneError
 
@@ -236,6 +237,7 @@ def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
         "stop_reason": result.stop_reason,
         "search_dimension": len(searched),
         "inactive_parameters": inactive,
+        "verdict": record.verdict,
     }
     if as_json:
         print_json(payload)
@@ -253,6 +255,7 @@ def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
         f"({result.message})"
     )
     out.print(f"  best parameters: {payload['best_params_file']}")
+    print_verdict(record.verdict)
     if record.uncertainty:
         print_uncertainty(record.uncertainty, short=True, run_dir=run_dir)
     if inactive:

@@ -47,6 +47,8 @@ class RunRecord:
     converged: bool
     #: why the search stopped (simtune.optimize.base.STOP_REASONS); None for runs stored before it was kept
     stop_reason: str | None
+    #: the verdict after the tune (simtune.uncertainty.verdict: floor, over_floor, moved); None before it was kept
+    verdict: dict | None
     #: the Gauss-Newton uncertainty at the best point (``simtune uncertainty``), if computed
     uncertainty: dict | None
     evaluations: int
@@ -125,6 +127,7 @@ def read_record(run_dir: Path | str) -> RunRecord:
             de_settings=store.get("de_settings"),
             converged=bool(store.get("search_converged", False)),
             stop_reason=store.get("search_stop_reason"),
+            verdict=store.get("verdict"),
             uncertainty=store.get("uncertainty"),
             evaluations=store.count_evaluations(),
             outcomes=store.count_outcomes(),
