@@ -364,7 +364,7 @@ def run_config(
 ) -> RunConfig:
     """The configuration ``tune`` runs and stores, from the same arguments (``simtune tune``'s options).
 
-    ``space``: None for the default (calibrated; extended with ``paper_exact``: :func:`default_space`);
+    ``space``: None for the default (calibrated; shared with ``paper_exact``: :func:`default_space`);
     ``optimizer``: None for the default (auto; de with ``paper_exact``); ``reference``: None for the default
     (aligned; mean with ``paper_exact``); ``repeats``: which of each task's repeats it is tuned on (all, even or
     odd; None: all); ``targets``: the tasks' joint targets (task or published; None: task, published with

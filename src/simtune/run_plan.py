@@ -31,14 +31,14 @@ from simtune.tasks import TaskSpec, check_targets, parse_tasks
 from simtune.tasks.spec import common_robot
 
 #: ``simtune tune``'s space where none is given: ``calibrated`` fits both real tasks better and sooner than
-#: ``extended`` (docs/tuning.md "The default space", measured 2026-11-26); a paper-exact run keeps ``extended``,
-#: the space its figures were measured in
+#: ``extended`` (docs/tuning.md "The default space", measured 2026-11-26); a paper-exact run takes ``shared``, the
+#: paper's 31 parameters (--paper-exact runs only the paper's spaces, shared and individual)
 DEFAULT_SPACE = "calibrated"
 
 
 def default_space(paper_exact: bool) -> str:
-    """The space a tune runs in when none is named: :data:`DEFAULT_SPACE`, or ``extended`` for a paper-exact run."""
-    return "extended" if paper_exact else DEFAULT_SPACE
+    """The space a tune runs in when none is named: :data:`DEFAULT_SPACE`, or ``shared`` for a paper-exact run."""
+    return "shared" if paper_exact else DEFAULT_SPACE
 
 
 def _is_int(value) -> bool:

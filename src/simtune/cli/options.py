@@ -202,7 +202,7 @@ TuneSpaceOpt = Annotated[
     typer.Option(
         "--space",
         "-s",
-        help=f"{SPACE_HELP} Default: calibrated (extended with --paper-exact): docs/tuning.md says why.",
+        help=f"{SPACE_HELP} Default: calibrated (shared with --paper-exact): docs/tuning.md says why.",
         show_default=False,
     ),
 ]
