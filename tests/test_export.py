@@ -36,6 +36,10 @@ from simtune.tasks import get_task
 
 #: engine -> (random-search evaluations of its cheap tuned run, round-trip tolerance [m])
 ROUND_TRIPS = {"mujoco": (4, 1e-6), "pybullet": (4, 1e-6), "dart": (3, 1e-4), "drake": (2, 1e-4)}
+#: the object's (and so the fitness's) tolerance where it differs from the wrist's: Drake's parser rebuilds link
+#: inertias a last bit off, and the cube's push amplifies that to millimetres by its end (6.5 mm at this run's point
+#: since the cube's phase 2 runs joint 3 to 74 deg; docs/export.md)
+OBJECT_TOLERANCE = {"drake": 1e-2}
 _RUNS: dict[tuple, Path] = {}
 
 
@@ -97,8 +101,9 @@ def round_trip(tmp_path_factory, tmp_path, engine: str, monkeypatch, space: str 
     assert yaml.safe_load((out / "controller.yaml").read_text())["tasks"]["cube"]["samples"] == len(reference.times)
     wrist = np.linalg.norm(rollout.wrist_pos - tuned.wrist_pos, axis=1).max()
     assert wrist <= tolerance, f"{engine}: exported model's wrist {wrist:.3g} m from the run's"
-    assert np.linalg.norm(rollout.object_pos - tuned.object_pos, axis=1).max() <= tolerance
-    assert abs(score.fitness - best["fitness"]) <= tolerance, (score.fitness, best["fitness"])
+    object_tolerance = OBJECT_TOLERANCE.get(engine, tolerance)
+    assert np.linalg.norm(rollout.object_pos - tuned.object_pos, axis=1).max() <= object_tolerance
+    assert abs(score.fitness - best["fitness"]) <= object_tolerance, (score.fitness, best["fitness"])
 
 
 # every engine whose export can be driven from its files; Drake's (about 20 s: its run's evaluations), PyBullet's
