@@ -111,6 +111,7 @@ def test_a_manifest_naming_files_outside_the_folder_is_not_trusted(made, tmp_pat
     assert _files(out) == before and (tmp_path / "precious.txt").read_text() == "keep"
 
 
+@pytest.mark.slow  # builds a second report (about 4 s)
 def test_a_report_into_its_own_folder_replaces_only_its_own_files(made, tmp_path):
     out = _copy_report(made, tmp_path)
     added = {"figures/my_photo.png": b"photo", "tables/my.csv": b"x\n", "notes.txt": b"mine"}
@@ -127,6 +128,7 @@ def test_a_report_into_its_own_folder_replaces_only_its_own_files(made, tmp_path
     assert "tables/runs.csv" in listed and 'name="generator"' in index.read_text()
 
 
+@pytest.mark.slow  # builds a second report (about 4 s)
 def test_a_user_file_named_like_a_report_file_is_never_overwritten(made, tmp_path):
     out = _copy_report(made, tmp_path)
     manifest = json.loads((out / MANIFEST).read_text())
@@ -141,6 +143,7 @@ def test_a_user_file_named_like_a_report_file_is_never_overwritten(made, tmp_pat
     assert _files(out) == before
 
 
+@pytest.mark.slow  # builds a second report (about 4 s)
 def test_a_report_from_before_the_manifest_is_replaced_without_its_users_files(made, tmp_path):
     out = _copy_report(made, tmp_path)
     (out / MANIFEST).unlink(missing_ok=True)
