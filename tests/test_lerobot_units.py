@@ -13,11 +13,11 @@ the schedule with the controller's clamped P law (no simulation: every case fail
 """
 
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from test_joint_logs import cli  # the CLI in this process: exit status and stderr
 from test_lerobot import FPS, STEPS, make_project, write_raw
 
 import simtune.api as st
@@ -75,20 +75,6 @@ def project(root: Path, schedule: str, units: str, episodes) -> Path:
     if episodes:
         write_raw(root / "recordings" / "wave", "v3.0", episodes)
     return root
-
-
-def cli(*args: str, capsys) -> tuple[int, str]:
-    """The CLI in this process: its exit status and stderr."""
-    from simtune.cli import main
-
-    argv = sys.argv
-    sys.argv = ["simtune", *args]
-    try:
-        with pytest.raises(SystemExit) as info:
-            main()
-    finally:
-        sys.argv = argv
-    return int(info.value.code or 0), capsys.readouterr().err
 
 
 def one_line(message: str, *fragments: str) -> None:

@@ -383,30 +383,29 @@ def test_ctrl_c_exits_130_saying_how_to_resume(command, tmp_path):
 
 
 # --- damaged, foreign and occupied folders ----------------------------------------------------------------------
-def test_resume_of_a_store_with_a_damaged_page_is_one_line(finished_run, tmp_path):
-    run_dir = copy_run(finished_run, tmp_path / "run")
+def damage_page(run_dir: Path, table: str, seed: int) -> Path:
+    """Overwrite the first page of the store's ``table`` with random bytes, as a failing disk would; the store."""
     path = run_dir / STORE_FILE
     store = RunStore(run_dir)
     page_size = store.db.execute("PRAGMA page_size").fetchone()[0]
-    root = store.db.execute("SELECT rootpage FROM sqlite_master WHERE name = 'evaluations'").fetchone()[0]
+    root = store.db.execute("SELECT rootpage FROM sqlite_master WHERE name = ?", (table,)).fetchone()[0]
     store.close()
-    with open(path, "r+b") as fh:  # the evaluations table's first page overwritten, as by a failing disk
+    with open(path, "r+b") as fh:
         fh.seek((root - 1) * page_size)
-        fh.write(np.random.default_rng(0).bytes(page_size))
+        fh.write(np.random.default_rng(seed).bytes(page_size))
+    return path
+
+
+def test_resume_of_a_store_with_a_damaged_page_is_one_line(finished_run, tmp_path):
+    run_dir = copy_run(finished_run, tmp_path / "run")
+    path = damage_page(run_dir, "evaluations", 0)
     one_line_error(run(resume_cmd(run_dir)), str(path), "damaged")
 
 
 def test_report_and_export_refuse_a_store_with_a_damaged_page_as_resume_does(finished_run, tmp_path):
     """They used to read around the damage and report or export from it without a word."""
     run_dir = copy_run(finished_run, tmp_path / "run")
-    path = run_dir / STORE_FILE
-    store = RunStore(run_dir)
-    page_size = store.db.execute("PRAGMA page_size").fetchone()[0]
-    root = store.db.execute("SELECT rootpage FROM sqlite_master WHERE name = 'generations'").fetchone()[0]
-    store.close()
-    with open(path, "r+b") as fh:
-        fh.seek((root - 1) * page_size)
-        fh.write(np.random.default_rng(1).bytes(page_size))
+    path = damage_page(run_dir, "generations", 1)
     export = [sys.executable, "-m", "simtune.cli", "export", str(run_dir), "--out", str(tmp_path / "export")]
     one_line_error(run(export), str(path), "damaged")
     # a report skips an unusable run of several with a warning naming it: here the only one, so nothing to report
