@@ -77,7 +77,8 @@ def test_init_writes_a_project_that_loads_and_carries_the_urdf_robot(panda_proje
             assert joint.lower <= angle * 3.141592653589793 / 180 <= joint.upper
     moved = [a != b for a, b in zip(reach.start_pose_deg, reach.phases[0].targets_deg)]
     assert all(moved)
-    assert sorted(p.name for p in panda_project.iterdir()) == ["simtune.toml", "tasks"]
+    assert sorted(p.name for p in panda_project.iterdir()) == [".gitignore", "simtune.toml", "tasks"]
+    assert "report/" in (panda_project / ".gitignore").read_text().splitlines()
 
 
 def test_init_refuses_a_folder_that_holds_anything(panda_project, tmp_path):
@@ -101,7 +102,7 @@ def test_init_into_an_empty_folder(tmp_path):
     here.mkdir()
     result = cli("init", "--robot", PANDA, "--out", ".", cwd=here)
     assert result.returncode == 0, result.stderr
-    assert sorted(p.name for p in here.iterdir()) == ["simtune.toml", "tasks"]
+    assert sorted(p.name for p in here.iterdir()) == [".gitignore", "simtune.toml", "tasks"]
     assert load_project(here).task("reach").robot.arm_joints == tuple(PANDA_JOINTS)
 
 

@@ -277,6 +277,15 @@ def reach_text(robot: RobotDescription) -> str:
     )
 
 
+#: what ``init`` writes into a project's ``.gitignore``: the folders the README's and docs' commands write their
+#: output to inside a project (runs, reports, exported models), so that a project kept in git shows its own files
+GITIGNORE = """# simtune's output folders (`simtune tune --out runs/...`, `report --out report`, `export --out exported/...`)
+runs/
+report/
+exported/
+"""
+
+
 def init_project(
     urdf: Path | str,
     out: Path | str,
@@ -305,7 +314,11 @@ def init_project(
     parent = out.resolve().parent
     if not parent.is_dir():
         raise ProjectError(f"{out}: its folder {parent} does not exist")
-    texts = {"simtune.toml": project_text(robot, urdf, package_path), "tasks/reach.toml": reach_text(robot)}
+    texts = {
+        "simtune.toml": project_text(robot, urdf, package_path),
+        "tasks/reach.toml": reach_text(robot),
+        ".gitignore": GITIGNORE,
+    }
     if out.is_dir():  # empty: written in place (it may be the working folder, which cannot be replaced)
         _write_project(out, texts, remove_on_error=False)
         return out / "simtune.toml"
