@@ -279,7 +279,7 @@ def reach_text(robot: RobotDescription) -> str:
 
 #: what ``init`` writes into a project's ``.gitignore``: the folders the README's and docs' commands write their
 #: output to inside a project (runs, reports, exported models), so that a project kept in git shows its own files
-GITIGNORE = """# simtune's output folders (`simtune tune --out runs/...`, `report --out report`, `export --out exported/...`)
+GITIGNORE = """# simtune's output folders: tune --out runs/..., report --out report, export --out exported/...
 runs/
 report/
 exported/
