@@ -22,7 +22,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from simtune.data._table import (
     check_columns,
@@ -194,6 +193,8 @@ def read_csv(path: Path, joint_names: Collection[str] | None = None, joint_units
         rot = np.full((n, 3, 3), np.nan)
         if ok.any():
             # scipy normalises, so slightly rounded quaternions are fine.
+            from scipy.spatial.transform import Rotation  # on use: SciPy's spatial costs every command 0.5 s
+
             rot[ok] = Rotation.from_quat(quat[ok]).as_matrix()
         rotations[name] = rot
     check_units(
@@ -223,6 +224,8 @@ def write_csv(path: Path | str, rec: Recording) -> None:
         valid = np.isfinite(rot).all(axis=(1, 2))
         quat = np.full((n, 4), np.nan)
         if valid.any():
+            from scipy.spatial.transform import Rotation
+
             quat[valid] = Rotation.from_matrix(rot[valid]).as_quat()
         for k in range(3):
             columns.append(format_column(xyz[:, k], ".6f"))

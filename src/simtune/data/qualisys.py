@@ -14,7 +14,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from simtune.data._table import (
     check_columns,
@@ -238,6 +237,8 @@ def write_qualisys_tsv(path: Path | str, rec: Recording, header: bool = False) -
             with warnings.catch_warnings():
                 # Gimbal lock only makes the split between roll and yaw arbitrary.
                 warnings.simplefilter("ignore", UserWarning)
+                from scipy.spatial.transform import Rotation  # on use: SciPy's spatial costs every command 0.4 s
+
                 rpy[valid] = Rotation.from_matrix(rot[valid]).as_euler(EULER_SEQ, degrees=True)
         flat = rot.transpose(0, 2, 1).reshape(n, 9)  # column-major, as Qualisys stores it
         flat[~valid] = np.nan
