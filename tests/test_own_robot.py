@@ -381,3 +381,17 @@ def test_a_truth_is_checked_against_the_projects_robot_not_the_mico(panda_projec
     truth.write_text(json.dumps({"mass_link_1": 0.7}))  # a MICO mass, below the Panda's range
     with pytest.raises(ConfigError, match="'mass_link_1' = 0.7 is outside its range"):
         st.synth("mujoco", "reach", out=tmp_path / "more", truth=truth, project=panda_project, repeats=1)
+
+
+def test_check_of_a_project_reads_the_recordings_under_data(panda_project, tmp_path):
+    """`simtune check DIR --data ROOT` used to ignore --data and check the project's own (missing) recordings."""
+    project = copy_project(panda_project, tmp_path / "panda")
+    root = tmp_path / "elsewhere"
+    synth = cli("synth", "--project", project, "--engine", "mujoco", "--task", "reach", "--repeats", "2", "--out", root)
+    assert synth.returncode == 0, synth.stderr
+    findings = check_project(project, engines=("mujoco",), data=root)
+    lines = [str(f) for f in findings]
+    assert any(f"task reach: 2 recordings in {root / 'reach'}" in line for line in lines), lines
+    assert not any("no recordings yet" in line for line in lines)
+    missing = cli("check", project, "--data", tmp_path / "nowhere")
+    assert missing.returncode == 2 and "--data" in missing.stderr and "no such folder" in missing.stderr

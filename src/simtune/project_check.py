@@ -42,10 +42,17 @@ class Finding:
         return f"{self.level}: {self.message}"
 
 
-def check_project(path: Path | str, engines: tuple[str, ...] | None = None) -> list[Finding]:
+def check_project(
+    path: Path | str, engines: tuple[str, ...] | None = None, data: Path | str | None = None
+) -> list[Finding]:
     """Everything ``simtune check`` reports on the project in ``path``: problems, warnings and notes.
 
-    ``engines``: the engines to load the robot in (default: every engine simtune knows).
+    Args:
+        path: the project folder or file.
+        engines: the engines to load the robot in (default: every engine simtune knows).
+        data: a data root (``DATA/<task>/``) to check the recordings in instead of the project's own (``--data``).
+    Returns:
+        The findings, each a problem, a warning or a note.
     """
     try:
         project = load_project(path)
@@ -59,20 +66,28 @@ def check_project(path: Path | str, engines: tuple[str, ...] | None = None) -> l
             f"{', '.join(robot.arm_joints)}, tracked link {robot.tracked_link}",
         )
     ]
-    # what validate() lists (recordings folders missing) does not stop a project: recordings come later
-    findings += [Finding("warning", f"{lack} (no recordings yet)") for lack in project.validate()]
+    root = None if data is None else Path(data)
+    if root is None:
+        # what validate() lists (recordings folders missing) does not stop a project: recordings come later
+        findings += [Finding("warning", f"{lack} (no recordings yet)") for lack in project.validate()]
+    elif not root.is_dir():
+        findings.append(Finding("problem", f"--data {root}: no such folder"))
+        root = None
     for name in project.tasks:
-        findings += _check_recordings(project, name)
+        if root is not None and not (root / name).is_dir():
+            findings.append(Finding("warning", f"--data {root}: no folder {name}/ of task {name!r}'s recordings"))
+            continue
+        findings += _check_recordings(project, name, root)
     findings += _check_engines(project, engines or tuple(ENGINES))
     return findings
 
 
-def _check_recordings(project: Project, name: str) -> list[Finding]:
-    """The task's recordings hold its bodies or joints; the tracked link at the start pose against the first
-    recorded marker position."""
+def _check_recordings(project: Project, name: str, root: Path | None = None) -> list[Finding]:
+    """The task's recordings (under ``root``, else the project's) hold its bodies or joints; the tracked link at the
+    start pose against the first recorded marker position."""
     task = project.tasks[name]
     try:
-        folder = recordings_folder(None, task)
+        folder = recordings_folder(root, task)
     except SimtuneError:
         return []  # validate() said so
     if not folder.is_dir():

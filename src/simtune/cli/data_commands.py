@@ -78,7 +78,7 @@ def check(
             raise SimtuneError(
                 "check: name a project folder (simtune check DIR) or the tasks to check (--task T --data ROOT)"
             )
-        _check_project(project_dir)
+        _check_project(project_dir, data)
         return
     result = api.check(
         engine or "mujoco",
@@ -105,11 +105,11 @@ def check(
         )
 
 
-def _check_project(project_dir: Path) -> None:
-    """``simtune check DIR``: one line per finding (problems on stderr); exit 2 if any is a problem."""
+def _check_project(project_dir: Path, data: Path | None) -> None:
+    """``simtune check DIR [--data ROOT]``: one line per finding (problems on stderr); exit 2 if any is a problem."""
     from simtune import api
 
-    findings = api.check_project(project_dir)
+    findings = api.check_project(project_dir, data=data)
     for finding in findings:
         stream = err if finding.level == "problem" else out
         stream.print(escape(str(finding)), highlight=False, soft_wrap=True)
