@@ -275,6 +275,21 @@ def test_check_of_a_project_whose_urdf_gained_a_duplicate_joint_is_one_line_not_
 def test_zero_or_absent_effort_and_velocity_still_load(tmp_path, text):
     robot = load_urdf(write(tmp_path, text))
     assert robot.arm_joints == ("shoulder", "elbow")
+    # 0 reads as not given, as an absent limit does: every engine then applies the same generic limits
+    shoulder = robot.joint_by_name["shoulder"]  # the joint the limit is written on
+    assert shoulder.effort is None and shoulder.velocity is None
+
+
+def test_zero_effort_is_said_once_and_reaches_no_engine_as_zero(tmp_path):
+    """ROS-Industrial's effort="0": Drake refused the robot, and the engines that loaded it disagreed (one read no
+    torque, another no limit)."""
+    from simtune.robot.generate import robot_urdf
+
+    path = write(tmp_path, arm(limit='lower="-1" upper="1" effort="0" velocity="0"'))
+    with pytest.warns(RobotWarning, match=r"effort or velocity 0 on shoulder: read as not given") as caught:
+        robot = load_urdf(path)
+    assert len([w for w in caught if issubclass(w.category, RobotWarning)]) == 1
+    assert 'effort="0"' not in robot_urdf(robot)
 
 
 def test_a_mirrored_mesh_loads_but_a_flat_one_does_not(tmp_path):

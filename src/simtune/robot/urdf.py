@@ -247,8 +247,10 @@ def _joint(joint, driven: bool, position: float) -> Joint:
         axis=axis,
         lower=lower,
         upper=upper,
-        effort=None if limit is None or limit.effort is None else float(limit.effort),
-        velocity=None if limit is None or limit.velocity is None else float(limit.velocity),
+        # 0 is ROS-Industrial's "not given": read as not given, so that every engine applies the same generic
+        # limit (an engine that took it as "no torque" and one that took it as "no limit" disagreed)
+        effort=None if limit is None or not limit.effort else float(limit.effort),
+        velocity=None if limit is None or not limit.velocity else float(limit.velocity),
         damping=0.0 if dynamics is None or dynamics.damping is None else float(dynamics.damping),
     )
 
@@ -724,6 +726,20 @@ def load_urdf(
             positions[j.name] = position
             held_at.append((j.name, position))
         joints.append(_joint(j, is_driven, position))
+    unstated = [
+        j.name
+        for j in tree.order
+        if j.type in _MOVABLE and j.limit is not None and 0 in (j.limit.effort, j.limit.velocity)
+    ]
+    if unstated:
+        listed = ", ".join(unstated[:4]) + (f" and {len(unstated) - 4} more" if len(unstated) > 4 else "")
+        warnings.warn(
+            f"{path}: effort or velocity 0 on {listed}: read as not given (the ROS-Industrial convention); every "
+            "engine applies simtune's generic torque and velocity limits there (the max_torque_* and max_velocity_* "
+            "parameters tune them)",
+            RobotWarning,
+            stacklevel=2,
+        )
     ordered_links = [tree.root, *(j.child for j in tree.order)]
     links = [_link(links_by_name[n], path, "gripper" if n in gripper else "arm", package_path) for n in ordered_links]
     description = RobotDescription(
