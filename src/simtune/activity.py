@@ -402,6 +402,17 @@ def announcing(enabled: bool) -> Iterator[None]:
         _ANNOUNCE.reset(token)
 
 
+def announce(line: str) -> None:
+    """Say on stderr what a long step before the search does (a terminal's, or within ``announcing(True)``), so that
+    the first seconds of a command are never silent.
+
+    Args:
+        line: what the step does, e.g. ``reading the recordings of cube ...``.
+    """
+    if _announces():
+        print(line, file=sys.stderr, flush=True)
+
+
 def _announces() -> bool:
     enabled = _ANNOUNCE.get()
     if enabled is not None:

@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 import simtune
+from simtune.activity import announce
 from simtune.data.fingerprint import fingerprint_changes, folders_fingerprint
 from simtune.errors import RunInterrupted, SimtuneError
 from simtune.objective import Objective, recordings_folder
@@ -257,7 +258,9 @@ def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> T
         check_main_guarded(f"{config.workers} workers")
         start_worker_server()  # its imports run while this process reads the recordings
     plan = plan_run(config)
+    announce(f"reading and aligning the recordings of {config.tasks} ({config.reference} reference) ...")
     objective = plan.objective()  # checks engine, tasks, space and data before any folder is made
+    announce(f"scoring {config.engine}'s generic parameters, then tuning {len(objective.vector_space())} parameter(s)")
     generic = objective.score({})
     _make_folder(run_dir)
     with run_lock(run_dir):
