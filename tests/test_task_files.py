@@ -325,3 +325,17 @@ def test_a_yaml_project_file(tmp_path):
     (tmp_path / "simtune.toml").write_text('robot = "mico"\ntasks = ["tasks/push.toml"]\n')
     with pytest.raises(ProjectError, match=r"two project files \(simtune.toml, simtune.yaml\): keep one"):
         load_project(tmp_path)
+
+
+def test_a_changed_robot_is_named_as_such_on_resume():
+    """A URDF edited before `resume` used to read as "the definition of task ... changed"; runs stored before the
+    robot's own fingerprint was kept still compare by their tasks."""
+    from simtune.run_plan import plan_run
+    from simtune.runs import RunConfig, fingerprint_differences, run_fingerprint
+
+    now = run_fingerprint(plan_run(RunConfig("mujoco", "cube", "calibrated", None)))
+    assert len(now["robot"]) == 64
+    stored = {**now, "robot": "0" * 64, "tasks": {"cube": "1" * 64}}
+    assert fingerprint_differences(stored, now) == ["the robot changed (its description or a mesh file)"]
+    before = {k: v for k, v in stored.items() if k != "robot"}
+    assert fingerprint_differences(before, now) == ["the definition of task 'cube' changed"]

@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 import simtune
-from simtune.activity import announce
+from simtune.activity import announce, robot_content
 from simtune.data.fingerprint import fingerprint_changes, folders_fingerprint
 from simtune.errors import RunInterrupted, SimtuneError
 from simtune.objective import Objective, recordings_folder
@@ -105,6 +105,10 @@ def run_fingerprint(plan: RunPlan) -> dict:
     }
     if plan.config.repeats != "all":
         fingerprint["repeats"] = plan.config.repeats
+    # the robot on its own (its content, not its path), so that a changed URDF is named as such on resume rather than
+    # as a changed task (the robot is part of each task's definition)
+    robot = json.dumps(robot_content(plan.robot), sort_keys=True, default=str)
+    fingerprint["robot"] = hashlib.sha256(robot.encode()).hexdigest()
     return fingerprint
 
 
@@ -135,9 +139,13 @@ def fingerprint_differences(stored: dict, now: dict) -> list[str]:
     was, now_kind = stored.get("repeats", "all"), now.get("repeats", "all")
     if was != now_kind:
         changes.append(f"the repeats changed from {was} to {now_kind}")
+    # a fingerprint without the robot's: a run stored before it was kept (its tasks' fingerprints cover the robot)
+    robot_changed = "robot" in stored and "robot" in now and stored["robot"] != now["robot"]
+    if robot_changed:
+        changes.append("the robot changed (its description or a mesh file)")
     for name in sorted(set(stored.get("tasks", {})) | set(now["tasks"])):
         before, after = stored.get("tasks", {}).get(name), now["tasks"].get(name)
-        if before != after and before != FORMER_TASK_FINGERPRINTS.get(after or ""):
+        if before != after and before != FORMER_TASK_FINGERPRINTS.get(after or "") and not robot_changed:
             changes.append(f"the definition of task {name!r} changed")
     if stored.get("engine", now["engine"]) != now["engine"]:
         changes.append(f"engine {stored['engine']} is now {now['engine']}")
