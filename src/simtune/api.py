@@ -28,6 +28,7 @@ from pathlib import Path
 
 from simtune.alignment import DelayEstimate, aligned, estimate_delay
 from simtune.check import check as run_check
+from simtune.check import moved_joints
 from simtune.compare import run_compare
 from simtune.data.clock import DEFAULT_REFERENCE, check_reference, default_reference
 from simtune.data.task import DEFAULT_REPEATS, check_repeats
@@ -662,7 +663,7 @@ def _write_corrected_task(proj: Project, task, quality: dict, out: Path) -> str 
         proposal = row.get("proposal")
         if proposal is None or row.get("phase") is None:
             continue  # a rest that is not far, or the start pose (not a phase's targets)
-        moved = ", ".join(f"{name} {a:g} -> {b:g} deg" for name, (a, b) in proposal["changed"].items())
+        moved = moved_joints(proposal)
         evidence = (
             f"simtune check ({date.today().isoformat()}): the recorded rest after {row['stretch']} lies "
             f"{1000 * row['distance_m']:.1f} mm from where the former targets put the wrist;\n{moved} leaves "

@@ -106,6 +106,17 @@ SINGLE_JOINT_SHARE = 0.5
 STAY_WEIGHT_M_PER_RAD = 0.001
 
 
+def moved_joints(proposal: dict) -> str:
+    """The joints a :func:`propose_targets` proposal moves, as words (``joint_3 65 -> 75.1 deg``); empty if none.
+
+    Args:
+        proposal: a proposal as the check returns it (its ``changed``: name -> [before, after] deg).
+    Returns:
+        One phrase per moved joint, joined by commas.
+    """
+    return ", ".join(f"{name} {a:g} -> {b:g} deg" for name, (a, b) in proposal["changed"].items())
+
+
 def _joint_range(task: TaskSpec, index: int, around: float) -> tuple[float, float]:
     """Where driven joint ``index`` may be put [rad]: its limits, or half a turn either side of ``around``."""
     joint = task.robot.joint_by_name[task.joints[index]]

@@ -90,13 +90,18 @@ def task_fingerprint(task: TaskSpec) -> str:
         omit = f.metadata.get(FINGERPRINT)
         if omit == "never" or (omit == "default" and getattr(task, f.name) == f.default):
             spec.pop(f.name)
-    return hashlib.sha256(json.dumps(spec, sort_keys=True, default=str).encode()).hexdigest()
+    return _digest(spec)
+
+
+def _digest(value) -> str:
+    """SHA-256 of ``value`` as canonical JSON (keys sorted; what JSON lacks as its ``str``): a fingerprint's hash."""
+    return hashlib.sha256(json.dumps(value, sort_keys=True, default=str).encode()).hexdigest()
 
 
 def run_fingerprint(plan: RunPlan) -> dict:
     """What the fitness of a run depends on besides its parameters: data files, the reference made of them (aligned
     or mean) and which repeats build it (left out when all: the fingerprints of runs stored before the choice
-    stay), task definitions, engine version."""
+    stay), task definitions, the robot, engine version."""
     fingerprint = {
         "data": folders_fingerprint({t.name: recordings_folder(plan.config.data, t) for t in plan.tasks}),
         "reference": plan.config.reference,
@@ -107,8 +112,7 @@ def run_fingerprint(plan: RunPlan) -> dict:
         fingerprint["repeats"] = plan.config.repeats
     # the robot on its own (its content, not its path), so that a changed URDF is named as such on resume rather than
     # as a changed task (the robot is part of each task's definition)
-    robot = json.dumps(robot_content(plan.robot), sort_keys=True, default=str)
-    fingerprint["robot"] = hashlib.sha256(robot.encode()).hexdigest()
+    fingerprint["robot"] = _digest(robot_content(plan.robot))
     return fingerprint
 
 

@@ -65,6 +65,8 @@ def print_data_quality(parts: list[dict]) -> None:
 
 
 def _print_rest_poses(part: dict) -> None:
+    from simtune.check import moved_joints  # on use: the check module brings the engines
+
     table = text_table(
         f"{part['task']}: rest poses - where each phase's targets put the marker (generic simulation) against the "
         "recorded wrist over the phase's last second",
@@ -83,7 +85,7 @@ def _print_rest_poses(part: dict) -> None:
         proposal = r.get("proposal")
         if proposal is None:
             continue
-        moved = ", ".join(f"{name} {a:g} -> {b:g} deg" for name, (a, b) in proposal["changed"].items())
+        moved = moved_joints(proposal)
         out.print(
             f"  proposed for {r['stretch']}: {moved or 'no joint change helps'} "
             f"(targets {' '.join(f'{v:g}' for v in proposal['targets_deg'])} deg): "
@@ -95,7 +97,7 @@ def _print_rest_poses(part: dict) -> None:
     start = part.get("start_pose") or {}
     if start.get("proposal"):
         proposal = start["proposal"]
-        moved = ", ".join(f"{name} {a:g} -> {b:g} deg" for name, (a, b) in proposal["changed"].items())
+        moved = moved_joints(proposal)
         out.print(
             f"  the first recorded second lies {1000 * start['distance_m']:.1f} mm from the start pose's: proposed "
             f"start_pose_deg {' '.join(f'{v:g}' for v in proposal['targets_deg'])} ({moved or 'no joint change helps'}"

@@ -102,8 +102,7 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
     with search:
         try:
             if opening:
-                steps, _ = _local_phase(search, aligned_generic_start(objective), refined)
-                local_steps += steps
+                local_steps += _local_phase(search, aligned_generic_start(objective), refined)
                 best_after_round.append(search.best_fitness)
                 assert search.best_x is not None, "the opening scored its start"
                 population = search.from_unit(opening_population(search.to_unit(search.best_x), settings.seed))
@@ -112,8 +111,7 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
                 population, last_energies, round_x = _global_phase(search, population, settings.seed + 1000 * rounds)
                 assert search.best_x is not None, "the global phase scored a batch"
                 start = search.best_x if search.best_x.tobytes() not in refined else round_x
-                steps, _ = _local_phase(search, start, refined)
-                local_steps += steps
+                local_steps += _local_phase(search, start, refined)
                 rounds += 1
                 best_after_round.append(search.best_fitness)
                 if converged(best_after_round):
@@ -133,9 +131,8 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
         return search.result(f"{search.stop_reason} ({rounds} full rounds, {local_steps} least-squares steps)")
 
 
-def _local_phase(search: BatchSearch, start: np.ndarray, refined: set[bytes]) -> tuple[int, bool]:
-    """One local phase from ``start`` (marked refined); its solver steps, and whether it stalled (met its
-    tolerance) rather than ran out of steps.
+def _local_phase(search: BatchSearch, start: np.ndarray, refined: set[bytes]) -> int:
+    """One local phase from ``start`` (marked refined); its solver steps.
 
     Where it stalled (rather than ran out of steps), the run's best point is marked refined as well: a
     stalled phase ends at that point (or never left ``start``), and a new phase from it would only stall
@@ -143,10 +140,9 @@ def _local_phase(search: BatchSearch, start: np.ndarray, refined: set[bytes]) ->
     refined.add(start.tobytes())
     search.evaluator.parent_energies = None  # no parents to prune against in a local phase
     solution = least_squares_phase(search, start, max_nfev=LOCAL_NFEV, ftol=STALL_FTOL)
-    stalled = solution.status != 0
-    if stalled and search.best_x is not None:
+    if solution.status != 0 and search.best_x is not None:
         refined.add(search.best_x.tobytes())
-    return int(solution.nfev), stalled
+    return int(solution.nfev)
 
 
 def aligned_generic_start(objective: Objective) -> np.ndarray:
