@@ -45,6 +45,7 @@ def load_task_recordings(
     A task that starts its object where the recordings put it (``start_from_recordings``) needs recordings that
     track the object: joint logs alone are a one-line error.
     """
+    ranges = joint_ranges(task)
     data = load_task_data(
         folder,
         task.name,
@@ -55,8 +56,8 @@ def load_task_recordings(
         base_body=task.base_body,
         joint_names=rollout_joint_names(task),
         joint_topic=joint_topic,
-        lerobot=reading_for(task, joint_ranges(task)),  # its stated unit is checked against them too
-        joint_ranges=joint_ranges(task),
+        lerobot=reading_for(task, ranges),  # its stated unit is checked against them too
+        joint_ranges=ranges,
         reference=reference,
         repeats=repeats,
     )
