@@ -534,7 +534,7 @@ def _uncertainty_or_reason(objective: Objective, plan: RunPlan, store: RunStore,
         needed = (2 * dimension + 1) * searching / max(result.used_evaluations, result.new_evaluations, 1)
         if elapsed + needed > cap:
             return {
-                "error": f"not computed: its {2 * dimension + 1} rollouts (about {needed:.0f} s) would run past "
+                "error": f"its {2 * dimension + 1} rollouts (about {needed:.0f} s) would run past "
                 f"--max-seconds {cap:g}; `simtune uncertainty {store.run_dir}` computes them",
                 "parameters": [],
             }

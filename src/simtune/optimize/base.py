@@ -82,6 +82,9 @@ class BatchSearch:
         #: tracked when it asks (:meth:`release`) or at the end (:meth:`result`), never before, so that the
         #: search's path does not depend on how many workers scored ahead
         self.held: dict[bytes, tuple[np.ndarray, float]] = {}
+        #: points a least-squares solver asked for in this session (its steps; replays of it not counted), so that
+        #: a search stopped inside a local phase still says how many it took
+        self.solver_steps = 0
 
     # --- context: the process pool -----------------------------------------------------------------
     def __enter__(self) -> BatchSearch:

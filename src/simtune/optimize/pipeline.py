@@ -58,6 +58,7 @@ from simtune.optimize.base import BatchSearch
 from simtune.optimize.de import DE_SETTINGS, POPSIZE
 from simtune.optimize.evaluator import TuneResult, TuneSettings
 from simtune.optimize.refine import BudgetSpent, least_squares_phase
+from simtune.optimize.start_check import warn_about_start
 from simtune.store import RunStore
 
 GLOBAL_GENERATIONS = 10  # differential evolution generations per round's global phase
@@ -93,7 +94,7 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
     search = BatchSearch(objective, store, settings, prune=True)
     search.evaluator.generation = 0
     refined: set[bytes] = set()  # the points local phases started from or stalled at
-    rounds, local_steps = 0, 0
+    rounds = 0
     best_after_round: list[float] = []  # after the opening and after each round: what convergence is judged on
     population = search.starting_points()
     if population is not None and len(population) < 5:
@@ -102,7 +103,7 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
     with search:
         try:
             if opening:
-                local_steps += _local_phase(search, aligned_generic_start(objective), refined)
+                _local_phase(search, aligned_generic_start(objective), refined, diagnose=True)
                 best_after_round.append(search.best_fitness)
                 assert search.best_x is not None, "the opening scored its start"
                 population = search.from_unit(opening_population(search.to_unit(search.best_x), settings.seed))
@@ -111,13 +112,13 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
                 population, last_energies, round_x = _global_phase(search, population, settings.seed + 1000 * rounds)
                 assert search.best_x is not None, "the global phase scored a batch"
                 start = search.best_x if search.best_x.tobytes() not in refined else round_x
-                local_steps += _local_phase(search, start, refined)
+                _local_phase(search, start, refined)
                 rounds += 1
                 best_after_round.append(search.best_fitness)
                 if converged(best_after_round):
                     return search.result(
                         f"converged: {PATIENCE} rounds gained less than {ROUND_RTOL:.0%} "
-                        f"({rounds} full rounds, {local_steps} least-squares steps)",
+                        f"({_progress(rounds, search.solver_steps, opening)})",
                         converged=True,
                         stop_reason="converged",
                     )
@@ -128,21 +129,39 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
         except BudgetSpent:
             pass
         assert search.stop_reason is not None, "the rounds end only when a budget says stop"
-        return search.result(f"{search.stop_reason} ({rounds} full rounds, {local_steps} least-squares steps)")
+        return search.result(f"{search.stop_reason} ({_progress(rounds, search.solver_steps, opening)})")
 
 
-def _local_phase(search: BatchSearch, start: np.ndarray, refined: set[bytes]) -> int:
-    """One local phase from ``start`` (marked refined); its solver steps.
+def _progress(rounds: int, steps: int, opening: bool) -> str:
+    """Where the rounds stood, in words: ``2 full rounds after the opening, 31 least-squares steps``."""
+    where = "in the opening" if opening and rounds == 0 else f"{rounds} full round{'s' * (rounds != 1)}"
+    if opening and rounds:
+        where += " after the opening"
+    return f"{where}, {steps} least-squares step{'s' * (steps != 1)}"
+
+
+def _local_phase(search: BatchSearch, start: np.ndarray, refined: set[bytes], diagnose: bool = False) -> None:
+    """One local phase from ``start`` (marked refined); ``search.solver_steps`` counts its steps.
+
+    ``diagnose``: warn about the start (a bound, parameters its first Jacobian cannot tell apart:
+    :func:`~simtune.optimize.start_check.warn_about_start`) before the phase goes on - the opening's, so that
+    a user hears it before the long global rounds.
 
     Where it stalled (rather than ran out of steps), the run's best point is marked refined as well: a
     stalled phase ends at that point (or never left ``start``), and a new phase from it would only stall
     again, at the cost of a Jacobian per step."""
     refined.add(start.tobytes())
     search.evaluator.parent_energies = None  # no parents to prune against in a local phase
-    solution = least_squares_phase(search, start, max_nfev=LOCAL_NFEV, ftol=STALL_FTOL)
+    names = search.space.names
+
+    def warn(jacobian: np.ndarray, residuals: np.ndarray) -> None:
+        warn_about_start(names, start, search.lows, search.highs, jacobian, residuals)
+
+    solution = least_squares_phase(
+        search, start, max_nfev=LOCAL_NFEV, ftol=STALL_FTOL, on_first_jacobian=warn if diagnose else None
+    )
     if solution.status != 0 and search.best_x is not None:
         refined.add(search.best_x.tobytes())
-    return int(solution.nfev)
 
 
 def aligned_generic_start(objective: Objective) -> np.ndarray:

@@ -39,8 +39,19 @@ class BudgetSpent(Exception):
     """Raised inside SciPy's solver when a budget of the search says stop (SciPy has no other way out)."""
 
 
-def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float = STEP, ftol: float = 1e-8):
+def least_squares_phase(
+    search: BatchSearch,
+    x0,
+    *,
+    max_nfev: int,
+    step: float = STEP,
+    ftol: float = 1e-8,
+    on_first_jacobian: Callable[[np.ndarray, np.ndarray], None] | None = None,
+):
     """SciPy's bounded least squares from ``x0`` through ``search`` (its evaluator and checkpoints).
+
+    ``on_first_jacobian`` is called once with the first Jacobian the solver takes (at ``x0``, in the unit cube)
+    and the residuals there: the start's diagnosis (:mod:`simtune.optimize.start_check`) at no extra rollout.
 
     Every batch (a trial point, or a Jacobian's D points) is checkpointed as a generation, not a population;
     :class:`BudgetSpent` is raised once a checkpoint says a budget is spent.  Returns SciPy's result.
@@ -59,6 +70,7 @@ def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float =
     u0 = search.to_unit(x0)
     cache: dict[bytes, np.ndarray] = {}
     spare = speculative_points(search.evaluator.workers)
+    diagnosed: list[bool] = []  # whether on_first_jacobian was called
 
     def vector(u: np.ndarray) -> np.ndarray:
         return x0.copy() if np.array_equal(u, u0) else search.from_unit(u)
@@ -83,7 +95,11 @@ def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float =
     def known(u: np.ndarray) -> bool:
         return key(u) in cache
 
-    def fun(u: np.ndarray) -> np.ndarray:
+    def fun(u: np.ndarray) -> np.ndarray:  # the solver asks for a point: one of its steps
+        search.solver_steps += 1
+        return residuals_at(u)
+
+    def residuals_at(u: np.ndarray) -> np.ndarray:
         u = np.asarray(u, dtype=float)
         if not known(u):
             columns = [p for p in jacobian_points(u, step)[0] if not known(p)]
@@ -96,14 +112,18 @@ def least_squares_phase(search: BatchSearch, x0, *, max_nfev: int, step: float =
         return cache[key(u)]
 
     def jac(u: np.ndarray) -> np.ndarray:
-        fun(u)  # scored already (the solver asks for a point's Jacobian after the point); released here
+        residuals_at(u)  # scored already (the solver asks for a point's Jacobian after the point); released here
         points, _ = jacobian_points(np.asarray(u, dtype=float), step)
         for p in points:  # asked for now: the columns scored ahead count before the batch of the others
             search.release(key(p))
         missing = [p for p in points if not known(p)]
         if missing:
             batch(missing, asked=len(missing))
-        return jacobian_at(u)  # the replays' own Jacobian: the same numbers by construction
+        jacobian = jacobian_at(u)  # the replays' own Jacobian: the same numbers by construction
+        if on_first_jacobian is not None and not diagnosed:
+            diagnosed.append(True)
+            on_first_jacobian(jacobian, cache[key(u)])
+        return jacobian
 
     def solve(residuals: Callable[[np.ndarray], np.ndarray], jacobian: Callable[[np.ndarray], np.ndarray]):
         return least_squares(
