@@ -138,3 +138,28 @@ def test_auto_without_a_budget_stops_when_converged_and_says_so(tmp_path):
     assert verdict is not None and 0 < verdict["floor"] < result.fitness
     assert verdict["over_floor"] == pytest.approx(result.fitness / verdict["floor"])
     assert [m["name"] for m in verdict["moved"]] == ["command_delay"] and verdict["moved"][0]["generic"] == 0.0
+
+
+def test_a_batch_that_would_run_past_max_seconds_is_not_started(tmp_path):
+    """`--max-seconds` is checked before a batch as well, at the session's pace: the command ends near its cap,
+    not a batch's length after it (issue 44). The first batch always runs (no pace yet); the one after it is
+    refused once the cap cannot hold it, and the search says so with the max-seconds code."""
+    from simtune.optimize.base import BatchSearch, BudgetSpent
+    from simtune.optimize.evaluator import TuneSettings
+    from simtune.run_plan import plan_run
+
+    objective = plan_run(config()).objective()
+    store = RunStore(tmp_path / "run", create=True)
+    search = BatchSearch(objective, store, TuneSettings(max_seconds=3600.0), deadline=True)
+    points = search.from_unit(np.array([[0.2, 0.5, 0.5], [0.3, 0.5, 0.5], [0.4, 0.5, 0.5]]))
+    with search:
+        search.evaluate(points[:2])  # the first batch: no pace yet, always simulated
+        assert search.evaluator.simulated_jobs == 2 and search.evaluator.simulated_seconds > 0
+        pace = search.evaluator.simulated_seconds / 2
+        search.evaluate(points[:2])  # served by the store: nothing to simulate, nothing to judge
+        search.settings.max_seconds = search.elapsed() + 0.5 * pace  # one more rollout would run past the cap
+        with pytest.raises(BudgetSpent):
+            search.evaluate(points[2:])
+    store.close()
+    assert search.stop_code == "max-seconds" and "would have run past" in (search.stop_reason or "")
+    assert search.evaluator.simulated_jobs == 2  # the refused batch simulated nothing

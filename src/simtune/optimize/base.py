@@ -33,10 +33,15 @@ from simtune.objective import Objective
 from simtune.optimize.evaluator import Evaluator, TuneResult, TuneSettings
 from simtune.store import RunStore
 
+
 #: Why a search stops (``TuneResult.stop_reason``, the run store's ``search_stop_reason``, ``--json``'s
 #: ``stop_reason``): it met its convergence criterion; one of its budgets was spent (``--max-seconds``,
 #: ``--target-fitness``, ``--max-evaluations``, ``--max-generations``); or the optimiser ended by itself without a
 #: convergence criterion (``finished``).
+class BudgetSpent(Exception):
+    """Raised inside a solver (SciPy's, which has no other way out) when a budget of the search says stop."""
+
+
 STOP_REASONS = ("converged", "max-seconds", "target-fitness", "max-evaluations", "max-generations", "finished")
 
 
@@ -52,6 +57,7 @@ class BatchSearch:
         generation_size: int = 0,
         first_generation: int = 1,
         prune: bool = False,
+        deadline: bool = False,
     ):
         self.objective = objective
         self.store = store
@@ -85,6 +91,8 @@ class BatchSearch:
         #: points a least-squares solver asked for in this session (its steps; replays of it not counted), so that
         #: a search stopped inside a local phase still says how many it took
         self.solver_steps = 0
+        if deadline and settings.max_seconds is not None:
+            self.evaluator.before_simulating = self._before_batch
 
     # --- context: the process pool -----------------------------------------------------------------
     def __enter__(self) -> BatchSearch:
@@ -142,6 +150,25 @@ class BatchSearch:
             if self.generation_size and self.used >= s.max_generations * self.generation_size:
                 return "max-generations", f"used {s.max_generations} generations of {self.generation_size} evaluations"
         return None
+
+    def _before_batch(self, rollouts: int) -> None:
+        """Stop (:class:`BudgetSpent`) before a batch that would run past ``max_seconds`` at this session's pace.
+
+        Budgets are otherwise checked between batches, and a batch (a Jacobian's D + 1 rollouts, a population)
+        takes many seconds: the command would end a batch's length after its cap.  The pace is the seconds per
+        rollout of this session's batches so far; the first batch has none and always runs.
+        """
+        evaluator, cap = self.evaluator, self.settings.max_seconds
+        if cap is None or not evaluator.simulated_jobs:
+            return
+        needed = rollouts * evaluator.simulated_seconds / evaluator.simulated_jobs
+        if self.elapsed() + needed > cap:
+            self.stop_code = "max-seconds"
+            self.stop_reason = (
+                f"stopped at {self.elapsed():.0f} s: its next batch ({rollouts} rollouts, about {needed:.0f} s) "
+                f"would have run past {cap:g} s"
+            )
+            raise BudgetSpent
 
     def starting_points(self) -> np.ndarray | None:
         """``settings.initial_population`` within the bounds (None: start as usual)."""

@@ -317,6 +317,12 @@ class Evaluator:
         self._batch_failures: list[str] = []
         #: worker processes get chunks of a batch (one per worker) where the engine has a batch path
         self.chunked = self.workers > 1 and not self.threads and has_batch_path(objective.engine)
+        #: called with a batch's count of rollouts to simulate before they start (not for one at a time, nor for a
+        #: batch the store serves whole); it may raise to stop the search there (a deadline inside a long batch)
+        self.before_simulating: Callable[[int], None] | None = None
+        #: wall time of this session's simulated batches and their rollouts: the pace a deadline predicts from
+        self.simulated_seconds = 0.0
+        self.simulated_jobs = 0
 
     def __enter__(self) -> Evaluator:
         self._blas_limit = threadpool_limits(1, user_api="blas")  # lifted on exit (see the module's text)
@@ -450,6 +456,17 @@ class Evaluator:
         at = names.index("timestep")
         return [max(1.0, CONTROL_PERIOD / float(x[at])) if x[at] > 0 else 1.0 for x in vectors]
 
+    def _simulate(self, work: Callable, jobs: dict[int, tuple]) -> Iterator[tuple[int, object, Score, float]]:
+        """:meth:`_run` for a batch, after :attr:`before_simulating` has had its say, timed."""
+        if not jobs:
+            return
+        if self.before_simulating is not None:
+            self.before_simulating(len(jobs))
+        start = time.perf_counter()
+        yield from self._run(work, jobs)
+        self.simulated_seconds += time.perf_counter() - start
+        self.simulated_jobs += len(jobs)
+
     def _run_batch(self, work: Callable, jobs: dict[int, tuple]) -> Iterator[tuple[int, object, Score, float]]:
         """:meth:`_run` in this process: the jobs as one batch of the objective (on ``workers`` threads with
         ``threads``)."""
@@ -514,7 +531,7 @@ class Evaluator:
             fitness[i] = known.fitness
             if self.on_evaluation:
                 self.on_evaluation(known, True)
-        for i, _, score, wall_s in self._run(_score, jobs):
+        for i, _, score, wall_s in self._simulate(_score, jobs):
             self._record(vectors[i], score, wall_s)
             fitness[i] = score.fitness
         for i, first in twins.items():
@@ -546,7 +563,7 @@ class Evaluator:
             results[i] = (residuals, known)
             if self.on_evaluation:
                 self.on_evaluation(known, True)
-        for i, payload, score, wall_s in self._run(_residuals, jobs):
+        for i, payload, score, wall_s in self._simulate(_residuals, jobs):
             if isinstance(payload, np.ndarray) and score.stable:
                 residuals = payload
             else:  # a failed evaluation has no residuals, an unstable one meaningless ones

@@ -54,10 +54,10 @@ from scipy.stats import qmc
 
 from simtune.alignment import delay_parameter, estimate_delay
 from simtune.objective import Objective, generic_values
-from simtune.optimize.base import BatchSearch
+from simtune.optimize.base import BatchSearch, BudgetSpent
 from simtune.optimize.de import DE_SETTINGS, POPSIZE
 from simtune.optimize.evaluator import TuneResult, TuneSettings
-from simtune.optimize.refine import BudgetSpent, least_squares_phase
+from simtune.optimize.refine import least_squares_phase
 from simtune.optimize.start_check import warn_about_start
 from simtune.store import RunStore
 
@@ -91,7 +91,7 @@ def converged(best_after_round: list[float]) -> bool:
 def global_local_tune(objective: Objective, store: RunStore, settings: TuneSettings) -> TuneResult:
     """Tune ``objective`` in rounds of differential evolution then least squares; every evaluation lands in
     ``store``."""
-    search = BatchSearch(objective, store, settings, prune=True)
+    search = BatchSearch(objective, store, settings, prune=True, deadline=True)
     search.evaluator.generation = 0
     refined: set[bytes] = set()  # the points local phases started from or stalled at
     rounds = 0

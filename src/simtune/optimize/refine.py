@@ -27,16 +27,12 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from simtune.objective import Objective
-from simtune.optimize.base import BatchSearch
+from simtune.optimize.base import BatchSearch, BudgetSpent
 from simtune.optimize.evaluator import TuneResult, TuneSettings
 from simtune.store import RunStore
 
 MAX_NFEV = 10  # solver steps (residual evaluations); each may add a D-evaluation Jacobian
 STEP = 0.01  # forward-difference step, as a fraction of each parameter's range
-
-
-class BudgetSpent(Exception):
-    """Raised inside SciPy's solver when a budget of the search says stop (SciPy has no other way out)."""
 
 
 def least_squares_phase(
