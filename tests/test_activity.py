@@ -50,6 +50,8 @@ def test_probe_finds_what_cannot_act_and_says_why(cube_probe):
 
 @pytest.mark.slow  # 6 s; the probe in one process stays in the default tier
 def test_probe_on_worker_processes_finds_what_one_process_finds(cube_probe):
+    """One process runs each round as one batch of the engine (MuJoCo's lockstep path), the workers one rollout at
+    a time: the same changes, to the last digit."""
     space, found = cube_probe
     assert measure_activity("mujoco", get_task("cube"), space, workers=2) == found
 

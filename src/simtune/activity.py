@@ -175,7 +175,13 @@ def measure_activity(
 
 class _Probe:
     """The probe's rollouts: each parameter dict's visible track (None where the rollout blew up), here or on
-    ``workers`` processes (:func:`~simtune.spawn_guard.worker_context`: none shares an engine with this one)."""
+    ``workers`` processes (:func:`~simtune.spawn_guard.worker_context`: none shares an engine with this one).
+
+    Here, each round goes to the engine as one batch (:meth:`~simtune.engines.Engine.rollout_batch`): MuJoCo runs
+    it in lockstep control periods with the controller and the checks as NumPy over the batch, bit for bit the
+    rollouts one at a time, in less time (the cube's probe, 2026-11-27: see docs/performance.md); an engine
+    without a batch path runs them one after the other as before.
+    """
 
     def __init__(self, engine: str, task: TaskSpec, samples: int, workers: int):
         self.engine, self.task, self.samples, self.workers = engine, task, samples, workers
@@ -202,7 +208,7 @@ class _Probe:
 
     def tracks(self, params: list[dict[str, float]]) -> list[np.ndarray | None]:
         if self.pool is None:
-            return [_track(p) for p in params]
+            return _tracks(params)
         return list(self.pool.map(_track, params))
 
 
@@ -232,6 +238,18 @@ def _track(params: dict[str, float]) -> np.ndarray | None:
     sim, samples = _SIM
     rollout = sim.rollout(params, samples)
     return visible_track(rollout, params) if rollout.stable else None
+
+
+def _tracks(params: list[dict[str, float]]) -> list[np.ndarray | None]:
+    """:func:`_track` of each parameter dict, as one batch of this process's engine; a member whose rollout raised
+    raises here, as it would alone."""
+    sim, samples = _SIM
+    found: list[np.ndarray | None] = [None] * len(params)
+    for i, rollout in sim.rollout_batch(params, samples):
+        if isinstance(rollout, Exception):
+            raise rollout
+        found[i] = visible_track(rollout, params[i]) if rollout.stable else None
+    return found
 
 
 def cache_dir() -> Path:
