@@ -48,6 +48,8 @@ FIGURES = (
     | {f"contact_{e}" for e in ENGINES}
 )
 TABLES = {
+    "headline",
+    "tuned_parameters",
     "paper_table_ii",
     "paper_table_iii",
     "summary_counts",

@@ -338,7 +338,8 @@ def _meta(data: ReportData) -> list[str]:
     return [
         f"simtune {simtune.__version__}, {_dt.datetime.now().astimezone().strftime('%Y-%m-%d %H:%M %Z')}. "
         f"Inputs: {', '.join(str(p) for p in data.paths)}{published}.",
-        f"{len(data.runs)} runs in {len(data.groups)} groups (engine x tasks x space; repeats = seeds): engines "
+        f"{len(data.runs)} run{'s' * (len(data.runs) != 1)} in {len(data.groups)} group{'s' * (len(data.groups) != 1)} "
+        "(engine x tasks x space; repeats = seeds): engines "
         f"{', '.join(data.engines)}; tasks {', '.join(sorted({g.tasks for g in data.groups}))}; spaces "
         f"{', '.join(sorted({g.space for g in data.groups}))}. Fitness is in metres (lower is better).",
         search,

@@ -28,6 +28,7 @@ from simtune.report import tables as T
 from simtune.report.collect import Group, ReportedRun
 from simtune.report.dr import dr_ranges, write_dr_yaml
 from simtune.report.folder import DR_FILE
+from simtune.report.headline import headline_table, moved_parameters_table
 from simtune.report.html import FigureRef, Section
 from simtune.report.published import PublishedSim
 from simtune.report.simulate import GroupSimulation
@@ -85,6 +86,7 @@ class ReportOutput:
     warn: Callable[[str], None]  # a ReportWarning, also listed at the top of the report
     on_figure: Callable[[], None] = lambda: None  # progress: one more figure drawn
     numbers: dict[str, int] = field(default_factory=dict)  # anchor -> number of the sections made so far
+    drawn: dict[str, FigureRef] = field(default_factory=dict)  # stem -> a figure already drawn (figure_once)
 
     def table(self, table: Table) -> Table:
         """Write ``tables/<name>.csv`` and ``.md``; return the table for the page."""
@@ -98,12 +100,63 @@ class ReportOutput:
         self.on_figure()
         return ref
 
+    def figure_once(self, stem: str, draw: Callable[[], Figure], caption: str) -> FigureRef:
+        """:meth:`figure` of ``draw()``, drawn only the first time ``stem`` is asked for (a figure two sections show:
+        the first screen's trajectory and the trajectories section's)."""
+        if stem not in self.drawn:
+            self.drawn[stem] = self.figure(stem, draw(), caption)
+        return self.drawn[stem]
+
 
 def slug(*parts: str) -> str:
     return "_".join(re.sub(r"[^A-Za-z0-9.-]+", "-", p).strip("-") for p in parts if p)
 
 
 # --- the sections ----------------------------------------------------------------------------------------
+def headline_section(data: ReportData, out: ReportOutput) -> Section:
+    """The first screen: the fitness against the untuned simulation and the floor, the best run's trajectory with
+    its error against time, and what tuning changed."""
+    items: list[Table | FigureRef] = [out.table(headline_table(data.groups, data.floors))]
+    drawable = [
+        (sim, task)
+        for sim in data.sims
+        for task in sim.group.task_names
+        if sim.tasks[task].reference.wrist_mean is not None
+    ]
+    if drawable:
+        sim, task = min(drawable, key=lambda pair: pair[0].group.best_run.best_fitness)
+        items.append(_trajectory_figure(sim, task, out))
+    items.append(out.table(moved_parameters_table(data.groups, data.nominal)))
+    return Section(
+        "headline",
+        "At a glance",
+        "How close tuning brought each simulation to the recordings, against the untuned simulation and the data's "
+        "own floor; the best run's trajectory (recorded, untuned, tuned) with its error against time; and the "
+        "parameters tuning moved, with how tightly the recordings pin them. The paper's tables follow.",
+        items,
+    )
+
+
+def _trajectory_figure(sim: GroupSimulation, task: str, out: ReportOutput) -> FigureRef:
+    return out.figure_once(
+        slug("trajectory", sim.group.engine, sim.group.tasks, sim.group.space, task),
+        lambda: F.trajectory_figure(sim, task),
+        _trajectory_caption(sim, task),
+    )
+
+
+def _single_runs(data: ReportData) -> bool:
+    """Whether every engine, tasks and space has one run: nothing spreads across repeats."""
+    return all(len(g.runs) == 1 for g in data.groups)
+
+
+#: what the sections built on repeats say when there is one run of each
+ONE_RUN = (
+    "One run of each engine, tasks and space: a spread across repeats needs several (`simtune tune --seed N` "
+    "for more runs, or `simtune grid`)."
+)
+
+
 def generic_section(data: ReportData, out: ReportOutput) -> Section:
     hint = (
         ""
@@ -176,6 +229,13 @@ def parameters_section(data: ReportData, out: ReportOutput) -> Section:
                 "space. `simtune report --figure4-parameter NAME` draws it for another parameter.",
             )
         )
+    if _single_runs(data):  # one dot per box: the values are in the first screen's table
+        return Section(
+            "parameters",
+            "Parameter distributions",
+            ONE_RUN + " The tuned values are in section 1." + ("" if figure4 else f" No run tuned {parameter}."),
+            figure4,
+        )
     figures = figure4 + [
         out.figure(
             slug("parameters", tasks, space),
@@ -196,6 +256,8 @@ def parameters_section(data: ReportData, out: ReportOutput) -> Section:
 
 
 def importance_section(data: ReportData, out: ReportOutput) -> Section:
+    if _single_runs(data):
+        return Section("importance", "Parameter importance and significance", ONE_RUN, [])
     importance = T.importance_table(data.groups)
     return Section(
         "importance",
@@ -269,11 +331,7 @@ def _phase_errors(data: ReportData) -> list[T.PhaseError]:
 
 def trajectories_section(data: ReportData, out: ReportOutput) -> Section:
     figures = [
-        out.figure(
-            slug("trajectory", sim.group.engine, sim.group.tasks, sim.group.space, task),
-            F.trajectory_figure(sim, task),
-            _trajectory_caption(sim, task),
-        )
+        _trajectory_figure(sim, task, out)
         for sim in data.sims
         for task in sim.group.task_names
         if sim.tasks[task].reference.wrist_mean is not None  # joint logs alone: no marker to draw
@@ -369,6 +427,7 @@ SectionMaker = Callable[[ReportData, ReportOutput], Section | None]
 
 #: The numbered sections, in order (numbers are given as they come: a section left out takes none).
 SECTIONS: tuple[SectionMaker, ...] = (
+    headline_section,
     generic_section,
     tuned_section,
     convergence_section,
