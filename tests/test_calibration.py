@@ -13,7 +13,8 @@ from simtune.controller import JointController
 from simtune.engines import ENGINES, engine_class
 from simtune.errors import EngineUnavailable
 from simtune.params import get_space
-from simtune.params.space import FULL_LOAD_DEFLECTION_DEG, robot_spaces
+from simtune.params.kinds import FULL_LOAD_DEFLECTION_DEG
+from simtune.params.space import robot_spaces
 from simtune.robot.mico import MICO
 from simtune.tasks import get_task
 from simtune.tasks.spec import Phase, TaskSpec

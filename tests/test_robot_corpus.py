@@ -191,13 +191,13 @@ def test_a_world_link_places_the_base_in_every_engine(tmp_path):
         assert fk_error(description, engine, np.array([[0.3, -0.4]])) < FK_TOLERANCE_M, engine
 
 
-def test_a_link_without_inertial_gets_a_floor_mass_and_loads_everywhere(tmp_path):
-    """No <inertial> on a moving link: a warning naming it, a small mass, and every engine loads and runs it
-    (ODE aborted the process, DART divided by zero)."""
+def test_a_link_without_inertial_gets_a_mass_and_loads_everywhere(tmp_path):
+    """No <inertial> on a moving link: the mass of its box (tests/test_urdf_estimates.py), and every engine loads
+    and runs it (ODE aborted the process, DART divided by zero on a massless link)."""
     urdf = write(tmp_path, arm_urdf(upper_inertial=""))
-    with pytest.warns(RobotWarning, match="link 'upper' moves but has no mass"):
-        description = load_urdf(urdf)
-    assert description.link_by_name["upper"].mass > 0
+    description = load_urdf(urdf)
+    assert description.link_by_name["upper"].mass == pytest.approx(2700 * 0.05 * 0.05 * 0.3)
+    assert description.estimated_masses == ("upper",)
     for engine in ENGINES:
         engine_or_skip(engine)
         assert fk_error(description, engine, np.array([[0.2, 0.3]])) < FK_TOLERANCE_M, engine
@@ -330,4 +330,4 @@ def test_check_of_a_robot_without_inertials_loads_it_in_every_engine(tmp_path):
     result = cli("check", project)
     assert result.returncode == 0, result.stderr
     assert "engines that load the robot: mujoco, pybullet, ode, dart, drake" in result.stdout
-    assert "link 'upper' moves but has no mass" in result.stderr
+    assert "masses of link upper estimated from their geometry" in result.stdout

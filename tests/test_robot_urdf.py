@@ -207,7 +207,7 @@ def test_held_fingers_follow_their_mimic_rule(panda):
     assert np.linalg.norm(left - right) == pytest.approx(0.06)  # each finger 3 cm out from the middle
 
 
-# --- an MJCF robot: MuJoCo only -----------------------------------------------------------------
+# --- an MJCF robot: MuJoCo from the file, the others from its URDF ---------------------------------------
 
 ARM_MJCF = """<mujoco model="arm3">
   <compiler angle="radian" meshdir="{meshes}"/>
@@ -275,14 +275,21 @@ def test_mjcf_robot_in_mujoco(arm_mjcf):
 
 
 @pytest.mark.parametrize("engine", ["pybullet", "ode", "dart", "drake"])
-def test_mjcf_robot_needs_a_urdf_elsewhere(arm_mjcf, engine):
+def test_mjcf_robot_elsewhere_from_its_generated_urdf(arm_mjcf, engine):
+    """The other engines build an MJCF's robot from the URDF of its description: its collision geoms as shapes
+    (a capsule as a cylinder and two spheres, a mesh as MuJoCo's hull of it), the same kinematics."""
     from simtune.robot.mjcf import load_mjcf
 
     cls = engine_or_skip(engine)
-    robot = load_mjcf(arm_mjcf)
-    with pytest.raises(ConfigError) as exc:
-        cls(pose_task(robot, np.zeros(robot.n_joints)))
-    one_line(exc, f"engine {engine!r} needs a URDF", str(arm_mjcf))
+    robot = load_mjcf(arm_mjcf, tracked_link="hand")
+    kinds = {link.name: [type(s).__name__ for s in link.shapes] for link in robot.links}
+    assert kinds["fore"] == ["Cylinder", "Sphere", "Sphere"] and kinds["upper"] == ["Mesh"]
+    for q in np.random.default_rng(3).uniform(-1.5, 1.5, size=(2, 3)):
+        sim = cls(pose_task(robot, q))
+        sim.reset({})
+        pos, _ = sim.wrist_pose()
+        np.testing.assert_allclose(pos, robot.forward_kinematics(q)[0], atol=1e-6)
+        sim.close()
 
 
 def test_mjcf_errors(tmp_path, arm_mjcf):

@@ -320,6 +320,9 @@ def robot_content(robot: RobotDescription) -> dict:
         if not f.compare:
             content.pop(f.name)
     content.pop("source")  # a path (or "bundled"): what was read from it is in the other values
+    for added in ("estimated_masses", "placeholder_masses"):  # fields added later: a robot without them keeps its key
+        if not content.get(added):
+            content.pop(added, None)
     if robot.mjcf is not None:
         content["mjcf"] = mjcf_content(robot.mjcf)
     for link, stored in zip(robot.links, content["links"]):

@@ -4,7 +4,8 @@ At 20 Hz of simulated time, for each driven joint of the task's robot::
 
     velocity [deg/s] = clamp(kp * (target - angle), -v_max, +v_max)
 
-sent as a joint velocity target with a motor force limit, held until the next
+with the task's gain kp, or the joint's own ``kp_joint_<n>`` [1/s] (a servo's hidden
+firmware gain), sent as a joint velocity target with a motor force limit, held until the next
 update.  ``command_delay`` shifts the whole target schedule later in time (the
 arm holds its start pose until then): the real recordings start 1.2-2 s before
 the arm moves, and whether that is latency or a recording offset, a shift of the
@@ -31,19 +32,21 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from simtune.params.kinds import CONTROLLER, ENCODERS, applied_outside
 from simtune.tasks.spec import TaskSpec
 
 CONTROL_PERIOD = 0.05  # seconds between controller updates (20 Hz)
 
 
 def controller_parameters(n_joints: int) -> frozenset[str]:
-    """The parameters the controller reads, for a robot with ``n_joints`` driven joints."""
-    return frozenset({f"max_velocity_joint_{i}" for i in range(1, n_joints + 1)} | {"command_delay"})
+    """The parameters the controller reads, for a robot with ``n_joints`` driven joints (its kinds in
+    :data:`simtune.params.kinds.KINDS`)."""
+    return applied_outside(n_joints, (CONTROLLER,))
 
 
 def encoder_parameters(n_joints: int) -> frozenset[str]:
     """The calibration parameters of the encoders' model, for a robot with ``n_joints`` driven joints."""
-    return frozenset(f"{kind}_{i}" for kind in ("joint_offset", "compliance_joint") for i in range(1, n_joints + 1))
+    return applied_outside(n_joints, (ENCODERS,))
 
 
 #: those of the bundled six-joint MICO
@@ -60,8 +63,9 @@ class JointController:
     def __init__(self, task: TaskSpec, params: dict[str, float] | None = None):
         params = params or {}
         self.task = task
-        self.kp = float(task.kp)
         n = task.robot.n_joints
+        #: the gain of each joint [1/s]: ``kp_joint_<n>``, else the task's
+        self.kp = np.array([params.get(f"kp_joint_{i}", task.kp) for i in range(1, n + 1)], dtype=float)
         v_max = [params.get(f"max_velocity_joint_{i}", task.max_velocity_deg) for i in range(1, n + 1)]
         self.v_max = np.radians(np.array(v_max, dtype=float))
         # a task's own delay (``command_delay_<task>``, tasks tuned together) before the shared one

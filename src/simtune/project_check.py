@@ -66,6 +66,7 @@ def check_project(
             f"{', '.join(robot.arm_joints)}, tracked link {robot.tracked_link}",
         )
     ]
+    findings += _check_masses(robot)
     root = None if data is None else Path(data)
     if root is None:
         # what validate() lists (recordings folders missing) does not stop a project: recordings come later
@@ -79,6 +80,36 @@ def check_project(
             continue
         findings += _check_recordings(project, name, root)
     findings += _check_engines(project, engines or tuple(ENGINES))
+    return findings
+
+
+def _check_masses(robot) -> list[Finding]:
+    """What the robot's file does not give of its masses: links estimated from their geometry (a note), links
+    with a placeholder (a warning; a problem where no moving link has a mass of its own)."""
+    findings = []
+    if robot.estimated_masses:
+        total = sum(robot.link_by_name[n].mass for n in robot.estimated_masses)
+        findings.append(
+            Finding(
+                "note",
+                f"robot {robot.name}: masses of link {', '.join(robot.estimated_masses)} estimated from their geometry "
+                f"(no <inertial>; {total:.3g} kg together); a driven link's mass_link_<n> is tuned over [0.25, 2] x "
+                "its estimate",
+            )
+        )
+    if robot.placeholder_masses:
+        placeholders = set(robot.placeholder_masses)
+        moving = [link for link in robot.links if any(j.moves for j in robot.chain(link.name))]
+        real = [link.name for link in moving if link.mass > 0 and link.name not in placeholders]
+        findings.append(
+            Finding(
+                "warning" if real else "problem",
+                f"robot {robot.name}: the robot cannot be simulated as described: link "
+                f"{', '.join(robot.placeholder_masses)} moves with no mass and no geometry to estimate one from (a "
+                f"placeholder of {robot.link_by_name[robot.placeholder_masses[0]].mass:g} kg); add an <inertial> "
+                f"or a <collision> to it in {robot.source}",
+            )
+        )
     return findings
 
 
@@ -211,4 +242,19 @@ def _check_engines(project: Project, engines: tuple[str, ...]) -> list[Finding]:
             )
         loaded.append(name)
     findings.append(Finding("note", f"engines that load the robot: {', '.join(loaded) or 'none'}"))
+    if task.robot.mjcf is not None:
+        findings.append(Finding("note", _mjcf_engines_line(task.robot.mjcf, loaded)))
     return findings
+
+
+def _mjcf_engines_line(mjcf: str, loaded: list[str]) -> str:
+    """How each engine that loaded a robot from an MJCF built it: MuJoCo from the file, the others from a URDF."""
+    from_urdf = [name for name in loaded if not engine_class(name).reads_mjcf]
+    from_file = [name for name in loaded if engine_class(name).reads_mjcf]
+    line = f"robot from the MJCF {Path(mjcf).name}: built from the file in {', '.join(from_file) or 'no engine'}"
+    if from_urdf:
+        line += (
+            f"; from the URDF of its collision geoms and inertias in {', '.join(from_urdf)} (without the file's "
+            "armature, joint friction and springs: their motion may differ from MuJoCo's)"
+        )
+    return line

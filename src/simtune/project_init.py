@@ -1,10 +1,12 @@
-"""``simtune init``: a new project for a robot given as a URDF file, ready to run as written.
+"""``simtune init``: a new project for a robot given as a URDF or an MJCF file, ready to run as written.
 
-The project file names the URDF in place (never copied) with everything :func:`~simtune.robot.urdf.load_urdf`
-chose for it written out (driven joints, tracked link, held joints, gripper links), so a user sees and edits
-those choices.  The example task ``reach`` moves every driven joint a little within its limits and back,
-with no object.  The folder is written beside its destination and renamed into place once the project
-loads, so an error leaves nothing half-written.
+The project file names the robot file in place (never copied) with everything
+:func:`~simtune.robot.load.load_robot` chose for it written out (driven joints, tracked link, held joints,
+gripper links), so a user sees and edits those choices.  An MJCF's ``home`` keyframe, where it has one
+(MuJoCo Menagerie's arms do), is the example task's start pose; its other keyframes are not read.  The
+example task ``reach`` moves every driven joint a little within its limits and back, with no object.  The
+folder is written beside its destination and renamed into place once the project loads, so an error leaves
+nothing half-written.
 """
 
 from __future__ import annotations
@@ -14,15 +16,20 @@ import math
 import os
 import shutil
 import tempfile
+import warnings
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from simtune.errors import ProjectError
+from simtune.errors import ProjectError, RobotWarning
 from simtune.geometry import rpy_matrix
 from simtune.project import load_project
 from simtune.robot.description import ZERO3, RobotDescription
-from simtune.robot.urdf import load_urdf
+from simtune.robot.inertia import DEFAULT_DENSITY
+from simtune.robot.load import load_robot
+from simtune.robot.mjcf import home_pose
+from simtune.robot.urdf import package_entry
 
 #: How far the example reach turns each joint [deg] (less where its limits leave less room).
 REACH_DEG = 20.0
@@ -154,10 +161,14 @@ def clearance(robot: RobotDescription, q_deg) -> float:
 
 
 def _start_pose(robot: RobotDescription) -> list[float]:
-    """Each joint at 0 moved inside its limits; where that leaves the arm within ``START_CLEARANCE_M`` of the
-    floor (a UR lies stretched out at its zeros), each joint in turn (the first ``START_SEARCH_JOINTS``) set to
-    the angle of ``START_CANDIDATES_DEG`` that lifts the arm's lowest frame highest."""
+    """An MJCF's ``home`` keyframe (each joint kept inside its limits); else each joint at 0 moved inside its
+    limits; where that leaves the arm within ``START_CLEARANCE_M`` of the floor (a UR lies stretched out at its
+    zeros), each joint in turn (the first ``START_SEARCH_JOINTS``) set to the angle of ``START_CANDIDATES_DEG``
+    that lifts the arm's lowest frame highest."""
     rooms = [_room(robot, name) for name in robot.arm_joints]
+    home = None if robot.mjcf is None else home_pose(robot.mjcf, robot.arm_joints)
+    if home is not None:
+        return [min(max(math.degrees(q), low), high) for q, (low, high) in zip(home, rooms)]
     start = [min(max(0.0, low), high) for low, high in rooms]
     heights = _ChainHeights(robot)
     if heights.lowest(start) >= START_CLEARANCE_M:
@@ -188,8 +199,19 @@ def reach_poses(robot: RobotDescription) -> tuple[list[float], list[float]]:
     return _deg(start), _deg(target)
 
 
-def project_text(robot: RobotDescription, urdf: Path, package_path: tuple[Path, ...] = ()) -> str:
+def project_text(robot: RobotDescription, urdf: Path, package_path: Sequence[str | Path] = ()) -> str:
+    """The commented ``simtune.toml`` of a new project.
+
+    Args:
+        robot: the robot as loaded from ``urdf``.
+        urdf: the robot's file (a URDF, or an MJCF when ``robot.mjcf`` is set), named in place.
+        package_path: folders for a URDF's ``package://`` names.
+
+    Returns:
+        The file's text.
+    """
     gripper = [link.name for link in robot.links if link.material == "gripper"]
+    mjcf = robot.mjcf is not None
     lines = [
         f"# A simtune project for the robot of {urdf.name} (schema: docs/task-files.md).",
         "# Check it with `simtune check <this folder>`; list its parameters with `simtune params --project <folder>`.",
@@ -202,14 +224,25 @@ def project_text(robot: RobotDescription, urdf: Path, package_path: tuple[Path, 
         'data = "recordings"',
         "",
         "[robot]",
-        "# the robot's URDF, used in place: relative to this folder, or absolute (meshes are found beside it)",
-        f"urdf = {_toml(str(urdf))}",
+        *(
+            [
+                "# the robot's MJCF, used in place: relative to this folder, or absolute (MuJoCo resolves its includes",
+                "# and meshdir); MuJoCo builds the robot from it, the other engines from a URDF of its collision geoms",
+                f"mjcf = {_toml(str(urdf))}",
+            ]
+            if mjcf
+            else [
+                "# the robot's URDF, used in place: relative to this folder, or absolute (meshes are found beside it)",
+                f"urdf = {_toml(str(urdf))}",
+            ]
+        ),
         "# the joints the controller drives, in the order of every target list of the task files",
         f"joints = {_toml(list(robot.arm_joints))}",
         "# the link whose origin the motion capture's wrist body follows (the engines report its pose)",
         f"tracked_link = {_toml(robot.tracked_link)}",
         "# where the robot's root link stands [m] and how it is turned [rad]; the floor is the plane z = 0",
-        "# (added to the URDF's own placement of its base: a fixed joint from a link named `world`)",
+        "# (added to the file's own placement of its base: a URDF's fixed joint from a link named `world`, or the",
+        "# pos and quat of an MJCF's root body)",
         "base_position = [0.0, 0.0, 0.0]",
         "base_rpy = [0.0, 0.0, 0.0]",
         "# links with the gripper's contact parameters (friction, restitution ...); the other links are 'arm'",
@@ -224,7 +257,12 @@ def project_text(robot: RobotDescription, urdf: Path, package_path: tuple[Path, 
             "# folders where the URDF's package:// names are found (a package folder, or a folder of packages)",
             f"package_path = {_toml([str(p) for p in package_path])}",
         ]
-    if robot.held:
+    if robot.held and mjcf:
+        lines += [
+            "# the MJCF's joints that are not driven (a gripper's fingers) are welded at 0: "
+            + ", ".join(name for name, _ in robot.held)
+        ]
+    elif robot.held:
         lines += [
             "",
             "# movable joints that are not driven (a gripper's fingers), held at these positions [rad or m]",
@@ -292,30 +330,54 @@ def init_project(
     *,
     tracked_link: str | None = None,
     driven_joints: list[str] | None = None,
-    package_path: list[Path] | tuple[Path, ...] = (),
+    package_path: Sequence[str | Path] = (),
     loaded: list[RobotDescription] | None = None,
+    density: float | None = None,
+    total_mass: float | None = None,
 ) -> Path:
-    """Write a project for the robot of ``urdf`` into the new (or empty) folder ``out``; the project file.
+    """Write a project for the robot of ``urdf`` (a URDF or an MJCF file) into the new (or empty) folder ``out``.
 
-    ``tracked_link`` and ``driven_joints`` override the loader's choices; ``package_path`` lists folders
-    for the URDF's ``package://`` names (written into the project); ``loaded``, a list, receives the robot
-    as loaded (its :attr:`~RobotDescription.choices` say what was chosen and why).
-    ``ProjectError``/``RobotError`` (one line) if ``out`` holds anything or the URDF cannot be used; then
-    nothing is written.
+    Args:
+        urdf: the robot file, named in place by the project (never copied); an MJCF is told by its root element.
+        out: the new project folder (absent, or empty).
+        tracked_link: overrides the loader's choice of the tracked link.
+        driven_joints: override the loader's choice of the driven joints.
+        package_path: folders for a URDF's ``package://`` names, or ``NAME=DIR`` (package NAME is folder DIR)
+            (written into the project).
+        loaded: a list that receives the robot as loaded (its :attr:`~RobotDescription.choices` say what was
+            chosen and why).
+        density: [kg/m^3] of the links without an ``<inertial>``, whose masses come from their geometry
+            (default aluminium's); written into the project where a link is so estimated.
+        total_mass: [kg] spread over those links by volume instead (not with ``density``).
+
+    Returns:
+        The project file.
+
+    Raises:
+        ProjectError: if ``out`` holds anything; RobotError: if the robot file cannot be used (one line each;
+            then nothing is written).
     """
     urdf = Path(urdf).expanduser().resolve()
     out = Path(out).expanduser().absolute()
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise ProjectError(f"{out}: exists and is not an empty folder: choose a new --out (nothing was written)")
-    package_path = tuple(Path(p).expanduser().resolve() for p in package_path)
-    robot = load_urdf(urdf, tracked_link=tracked_link, arm_joints=driven_joints, package_path=package_path)
+    package_path = tuple(_package_entry(p) for p in package_path)
+    _check_mass_options(density, total_mass)
+    robot = load_robot(
+        urdf,
+        tracked_link=tracked_link,
+        arm_joints=driven_joints,
+        package_path=package_path,
+        density=density,
+        total_mass=total_mass,
+    )
     if loaded is not None:
         loaded.append(robot)
     parent = out.resolve().parent
     if not parent.is_dir():
         raise ProjectError(f"{out}: its folder {parent} does not exist")
     texts = {
-        "simtune.toml": project_text(robot, urdf, package_path),
+        "simtune.toml": _with_mass_keys(project_text(robot, urdf, package_path), robot, density, total_mass),
         "tasks/reach.toml": reach_text(robot),
         ".gitignore": GITIGNORE,
     }
@@ -335,6 +397,48 @@ def init_project(
     return out / "simtune.toml"
 
 
+def _package_entry(entry: str | Path) -> str:
+    """A ``--package-path`` entry as the project writes it: its folder absolute; ``NAME=DIR``'s folder must exist."""
+    name, folder = package_entry(entry)
+    folder = folder.resolve()
+    if name is None:
+        return str(folder)
+    if not folder.is_dir():
+        raise ProjectError(f"--package-path {entry}: no folder {folder} for package {name!r}")
+    return f"{name}={folder}"
+
+
+def _check_mass_options(density: float | None, total_mass: float | None) -> None:
+    """One line for ``--density`` and ``--total-mass`` together, or either not above 0."""
+    if density is not None and total_mass is not None:
+        raise ProjectError("--density and --total-mass: give one (a total mass sets the density)")
+    for option, value, unit in (("--density", density, "kg/m^3"), ("--total-mass", total_mass, "kg")):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise ProjectError(f"{option} {value:g}: not possible (a {unit} value above 0)")
+
+
+def _with_mass_keys(text: str, robot: RobotDescription, density: float | None, total_mass: float | None) -> str:
+    """The project file ``text`` with the ``[robot]`` keys that make the project load the robot's estimated
+    masses as init did, after its ``gripper_links`` (``text`` as it is where the URDF gives every mass and no
+    option was given)."""
+    if not robot.estimated_masses and density is None and total_mass is None:
+        return text
+    listed = ", ".join(robot.estimated_masses) or "none"
+    lines = [
+        f"# links without an <inertial>: {listed}",
+        "# their mass and inertia: their collision (else visual) geometry taken as",
+    ]
+    if total_mass is not None:
+        lines += ["# solids sharing this mass [kg] by volume (or density = [kg/m^3] instead)"]
+        lines += [f"total_mass = {_toml(float(total_mass))}"]
+    else:
+        lines += ["# solids of this density [kg/m^3] (2700: aluminium; or total_mass = [kg] shared by volume)"]
+        lines += [f"density = {_toml(float(DEFAULT_DENSITY if density is None else density))}"]
+    before, key, after = text.partition("\ngripper_links = ")
+    line, _, rest = after.partition("\n")
+    return before + key + line + "\n" + "\n".join(lines) + "\n" + rest
+
+
 def _write_project(folder: Path, texts: dict[str, str], remove_on_error: bool) -> None:
     """Write ``texts`` (relative path -> text) into ``folder`` and load the project as written; on an error,
     the files written here are removed again (and ``folder`` itself when ``remove_on_error``)."""
@@ -344,7 +448,11 @@ def _write_project(folder: Path, texts: dict[str, str], remove_on_error: bool) -
         for name, text in texts.items():
             (folder / name).write_text(text, encoding="utf-8")
             written.append(folder / name)
-        load_project(folder)  # what init writes must load as written
+        # what init writes must load as written: the same robot file with the same options, whose warnings the
+        # first load gave (loading it twice printed each of them twice)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RobotWarning)
+            load_project(folder)
     except BaseException:
         if not remove_on_error:
             for file in written:

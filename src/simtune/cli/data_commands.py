@@ -257,7 +257,12 @@ def synth(
 
 
 RobotOpt = Annotated[
-    Path, typer.Option("--robot", help="The robot's URDF file (meshes beside it), used in place.", callback=path)
+    Path,
+    typer.Option(
+        "--robot",
+        help="The robot's URDF (meshes beside it) or MJCF file (MuJoCo Menagerie's layout), used in place.",
+        callback=path,
+    ),
 ]
 InitOutOpt = Annotated[Path, out_option("The new project folder (must not exist, or be empty).")]
 TrackedLinkOpt = Annotated[
@@ -276,12 +281,25 @@ DrivenJointsOpt = Annotated[
     ),
 ]
 PackagePathOpt = Annotated[
-    list[Path] | None,
+    list[str] | None,
     typer.Option(
         "--package-path",
-        help="A folder where the URDF's package:// names are found (a package, or a folder of packages); "
-        "repeat for several. Also read: $SIMTUNE_PACKAGE_PATH, $ROS_PACKAGE_PATH.",
+        help="A folder where the URDF's package:// names are found (a package, or a folder of packages), or "
+        "NAME=DIR: package NAME is folder DIR (whatever DIR is called); repeat for several. Also read: "
+        "$SIMTUNE_PACKAGE_PATH, $ROS_PACKAGE_PATH.",
     ),
+]
+DensityOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--density",
+        help="[kg/m^3] Links without an <inertial> get the mass and inertia of their collision (else visual) "
+        "geometry as solids of this density (default 2700, aluminium).",
+    ),
+]
+TotalMassOpt = Annotated[
+    float | None,
+    typer.Option("--total-mass", help="[kg] Instead of --density: spread this mass over those links by volume."),
 ]
 
 
@@ -291,11 +309,14 @@ def init(
     tracked_link: TrackedLinkOpt = None,
     driven_joints: DrivenJointsOpt = None,
     package_path: PackagePathOpt = None,
+    density: DensityOpt = None,
+    total_mass: TotalMassOpt = None,
 ) -> None:
     """Start a project for your robot: a commented simtune.toml and an example task `reach`.
 
     Prints what it chose (tracked link, driven and held joints) and why.
-    Example: simtune init --robot arm.urdf --out myproject; then simtune check myproject
+    Example: simtune init --robot arm.urdf --out myproject (or --robot panda.xml, an MJCF); then simtune check
+    myproject
     """
     from simtune import api
 
@@ -304,7 +325,14 @@ def init(
         raise SimtuneError("init: --driven-joints names no joint (joint names joined by commas)")
     loaded: list = []
     file = api.init_project(
-        robot, out_dir, tracked_link=tracked_link, driven_joints=joints, package_path=package_path or (), loaded=loaded
+        robot,
+        out_dir,
+        tracked_link=tracked_link,
+        driven_joints=joints,
+        package_path=package_path or (),
+        loaded=loaded,
+        density=density,
+        total_mass=total_mass,
     )
     description = loaded[0]
     out.print(f"robot {description.name!r} from {robot}:", highlight=False, soft_wrap=True)

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import functools
 import math
-import re
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Generator, Iterator, Sequence
 from dataclasses import dataclass
@@ -18,8 +17,23 @@ from typing import ClassVar
 
 import numpy as np
 
-from simtune.controller import CONTROL_PERIOD, CONTROLLER_PARAMETERS, JointController, encoder_parameters
+from simtune.controller import CONTROL_PERIOD, JointController
 from simtune.errors import ConfigError, RobotError, SimtuneError
+from simtune.params.kinds import (
+    ALL_ENGINES,
+    BY_NAME,
+    CONTROLLER,
+    DRIVE_KINDS,
+    ENCODERS,
+    KINDS,
+    MARKER,
+    MATERIAL,
+    applied_outside,
+    engine_parameters,
+    generic_joint_value,
+    kinds_of,
+    per_joint_kind,
+)
 from simtune.robot import DEFAULT_ROBOT
 from simtune.robot.description import RobotDescription
 from simtune.tasks.spec import MATERIALS, SHAPES, TaskSpec
@@ -28,46 +42,30 @@ from simtune.tasks.spec import MATERIALS, SHAPES, TaskSpec
 #: (:meth:`Engine.supported` renames them for another robot).
 NAMED_JOINTS = range(1, DEFAULT_ROBOT.n_joints + 1)
 
-#: Parameters applied outside the engine (controller, its encoders and the marker model): every engine has them.
-COMMON_PARAMETERS = (
-    CONTROLLER_PARAMETERS | encoder_parameters(len(NAMED_JOINTS)) | {f"marker_offset_{a}" for a in "xyz"}
-)
+#: Parameters applied outside the engine (controller, its encoders and the marker model), of the default robot.
+COMMON_PARAMETERS = applied_outside(len(NAMED_JOINTS))
 
-#: Rigid-body parameters any engine with masses, motors and joint damping maps;
-#: engines add their contact and damping parameters to these.
+#: Rigid-body parameters any engine with masses, motors and joint damping maps (every engine has these kinds).
 RIGID_BODY_PARAMETERS = frozenset(
-    {"timestep"}
-    | {f"mass_link_{i}" for i in NAMED_JOINTS}
-    | {f"mass_{shape}_{material}" for shape in SHAPES for material in MATERIALS}
-    | {f"max_torque_joint_{i}" for i in NAMED_JOINTS}
-    | {f"joint_damping_{i}" for i in NAMED_JOINTS}
-)
-
-#: Parameters that come once per driven joint (``<kind>_<n>``, n = 1 for the first driven joint).
-PER_JOINT = re.compile(
-    r"^(mass_link|max_torque_joint|joint_damping|max_velocity_joint|joint_offset|compliance_joint)_(\d+)$"
+    name
+    for kind in ("timestep", "mass_link", "mass", "max_torque_joint", "joint_damping")
+    for name in BY_NAME[kind].names(len(NAMED_JOINTS))
 )
 
 
 def per_joint(names: frozenset[str], n_joints: int) -> frozenset[str]:
     """``names`` with its per-joint parameters given for joints 1..``n_joints``."""
-    kinds = {m.group(1) for name in names if (m := PER_JOINT.match(name))}
-    kept = {name for name in names if not PER_JOINT.match(name)}
+    kinds = kinds_of(names)
+    kept = {name for name in names if per_joint_kind(name) is None}
     return frozenset(kept | {f"{kind}_{i}" for kind in kinds for i in range(1, n_joints + 1)})
 
 
 #: Parameter kinds that come once per material group (``<kind>_<group>``, groups gripper,
 #: floor and the two object materials): surfaces and body damping.
-GROUP_KINDS = (
-    "lateral_friction",
-    "rolling_friction",
-    "spinning_friction",
-    "restitution",
-    "linear_damping",
-    "angular_damping",
-)
+GROUP_KINDS = tuple(kind.name for kind in KINDS if kind.scope == MATERIAL)
 #: The kinds of those that act only where two surfaces touch.
-CONTACT_KINDS = GROUP_KINDS[:4]
+CONTACT_KINDS = ("lateral_friction", "rolling_friction", "spinning_friction", "restitution")
+assert set(CONTACT_KINDS) <= set(GROUP_KINDS), "contact kinds are material kinds"
 
 #: The lowest motor force limit [N m] the parameter spaces tune (`max_torque_joint_i`), which is
 #: also every engine's generic limit.
@@ -109,7 +107,12 @@ def unloaded_hard_motors(
         "the lowest tunable limit, in simtune's tasks"
     )
     held = f"{engine}'s hard velocity motor holds this joint's commanded velocity against its damping torque"
-    return {f"max_torque_joint_{i}": limit for i in joints} | {f"joint_damping_{i}": held for i in damping}
+    inert = (
+        f"{engine}'s hard velocity motor holds this joint's commanded velocity against its friction and inertia "
+        "(as against its damping)"
+    )
+    drive = {f"{kind.name}_{i}": inert for kind in DRIVE_KINDS if engine.lower() in kind.engines for i in damping}
+    return {f"max_torque_joint_{i}": limit for i in joints} | {f"joint_damping_{i}": held for i in damping} | drive
 
 
 def library_version(library: object | None, distribution: str) -> str:
@@ -126,6 +129,23 @@ def library_version(library: object | None, distribution: str) -> str:
 #: further than this from its start, has exploded.
 WRIST_LIMIT = 2.0
 OBJECT_LIMIT = 5.0
+#: A robot whose reach is longer has its wrist limit at this multiple of its reach (:func:`wrist_limit`).
+REACH_MARGIN = 1.5
+
+
+def wrist_limit(robot) -> float:
+    """The radius [m] around the base a stable simulation of ``robot``'s wrist never leaves: :data:`WRIST_LIMIT`, or
+    :data:`REACH_MARGIN` times its reach for a robot longer than that allows (an industrial arm, a description drawn
+    at another scale: a 4-m arm is not blown up at 2 m).
+
+    Args:
+        robot: the :class:`~simtune.robot.description.RobotDescription`.
+    Returns:
+        The limit [m].
+    """
+    return max(WRIST_LIMIT, REACH_MARGIN * robot.reach)
+
+
 #: Samples between two checks of the state for a blow-up (0.5 s of simulated time at 20 Hz).
 CHECK_EVERY = 10
 
@@ -221,7 +241,9 @@ class Engine(ABC):
     name: ClassVar[str]
     #: engine-specific parameter names this engine maps onto its API
     engine_parameters: ClassVar[frozenset[str]]
-    #: whether the engine builds a robot from an MJCF file (:attr:`RobotDescription.mjcf`)
+    #: whether the engine builds a robot from an MJCF file itself (:attr:`RobotDescription.mjcf`); the others
+    #: build it from the URDF its description generates (``robot_urdf``: its collision geoms, without armature,
+    #: joint friction or springs)
     reads_mjcf: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs) -> None:
@@ -234,18 +256,23 @@ class Engine(ABC):
             from simtune.engines import not_installed  # the registry holds each engine's install command
 
             raise not_installed(self.name)
-        if task.robot.mjcf is not None and not self.reads_mjcf:
-            raise ConfigError(
-                f"engine {self.name!r} needs a URDF: robot {task.robot.name!r} comes from the MJCF file "
-                f"{task.robot.mjcf} (MuJoCo only)"
-            )
         self.task = task
 
     @classmethod
     def supported(cls, robot: RobotDescription | None = None) -> frozenset[str]:
         """The parameters this engine maps, for ``robot``'s driven joints (default: the default robot's)."""
-        names = cls.engine_parameters | COMMON_PARAMETERS
+        if cls.name in ALL_ENGINES:  # the controller's, encoders' and marker's kinds the table gives the engine
+            outside = engine_parameters(cls.name, len(NAMED_JOINTS), (CONTROLLER, ENCODERS, MARKER))
+        else:  # an engine outside the registry (an export's replay) runs simtune's controller in full
+            outside = COMMON_PARAMETERS
+        names = cls.engine_parameters | outside
         return names if robot is None else per_joint(names, robot.n_joints)
+
+    @classmethod
+    def kind_parameters(cls) -> frozenset[str]:
+        """The engine's own parameters as :mod:`simtune.params.kinds` lists them (the default robot's joints): what
+        an engine of the registry sets as its ``engine_parameters``."""
+        return engine_parameters(cls.name, len(NAMED_JOINTS))
 
     @classmethod
     def version(cls) -> str:
@@ -296,6 +323,32 @@ class Engine(ABC):
     def reset(self, params: dict[str, float]) -> None:
         """Apply ``params`` (missing ones take generic values) and put the scene in its start state
         (the arm at :meth:`start_angles`)."""
+
+    def drive_defaults(self) -> dict[str, float]:
+        """The generic values of the drive-train kinds (:data:`simtune.params.kinds.DRIVE_KINDS`) this engine has:
+        the robot description's (an engine whose model holds its own, as MuJoCo's of an MJCF file, overrides)."""
+        robot = self.task.robot
+        return {
+            f"{kind.name}_{i}": generic_joint_value(kind.name, robot, i - 1, self.task.kp)
+            for kind in DRIVE_KINDS
+            if self.name in kind.engines
+            for i in range(1, robot.n_joints + 1)
+        }
+
+    def apply_drive(self, params: dict[str, float]) -> None:
+        """Apply every drive-train kind this engine has through its own method (``Kind.apply``: armature, joint
+        friction), each joint's value from ``params`` or :meth:`drive_defaults`; a value of a kind the engine lacks
+        is a :class:`ConfigError` naming it (never silently ignored)."""
+        n = self.task.robot.n_joints
+        generic = self.drive_defaults()
+        for kind in DRIVE_KINDS:
+            names = [f"{kind.name}_{i}" for i in range(1, n + 1)]
+            if self.name not in kind.engines:
+                given = [name for name in names if name in params]
+                if given:
+                    raise ConfigError(f"engine {self.name!r} has no parameter {given[0]!r} (see docs/parameters.md)")
+                continue
+            getattr(self, str(kind.apply))(np.array([params.get(name, generic[name]) for name in names], dtype=float))
 
     def start_angles(self, params: dict[str, float]) -> np.ndarray:
         """The driven joints' start angles [rad]: where the encoders, as ``params`` model them, read
@@ -421,6 +474,7 @@ class Engine(ABC):
                     angles[checked : k + 1],
                     object_pos[checked : k + 1] if object_pos is not None else None,
                     object_start,
+                    wrist_limit(self.task.robot),
                 )
                 if bad is None and reason:
                     bad, why = k - checked, reason
@@ -481,14 +535,15 @@ class Engine(ABC):
             after_step()
 
 
-def _first_bad(pos, rot, q, obj, obj_start) -> tuple[int | None, str]:
-    """Index of the first sample of a block whose state is broken (non-finite, wrist or object flown off), and why."""
+def _first_bad(pos, rot, q, obj, obj_start, limit: float = WRIST_LIMIT) -> tuple[int | None, str]:
+    """Index of the first sample of a block whose state is broken (non-finite, wrist beyond ``limit`` or object flown
+    off), and why."""
     problems = []
     finite = np.isfinite(q).all(axis=1) & np.isfinite(pos).all(axis=1) & np.isfinite(rot).all(axis=(1, 2))
     problems.append((~finite, lambda i: "non-finite arm state"))
     with np.errstate(invalid="ignore", over="ignore"):
         reach = np.einsum("ij,ij->i", pos, pos)
-        problems.append((reach > WRIST_LIMIT**2, lambda i: f"wrist {math.sqrt(reach[i]):.1f} m from the base"))
+        problems.append((reach > limit**2, lambda i: f"wrist {math.sqrt(reach[i]):.1f} m from the base"))
         if obj is not None:
             moved = obj - obj_start
             problems.append((~np.isfinite(moved).all(axis=1), lambda i: "non-finite object state"))

@@ -234,7 +234,9 @@ def _task_control(ctx: ExportContext, task: TaskSpec, samples: int | None) -> di
         "description": task.description,
         "duration_s": float(task.duration),
         "samples": samples,
-        "kp_per_s": ctl.kp,
+        "kp_per_s": float(task.kp),
+        # kp_joint_<n>: each joint's own gain (the task's kp where the run did not tune it)
+        "kp_joint_per_s": [float(v) for v in ctl.kp],
         # the task's own recording clock (its command_delay_<task> when tasks were tuned together)
         "command_delay_s": ctl.delay,
         "update_phase_s": ctl.phase,
@@ -267,7 +269,7 @@ _CONTROLLER_NOTES = [
     "How the run drove the model (simtune's controller, written out so that any program can do the same):",
     "- control.joints are driven by velocity motors whose force is limited to control.max_torque_n_m",
     "  (the model files hold the same limits).  At control.rate_hz, for each joint:",
-    "    velocity [deg/s] = clamp(kp_per_s * (target - angle), -max_velocity_deg_s, +max_velocity_deg_s)",
+    "    velocity [deg/s] = clamp(kp_joint_per_s * (target - angle), -max_velocity_deg_s, +max_velocity_deg_s)",
     "  sent as the motor's velocity target and held until the next update.",
     "- The controller reads each joint through its encoder (control.encoders; all zero: the true angle):",
     "    encoder = angle + zero_offset_deg - compliance_rad_per_n_m * gravity torque about the joint",

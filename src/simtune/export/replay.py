@@ -50,6 +50,9 @@ def controller_params(folder: Path, name: str) -> dict[str, float]:
     # the task's own delay (tasks tuned together each had one); files from before it hold the shared one only
     params["command_delay"] = ctl["tasks"][name].get("command_delay_s", ctl["control"]["command_delay_s"])
     params.update({f"marker_offset_{a}": v for a, v in zip("xyz", ctl["tracking"]["marker_offset_m"])})
+    gains = ctl["tasks"][name].get("kp_joint_per_s")  # exports from before the per-joint gains have none
+    if gains is not None:
+        params.update({f"kp_joint_{i}": v for i, v in enumerate(gains, start=1)})
     encoders = ctl["control"].get("encoders")  # exports from before the encoder model have none
     if encoders is not None:
         for kind, key in (

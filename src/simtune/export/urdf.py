@@ -67,6 +67,22 @@ def set_damping(joint: ET.Element, damping: float) -> None:
     dynamics.set("friction", dynamics.get("friction", "0"))
 
 
+def set_friction(joint: ET.Element, friction: float) -> None:
+    """The joint's Coulomb friction [N m] as URDF's ``<dynamics friction>`` (the ``friction_joint_<n>`` kind).
+
+    Args:
+        joint: a URDF ``<joint>`` element.
+        friction: the friction torque.
+
+    Returns:
+        None; the element gets the attribute.
+    """
+    dynamics = joint.find("dynamics")
+    if dynamics is None:
+        dynamics = ET.SubElement(joint, "dynamics", damping="0")
+    dynamics.set("friction", num(friction))
+
+
 def set_limit(joint: ET.Element, effort: float | None = None, velocity: float | None = None) -> None:
     """Effort and velocity limits; a continuous joint gets a <limit> with them (its position stays unlimited)."""
     if joint.get("type") == "fixed":

@@ -3,13 +3,15 @@
 ``shared`` (31 values) and ``individual`` (57) are the seed paper's Table I;
 ``extended`` adds what the real recordings show the paper's set lacks: the
 delay between the start of the recording and the start of the commanded
-motion, and where the motion-capture marker sits on the hand.  ``calibrated``
+motion, where the motion-capture marker sits on the hand, and the drive train's
+armature, Coulomb joint friction and controller gain per joint.  ``calibrated``
 adds the arm's calibration errors: encoder zero offsets and the joints'
 elastic deflection under gravity (:mod:`simtune.controller`).
 
 A space is engine independent but robot dependent: the per-joint parameters
 come from the task's robot (:func:`robot_spaces`, rules in docs/parameters.md);
-the module-level tables are the bundled MICO's.  Each engine declares which
+the module-level tables are the bundled MICO's.  Every kind of parameter, its range rule
+and the engines that have it are listed once, in :mod:`simtune.params.kinds`.  Each engine declares which
 parameters its API really has (:attr:`simtune.engines.base.Engine.supported`); a
 parameter an engine lacks is left out of that engine's search space, never faked.
 """
@@ -26,16 +28,28 @@ from pathlib import Path
 import numpy as np
 
 from simtune.errors import ConfigError
+from simtune.params.kinds import (
+    AXIS,
+    FIXED_BOUNDS,
+    JOINT,
+    KINDS,
+    LINK,
+    MASS_FACTORS,
+    MATERIAL,
+    OBJECT,
+    SPACE_ORDER,
+    Kind,
+    joint_bounds,
+)
 from simtune.robot.description import RobotDescription
 from simtune.robot.mico import MICO
-from simtune.tasks.spec import CONTACT_GROUPS
+from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS
+
+#: The command delay's kind: one shared delay, or one per task (``command_delay_<task>``) when tasks are tuned together.
+DELAY = "command_delay"
 
 #: Nominal masses [kg] the seed paper's mass ranges are relative to (links 1..6 of the MICO, then objects).
 ARM_MASS_NOMINAL = MICO.nominal
-#: The seed paper's motor force limit range [N m], for joints whose description gives no effort.
-TORQUE_RANGE = (100.0, 9000.0)
-#: A described effort limit e is tuned in [low, high] x e, like the masses.
-MASS_FACTORS = EFFORT_FACTORS = (0.7, 1.3)
 OBJECT_MASS_NOMINAL = {
     "cube": (0.07, 0.46),
     "cylinder": (0.12, 0.78),
@@ -68,115 +82,57 @@ class Parameter:
         return v
 
 
-def _torque_range(robot: RobotDescription, index: int) -> tuple[float, float]:
-    effort = robot.joint_by_name[robot.arm_joints[index]].effort
-    if effort is None:
-        return TORQUE_RANGE
-    return EFFORT_FACTORS[0] * effort, EFFORT_FACTORS[1] * effort
-
-
-def _shared(robot: RobotDescription) -> list[Parameter]:
-    ps = [Parameter("timestep", 0.001, 0.05, "s", "physics time step")]
-    low, high = MASS_FACTORS
-    for i, (m, link) in enumerate(zip(robot.nominal, robot.driven_links), start=1):
-        what = robot.link_by_name[link].label or f"link {link}"
-        ps.append(Parameter(f"mass_link_{i}", low * m, high * m, "kg", f"mass of {what}"))
-    for shape, (plastic, wood) in OBJECT_MASS_NOMINAL.items():
-        for material, m in (("plastic", plastic), ("wood", wood)):
-            ps.append(Parameter(f"mass_{shape}_{material}", 0.7 * m, 1.3 * m, "kg", f"mass of the {material} {shape}"))
-    n = robot.n_joints
-    for i in range(1, n + 1):
-        low, high = _torque_range(robot, i - 1)
-        ps.append(Parameter(f"max_torque_joint_{i}", low, high, "N m", f"motor force limit of joint {i}"))
-    for i in range(1, n + 1):
-        ps.append(
-            Parameter(f"max_velocity_joint_{i}", 10.0, 40.0, "deg/s", f"velocity clamp of joint {i}'s controller")
-        )
-    for g in CONTACT_GROUPS:
-        ps.append(Parameter(f"lateral_friction_{g}", 0.0001, 1.25, "", f"sliding friction coefficient of the {g}"))
-    return ps
-
-
-def _individual_extra(robot: RobotDescription) -> list[Parameter]:
-    ps = [
-        Parameter(f"joint_damping_{i}", 0.0001, 0.9, "N m s/rad", f"viscous damping of joint {i}")
-        for i in range(1, robot.n_joints + 1)
-    ]
-    for kind, high, unit, what in (
-        ("rolling_friction", 1.25, "", "rolling friction"),
-        ("spinning_friction", 1.25, "", "spinning (torsional) friction"),
-        ("restitution", 0.9, "", "restitution (bounciness)"),
-        ("linear_damping", 0.9, "", "linear velocity damping"),
-        ("angular_damping", 0.9, "", "angular velocity damping"),
-    ):
-        for g in CONTACT_GROUPS:
-            ps.append(Parameter(f"{kind}_{g}", 0.0001, high, unit, f"{what} of the {g}"))
-    return ps
-
-
-def _extended_extra() -> list[Parameter]:
-    return [
-        Parameter("command_delay", 0.0, 3.0, "s", "delay from the start of the recording to the first command"),
-        *(
+def _kind_parameters(kind: Kind, robot: RobotDescription) -> list[Parameter]:
+    """The parameters of ``kind`` for ``robot``, with their ranges (:mod:`simtune.params.kinds`' rules)."""
+    if kind.scope in (JOINT, LINK):
+        ps = []
+        for i, link in enumerate(robot.driven_links, start=1):
+            bounds = joint_bounds(kind.name, robot, i - 1)
+            if bounds is not None:
+                what = robot.link_by_name[link].label or f"link {link}"
+                text = kind.description.format(n=i, what=what)
+                ps.append(Parameter(f"{kind.name}_{i}", bounds[0], bounds[1], kind.unit, text))
+        return ps
+    if kind.scope == OBJECT:
+        low, high = MASS_FACTORS
+        return [
             Parameter(
-                f"marker_offset_{a}", -0.05, 0.05, "m", f"motion-capture marker offset from the wrist, hand frame {a}"
+                f"{kind.name}_{shape}_{material}",
+                low * m,
+                high * m,
+                kind.unit,
+                kind.description.format(shape=shape, material=material),
             )
-            for a in "xyz"
-        ),
-    ]
-
-
-#: Range of the encoder zero offsets ``joint_offset_<n>`` [deg]: a mounting or homing error of a few degrees.
-JOINT_OFFSET_RANGE = 3.0
-#: The compliance range of each joint reaches this deflection [deg] under the largest gravity load the
-#: joint can carry (harmonic drives of arms of the MICO's class deflect by about that much).
-FULL_LOAD_DEFLECTION_DEG = 2.0
-
-
-def _calibration_extra(robot: RobotDescription) -> list[Parameter]:
-    ps = [
-        Parameter(
-            f"joint_offset_{i}",
-            -JOINT_OFFSET_RANGE,
-            JOINT_OFFSET_RANGE,
-            "deg",
-            f"encoder zero offset of joint {i} (the encoder reads the true angle plus this)",
-        )
-        for i in range(1, robot.n_joints + 1)
-    ]
-    for i, load in enumerate(robot.gravity_load_bounds(), start=1):
-        if load > 0:  # a joint gravity never loads (an upright first joint) cannot deflect under it
-            ps.append(
-                Parameter(
-                    f"compliance_joint_{i}",
-                    0.0,
-                    math.radians(FULL_LOAD_DEFLECTION_DEG) / load,
-                    "rad/(N m)",
-                    f"elastic deflection of joint {i} per N m of gravity torque",
-                )
-            )
-    return ps
+            for shape, nominal in OBJECT_MASS_NOMINAL.items()
+            for material, m in zip(MATERIALS, nominal)
+        ]
+    low, high = FIXED_BOUNDS[kind.name]
+    if kind.scope == MATERIAL:
+        return [
+            Parameter(f"{kind.name}_{g}", low, high, kind.unit, kind.description.format(group=g))
+            for g in CONTACT_GROUPS
+        ]
+    if kind.scope == AXIS:
+        return [Parameter(f"{kind.name}_{a}", low, high, kind.unit, kind.description.format(axis=a)) for a in "xyz"]
+    return [Parameter(kind.name, low, high, kind.unit, kind.description)]
 
 
 @lru_cache(maxsize=8)
 def robot_spaces(robot: RobotDescription) -> dict[str, tuple[Parameter, ...]]:
     """The spaces ``shared``, ``individual``, ``extended`` and ``calibrated`` for ``robot``'s driven
-    joints and links."""
-    shared = _shared(robot)
-    individual = shared + _individual_extra(robot)
-    extended = individual + _extended_extra()
-    calibrated = extended + _calibration_extra(robot)
-    return {
-        "shared": tuple(shared),
-        "individual": tuple(individual),
-        "extended": tuple(extended),
-        "calibrated": tuple(calibrated),
-    }
+    joints and links: each the one before it plus the kinds (:data:`simtune.params.kinds.KINDS`) it adds."""
+    spaces: dict[str, tuple[Parameter, ...]] = {}
+    held: list[Parameter] = []
+    mico = robot == MICO
+    for space in SPACE_ORDER:
+        held += [p for kind in KINDS if kind.home(mico) == space for p in _kind_parameters(kind, robot)]
+        spaces[space] = tuple(held)
+    return spaces
 
 
 def robot_parameters(robot: RobotDescription) -> dict[str, Parameter]:
     """Every parameter known for ``robot``, by name."""
-    return {p.name: p for p in robot_spaces(robot)["calibrated"]}
+    return {p.name: p for p in robot_spaces(robot)[SPACE_ORDER[-1]]}
 
 
 #: The bundled MICO's spaces (the seed paper's) and parameters.
@@ -214,12 +170,12 @@ class ParameterSpace:
 
 
 #: A task's own command delay, when several tasks are tuned together: ``command_delay_<task>``.
-TASK_DELAY_PREFIX = "command_delay_"
+TASK_DELAY_PREFIX = f"{DELAY}_"
 
 
 def task_delay(task: str) -> Parameter:
     """The command delay of one task's recordings (each recording's clock starts when its operator pressed record)."""
-    shared = PARAMETERS["command_delay"]
+    shared = PARAMETERS[DELAY]
     return Parameter(
         f"{TASK_DELAY_PREFIX}{task}", shared.low, shared.high, shared.unit, f"{shared.description}, task {task}"
     )
@@ -237,7 +193,7 @@ def find_parameter(name: str, known: Mapping[str, Parameter] | None = None) -> P
 
 
 def is_supported(name: str, supported: frozenset[str]) -> bool:
-    return name in supported or (name.startswith(TASK_DELAY_PREFIX) and "command_delay" in supported)
+    return name in supported or (name.startswith(TASK_DELAY_PREFIX) and DELAY in supported)
 
 
 def get_space(
@@ -270,9 +226,7 @@ def get_space(
                 raise ConfigError(f"--only: {wanted!r}: {why} (see `simtune params`)")
         params = tuple(p for p in params if p.name in only)
     if tasks is not None and len(tasks) > 1:
-        params = tuple(
-            q for p in params for q in ([task_delay(t) for t in tasks] if p.name == "command_delay" else [p])
-        )
+        params = tuple(q for p in params for q in ([task_delay(t) for t in tasks] if p.name == DELAY else [p]))
     return ParameterSpace(name, params)
 
 
@@ -348,5 +302,5 @@ def _check_file_fields(path: Path, data: dict, values: dict, engine: str | None)
             raise ConfigError(f"{path}: field 'space': unknown parameter space {space!r} (known: {', '.join(SPACES)})")
         names = {p.name for p in SPACES[space]}
         for name in values:
-            if name not in names and not (name.startswith(TASK_DELAY_PREFIX) and "command_delay" in names):
+            if name not in names and not (name.startswith(TASK_DELAY_PREFIX) and DELAY in names):
                 raise ConfigError(f"{path}: parameter {name!r} is not in space {space!r}, which field 'space' names")

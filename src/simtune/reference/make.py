@@ -82,9 +82,15 @@ def synthesize(
         rollout = sim.rollout(params, n20)
         if not rollout.stable:
             sim.close()
+            placeholders = task.robot.placeholder_masses
+            cause = (
+                f"; link {', '.join(placeholders)} moves with a placeholder mass (no <inertial>, no geometry): the "
+                f"robot cannot be simulated as described (add an <inertial> to it in {task.robot.source})"
+                if placeholders
+                else "; choose other true values"
+            )
             raise SimtuneError(
-                f"{engine} on {task.name}: the simulation with these parameters is unstable "
-                f"({rollout.message}); choose other true values"
+                f"{engine} on {task.name}: the simulation with these parameters is unstable ({rollout.message}){cause}"
             )
         t = np.arange(int(round(duration * rate)) + 1) / rate
         marker = marker_positions(rollout, params)

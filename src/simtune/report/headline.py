@@ -83,15 +83,16 @@ def moved_parameters_table(groups: list[Group], nominal: dict[str, dict[str, flo
         best = g.best_run
         intervals = interval_texts(best.uncertainty)
         generic_values = nominal.get(g.engine, {})
-        entries = []
+        entries: list[tuple[float, list]] = []
         for name, value, (low, high) in zip(best.parameters, best.best_x, best.bounds):
             generic = generic_values.get(name)
             moved = None
             if generic is not None and high > low:
                 moved = 100.0 * abs(float(value) - generic) / (high - low)
-            entries.append([g.engine, g.tasks, g.space, name, generic, float(value), moved, intervals.get(name, "-")])
-        entries.sort(key=lambda row: -(row[6] if row[6] is not None else -1.0))
-        rows += entries
+            row = [g.engine, g.tasks, g.space, name, generic, float(value), moved, intervals.get(name, "-")]
+            entries.append((-1.0 if moved is None else moved, row))
+        entries.sort(key=lambda entry: -entry[0])
+        rows += [row for _, row in entries]
     return Table(
         "tuned_parameters",
         "What tuning changed: the best run's parameters, the furthest moved first",

@@ -135,6 +135,7 @@ class Joint:
     effort: float | None = None  # the source's force/torque limit [N m or N]; None = not given
     velocity: float | None = None  # the source's velocity limit [rad/s or m/s]; None = not given
     damping: float = 0.0  # viscous damping [N m s/rad]
+    friction: float = 0.0  # Coulomb friction [N m] (URDF <dynamics friction>)
 
     @property
     def moves(self) -> bool:
@@ -186,14 +187,20 @@ class RobotDescription:
     source: str = "bundled"
     #: the robot's generic velocity-servo/motor force limit per driven joint when its source gives none [N m]
     default_effort: float = 100.0
-    #: an MJCF file the robot comes from: the MuJoCo-family engines build the robot from it; the others,
-    #: which need a URDF, refuse the robot
+    #: an MJCF file the robot comes from: the MuJoCo-family engines build the robot from it; the others from the
+    #: URDF this description generates
     mjcf: str | None = None
     #: the gain of the velocity servos that drive the joints in MuJoCo and Drake [N m s/rad] (None: each
     #: engine's own, MuJoCo 50, Drake 100).  Such a servo lags its command by about the joint's inertia
     #: over the gain: a heavier arm than the MICO needs a stiffer servo to follow as a real arm's velocity
     #: loop does (PyBullet, ODE and DART drive velocities as constraints, without that lag).
     servo_gain: float | None = None
+    #: links whose mass and inertia the source does not give, estimated from their geometry (a URDF link without
+    #: an ``<inertial>``: :mod:`simtune.robot.inertia`); their ``mass_link_<n>`` is tuned in the extended space
+    estimated_masses: tuple[str, ...] = ()
+    #: links that move with no mass and no geometry to estimate one from: a placeholder mass
+    #: (``simtune.robot.urdf.FLOOR_MASS``), so the robot cannot be simulated as described
+    placeholder_masses: tuple[str, ...] = ()
     #: what the loader chose for the user and why (root, tracked link, held joints), for ``simtune init``
     choices: tuple[str, ...] = field(default=(), compare=False)
 
@@ -339,6 +346,16 @@ class RobotDescription:
             )
         return bounds
 
+    @property
+    def gripper_links(self) -> tuple[str, ...]:
+        """The links with the gripper's contact parameters (material ``gripper``)."""
+        return tuple(link.name for link in self.links if link.material == "gripper")
+
+    @property
+    def gripper_surface(self) -> bool:
+        """Whether a gripper link has a collision shape: what a task's object can touch."""
+        return any(self.link_by_name[g].shapes for g in self.gripper_links)
+
     def check(self) -> None:
         """Raise ValueError if the tree or the named joints and link do not fit together."""
         names = [link.name for link in self.links]
@@ -360,12 +377,7 @@ class RobotDescription:
                 raise ValueError(f"joint {joint.name!r} moves but is neither driven nor held")
         if self.tracked_link not in self.link_by_name:
             raise ValueError(f"tracked link {self.tracked_link!r} is not a link of robot {self.name!r}")
-        gripper = [link.name for link in self.links if link.material == "gripper"]
-        if self.mjcf is None and not any(self.link_by_name[g].shapes for g in gripper):
-            raise ValueError(
-                f"no gripper link ({', '.join(gripper) or 'none'}) has a collision shape: the gripper's contact "
-                "parameters need one (name gripper links that have shapes)"
-            )
+        # a gripper without a surface is fine until a task has an object for it to touch (tasks/files.py says so)
         if self.nominal_masses is not None and len(self.nominal_masses) != len(self.arm_joints):
             raise ValueError("one nominal mass per driven joint")
 

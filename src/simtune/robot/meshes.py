@@ -136,3 +136,46 @@ def convex_hull_file(source: str | Path) -> Path:
     if not target.is_file():
         _write_obj(_read(source, str(source)).convex_hull, target)
     return target
+
+
+def hull_of_points(points, name: str) -> Path:
+    """An OBJ file of the convex hull of ``points`` (an n x 3 array [m]) in :func:`cache_folder`, keyed by the
+    points' bytes: the collision shape MuJoCo makes of an MJCF's mesh (its compiled vertices, in the mesh's
+    own frame), for the engines that read the robot from a generated URDF.
+
+    Args:
+        points: the vertices, at least 4 not in one plane.
+        name: a readable stem for the file (the mesh's name).
+
+    Returns:
+        The OBJ file's path (written the first time, whole: a temporary name, then renamed).
+    """
+    import numpy as np
+    from scipy.spatial import ConvexHull
+
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    digest = hashlib.sha256(points.tobytes()).hexdigest()[:32]
+    stem = "".join(c if c.isalnum() or c in "-_" else "_" for c in name)[:40] or "mesh"
+    target = cache_folder() / f"{stem}-{digest}-hull.obj"
+    if target.is_file():
+        return target
+    hull = ConvexHull(points)
+    used = np.unique(hull.simplices)
+    index = {int(v): k + 1 for k, v in enumerate(used)}  # OBJ counts vertices from 1
+    centre = points[used].mean(axis=0)
+    lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in points[used]]
+    for simplex in hull.simplices:
+        a, b, c = (points[i] for i in simplex)
+        if np.dot(np.cross(b - a, c - a), a - centre) < 0:  # each face turned outwards
+            simplex = simplex[[0, 2, 1]]
+        lines.append("f " + " ".join(str(index[int(i)]) for i in simplex))
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, staging = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=".obj", dir=target.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write("\n".join(lines) + "\n")
+        os.replace(staging, target)
+    except BaseException:
+        Path(staging).unlink(missing_ok=True)
+        raise
+    return target

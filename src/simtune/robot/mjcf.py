@@ -1,11 +1,16 @@
-"""A robot from an MJCF file, for the MuJoCo-family engines only.
+"""A robot from an MJCF file (MuJoCo's format, as MuJoCo Menagerie and robosuite publish arms).
 
 MuJoCo compiles the file (includes, defaults, mesh folders resolved its own way); the
 description is read from the compiled model: one link per body below the world, its
-inertia, and the joint that moves it (a hinge or a slide at the body's origin; a body
-without one is welded).  The MuJoCo engine builds the robot from the file itself
-(:attr:`RobotDescription.mjcf`), keeping its geoms; the other engines refuse such a robot
-in one line (they need a URDF).
+inertia, the joint that moves it (a hinge or a slide at the body's origin; a body
+without one is welded), and its collision geoms (those whose ``contype`` or ``conaffinity``
+is set: a Menagerie file's visual class collides with nothing) as shapes: boxes, spheres and
+cylinders as they are, a capsule as a cylinder and two spheres, a mesh or an ellipsoid as the
+convex hull MuJoCo collides with (an OBJ in the mesh cache; :func:`~simtune.robot.meshes.hull_of_points`);
+planes, height fields and SDFs are left out (a note says so).  The MuJoCo engine builds the
+robot from the file itself (:attr:`RobotDescription.mjcf`), keeping its geoms; the other
+engines build it from the URDF the description generates (docs/robots.md, "MJCF robots", says
+what that leaves out: armature, joint friction, springs).
 
 simtune owns the control and the contacts, so the file's actuators, sensors, tendons,
 equality constraints, contact pairs and keyframes are dropped when the scene is built,
@@ -17,13 +22,19 @@ or ends.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
 
 from simtune.errors import RobotError
-from simtune.robot.description import Joint, Link, RobotDescription, Vec3
+from simtune.geometry import rpy_matrix
+from simtune.robot.description import Box as BoxShape
+from simtune.robot.description import Cylinder, Joint, Link, Mesh, RobotDescription, Shape, Sphere, Vec3
+
+#: The keyframe whose driven joint positions ``simtune init`` takes as the example task's start pose.
+HOME_KEYFRAME = "home"
 
 
 def _vec(values) -> Vec3:
@@ -35,7 +46,17 @@ def _rpy(quat_wxyz) -> Vec3:
     from scipy.spatial.transform import Rotation
 
     w, x, y, z = (float(v) for v in quat_wxyz)
-    return _vec(Rotation.from_quat([x, y, z, w]).as_euler("xyz"))
+    with warnings.catch_warnings():  # a gimbal lock still gives a valid roll-pitch-yaw (the third angle 0)
+        warnings.simplefilter("ignore")
+        return _vec(Rotation.from_quat([x, y, z, w]).as_euler("xyz"))
+
+
+def _matrix_rpy(matrix) -> Vec3:
+    from scipy.spatial.transform import Rotation
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return _vec(Rotation.from_matrix(np.asarray(matrix, dtype=float)).as_euler("xyz"))
 
 
 def _compile(path: Path):
@@ -121,13 +142,25 @@ def _driven(model, path: Path, root: int, tracked: int, moving: dict[int, int], 
     return driven
 
 
+def _collides(model, b: int) -> bool:
+    """Whether body ``b`` has a collision geom (contype or conaffinity set)."""
+    mine = model.geom_bodyid == b
+    return bool(np.any(mine & ((model.geom_contype != 0) | (model.geom_conaffinity != 0))))
+
+
 def _gripper(model, path: Path, tracked_link: str, order: list[int], ids: dict[str, int], gripper_links) -> set[str]:
-    """The gripper's links: ``gripper_links``, or by default the tracked link and every body below it."""
+    """The gripper's links: ``gripper_links``, or by default the tracked link and every body below it, and where
+    none of them has a collision geom, the links above it up to the first that has one."""
     if gripper_links is None:
         gripper = {tracked_link}
         for b in order:
             if model.body(int(model.body(b).parentid[0])).name in gripper:
                 gripper.add(model.body(b).name)
+        carrier = ids[tracked_link]
+        while not any(_collides(model, ids[g]) for g in gripper) and int(model.body(carrier).parentid[0]) != 0:
+            # no collision geom at the hand (an arm published without its gripper): the link that carries it
+            carrier = int(model.body(carrier).parentid[0])
+            gripper.add(model.body(carrier).name)
         return gripper
     gripper = set(gripper_links)
     for g in gripper:
@@ -136,13 +169,61 @@ def _gripper(model, path: Path, tracked_link: str, order: list[int], ids: dict[s
     return gripper
 
 
-def _link(model, b: int, gripper: set[str]) -> Link:
+def _ellipsoid_points(radii) -> np.ndarray:
+    """Points on the ellipsoid of semi-axes ``radii``: its hull stands for it (MuJoCo's own ellipsoid is smooth)."""
+    polar, azimuth = np.meshgrid(np.linspace(0.0, np.pi, 9), np.linspace(0.0, 2 * np.pi, 16, endpoint=False))
+    unit = np.stack([np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)], axis=-1)
+    return np.unique(np.round(unit.reshape(-1, 3), 12), axis=0) * np.asarray(radii, dtype=float)
+
+
+def _geom_shapes(model, g: int, notes: list[str]) -> list[Shape]:
+    """The shapes standing for collision geom ``g`` in its body's frame (none for a plane, height field or SDF)."""
+    import mujoco
+
+    from simtune.robot.meshes import hull_of_points
+
+    kind = mujoco.mjtGeom(int(model.geom_type[g]))
+    size = model.geom_size[g]
+    centre, rpy = _vec(model.geom_pos[g]), _rpy(model.geom_quat[g])
+    name = model.geom(g).name or f"geom {g}"
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:
+        return [BoxShape(centre, _vec(size), rpy)]
+    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+        return [Sphere(centre, float(size[0]), rpy)]
+    if kind in (mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_CAPSULE):
+        shapes: list[Shape] = [Cylinder(centre, float(size[0]), 2 * float(size[1]), rpy)]
+        if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:  # a capsule: the cylinder and a sphere on each end
+            axis = rpy_matrix(rpy)[:, 2] * float(size[1])
+            shapes += [Sphere(_vec(np.asarray(centre) + sign * axis), float(size[0])) for sign in (1, -1)]
+        return shapes
+    if kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+        return [Mesh(str(hull_of_points(_ellipsoid_points(size), f"{name}-ellipsoid")), center=centre, rpy=rpy)]
+    if kind == mujoco.mjtGeom.mjGEOM_MESH:
+        mesh = int(model.geom_dataid[g])
+        first, count = int(model.mesh_vertadr[mesh]), int(model.mesh_vertnum[mesh])
+        points = model.mesh_vert[first : first + count]
+        return [Mesh(str(hull_of_points(points, model.mesh(mesh).name or name)), center=centre, rpy=rpy)]
+    notes.append(f"{name}: a {kind.name[7:].lower()} geom, left out of the URDF the engines other than MuJoCo read")
+    return []
+
+
+def _body_shapes(model, b: int, notes: list[str]) -> tuple[Shape, ...]:
+    """The shapes of body ``b``'s collision geoms: those that collide with something (contype or conaffinity)."""
+    shapes: list[Shape] = []
+    for g in range(model.ngeom):
+        if int(model.geom_bodyid[g]) == b and (model.geom_contype[g] or model.geom_conaffinity[g]):
+            shapes += _geom_shapes(model, g, notes)
+    return tuple(shapes)
+
+
+def _link(model, b: int, gripper: set[str], notes: list[str]) -> Link:
     body = model.body(b)
     return Link(
         name=body.name,
         mass=float(body.mass[0]),
         com=_vec(body.ipos),
         inertia=_vec(body.inertia),
+        shapes=_body_shapes(model, b, notes),
         material="gripper" if body.name in gripper else "arm",
         inertia_rpy=_rpy(body.iquat),
     )
@@ -185,6 +266,65 @@ def _joints(
     return joints, held
 
 
+def _hinges_below(model, children: dict[int, list[int]], moving: dict[int, int]) -> dict[int, int]:
+    """Body -> the number of hinge joints in its subtree (itself included)."""
+    counts: dict[int, int] = {}
+
+    def count(b: int) -> int:
+        if b not in counts:
+            own = int(b in moving and int(model.jnt_type[moving[b]]) == _hinge())
+            counts[b] = own + sum(count(c) for c in children.get(b, []))
+        return counts[b]
+
+    for b in range(model.nbody):
+        count(b)
+    return counts
+
+
+def _default_tracked(model, root: int, children: dict[int, list[int]], moving: dict[int, int], notes: list[str]):
+    """The tracked body by default: down from the root while one child holds more hinges below it than every
+    other (an arm's chain past a head or a camera mount); where the children tie (a gripper's fingers) or none
+    is left, there."""
+    hinges = _hinges_below(model, children, moving)
+    tracked = root
+    passed: list[str] = []
+    while children.get(tracked):
+        ranked = sorted(children[tracked], key=lambda c: hinges[c], reverse=True)
+        if len(ranked) > 1 and hinges[ranked[0]] == hinges[ranked[1]]:
+            break
+        passed += [model.body(c).name for c in ranked[1:]]
+        tracked = ranked[0]
+    if passed:
+        notes.append(f"the arm's chain goes past side bodies with fewer joints below: {', '.join(passed)}")
+    return tracked
+
+
+def _base(model, root, base_position: Vec3, base_rpy: Vec3) -> tuple[Vec3, Vec3]:
+    """The root body's place in the world: its place in the file, moved by ``base_position``/``base_rpy``."""
+    turn = rpy_matrix(base_rpy)
+    file_turn = rpy_matrix(_rpy(root.quat))
+    position = np.asarray(base_position, dtype=float) + turn @ np.asarray(root.pos, dtype=float)
+    return _vec(position), _matrix_rpy(turn @ file_turn)
+
+
+def home_pose(path: str | Path, joints: Iterable[str]) -> list[float] | None:
+    """The positions [rad or m] of ``joints`` in the MJCF's ``home`` keyframe (Menagerie's start pose).
+
+    Args:
+        path: the MJCF file.
+        joints: joint names of the file.
+
+    Returns:
+        One position per joint, or None where the file has no keyframe named ``home``.
+    """
+    model = _compile(Path(path))
+    names = [model.key(k).name for k in range(model.nkey)]
+    if HOME_KEYFRAME not in names:
+        return None
+    qpos = model.key_qpos[names.index(HOME_KEYFRAME)]
+    return [float(qpos[int(model.jnt_qposadr[model.joint(j).id])]) for j in joints]
+
+
 def load_mjcf(
     path: str | Path,
     *,
@@ -192,11 +332,32 @@ def load_mjcf(
     tracked_link: str | None = None,
     gripper_links: Iterable[str] | None = None,
     name: str | None = None,
+    base_position: Vec3 = (0.0, 0.0, 0.0),
+    base_rpy: Vec3 = (0.0, 0.0, 0.0),
 ) -> RobotDescription:
-    """The robot of the MJCF at ``path`` (one robot: one body tree below the world); ``RobotError``
-    (one line naming the file and element) if it cannot be used."""
+    """The robot of the MJCF at ``path`` (one robot: one body tree below the world).
+
+    Args:
+        path: the MJCF file (its ``<include>``s, ``meshdir`` and default classes are MuJoCo's to resolve).
+        arm_joints: the driven joints in order (default: the hinges from the root body to the tracked link).
+        tracked_link: the body the motion capture follows (default: down the chain with the most hinges below
+            it, to where it ends or splits evenly, as at a gripper's fingers).
+        gripper_links: the bodies with the gripper's contact parameters (default: the tracked body and below).
+        name: the robot's name (default: the model's, else the file's stem).
+        base_position: added to the root body's position in the file [m].
+        base_rpy: turns the root body's placement in the file [rad].
+
+    Returns:
+        The description; :attr:`RobotDescription.choices` says what was chosen and why.
+
+    Raises:
+        RobotError: one line naming the file and element, if the file cannot be used.
+    """
     model = _compile(Path(path))
     path = Path(path).expanduser().resolve()
+    for what, values in (("base_position", base_position), ("base_rpy", base_rpy)):
+        if not np.all(np.isfinite(np.asarray(values, dtype=float))):
+            raise RobotError(f"{path}: {what} {tuple(values)} is not finite")
     bodies = [model.body(i) for i in range(model.nbody)]
     roots = [b for b in bodies[1:] if b.parentid[0] == 0]
     if len(roots) != 1:
@@ -211,27 +372,33 @@ def load_mjcf(
             raise RobotError(f"{path}: body {b.id} has no name (every link needs one)")
     order = _below(root.id, children)
     ids = {b.name: b.id for b in bodies[1:]}
+    notes: list[str] = []
     if tracked_link is None:
-        tracked = root.id
-        while len(children.get(tracked, [])) == 1:
-            tracked = children[tracked][0]
-        tracked_link = model.body(tracked).name
+        tracked_link = model.body(_default_tracked(model, root.id, children, moving, notes)).name
+        notes.append(f"tracked link {tracked_link!r}: where the arm's chain ends or splits evenly")
     elif tracked_link not in ids:
         raise RobotError(f"{path}: tracked link {tracked_link!r} is not a body of the MJCF")
     driven = _driven(model, path, root.id, ids[tracked_link], moving, arm_joints)
     gripper = _gripper(model, path, tracked_link, order, ids, gripper_links)
+    if gripper_links is None:
+        notes.append(f"gripper links (the gripper's contact parameters): {', '.join(sorted(gripper))}")
     joints, held = _joints(model, order, moving, driven)
+    if held:
+        notes.append(f"joints not driven, welded at 0: {', '.join(j for j, _ in held)}")
+    position, rpy = _base(model, root, _vec(base_position), _vec(base_rpy))
+    links = (_link(model, root.id, gripper, notes), *(_link(model, b, gripper, notes) for b in order))
     description = RobotDescription(
         name=name or model.names[: model.names.index(b"\0")].decode() or path.stem,
-        links=(_link(model, root.id, gripper), *(_link(model, b, gripper) for b in order)),
+        links=links,
         joints=tuple(joints),
         arm_joints=tuple(driven),
         tracked_link=tracked_link,
-        base_position=_vec(root.pos),
-        base_rpy=_rpy(root.quat),
+        base_position=position,
+        base_rpy=rpy,
         held=tuple(held),
         source=str(path),
         mjcf=str(path),
+        choices=tuple(notes),
     )
     try:
         description.check()

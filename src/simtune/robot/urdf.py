@@ -13,17 +13,24 @@ Published descriptions are read as the engines read them:
   held, not driven; :func:`arm_choice` says what was chosen and why.
 - Mesh file names may be relative to the URDF's folder, ``file://`` or ``package://NAME/...``: NAME is
   looked for in ``package_path`` and the folders of ``$SIMTUNE_PACKAGE_PATH`` and
-  ``$ROS_PACKAGE_PATH`` (each a package folder, or a folder holding packages), then beside the URDF
-  and in its parent folders (pybullet_data's models use it so).  Every mesh becomes an OBJ file every
-  engine reads (:mod:`simtune.robot.meshes`).  Collision elements are kept, visual ones ignored.
+  ``$ROS_PACKAGE_PATH`` (each a package folder, or a folder holding packages, or ``NAME=DIR``: package
+  NAME is folder DIR, whatever DIR is called), then beside the URDF and in its parent folders
+  (pybullet_data's models use it so).  Every mesh becomes an OBJ file every engine reads
+  (:mod:`simtune.robot.meshes`).  Collision elements are kept, visual ones ignored, except in a
+  visual-only description (no ``<collision>`` in the robot at all), where each link's visual geometry
+  stands in for its collision shapes, with a note naming the links.
+- A link without an ``<inertial>`` gets the mass and inertia of its collision geometry (else its visual
+  geometry) taken as a solid of ``density`` (aluminium's by default; or ``total_mass`` spread over such
+  links by volume), as MuJoCo's ``inertiafromgeom`` does (:mod:`simtune.robot.inertia`), with a note naming
+  the links and how; :attr:`RobotDescription.estimated_masses` names them.
 - Undeclared namespace prefixes (``drake:`` attributes in some UR descriptions) are declared with a
   warning, as the engines' own parsers tolerate them.
 - Physically impossible values stop at load with one line naming the URDF, the link or joint and the
   value: a mass that is negative or not finite, an inertia that is not positive semi-definite, a zero
   axis on a movable joint, a lower limit above the upper one, a negative effort, velocity or damping, a
   box, sphere or cylinder size that is not above 0, a mesh scale of 0.  A body that moves but has no mass
-  (no ``<inertial>`` anywhere on it) gets :data:`FLOOR_MASS` with a warning, since no engine simulates a
-  massless moving body.
+  and no geometry to estimate one from gets a placeholder, :data:`FLOOR_MASS`, with a warning, since no
+  engine simulates a massless moving body (:attr:`RobotDescription.placeholder_masses` names its links).
 - So do files the engines would crash or hang on: a number that is not finite (``inf``, ``nan``) or not a
   number in any origin, axis, limit, dynamics, mimic, mass, inertia or geometry attribute of a link or
   joint; a link or joint without a name or with another's name; a joint naming a link the file lacks; links
@@ -64,6 +71,7 @@ from simtune.robot.description import (
     Vec3,
     axis_angle_matrix,
 )
+from simtune.robot.inertia import DEFAULT_DENSITY, Solid, solid_of, with_solid_mass
 from simtune.robot.meshes import engine_mesh
 
 _MOVABLE = ("revolute", "continuous", "prismatic")
@@ -90,13 +98,49 @@ def _origin(matrix) -> tuple[Vec3, Vec3]:
     return _vec(m[:3, 3]), _rpy(m[:3, :3])
 
 
+#: ``NAME=DIR`` in a package path: package NAME is folder DIR (a name holds no path separator).
+_NAMED_PACKAGE = re.compile(r"^([A-Za-z0-9_.\-]+)=(.+)$")
+
+
+def package_entry(entry: str | Path) -> tuple[str | None, Path]:
+    """One entry of a package path: ``NAME=DIR`` maps package NAME to folder DIR (for ``package://NAME/...``
+    where the folder has another name, as xacro-converted descriptions' ``..._support`` packages do); anything
+    else is a folder (a package folder, or a folder of packages).
+
+    Args:
+        entry: the entry as written (``--package-path``, ``[robot] package_path``, an environment variable).
+
+    Returns:
+        (the package name, or None for a plain folder; the folder, ``~`` expanded).
+    """
+    match = _NAMED_PACKAGE.match(str(entry))
+    if match is None:
+        return None, Path(entry).expanduser()
+    return match.group(1), Path(match.group(2)).expanduser()
+
+
 def package_folders(extra: Iterable[str | Path] = ()) -> list[Path]:
     """Folders to look for ``package://`` packages in: ``extra``, then ``$SIMTUNE_PACKAGE_PATH`` and
-    ``$ROS_PACKAGE_PATH`` (``os.pathsep``-separated, as ROS writes it)."""
-    folders = [Path(f).expanduser() for f in extra]
+    ``$ROS_PACKAGE_PATH`` (``os.pathsep``-separated, as ROS writes it); ``NAME=DIR`` entries are left out
+    (:func:`named_packages`)."""
+    return [folder for name, folder in _package_entries(extra) if name is None]
+
+
+def named_packages(extra: Iterable[str | Path] = ()) -> dict[str, Path]:
+    """The ``NAME=DIR`` entries of ``extra``, ``$SIMTUNE_PACKAGE_PATH`` and ``$ROS_PACKAGE_PATH``: package
+    name -> its folder (the first entry for a name wins)."""
+    named: dict[str, Path] = {}
+    for name, folder in _package_entries(extra):
+        if name is not None:
+            named.setdefault(name, folder)
+    return named
+
+
+def _package_entries(extra: Iterable[str | Path]) -> list[tuple[str | None, Path]]:
+    entries = [package_entry(f) for f in extra]
     for variable in ("SIMTUNE_PACKAGE_PATH", "ROS_PACKAGE_PATH"):
-        folders += [Path(f).expanduser() for f in os.environ.get(variable, "").split(os.pathsep) if f]
-    return folders
+        entries += [package_entry(f) for f in os.environ.get(variable, "").split(os.pathsep) if f]
+    return entries
 
 
 def resolve_mesh(filename: str, urdf: Path, package_path: Iterable[str | Path] = ()) -> Path | None:
@@ -106,7 +150,8 @@ def resolve_mesh(filename: str, urdf: Path, package_path: Iterable[str | Path] =
         candidates = [Path(filename[len("file://") :])]
     elif filename.startswith("package://"):
         package, _, rest = filename[len("package://") :].partition("/")
-        candidates = []
+        named = named_packages(package_path)
+        candidates = [named[package] / rest] if package in named else []
         for root in package_folders(package_path):  # a package folder itself, or a folder of packages
             candidates += [root / rest] if root.name == package else [root / package / rest]
         ancestors = [folder, *folder.parents]
@@ -136,7 +181,11 @@ def _shape(geometry, origin, urdf: Path, where: str, package_path: Iterable[str 
         name = geometry.mesh.filename
         path = resolve_mesh(name, urdf, package_path)
         if path is None:
-            hint = " (set --package-path or SIMTUNE_PACKAGE_PATH to the folder of its package)"
+            package = name[len("package://") :].partition("/")[0] if name.startswith("package://") else "NAME"
+            hint = (
+                " (set --package-path or SIMTUNE_PACKAGE_PATH to the folder of its package, or "
+                f"--package-path {package}=DIR where its folder DIR has another name)"
+            )
             raise RobotError(f"{urdf}: {where}: mesh file {name!r} not found{hint if '://' in name else ''}")
         path = engine_mesh(path, f"{urdf}: {where}")
         scale = geometry.mesh.scale
@@ -144,7 +193,7 @@ def _shape(geometry, origin, urdf: Path, where: str, package_path: Iterable[str 
         if 0.0 in scale3:  # flat: MuJoCo, ODE and Drake refuse it (a negative scale mirrors: all read it)
             raise RobotError(f"{urdf}: {where}: mesh scale {scale3} flattens the mesh (no scale may be 0)")
         return Mesh(str(path), scale3, xyz, rpy)
-    raise RobotError(f"{urdf}: {where}: a collision element without a geometry simtune knows")
+    raise RobotError(f"{urdf}: {where}: an element without a geometry simtune knows")
 
 
 def _sizes(values: np.ndarray, urdf: Path, where: str, field_: str) -> np.ndarray:
@@ -173,7 +222,17 @@ def _inertia_problem(moments: np.ndarray) -> str:
     return ""
 
 
-def _link(link, urdf: Path, material: str, package_path: Iterable[str | Path]) -> Link:
+def _shapes(link, urdf: Path, kind: str, package_path: Iterable[str | Path]) -> tuple[Shape, ...]:
+    """The shapes of a URDF link's ``kind`` elements (``collision`` or ``visual``), in its frame."""
+    elements = link.collisions if kind == "collision" else link.visuals
+    return tuple(
+        _shape(e.geometry, e.origin, urdf, f"link {link.name!r} {kind} {k + 1}", package_path)
+        for k, e in enumerate(elements)
+    )
+
+
+def _link(link, urdf: Path, material: str, package_path: Iterable[str | Path], kind: str = "collision") -> Link:
+    """The link with its inertial as given (none: no mass) and the shapes of its ``kind`` elements."""
     inertial = link.inertial
     if inertial is None or inertial.mass is None:
         mass, com, inertia_rpy = 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
@@ -187,10 +246,7 @@ def _link(link, urdf: Path, material: str, package_path: Iterable[str | Path]) -
         problem = _inertia_problem(moments)
         if problem:
             raise RobotError(f"{urdf}: link {link.name!r}: its inertia {problem}")
-    shapes = tuple(
-        _shape(c.geometry, c.origin, urdf, f"link {link.name!r} collision {k + 1}", package_path)
-        for k, c in enumerate(link.collisions)
-    )
+    shapes = _shapes(link, urdf, kind, package_path)
     return Link(
         name=link.name,
         mass=mass,
@@ -252,6 +308,8 @@ def _joint(joint, driven: bool, position: float) -> Joint:
         effort=None if limit is None or not limit.effort else float(limit.effort),
         velocity=None if limit is None or not limit.velocity else float(limit.velocity),
         damping=0.0 if dynamics is None or dynamics.damping is None else float(dynamics.damping),
+        # Coulomb friction: the generic value of friction_joint_<n>; a negative one is no friction
+        friction=0.0 if dynamics is None or not dynamics.friction else max(0.0, float(dynamics.friction)),
     )
 
 
@@ -592,20 +650,29 @@ def _arm_choice(
     return driven, tracked_link, notes
 
 
-def _gripper_links(tree: _Tree, tracked_link: str, links_by_name: dict, notes: list[str]) -> set[str]:
+def _gripper_links(
+    tree: _Tree, tracked_link: str, links_by_name: dict, notes: list[str], visual_only: bool = False
+) -> set[str]:
     """The tracked link and every link below it; where none of them has a collision shape (a tool frame
-    tracked beyond the last link with a surface), the links above it up to the first with one."""
+    tracked beyond the last link with a surface), the links above it up to the first with one (in a
+    visual-only description, the visual shapes stand in); where no link above has one either, the first."""
+
+    def surface(name: str) -> bool:
+        link = links_by_name[name]
+        return bool(link.collisions or (visual_only and link.visuals))
+
     gripper = {tracked_link}
     for j in tree.order:
         if j.parent in gripper:
             gripper.add(j.child)
-    if any(links_by_name[g].collisions for g in gripper):
+    if any(surface(g) for g in gripper):
         return gripper
+    above = set()
     for joint in reversed(tree.chain(tracked_link)):
-        gripper.add(joint.parent)
-        if links_by_name[joint.parent].collisions:
+        above.add(joint.parent)
+        if surface(joint.parent):
             notes.append(f"gripper surface: link {joint.parent!r}, the last with a collision shape")
-            break
+            return gripper | above
     return gripper
 
 
@@ -631,9 +698,9 @@ def _check_driven(robot, path: Path, driven: list[str], held: Mapping[str, float
             raise RobotError(f"{path}: held joint {name_!r} is not a joint of the URDF")
 
 
-def _with_floor_masses(links: list[Link], joints: list[Joint], path: Path) -> list[Link]:
+def _with_floor_masses(links: list[Link], joints: list[Joint], path: Path) -> tuple[list[Link], tuple[str, ...]]:
     """``links`` with :data:`FLOOR_MASS` on the first link of every moving body (a driven joint's child and
-    what is fixed to it) that has no mass at all, with a warning naming it."""
+    what is fixed to it) that has no mass at all, with a warning naming it; and those links."""
     below: dict[str, list[Joint]] = {}
     for j in joints:
         below.setdefault(j.parent, []).append(j)
@@ -650,16 +717,73 @@ def _with_floor_masses(links: list[Link], joints: list[Joint], path: Path) -> li
             light.add(j.child)
     if light:
         warnings.warn(
-            f"{path}: link {', '.join(repr(n) for n in sorted(light))} moves but has no mass: given "
-            f"{FLOOR_MASS:g} kg (add an <inertial> for its real mass)",
+            f"{path}: link {', '.join(repr(n) for n in sorted(light))} moves but has no mass (no <inertial> with a "
+            f"mass, no geometry to estimate one from): a placeholder of {FLOOR_MASS:g} kg, so the robot cannot be "
+            "simulated as described (add an <inertial>, or a <collision> to estimate its mass from)",
             RobotWarning,
             stacklevel=3,
         )
     floor = (FLOOR_INERTIA,) * 3
-    return [
+    filled = [
         replace(link, mass=FLOOR_MASS, inertia=floor, products=ZERO3, com=ZERO3) if link.name in light else link
         for link in links
     ]
+    return filled, tuple(n for n in (link.name for link in links) if n in light)
+
+
+def _check_mass_options(path: Path, density: float | None, total_mass: float | None) -> None:
+    """One line for a density or total mass that is not above 0, or for both given."""
+    if density is not None and total_mass is not None:
+        raise RobotError(f"{path}: density and total_mass both given: give one (a total mass sets the density)")
+    for what, value, unit in (("density", density, "kg/m^3"), ("total_mass", total_mass, "kg")):
+        if value is not None and not (math.isfinite(float(value)) and float(value) > 0):
+            raise RobotError(f"{path}: {what} {float(value):g} {unit} is not possible (it is above 0)")
+
+
+def _estimated_masses(
+    links: list[Link],
+    given: dict,
+    path: Path,
+    package_path: Iterable[str | Path],
+    density: float | None,
+    total_mass: float | None,
+) -> tuple[list[Link], tuple[str, ...], list[str]]:
+    """``links`` with the mass and inertia of their geometry (:mod:`simtune.robot.inertia`) on each whose URDF
+    link (``given``: name -> yourdfpy's link) has no ``<inertial>``: its shapes, else its visual ones, at
+    ``density`` (default aluminium's), or with ``total_mass`` spread over them by volume.  Also the links
+    estimated and the notes saying how (none where no link is)."""
+    solids: dict[str, Solid] = {}
+    from_visual = []
+    for link in links:
+        source = given[link.name]
+        if source.inertial is not None and source.inertial.mass is not None:
+            continue
+        shapes = link.shapes or _shapes(source, path, "visual", package_path)
+        solid = solid_of(shapes)
+        if solid is not None:
+            solids[link.name] = solid
+            if not link.shapes:
+                from_visual.append(link.name)
+    if not solids:
+        if total_mass is not None:
+            raise RobotError(
+                f"{path}: total_mass {total_mass:g} kg: no link lacks an <inertial> and has geometry to spread it "
+                "over (the URDF gives every mass: leave total_mass out)"
+            )
+        return links, (), ([] if density is None else [f"density {density:g} kg/m^3: not used (every mass is given)"])
+    if total_mass is not None:
+        density = total_mass / sum(s.volume for s in solids.values())
+        how = f"{total_mass:g} kg (total_mass) shared by volume ({density:.4g} kg/m^3)"
+    elif density is None:
+        density = DEFAULT_DENSITY
+        how = f"as solids of {density:g} kg/m^3 (aluminium; --density or --total-mass to change)"
+    else:
+        how = f"as solids of {density:g} kg/m^3"
+    filled = [with_solid_mass(link, solids[link.name], density) if link.name in solids else link for link in links]
+    masses = ", ".join(f"{link.name} {link.mass:.3g} kg" for link in filled if link.name in solids)
+    visual = f"; from visual geometry: {', '.join(from_visual)}" if from_visual else ""
+    note = f"masses estimated from geometry (no <inertial>), {how}: {masses}{visual}"
+    return filled, tuple(link.name for link in links if link.name in solids), [note]
 
 
 def load_urdf(
@@ -673,6 +797,8 @@ def load_urdf(
     gripper_links: Iterable[str] | None = None,
     name: str | None = None,
     package_path: Iterable[str | Path] = (),
+    density: float | None = None,
+    total_mass: float | None = None,
 ) -> RobotDescription:
     """The robot of the URDF at ``path``; ``RobotError`` (one line naming the file and element) if it
     cannot be used.  The module's docstring says how a published description is read.
@@ -683,9 +809,16 @@ def load_urdf(
     (a dropped ``world`` link's joint is added to it); ``held``: positions of joints held at a fixed pose
     (default 0, clamped into the joint's limits); ``gripper_links``: the links with the gripper's contact
     parameters (default: the tracked link and every link below it); ``package_path``: folders to look
-    for ``package://`` packages in first.  :attr:`RobotDescription.choices` says what was chosen and why.
+    for ``package://`` packages in first (or ``NAME=DIR``: package NAME is folder DIR); ``density``
+    [kg/m^3] of the links without an ``<inertial>``, whose masses come from their geometry (default
+    :data:`~simtune.robot.inertia.DEFAULT_DENSITY`), or ``total_mass`` [kg] spread over those links by
+    volume (not both).  :attr:`RobotDescription.choices` says what was chosen and why.
+
+    Returns the description; :attr:`RobotDescription.estimated_masses` and
+    :attr:`RobotDescription.placeholder_masses` name the links whose masses the URDF does not give.
     """
     path = Path(path).expanduser().resolve()
+    _check_mass_options(path, density, total_mass)
     robot = _parse(path)
     held = dict(held or {})
     link_names = [link.name for link in robot.links]
@@ -707,8 +840,13 @@ def load_urdf(
     links_by_name = {link.name: link for link in robot.links}
     if tracked_link != tree.root and tracked_link not in tree.parent_joint:
         raise RobotError(f"{path}: tracked link {tracked_link!r} is not in the robot's tree from {tree.root!r}")
+    ordered_links = [tree.root, *(j.child for j in tree.order)]
+    # a visual-only description: no <collision> in the robot at all (a link without one among links with one
+    # is left so: its publisher chose so, as the SO-100's gripper and the Z1's link01 show)
+    visual_only = not any(links_by_name[n].collisions for n in ordered_links)
+    visual_only = visual_only and any(links_by_name[n].visuals for n in ordered_links)
     if gripper_links is None:
-        gripper = _gripper_links(tree, tracked_link, links_by_name, notes)
+        gripper = _gripper_links(tree, tracked_link, links_by_name, notes, visual_only)
     else:
         gripper = set(gripper_links)
         for g in gripper:
@@ -740,11 +878,18 @@ def load_urdf(
             RobotWarning,
             stacklevel=2,
         )
-    ordered_links = [tree.root, *(j.child for j in tree.order)]
-    links = [_link(links_by_name[n], path, "gripper" if n in gripper else "arm", package_path) for n in ordered_links]
+    kind = "visual" if visual_only else "collision"
+    links = [
+        _link(links_by_name[n], path, "gripper" if n in gripper else "arm", package_path, kind) for n in ordered_links
+    ]
+    if visual_only:
+        shown = ", ".join(link.name for link in links if link.shapes)
+        notes.append(f"no <collision> in the robot: the visual geometry of link {shown} stands in for its collisions")
+    links, estimated, estimate_notes = _estimated_masses(links, links_by_name, path, package_path, density, total_mass)
+    links, placeholders = _with_floor_masses(links, joints, path)
     description = RobotDescription(
         name=name or robot.name or path.stem,
-        links=tuple(_with_floor_masses(links, joints, path)),
+        links=tuple(links),
         joints=tuple(joints),
         arm_joints=tuple(driven),
         tracked_link=tracked_link,
@@ -752,7 +897,9 @@ def load_urdf(
         base_rpy=tree.base_rpy,
         held=tuple(held_at),
         source=str(path),
-        choices=tuple(tree.notes + notes),
+        estimated_masses=estimated,
+        placeholder_masses=placeholders,
+        choices=tuple(tree.notes + notes + estimate_notes),
     )
     try:
         description.check()

@@ -257,6 +257,8 @@ def load_task_file(
 
     link, body, base_body = _mocap(keys, robot)
     obj = _object(keys)
+    if obj is not None and robot is not None and robot.description is not None:
+        _check_gripper_surface(keys, robot.description)
     start_from_recordings = keys.flag("start_from_recordings", False)
     if start_from_recordings and obj is None:
         raise keys.error("start_from_recordings", "the task has no object to start where the recordings put it")
@@ -280,6 +282,20 @@ def load_task_file(
         lerobot=lerobot,
         published_phases=published,
         **carried,
+    )
+
+
+def _check_gripper_surface(keys: Keys, robot: RobotDescription) -> None:
+    """A task with an object needs a gripper link with a collision shape for the object to touch (a task
+    without one touches nothing: a robot with no shapes at all runs it)."""
+    if robot.gripper_surface:
+        return
+    named = ", ".join(robot.gripper_links) or "none"
+    raise keys.error(
+        "object",
+        f"robot {robot.name!r} has no gripper surface for the object to touch: no gripper link ({named}) has a "
+        f"collision shape; add a <collision> to one of them in {robot.source}, or name links that have "
+        "one in the project's [robot] gripper_links",
     )
 
 

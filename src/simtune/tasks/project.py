@@ -114,9 +114,10 @@ def find_project_file(path: Path) -> Path:
     return found[0]
 
 
-#: Keys of a project file's ``[robot]`` table (a robot from a URDF file; arguments of ``load_urdf``).
+#: Keys of a project file's ``[robot]`` table (a robot from a URDF or an MJCF file; arguments of ``load_robot``).
 ROBOT_KEYS = (
     "urdf",
+    "mjcf",
     "name",
     "joints",
     "tracked_link",
@@ -126,18 +127,22 @@ ROBOT_KEYS = (
     "gripper_links",
     "servo_gain",
     "package_path",
+    "density",
+    "total_mass",
 )
 
 
 def resolve_robot(keys: Keys, folder: Path) -> RobotNames:
     """The robot a project file names: ``robot = "mico"`` (the bundled MICO), or a ``[robot]`` table naming a
-    URDF file (relative to ``folder``, or absolute) and how to read it (docs/task-files.md)."""
+    URDF or MJCF file (relative to ``folder``, or absolute) and how to read it (docs/task-files.md)."""
     if keys.has("urdf"):  # the spelling docs/task-files.md announced before the [robot] table
         raise keys.error("urdf", 'name the URDF in the robot table: [robot] then urdf = "<file>.urdf"')
     if not keys.has("robot"):
-        raise keys.error("robot", 'missing: robot = "mico", or a [robot] table with urdf = "<file>.urdf"')
+        raise keys.error(
+            "robot", 'missing: robot = "mico", or a [robot] table with urdf = "<file>.urdf" (or mjcf = "<file>.xml")'
+        )
     if isinstance(keys.data["robot"], dict):
-        return RobotNames.of(_urdf_robot(keys, folder))
+        return RobotNames.of(_file_robot(keys, folder))
     name = keys.string("robot")
     if name not in NAMED_ROBOTS:
         raise keys.error("robot", f"unknown robot {name!r} (known: {', '.join(NAMED_ROBOTS)}; or a [robot] table)")
@@ -145,17 +150,21 @@ def resolve_robot(keys: Keys, folder: Path) -> RobotNames:
     return RobotNames("mico", mico.ARM_JOINTS, links, mico.WRIST_LINK)
 
 
-def _urdf_robot(keys: Keys, folder: Path) -> RobotDescription:
-    """The ``[robot]`` table's robot, read with :func:`~simtune.robot.urdf.load_urdf`; its errors name the key."""
-    from simtune.robot.urdf import load_urdf
+def _file_robot(keys: Keys, folder: Path) -> RobotDescription:
+    """The ``[robot]`` table's robot, read with :func:`~simtune.robot.load.load_robot` from its ``urdf`` or its
+    ``mjcf`` file (either key: the file's root element tells the format); its errors name the key."""
+    from simtune.robot.load import load_robot
 
     table = keys.table("robot", ROBOT_KEYS)
     assert table is not None
-    file = table.string("urdf", required=True)
+    if table.has("urdf") and table.has("mjcf"):
+        raise table.error("mjcf", "name one robot file: urdf or mjcf, not both")
+    file_key = "mjcf" if table.has("mjcf") else "urdf"
+    file = table.string(file_key, required=True)
     assert file is not None
-    urdf = (folder / Path(file).expanduser()).resolve()
-    if not urdf.is_file():
-        raise table.error("urdf", f"no URDF file {urdf}")
+    robot_file = (folder / Path(file).expanduser()).resolve()
+    if not robot_file.is_file():
+        raise table.error(file_key, f"no {file_key.upper()} file {robot_file}")
     held: dict[str, float] = {}
     held_table = table.data.get("held")
     if held_table is not None and not isinstance(held_table, dict):
@@ -170,10 +179,13 @@ def _urdf_robot(keys: Keys, folder: Path) -> RobotDescription:
     tracked_link = table.string("tracked_link")
     gripper_links = table.strings("gripper_links")
     servo_gain = table.number("servo_gain", above=0.0)
-    package_path = [folder / Path(f).expanduser() for f in table.strings("package_path") or ()]
+    package_path = _package_path(table, folder)
+    density, total_mass = table.number("density", above=0.0), table.number("total_mass", above=0.0)
+    if density is not None and total_mass is not None:
+        raise table.error("total_mass", "give density or total_mass, not both (a total mass sets the density)")
     try:
-        robot = load_urdf(
-            urdf,
+        robot = load_robot(
+            robot_file,
             arm_joints=joints,
             tracked_link=tracked_link,
             base_position=base_position,
@@ -182,14 +194,35 @@ def _urdf_robot(keys: Keys, folder: Path) -> RobotDescription:
             gripper_links=gripper_links,
             name=table.string("name"),
             package_path=package_path,
+            density=density,
+            total_mass=total_mass,
         )
     except RobotError as exc:
-        # name the key whose joint or link the URDF lacks; the message itself names the URDF
+        # name the key whose joint or link the file lacks; the message itself names the file
         message = str(exc)
         named = {"joints": joints or (), "tracked_link": (tracked_link,), "held": held, "gripper_links": gripper_links}
-        key = next((k for k, names in named.items() if any(f"{n!r}" in message for n in names or ())), "urdf")
+        key = next((k for k, names in named.items() if any(f"{n!r}" in message for n in names or ())), file_key)
+        key = "total_mass" if ": total_mass " in message else key
         raise table.error(key, message) from None
     return robot if servo_gain is None else replace(robot, servo_gain=float(servo_gain))
+
+
+def _package_path(table: Keys, folder: Path) -> list[str]:
+    """The ``[robot] package_path`` entries with their folders relative to ``folder``: ``DIR`` (a package
+    folder, or a folder of packages) or ``NAME=DIR`` (package NAME is folder DIR, which must exist)."""
+    from simtune.robot.urdf import package_entry
+
+    entries = []
+    for i, entry in enumerate(table.strings("package_path") or ()):
+        name, where = package_entry(entry)
+        where = folder / where
+        if name is None:
+            entries.append(str(where))
+            continue
+        if not where.is_dir():
+            raise table.error(f"package_path[{i}]", f"{entry!r}: no folder {where} for package {name!r}")
+        entries.append(f"{name}={where}")
+    return entries
 
 
 def load_project(path: Path | str) -> Project:

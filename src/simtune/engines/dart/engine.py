@@ -12,7 +12,8 @@ primitives, drops the cone through the floor and lets a pushed box sink).
 
 Mapping (docs/parameters.md has the full table): timestep -> ``World.setTimeStep``;
 masses -> ``BodyNode.setMass`` (inertia scaled with it); max torque -> the joint's
-force limits; joint damping -> ``Joint.setDampingCoefficient``; lateral friction
+force limits; joint damping -> ``Joint.setDampingCoefficient``; Coulomb joint friction ->
+``Joint.setCoulombFriction`` (DART 6 has no armature); lateral friction
 and restitution -> each shape node's ``DynamicsAspect`` (DART combines two
 shapes' friction with the minimum and restitution with the product); an object's
 linear / angular damping -> the damping coefficients of its free joint's
@@ -26,11 +27,12 @@ from __future__ import annotations
 import numpy as np
 
 from simtune.engines._shapes import object_mass_properties
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
+from simtune.engines.base import Engine, unloaded_hard_motors
 from simtune.geometry import rpy_matrix
+from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot import MICO
 from simtune.robot.generate import robot_urdf_file
-from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, TaskSpec
+from simtune.tasks.spec import TaskSpec
 
 try:
     import dartpy
@@ -47,13 +49,13 @@ def _isometry(pos, rot=None):
     return t
 
 
+#: the engine's name in the registry and the kinds table
+NAME = "dart"
+
+
 class DartEngine(Engine):
-    name = "dart"
-    engine_parameters = (
-        RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in ("lateral_friction", "restitution") for g in CONTACT_GROUPS}
-        | {f"{kind}_{m}" for kind in ("linear_damping", "angular_damping") for m in MATERIALS}
-    )
+    name = NAME
+    engine_parameters = kinds_of_engine(NAME, 6)  # its kinds in simtune.params.kinds
 
     @classmethod
     def version(cls) -> str:
@@ -154,6 +156,9 @@ class DartEngine(Engine):
         self._link_mass = [float(link.getMass()) for link in self._links]
         self._link_moment = [np.array(link.getInertia().getMoment()) for link in self._links]
         for group, nodes in self._shapes.items():
+            if not nodes:  # a group with no shape (a robot described without geometry): DART's own defaults
+                values[f"lateral_friction_{group}"], values[f"restitution_{group}"] = 1.0, 0.0
+                continue
             aspect = nodes[0].getDynamicsAspect()
             values[f"lateral_friction_{group}"] = float(aspect.getFrictionCoeff())
             values[f"restitution_{group}"] = float(aspect.getRestitutionCoeff())
@@ -163,7 +168,7 @@ class DartEngine(Engine):
             values[obj.mass_parameter] = float(self.object.getMass())
             values[f"angular_damping_{obj.material}"] = float(self._free.getDampingCoefficient(0))
             values[f"linear_damping_{obj.material}"] = float(self._free.getDampingCoefficient(3))
-        return values
+        return values | self.drive_defaults()
 
     # --- interface ------------------------------------------------------------------
     def defaults(self) -> dict[str, float]:
@@ -196,6 +201,7 @@ class DartEngine(Engine):
                 aspect = node.getDynamicsAspect()
                 aspect.setFrictionCoeff(p[f"lateral_friction_{group}"])
                 aspect.setRestitutionCoeff(p[f"restitution_{group}"])
+        self.apply_drive(params)
         self.robot.setPositions(self._in_skeleton_order(self.start_angles(params)))
         self.robot.setVelocities(np.zeros(self.robot.getNumDofs()))
         self.robot.resetCommands()
@@ -216,6 +222,12 @@ class DartEngine(Engine):
             skel.clearExternalForces()
             skel.clearConstraintImpulses()
         self.world.reset()  # time 0, recording cleared
+
+    def set_joint_friction(self, values: np.ndarray) -> None:
+        """``friction_joint_<n>`` [N m] -> each driven joint's ``setCoulombFriction`` (DART's joint friction, a
+        bounded impulse in its constraint solver)."""
+        for joint, friction in zip(self._arm, values.tolist()):
+            joint.setCoulombFriction(0, friction)
 
     def _in_skeleton_order(self, values: np.ndarray) -> np.ndarray:
         ordered = np.zeros(self.robot.getNumDofs())

@@ -72,6 +72,10 @@ def write(ctx: ExportContext) -> list[str]:
                 "driven_joints": list(robot.driven_joints),
                 "actuator": "SERVO",
                 "force_limits_n_m": forces,
+                # friction_joint_<n>: each driven joint's Coulomb friction (also the URDF's <dynamics friction>)
+                "coulomb_friction_n_m": [
+                    float(skeleton.getJoint(j).getCoulombFriction(0)) for j in robot.driven_joints
+                ],
                 "limit_enforcement": True,
                 "gripper_links": gripper,
                 "gripper_surface": _surface(skeleton.getBodyNode(gripper[0]).getShapeNodes()[0]),
@@ -96,6 +100,7 @@ def _write_robot(ctx: ExportContext, skeleton) -> list[list[float]]:
             continue
         joint = skeleton.getJoint(name)
         urdf.set_damping(element, float(joint.getDampingCoefficient(0)))
+        urdf.set_friction(element, float(joint.getCoulombFriction(0)))
         if element.find("limit") is not None:  # DART enforces URDF velocity limits: keep the run's, not the clamp's
             urdf.set_limit(element, float(joint.getForceUpperLimit(0)), float(joint.getVelocityUpperLimit(0)))
     for name in robot.driven_joints:
@@ -203,6 +208,8 @@ def load(task):
         joint.setLimitEnforcement(spec["limit_enforcement"])
         joint.setForceLowerLimit(0, lower)
         joint.setForceUpperLimit(0, upper)
+    for name, friction in zip(spec["driven_joints"], spec.get("coulomb_friction_n_m", [])):
+        robot.getJoint(name).setCoulombFriction(0, friction)
     for link in spec["gripper_links"]:
         for node in robot.getBodyNode(link).getShapeNodes():
             _surface(node, spec["gripper_surface"])

@@ -21,8 +21,9 @@ contact point, and the box rocks); the arm's URDF boxes touch through point
 contact.  Friction: ``CoulombFriction`` on each collision geometry, static =
 dynamic = the lateral friction (Drake combines two geometries as
 2 mu1 mu2 / (mu1 + mu2)).  Drake's contact has no coefficient of restitution
-(dissipation is Hunt-Crossley), no rolling or spinning friction, and no
-per-body velocity damping: those parameters are left out.
+(dissipation is Hunt-Crossley), no rolling or spinning friction, no
+per-body velocity damping and no Coulomb joint friction: those parameters are left out.  The armature is
+each servo's rotor inertia (gear ratio 1).
 """
 
 from __future__ import annotations
@@ -35,11 +36,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from simtune.engines._shapes import object_mass_properties
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, library_version, unreachable_servo_limits
+from simtune.engines.base import Engine, library_version, unreachable_servo_limits
 from simtune.geometry import rpy_matrix
+from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot import MICO
 from simtune.robot.generate import robot_urdf_file
-from simtune.tasks.spec import CONTACT_GROUPS, ObjectSpec, TaskSpec
+from simtune.tasks.spec import ObjectSpec, TaskSpec
 
 if TYPE_CHECKING:  # for the annotations of _System (mypy reads pydrake as untyped: see pyproject.toml)
     from pydrake.geometry import GeometryId, SceneGraph
@@ -107,9 +109,13 @@ class _System:
     object_geometry: GeometryId | None
 
 
+#: the engine's name in the registry and the kinds table
+NAME = "drake"
+
+
 class DrakeEngine(Engine):
-    name = "drake"
-    engine_parameters = RIGID_BODY_PARAMETERS | {f"lateral_friction_{g}" for g in CONTACT_GROUPS}
+    name = NAME
+    engine_parameters = kinds_of_engine(NAME, 6)  # its kinds in simtune.params.kinds
 
     @classmethod
     def version(cls) -> str:
@@ -159,9 +165,12 @@ class DrakeEngine(Engine):
         arm_geometries = [
             g for link in robot.links for g in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link.name, arm))
         ]
-        # the parser's friction for geometries that name none: Drake's default material
-        default_friction = inspector.GetProximityProperties(arm_geometries[0]).GetProperty(
-            "material", "coulomb_friction"
+        # the parser's friction for geometries that name none: Drake's default material (a robot with no collision
+        # geometry at all - a kinematic description - has none to read it from: the same default, made here)
+        default_friction = (
+            inspector.GetProximityProperties(arm_geometries[0]).GetProperty("material", "coulomb_friction")
+            if arm_geometries
+            else CoulombFriction(1.0, 1.0)  # what the parser gives a URDF geometry that names no friction
         )
 
         floor_props = ProximityProperties()
@@ -264,7 +273,14 @@ class DrakeEngine(Engine):
         for group, ids in s.geometries.items():
             friction = inspector.GetProximityProperties(ids[0]).GetProperty("material", "coulomb_friction")
             values[f"lateral_friction_{group}"] = float(friction.dynamic_friction())
-        return values
+        return values | self.drive_defaults()
+
+    def set_armature(self, values: np.ndarray) -> None:
+        """``armature_joint_<n>`` [kg m^2] -> each servo's rotor inertia at gear ratio 1 (Drake adds the reflected
+        inertia, rotor inertia x gear ratio squared, to the joint's diagonal of the mass matrix)."""
+        s = self._sys
+        for actuator, armature in zip(s.actuators, values.tolist()):
+            actuator.SetRotorInertia(s.plant_context, armature)
 
     def _pose(self, s: _System, q) -> None:
         for joint, angle in zip(s.joints, q):
@@ -303,6 +319,7 @@ class DrakeEngine(Engine):
                 ctx, s.object_body, RigidTransform(RotationMatrix(obj.rotation), obj.start_position)
             )
             s.plant.SetFreeBodySpatialVelocity(ctx, s.object_body, SpatialVelocity(np.zeros(3), np.zeros(3)))
+        self.apply_drive(params)
         self._pose(s, self.start_angles(params))
         s.context.SetTime(0.0)
         self._steps = 0

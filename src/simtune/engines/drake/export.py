@@ -96,6 +96,9 @@ def _write_robot(ctx: ExportContext, s, generic_mu: float) -> tuple[ET.Element, 
         ).text = "EffortJointInterface"
         holder = ET.SubElement(transmission, "actuator", name=actuator.name())
         ET.SubElement(holder, "drake:controller_gains", p=num(gains.p), d=num(gains.d))
+        # armature_joint_<n>: the servo's rotor inertia at gear ratio 1 (Drake's reflected inertia)
+        ET.SubElement(holder, "drake:rotor_inertia", value=num(actuator.rotor_inertia(pctx)))
+        ET.SubElement(holder, "drake:gear_ratio", value=num(actuator.gear_ratio(pctx)))
         actuators.append(
             {"name": actuator.name(), "joint": name, "effort_limit_n_m": float(actuator.effort_limit()),
              "p": float(gains.p), "d": float(gains.d)}

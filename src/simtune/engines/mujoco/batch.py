@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from simtune.controller import CONTROL_PERIOD, JointController
-from simtune.engines.base import CHECK_EVERY, OBJECT_LIMIT, WRIST_LIMIT, MarkerBudget, Monitor, Rollout, _first_bad
+from simtune.engines.base import CHECK_EVERY, OBJECT_LIMIT, MarkerBudget, Monitor, Rollout, _first_bad, wrist_limit
 
 if TYPE_CHECKING:
     from simtune.engines.mujoco.engine import MujocoEngine
@@ -120,6 +120,7 @@ class Batch:
         first = engines[0]
         n, nj = len(engines), first.task.robot.n_joints
         self.engines, self.controllers, self.monitors, self.n_samples = engines, controllers, monitors, n_samples
+        self.wrist_limit = wrist_limit(first.task.robot)
         self.period = 1.0 / (1.0 / CONTROL_PERIOD)  # as Engine.rollout computes it from its default rate
         self.times = np.arange(n_samples) * self.period
         # each member's model, data and views into its arrays (valid while the data lives)
@@ -146,7 +147,7 @@ class Batch:
         self._before, self._after = self.before.T.tolist() + [[0] * n], [[0] * n] + self.after.T.tolist()
         self.targets = np.stack([c.targets(self.times + c.phase) for c in controllers])  # at each update instant
         self.v_max = np.stack([c.v_max for c in controllers])
-        self.kp = controllers[0].kp
+        self.kp = np.stack([c.kp for c in controllers])  # each member's gains (kp_joint_<n>)
         self.calibrated = np.array([c.calibrated for c in controllers], dtype=bool)
         self.failed: dict[int, Exception] = {}  # member -> the error its simulation raised
 
@@ -197,7 +198,7 @@ class Batch:
         moved = self.before[members, k] > 0
         if moved.any():  # read at the update instant, later in the period
             q[moved] = self.encoders(self.qpos_update, members[moved])
-        velocity = np.multiply(self.targets[members, k] - q, self.kp)
+        velocity = np.multiply(self.targets[members, k] - q, self.kp[members])
         v_max = self.v_max[members]
         self.ctrl[members] = np.minimum(np.maximum(velocity, -v_max, out=velocity), v_max, out=velocity)
 
@@ -210,7 +211,7 @@ class Batch:
         with np.errstate(invalid="ignore", over="ignore"):
             doubt = ~(np.isfinite(pos).all(axis=(1, 2)) & np.isfinite(rot).all(axis=(1, 2, 3)))
             doubt |= ~np.isfinite(q).all(axis=(1, 2))
-            doubt |= ~(np.einsum("mbj,mbj->mb", pos, pos) <= SCREEN_MARGIN * WRIST_LIMIT**2).all(axis=1)
+            doubt |= ~(np.einsum("mbj,mbj->mb", pos, pos) <= SCREEN_MARGIN * self.wrist_limit**2).all(axis=1)
             if self.object_pos is not None:
                 moved = self.object_pos[members, block] - self.object_pos[members, :1]
                 doubt |= ~(np.einsum("mbj,mbj->mb", moved, moved) <= SCREEN_MARGIN * OBJECT_LIMIT**2).all(axis=1)
@@ -221,7 +222,12 @@ class Batch:
                 (None, None) if self.object_pos is None else (self.object_pos[i, block], self.object_pos[i, 0])
             )
             bad, why = _first_bad(
-                self.wrist_pos[i, block], self.wrist_rot[i, block], self.angles[i, block], obj, obj_start
+                self.wrist_pos[i, block],
+                self.wrist_rot[i, block],
+                self.angles[i, block],
+                obj,
+                obj_start,
+                self.wrist_limit,
             )
             if bad is not None:
                 found[int(i)] = (bad, why)

@@ -7,7 +7,8 @@ the data, so no state leaks from one evaluation into the next.
 Mapping (docs/parameters.md has the full table):
 - timestep -> ``opt.timestep``; masses -> ``body_mass`` (inertia scaled with it);
 - max torque -> the velocity servo's ``actuator_forcerange``;
-- joint damping -> ``dof_damping`` of the arm joints;
+- joint damping -> ``dof_damping`` of the arm joints; armature -> ``dof_armature``; Coulomb joint
+  friction -> ``dof_frictionloss`` (:meth:`MujocoEngine.set_armature`, :meth:`MujocoEngine.set_joint_friction`);
 - lateral / spinning / rolling friction -> the three ``geom_friction`` columns of
   the group's geoms (MuJoCo takes the larger of two touching geoms' values);
 - linear / angular damping of an object -> ``dof_damping`` of the translational /
@@ -27,12 +28,14 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from simtune.controller import JointController
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, Monitor, Rollout, unreachable_servo_limits
+from simtune.engines.base import Engine, Monitor, Rollout, unreachable_servo_limits
 from simtune.engines.mujoco.batch import Batch, Stepper
+from simtune.geometry import matrix_quat_wxyz, rpy_matrix
+from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot import MICO
 from simtune.robot.description import RobotDescription
 from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf, servo_gains
-from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, ObjectSpec, TaskSpec
+from simtune.tasks.spec import ObjectSpec, TaskSpec
 
 try:
     import mujoco
@@ -44,6 +47,16 @@ else:
     mujoco.set_mju_user_warning(lambda message: None)
 
 _FRICTION_COLUMN = {"lateral_friction": 0, "spinning_friction": 1, "rolling_friction": 2}
+#: the model arrays a reset restores from the compiled model's values before applying parameters
+_MODEL_ARRAYS = (
+    "body_mass",
+    "body_inertia",
+    "actuator_forcerange",
+    "dof_damping",
+    "geom_friction",
+    "dof_armature",
+    "dof_frictionloss",
+)
 
 
 def compile_scene(robot: RobotDescription, obj: ObjectSpec | None):
@@ -64,11 +77,15 @@ def compile_scene(robot: RobotDescription, obj: ObjectSpec | None):
         if joint.name in held:  # welded at its zero
             part.delete(joint)
     root = part.body(robot.root)
+    root.pos = list(robot.base_position)  # the file's placement moved by the project's base pose
+    root.quat = list(matrix_quat_wxyz(rpy_matrix(robot.base_rpy)))
+    root.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT  # the quaternion, not the file's euler or axis
     for body in [root, *root.find_all(mujoco.mjtObj.mjOBJ_BODY)]:
         if body.name != robot.root:
             body.gravcomp = 1.0  # as the generated scene: the arm's controller compensates gravity
     for geom in root.find_all(mujoco.mjtObj.mjOBJ_GEOM):
-        geom.contype, geom.conaffinity, geom.condim = 2, 1, 3  # the generated scene's "arm" class
+        if geom.contype or geom.conaffinity:  # the generated scene's "arm" class; visual geoms collide with nothing
+            geom.contype, geom.conaffinity, geom.condim = 2, 1, 3
     for i, (joint, gain) in enumerate(zip(robot.arm_joints, servo_gains(robot))):
         servo = scene.add_actuator(name=joint, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         servo.set_to_velocity(kv=gain)
@@ -82,14 +99,14 @@ def compile_scene(robot: RobotDescription, obj: ObjectSpec | None):
         return scene.compile()
 
 
+#: the engine's name in the registry and the kinds table
+NAME = "mujoco"
+
+
 class MujocoEngine(Engine):
-    name = "mujoco"
+    name = NAME
     reads_mjcf = True
-    engine_parameters = (
-        RIGID_BODY_PARAMETERS
-        | {f"{kind}_{g}" for kind in _FRICTION_COLUMN for g in CONTACT_GROUPS}
-        | {f"{kind}_{m}" for kind in ("linear_damping", "angular_damping") for m in MATERIALS}
-    )
+    engine_parameters = kinds_of_engine(NAME, 6)  # its kinds in simtune.params.kinds
 
     @classmethod
     def version(cls) -> str:
@@ -126,10 +143,12 @@ class MujocoEngine(Engine):
         }
         if task.object is not None:
             self._groups[task.object.material] = [m.geom(OBJECT_BODY).id]
+        if robot.mjcf is None:  # the description's Coulomb friction (an MJCF file's frictionloss is its own)
+            m.dof_frictionloss[self._arm_dof] = [robot.joint_by_name[j].friction for j in robot.arm_joints]
         # the compiled model's own values: every reset starts from these
         self._pristine = {
             name: getattr(m, name).copy() if name != "timestep" else m.opt.timestep
-            for name in ("body_mass", "body_inertia", "actuator_forcerange", "dof_damping", "geom_friction", "timestep")
+            for name in ("timestep", *_MODEL_ARRAYS)
         }
 
     def defaults(self) -> dict[str, float]:
@@ -147,7 +166,26 @@ class MujocoEngine(Engine):
         for group, geoms in self._groups.items():
             for kind, col in _FRICTION_COLUMN.items():
                 values[f"{kind}_{group}"] = float(p["geom_friction"][geoms[0], col])
-        return values
+        return values | self.drive_defaults()
+
+    def drive_defaults(self) -> dict[str, float]:
+        """The compiled model's armature and Coulomb friction (``dof_armature``, ``dof_frictionloss``) of the
+        driven joints: an MJCF file's own, else the description's."""
+        p = self._pristine
+        return {
+            f"{kind}_{i}": float(p[field][dof])
+            for kind, field in (("armature_joint", "dof_armature"), ("friction_joint", "dof_frictionloss"))
+            for i, dof in enumerate(self._arm_dof, start=1)
+        }
+
+    def set_armature(self, values: np.ndarray) -> None:
+        """``armature_joint_<n>`` [kg m^2] -> ``dof_armature`` of the driven joints."""
+        self.model.dof_armature[self._arm_dof] = values
+
+    def set_joint_friction(self, values: np.ndarray) -> None:
+        """``friction_joint_<n>`` [N m] -> ``dof_frictionloss`` of the driven joints (MuJoCo's Coulomb joint
+        friction, a soft constraint solved with the contacts)."""
+        self.model.dof_frictionloss[self._arm_dof] = values
 
     @property
     def timestep(self) -> float:
@@ -156,8 +194,9 @@ class MujocoEngine(Engine):
     def reset(self, params: dict[str, float]) -> None:
         m, p = self.model, self._pristine
         m.opt.timestep = params.get("timestep", p["timestep"])
-        for name in ("body_mass", "body_inertia", "actuator_forcerange", "dof_damping", "geom_friction"):
+        for name in _MODEL_ARRAYS:
             getattr(m, name)[:] = p[name]
+        self.apply_drive(params)
 
         def set_mass(body: int, mass: float) -> None:
             m.body_inertia[body] = p["body_inertia"][body] * (mass / p["body_mass"][body])

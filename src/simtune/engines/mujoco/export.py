@@ -2,7 +2,7 @@
 
 The generic scene MJCF is edited element by element with the values of the
 engine's compiled model after the tuned parameters were applied: body masses
-and inertias (scaled together, as the engine does), joint damping, the three
+and inertias (scaled together, as the engine does), joint damping, armature and frictionloss, the three
 friction coefficients and the contact softness (``solref``/``solimp``, MuJoCo's
 defaults: simtune does not tune them) of every geom, the velocity servos' force
 ranges, and the time step.  Values are written with 17 significant digits, so
@@ -90,6 +90,9 @@ def _write_joint(body: ET.Element, joint: ET.Element, model) -> None:
     free = joint.tag == "freejoint" or joint.get("type") == "free"
     if not free:
         joint.set("damping", num(model.dof_damping[dof]))
+        # the drive train's kinds (simtune.params.kinds): the armature and Coulomb friction the run simulated
+        joint.set("armature", num(model.dof_armature[dof]))
+        joint.set("frictionloss", num(model.dof_frictionloss[dof]))
         return
     damping = model.dof_damping[dof : dof + 6]
     index = list(body).index(joint)

@@ -30,10 +30,10 @@ from itertools import pairwise
 
 import numpy as np
 
-from simtune.controller import CONTROL_PERIOD, JointController, encoder_parameters
-from simtune.engines.base import CHECK_EVERY, Engine, Monitor, Rollout, _first_bad
+from simtune.controller import CONTROL_PERIOD, JointController
+from simtune.engines.base import CHECK_EVERY, Engine, Monitor, Rollout, _first_bad, wrist_limit
 from simtune.engines.mujoco.engine import MujocoEngine, mujoco
-from simtune.robot.description import RobotDescription
+from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot.generate import OBJECT_BODY
 from simtune.tasks.spec import TaskSpec
 
@@ -196,18 +196,14 @@ def time_step_groups(timesteps: dict[int, float], overhead: float = CPU_STEP_OVE
 class MujocoWarpEngine(Engine):
     name = "mujoco-warp"
     reads_mjcf = True
-    engine_parameters = MujocoEngine.engine_parameters
+    #: MuJoCo's kinds less those the batch cannot hold yet (simtune.params.kinds: the armature and joint friction,
+    #: whose MJWarp fields are not known to be per world; the encoder model and the per-joint gains, which the
+    #: batched controller kernel does not have)
+    engine_parameters = kinds_of_engine("mujoco-warp", 6)
 
     @classmethod
     def version(cls) -> str:
         return mjw.__version__ if mjw is not None and mujoco is not None else "not installed"
-
-    @classmethod
-    def supported(cls, robot: RobotDescription | None = None) -> frozenset[str]:
-        """MuJoCo's parameters less the encoder model's (``--space calibrated``): the zero offsets and gravity
-        compliance live in the Python controller, which the batched controller kernel does not have yet."""
-        names = super().supported(robot)
-        return names - encoder_parameters(robot.n_joints if robot is not None else 6)
 
     @classmethod
     def device(cls) -> str:
@@ -319,7 +315,7 @@ class MujocoWarpEngine(Engine):
                 continue
             for i, (roll, period_steps) in zip(group, rollouts, strict=True):
                 monitor = monitors[i] if monitors is not None else None
-                yield i, _replay(roll, period_steps, monitor)
+                yield i, _replay(roll, period_steps, monitor, wrist_limit(self.task.robot))
 
     def _simulate(self, params: Sequence[dict[str, float]], n_samples: int) -> list[tuple[Rollout, np.ndarray]]:
         """Each member's samples to the end, and its physics steps in each control period (the state checks
@@ -486,7 +482,7 @@ def rot_host(rot) -> np.ndarray:
     return rot.numpy().reshape(*rot.shape, 3, 3)
 
 
-def _replay(roll: Rollout, period_steps: np.ndarray, monitor: Monitor | None) -> Rollout:
+def _replay(roll: Rollout, period_steps: np.ndarray, monitor: Monitor | None, limit: float) -> Rollout:
     """``roll``, simulated to the end, as :meth:`Engine.rollout` would have ended it: the same state
     checks at the same samples, the monitor shown the same samples, the last good sample held after a stop."""
     n = len(roll.times)
@@ -501,6 +497,7 @@ def _replay(roll: Rollout, period_steps: np.ndarray, monitor: Monitor | None) ->
                 roll.joint_angles[checked : k + 1],
                 roll.object_pos[checked : k + 1] if roll.object_pos is not None else None,
                 obj_start,
+                limit,
             )
             if bad is not None:
                 stopped_at = checked + bad

@@ -12,7 +12,9 @@ robot description (the MICO's in the notes below):
   pose, and the first joint attaches its link to the static environment;
 - each driven joint is a hinge with a velocity motor (``dParamVel`` = the
   commanded joint velocity, ``dParamFMax`` = the maximum torque), a hard
-  constraint like PyBullet's motor; limited joints (joint_2/3) have their stops.
+  constraint like PyBullet's motor; limited joints (joint_2/3) have their stops;
+- Coulomb joint friction (``friction_joint_<n>``) is ODE's own: an angular motor with target velocity 0 whose
+  most torque is the friction; ODE's maximal coordinates have no armature.
 
 Collision: the links' boxes, spheres and cylinders, and the convex hull of a
 mesh, a plane for the floor, a box / cylinder for the objects and a convex
@@ -46,16 +48,16 @@ from simtune.engines._shapes import (
     mesh_hull_faces,
     object_mass_properties,
 )
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, unloaded_hard_motors
+from simtune.engines.base import Engine, unloaded_hard_motors
 from simtune.engines.ode.mapping import (
     BOUNCE_VELOCITY,
     DEFAULT_CONTACT,
     DEFAULT_TIMESTEP,
-    GROUP_PARAMETERS,
     PairSurface,
     pair_surface,
 )
 from simtune.errors import ConfigError
+from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot import MICO
 from simtune.robot.description import Box, Cylinder, RobotDescription, Sphere
 from simtune.tasks.spec import ObjectSpec, TaskSpec
@@ -151,9 +153,13 @@ def _set_mass(body, mass: float, inertia) -> None:
     ode.dBodySetMass(body, byref(m))
 
 
+#: the engine's name in the registry and the kinds table
+NAME = "ode"
+
+
 class OdeEngine(Engine):
-    name = "ode"
-    engine_parameters = RIGID_BODY_PARAMETERS | GROUP_PARAMETERS
+    name = NAME
+    engine_parameters = kinds_of_engine(NAME, 6)  # its kinds in simtune.params.kinds
 
     @classmethod
     def version(cls) -> str:
@@ -211,6 +217,7 @@ class OdeEngine(Engine):
             values[f"max_torque_joint_{i}"] = robot.generic_effort(i - 1)
             # ODE's hinge has no damping of its own: the description's, added as a torque
             values[f"joint_damping_{i}"] = robot.joint_by_name[robot.arm_joints[i - 1]].damping
+        values |= self.drive_defaults()  # Coulomb joint friction: the description's
         groups = ["gripper", "floor"]
         if self.task.object is not None:
             values[self.task.object.mass_parameter] = self.task.object.mass
@@ -317,6 +324,7 @@ class OdeEngine(Engine):
         """A hinge with a velocity motor for every driven joint, defined at angle 0 (the link frames ``poses``)."""
         robot = self.robot
         self._joints = []
+        self._axes: list[np.ndarray] = []  # each hinge's axis in the world at angle 0
         for i, name in enumerate(robot.arm_joints, start=1):
             joint = robot.joint_by_name[name]
             parent = self._bodies.get(self._hosts[joint.parent][0])
@@ -331,6 +339,7 @@ class OdeEngine(Engine):
             _hinge_anchor(hinge, *pos)
             axis = rot[:, 2] if joint.axis == (0.0, 0.0, 1.0) else rot @ np.asarray(joint.axis, dtype=float)
             _hinge_axis(hinge, *axis)  # the hinge's angle 0 is this pose
+            self._axes.append(axis)
             if joint.limited:
                 _hinge_param(hinge, ode.dParamLoStop, joint.lower)
                 _hinge_param(hinge, ode.dParamHiStop, joint.upper)
@@ -433,7 +442,28 @@ class OdeEngine(Engine):
 
     def reset(self, params: dict[str, float]) -> None:
         self._build({**self._defaults, **params})
+        self.apply_drive(params)
         self._pose_arm(self.start_angles(params))
+
+    def set_joint_friction(self, values: np.ndarray) -> None:
+        """``friction_joint_<n>`` [N m] -> ODE's own joint friction: an angular motor on each driven joint's axis
+        with target velocity 0 and its friction as the most torque it may apply (a hard constraint beside the
+        velocity motor, solved with it).  Made after the hinges of a fresh world (none for friction 0)."""
+        for i, friction in enumerate(values.tolist()):
+            if friction <= 0:
+                continue
+            joint = self.robot.joint_by_name[self.robot.arm_joints[i]]
+            motor = ode.dJointCreateAMotor(self._world, None)
+            parent = self._bodies.get(self._hosts[joint.parent][0])
+            _attach(
+                ctypes.cast(motor, c_void_p).value,
+                ctypes.cast(self._bodies[joint.child], c_void_p).value,
+                ctypes.cast(parent, c_void_p).value if parent is not None else None,
+            )
+            ode.dJointSetAMotorNumAxes(motor, 1)
+            ode.dJointSetAMotorAxis(motor, 0, 1, *(float(a) for a in self._axes[i]))  # 1: fixed in the child body
+            ode.dJointSetAMotorParam(motor, ode.dParamVel, 0.0)
+            ode.dJointSetAMotorParam(motor, ode.dParamFMax, friction)
 
     def set_joint_velocities(self, velocities: np.ndarray) -> None:
         for hinge, v in zip(self._joints, velocities.tolist()):

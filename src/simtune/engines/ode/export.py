@@ -96,6 +96,8 @@ def _joints(robot: RobotDescription, values: dict[str, float]) -> list[dict]:
                 "stops_rad": [joint.lower, joint.upper] if joint.limited else None,
                 "motor_fmax_n_m": float(values[f"max_torque_joint_{i}"]),
                 "viscous_damping_n_m_s": float(values[f"joint_damping_{i}"]),
+                # friction_joint_<n>: an angular motor on the hinge's axis, target velocity 0, dParamFMax = this
+                "coulomb_friction_n_m": float(values[f"friction_joint_{i}"]),
             }
         )
     return joints

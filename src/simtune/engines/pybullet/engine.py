@@ -21,8 +21,9 @@ import sys
 
 import numpy as np
 
-from simtune.engines.base import RIGID_BODY_PARAMETERS, Engine, library_version, unloaded_hard_motors
-from simtune.engines.pybullet.mapping import DEFAULT_TIMESTEP, GROUP_PARAMETERS, dynamics_changes, material_groups
+from simtune.engines.base import Engine, library_version, unloaded_hard_motors
+from simtune.engines.pybullet.mapping import DEFAULT_TIMESTEP, dynamics_changes, material_groups
+from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot import MICO
 from simtune.robot.generate import robot_urdf_file
 from simtune.tasks.spec import TaskSpec
@@ -50,9 +51,13 @@ def _stdout_silenced():
         os.close(saved)
 
 
+#: the engine's name in the registry and the kinds table
+NAME = "pybullet"
+
+
 class PybulletEngine(Engine):
-    name = "pybullet"
-    engine_parameters = RIGID_BODY_PARAMETERS | GROUP_PARAMETERS
+    name = NAME
+    engine_parameters = kinds_of_engine(NAME, 6)  # its kinds in simtune.params.kinds
 
     @classmethod
     def version(cls) -> str:
@@ -171,6 +176,7 @@ class PybulletEngine(Engine):
 
     def reset(self, params: dict[str, float]) -> None:
         p, c = pybullet, self.client
+        self.apply_drive(params)  # PyBullet has no drive-train kind: a value for one is refused
         self._timestep = params.get("timestep", DEFAULT_TIMESTEP)
         self._load()
         for i, link in enumerate(self._arm, start=1):
