@@ -194,3 +194,41 @@ def test_uncertainty_error_is_one_line(monkeypatch) -> None:
     monkeypatch.setattr(output, "out", console)
     output.print_uncertainty({"error": "no [best] point"}, short=True, run_dir=Path("runs/x"))
     assert console.export_text() == "  uncertainty not computed: no [best] point\n"
+
+
+def test_the_progress_line_counts_what_the_summary_counts(tmp_path, monitor_progress):
+    """The progress line's evaluations are the run store's (issue 48: a new folder's line said "301 evals (57 from
+    store)" where the summary said 244): points the search asks for again are no new evaluations; a resumed run
+    counts the earlier sessions' too, and says so."""
+    from simtune.reference import REFERENCE_DIR
+    from simtune.runs import RunConfig, resume_run, start_run
+
+    config = RunConfig(
+        engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), seed=1,
+        only=["command_delay", "marker_offset_z"], optimizer="auto", max_evaluations=80,
+    )  # fmt: skip
+    first = start_run(config, tmp_path / "run", show_progress=False)
+    progress = monitor_progress[-1]
+    assert progress.stored == 0 and progress.stored + progress.simulated == first.evaluations
+    assert progress.reused > 0  # the search did ask for some points twice: they are not counted again
+    resumed = resume_run(tmp_path / "run", show_progress=False)  # finished: replayed from the store
+    progress = monitor_progress[-1]
+    assert progress.stored == first.evaluations and progress.simulated == 0
+    assert progress.stored + progress.simulated == resumed.evaluations
+
+
+@pytest.fixture
+def monitor_progress(monkeypatch):
+    """Every TuneProgress a run makes, kept for the test to read."""
+    from simtune import runs
+    from simtune.progress import TuneProgress
+
+    made: list[TuneProgress] = []
+
+    class Kept(TuneProgress):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+    monkeypatch.setattr(runs, "TuneProgress", Kept)
+    return made

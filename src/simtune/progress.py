@@ -13,16 +13,20 @@ from simtune.fitness import Score
 class TuneProgress:
     """Rich progress bar (on stderr) fed by the tuner's per-evaluation and per-generation callbacks.
 
-    With a time budget the bar fills with elapsed time; otherwise it only counts.
+    With a time budget the bar fills with elapsed time; otherwise it only counts.  Its evaluation count is the
+    run store's, as the summary after it says: the evaluations stored by earlier sessions (``stored``, a resumed run)
+    plus those simulated in this one.  A point the search asks for again is taken from the store and is no new
+    evaluation (the opening's best point in the first population, a least-squares point in a Jacobian's replay).
     """
 
-    def __init__(self, enabled: bool = True, max_seconds: float | None = None):
+    def __init__(self, enabled: bool = True, max_seconds: float | None = None, stored: int = 0):
         self.enabled = enabled
         self.max_seconds = max_seconds
         self.generation_no = 0
         self.best = float("inf")
         self.simulated = 0
-        self.reused = 0
+        self.reused = 0  # answers taken from the store (counted, not shown: not new evaluations)
+        self.stored = stored
         self._start = time.perf_counter()
         self._progress = Progress(
             TextColumn("[bold]tuning[/]"),
@@ -60,8 +64,8 @@ class TuneProgress:
             gen=self.generation_no,
             best=f"{self.best:.4f}" if self.best < float("inf") else "-",
             rate=f"{rate:.1f}",
-            evals=self.simulated + self.reused,
-            reused=f" ({self.reused} from store)" if self.reused else "",
+            evals=self.stored + self.simulated,
+            reused=f" ({self.stored} from earlier sessions)" if self.stored else "",
         )
 
     def evaluation(self, score: Score, reused: bool) -> None:

@@ -447,7 +447,8 @@ def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bo
         # the search finished in an earlier session (a refinement followed): replay it to the same point,
         # whatever the clock says now
         max_seconds, target, max_evaluations = None, None, searched
-    with TuneProgress(enabled=show_progress, max_seconds=config.max_seconds) as progress:
+    stored = store.count_evaluations()
+    with TuneProgress(enabled=show_progress, max_seconds=config.max_seconds, stored=stored) as progress:
         settings = TuneSettings(
             seed=config.seed,
             workers=config.workers,
