@@ -38,7 +38,7 @@ from simtune.data.clock import outlying_shifts
 from simtune.data.onset import motion_onset
 from simtune.engines import engine_class, make_engine
 from simtune.errors import SimtuneError
-from simtune.fitness import marker_positions, reference_floor, repeat_floor
+from simtune.fitness import NOISE_UNIT_M, marker_positions, reference_floor, repeat_floor
 from simtune.objective import START_WARN_M, Objective, generic_values, load_references
 from simtune.params import get_space
 from simtune.tasks import TaskSpec
@@ -295,12 +295,14 @@ def task_quality(
     return summary, chosen
 
 
-def repeat_noise(references: list[TaskData]) -> tuple[float, float]:
+def repeat_noise(references: list[TaskData], noise_weighted: bool = False) -> tuple[float, float]:
     """The variance of one wrist residual that the recordings' own scatter explains, and its correlation time.
 
     The mean track of R repeats is uncertain by the repeats' variance / R at each sample (per axis),
     in residual units (divided by the samples, as :func:`simtune.fitness.residuals` scales them);
-    the repeats' deviations from their mean give the correlation time.
+    the repeats' deviations from their mean give the correlation time.  With ``noise_weighted`` residuals (each
+    signal divided by its noise, in units of :data:`~simtune.fitness.NOISE_UNIT_M`) that variance is
+    ``NOISE_UNIT_M**2 / R / samples`` whatever the scatter.
     """
     variances, deviations = [], []
     for reference in references:
@@ -308,7 +310,8 @@ def repeat_noise(references: list[TaskData]) -> tuple[float, float]:
         if repeats is None or mean is None or len(repeats) < 2:
             continue
         n = len(reference.times)
-        variances.append(float(repeats.var(axis=0, ddof=1).mean()) / len(repeats) / n)
+        scatter = NOISE_UNIT_M**2 if noise_weighted else float(repeats.var(axis=0, ddof=1).mean())
+        variances.append(scatter / len(repeats) / n)
         deviations.extend(list(repeats - mean[None]))
     if not variances:
         return 0.0, 1.0
@@ -336,11 +339,12 @@ def check(
     full = get_space(space_name, cls.supported())
     inactive = inactive_parameters(engine, tasks, full)
     space = active_space(full, inactive)
-    objective = Objective(engine, tasks, references, space)
+    # every signal weighed by its own noise, as new runs' least squares and intervals are (RunConfig.residuals)
+    objective = Objective(engine, tasks, references, space, noise_weighted=True)
     generic = generic_values(objective, space.names)
     x = space.vector_within_bounds(generic)
     jac = jacobian(objective, x, workers)
-    variance, inflation = repeat_noise(list(references.values()))
+    variance, inflation = repeat_noise(list(references.values()), noise_weighted=True)
     verdict = analyse(space, x, jac, inflation, inactive, variance)
     s = np.asarray(verdict["singular_values"])
     parameters = []

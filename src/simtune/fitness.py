@@ -302,6 +302,76 @@ def _weighted(weights: FitnessWeights, wrist: float | None, obj: float | None, j
     return fitness
 
 
+#: Noise-weighted residuals are in units of this noise [m]: a signal with that noise keeps the scale of a plain
+#: residual in metres (and the penalty of a blown-up rollout stays far above any real misfit).
+NOISE_UNIT_M = 1e-3
+#: Each signal's noise where the recordings hold one repeat (no spread to estimate it from): a motion-capture marker
+#: [m], the object's final position [m] and a joint encoder [rad].
+DEFAULT_NOISE = {"wrist": 1e-3, "object": 2e-3, "joint": math.radians(0.05)}
+#: The least noise a signal is given however tightly its repeats agree (a synthetic recording without noise):
+#: no signal is weighed more than this allows.
+LEAST_NOISE = {"wrist": 1e-4, "object": 1e-4, "joint": math.radians(0.005)}
+
+
+@dataclass(frozen=True)
+class SignalNoise:
+    """How noisy each recorded signal of a task is: the standard deviation of a repeat about the repeats' mean.
+
+    ``wrist_m`` [m] pools the marker's three axes over every sample, ``object_m`` [m] the object's final position's
+    three axes, ``joints_rad`` [rad] is one per logged joint (in the recordings' order); each None (empty) where the
+    recordings lack the signal.  ``estimated``: from the repeats' spread (at least two repeats), else
+    :data:`DEFAULT_NOISE`.
+    """
+
+    wrist_m: float | None
+    object_m: float | None
+    joints_rad: tuple[float, ...]
+    estimated: bool
+
+    def multipliers(self) -> list[float]:
+        """What each present signal's residuals are multiplied by (:data:`NOISE_UNIT_M` over its noise)."""
+        values = [self.wrist_m, self.object_m, *self.joints_rad]
+        return [NOISE_UNIT_M / v for v in values if v is not None]
+
+
+def _spread(repeats: np.ndarray | None, floor: float, axis=None) -> np.ndarray | float | None:
+    """The standard deviation of repeats (first axis) about their mean (pooled over ``axis``, besides the repeats'),
+    unbiased, at least ``floor``; None without two repeats."""
+    if repeats is None or len(repeats) < 2:
+        return None
+    count = len(repeats)
+    squares = np.mean((repeats - repeats.mean(axis=0)) ** 2, axis=axis) * count / (count - 1)
+    return np.maximum(np.sqrt(squares), floor)
+
+
+def signal_noise(reference: TaskData) -> SignalNoise:
+    """Each signal's noise, from the spread of the reference's repeats (see :class:`SignalNoise`).
+
+    Args:
+        reference: a task's recordings as loaded (aligned or not: the spread of the repeats as they are averaged).
+    Returns:
+        The noise of the wrist marker, the object's final position and each logged joint.
+    """
+    wrist = _spread(reference.wrist_repeats, LEAST_NOISE["wrist"])
+    obj = _spread(reference.object_final, LEAST_NOISE["object"])
+    joints = None
+    if reference.joint_repeats is not None:
+        joints = _spread(reference.joint_repeats, LEAST_NOISE["joint"], axis=(0, 1))
+    estimated = wrist is not None or obj is not None or joints is not None
+    if reference.wrist_mean is not None and wrist is None:
+        wrist = DEFAULT_NOISE["wrist"]
+    if reference.object_final is not None and obj is None:
+        obj = DEFAULT_NOISE["object"]
+    if reference.joint_mean is not None and joints is None:
+        joints = np.full(reference.joint_mean.shape[1], DEFAULT_NOISE["joint"])
+    return SignalNoise(
+        None if reference.wrist_mean is None else float(wrist),  # type: ignore[arg-type]
+        None if reference.object_final is None else float(obj),  # type: ignore[arg-type]
+        () if reference.joint_mean is None else tuple(float(v) for v in np.atleast_1d(joints)),  # type: ignore[arg-type]
+        estimated,
+    )
+
+
 def residuals(
     rollout: Rollout,
     reference: TaskData,
@@ -309,6 +379,7 @@ def residuals(
     *,
     weights: FitnessWeights = FitnessWeights(),
     joint_names: Sequence[str] = (),
+    noise: SignalNoise | None = None,
 ) -> np.ndarray:
     """One task's residual vector for least squares and Gauss-Newton uncertainty, beside its scalar fitness.
 
@@ -320,15 +391,38 @@ def residuals(
     marker error plus squared object error plus mean squared joint error: the fitness with squared
     distances.  Components rather than distances, so that the Jacobian keeps each direction and
     stays smooth where a distance is near zero.
+
+    With ``noise`` (:func:`signal_noise`), every signal is weighed by its own noise instead: each part is
+    multiplied by :data:`NOISE_UNIT_M` over its signal's noise, each logged joint by its own, and a joint is a
+    signal of its own (not averaged over the joints), so that a joint log recorded to 0.05 deg informs the fit as
+    much as its precision warrants beside a marker recorded to millimetres.  ``weights`` then scale each part
+    relative to the defaults (the joint's 0.5 m/rad, a unit conversion, is the noise's to make).
     """
     n = len(reference.times)
     parts = []
+    scale = _noise_scales(noise, weights)
     if reference.wrist_mean is not None:
         wrist = (marker_positions(rollout, params) - reference.wrist_mean) / np.sqrt(n)
-        parts.append(np.sqrt(weights.wrist) * wrist.ravel())
+        parts.append(scale["wrist"] * wrist.ravel())
     if reference.object_final is not None and rollout.object_pos is not None:
-        parts.append(np.sqrt(weights.object) * (rollout.object_pos[-1] - reference.object_final_mean))
+        parts.append(scale["object"] * (rollout.object_pos[-1] - reference.object_final_mean))
     joints = joint_differences(rollout, reference, joint_names)
     if joints is not None:
-        parts.append(np.sqrt(weights.joint) * joints.ravel() / np.sqrt(joints.size))
+        if noise is None:
+            parts.append(np.sqrt(weights.joint) * joints.ravel() / np.sqrt(joints.size))
+        else:
+            per_joint = scale["joint"] * NOISE_UNIT_M / np.array(noise.joints_rad)
+            parts.append((joints * per_joint).ravel() / np.sqrt(n))
     return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def _noise_scales(noise: SignalNoise | None, weights: FitnessWeights) -> dict[str, float]:
+    """What the wrist, object and joint parts of :func:`residuals` are multiplied by (the joint's without its noise,
+    which is per joint)."""
+    if noise is None:
+        return {"wrist": np.sqrt(weights.wrist), "object": np.sqrt(weights.object), "joint": 1.0}
+    return {
+        "wrist": math.sqrt(weights.wrist) * NOISE_UNIT_M / noise.wrist_m if noise.wrist_m else 0.0,
+        "object": math.sqrt(weights.object) * NOISE_UNIT_M / noise.object_m if noise.object_m else 0.0,
+        "joint": math.sqrt(weights.joint / JOINT_WEIGHT),
+    }

@@ -25,9 +25,11 @@ from simtune.fitness import (
     PENALTY,
     FitnessWeights,
     Score,
+    SignalNoise,
     TaskScore,
     rollout_joint_names,
     score_rollout,
+    signal_noise,
 )
 from simtune.fitness import residuals as task_residuals
 from simtune.params import ParameterSpace
@@ -177,6 +179,7 @@ class Objective:
         references: dict[str, TaskData],
         space: ParameterSpace | None = None,
         weights: FitnessWeights | None = None,
+        noise_weighted: bool = False,
     ):
         engine_class(engine)  # fail early on an unknown or missing engine
         self.engine = engine
@@ -185,6 +188,11 @@ class Objective:
         self.space = space
         self.weights = FitnessWeights() if weights is None else weights
         check_weights(self.tasks, references, self.weights)
+        #: each task's signal noise where the residuals weigh every signal by it (``noise_weighted``; RunConfig's
+        #: ``residuals = "noise"``), else None: the plain residuals, whose squares sum to the fitness's squares
+        self.noise: dict[str, SignalNoise] | None = (
+            {t.name: signal_noise(references[t.name]) for t in self.tasks} if noise_weighted else None
+        )
         self._engines: dict[str, Engine] = {}
 
     def __getstate__(self) -> dict:
@@ -272,9 +280,11 @@ class Objective:
         return sum(self._residual_count(t) for t in self.tasks)
 
     def penalty_residuals(self) -> np.ndarray:
-        """The residuals of a simulation that blew up or failed: their squares sum to ``PENALTY**2``."""
+        """The residuals of a simulation that blew up or failed: their squares sum to ``PENALTY**2`` (times the
+        largest noise multiplier squared where the residuals are weighed by noise: worse than any real misfit)."""
         m = self.residual_size
-        return np.full(m, PENALTY / np.sqrt(m))
+        largest = max((v for n in (self.noise or {}).values() for v in n.multipliers()), default=1.0)
+        return np.full(m, PENALTY * max(1.0, largest) / np.sqrt(m))
 
     def residuals_and_score(self, params: dict[str, float]) -> tuple[np.ndarray, Score]:
         """Residual vector of ``params`` for least squares, and its score, from the same rollouts.
@@ -310,7 +320,14 @@ class Objective:
                         raise rollout
                     scores[i].append(self._score(task, rollout, params[i]))
                     parts[i].append(
-                        task_residuals(rollout, reference, params[i], weights=self.weights, joint_names=joint_names)
+                        task_residuals(
+                            rollout,
+                            reference,
+                            params[i],
+                            weights=self.weights,
+                            joint_names=joint_names,
+                            noise=None if self.noise is None else self.noise[task.name],
+                        )
                     )
                 except Exception as exc:
                     yield i, exc

@@ -19,7 +19,7 @@ from simtune.activity import active_space, declared_inactive, inactive_parameter
 from simtune.data import TaskData, check_repeats
 from simtune.data.clock import check_reference, default_reference
 from simtune.engines import Engine, engine_class
-from simtune.errors import ConfigError, RecordingWarning
+from simtune.errors import ConfigError, RecordingWarning, check_choice
 from simtune.fitness import FitnessWeights
 from simtune.limits import MAX_SEED, MAX_WORKERS
 from simtune.objective import Objective, check_weights, load_references
@@ -34,6 +34,8 @@ from simtune.tasks.spec import common_robot
 #: ``extended`` (docs/tuning.md "The default space", measured 2026-11-26); a paper-exact run takes ``shared``, the
 #: paper's 31 parameters (--paper-exact runs only the paper's spaces, shared and individual)
 DEFAULT_SPACE = "calibrated"
+#: What least squares fits (RunConfig.residuals): each signal divided by its noise, or the fitness's parts as they are
+RESIDUALS = ("noise", "plain")
 
 
 def default_space(paper_exact: bool) -> str:
@@ -96,12 +98,18 @@ class RunConfig:
     #: phase 2); left empty: task, or published with paper_exact.  Runs stored before the correction ran the
     #: published ones.
     targets: str = ""
+    #: what least squares, the intervals and the identifiability check fit (:data:`RESIDUALS`): ``noise``, every
+    #: recorded signal divided by its own noise (simtune.fitness.signal_noise), or ``plain``, the fitness's parts
+    #: as they are; left empty: noise, or plain with paper_exact.  Runs stored before this setting fitted plain ones.
+    residuals: str = ""
 
     def __post_init__(self) -> None:
         if self.reference == "":
             self.reference = default_reference(self.paper_exact is True)
         if self.targets == "":
             self.targets = "published" if self.paper_exact is True else "task"
+        if self.residuals == "":
+            self.residuals = "plain" if self.paper_exact is True else "noise"
 
     @property
     def worker_processes(self) -> bool:
@@ -124,6 +132,8 @@ class RunConfig:
             del values["repeats"]
         if values["targets"] == "published":
             del values["targets"]
+        if values["residuals"] == "plain":
+            del values["residuals"]
         return values
 
     @classmethod
@@ -139,7 +149,14 @@ class RunConfig:
                 )
         # a run from before these settings searched every parameter, with one shared command delay, and scored
         # against the plain mean of the repeats, on the targets as published (stored_targets)
-        values = {"keep_inactive": True, "task_delays": False, "reference": "mean", "targets": "published", **values}
+        values = {
+            "keep_inactive": True,
+            "task_delays": False,
+            "reference": "mean",
+            "targets": "published",
+            "residuals": "plain",
+            **values,
+        }
         for f in fields(cls):
             if f.default is MISSING and f.name not in values:
                 raise ConfigError(f"{where}: the stored configuration has no {f.name!r}")
@@ -191,6 +208,7 @@ class RunConfig:
         check_reference(self.reference, f"{at}reference")
         check_repeats(self.repeats, f"{at}repeats")
         check_targets(self.targets, f"{at}targets")
+        check_choice(self.residuals, RESIDUALS, f"{at}residuals", "weighed by each signal's noise, or plain")
         if self.paper_exact:
             if self.reference != "mean":
                 raise ConfigError(
@@ -213,6 +231,8 @@ class RunConfig:
                 raise ConfigError(f"{at}--paper-exact ends with SciPy's own polish: drop --refine")
             if self.targets != "published":
                 raise ConfigError(f"{at}--paper-exact runs the published targets: drop --targets {self.targets}")
+            if self.residuals != "plain":
+                raise ConfigError(f"{at}--paper-exact fits the plain residuals: drop residuals={self.residuals!r}")
 
 
 def stored_targets(config: dict) -> str:
@@ -314,7 +334,14 @@ class RunPlan:
         fitness_weights = FitnessWeights() if weights is None else FitnessWeights.from_mapping(weights, "weights")
         check_weights(self.tasks, self.references, fitness_weights)
         space = self.search_space(inactive)
-        return Objective(self.config.engine, self.tasks, self.references, space, fitness_weights)
+        return Objective(
+            self.config.engine,
+            self.tasks,
+            self.references,
+            space,
+            fitness_weights,
+            noise_weighted=self.config.residuals == "noise",
+        )
 
 
 def plan_run(config: RunConfig) -> RunPlan:
