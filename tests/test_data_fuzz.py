@@ -174,10 +174,14 @@ def _write(folder: Path, name: str, rec: Recording, kind: str) -> None:
 
 
 def _load(folder: Path, duration_s: float | None = None):
+    """The folder's recordings as the units and duration checks see them (every repeat kept: the repeat check, which
+    would leave a half-scale repeat out as far from the others, has its own tests in test_repeat_check.py)."""
     from simtune.data import load_task_data
     from simtune.robot.mico import WRIST_REACH_M
 
-    return load_task_data(folder, "t", WRIST, duration_s=duration_s, reach_m=WRIST_REACH_M, base_body=BASE)
+    return load_task_data(
+        folder, "t", WRIST, duration_s=duration_s, reach_m=WRIST_REACH_M, base_body=BASE, keep_repeats=True
+    )
 
 
 # Factors a file's positions may be off by: near 1 (never flagged), centimetres/inches

@@ -323,6 +323,9 @@ def robot_content(robot: RobotDescription) -> dict:
     for added in ("estimated_masses", "placeholder_masses"):  # fields added later: a robot without them keeps its key
         if not content.get(added):
             content.pop(added, None)
+    for joint in content["joints"]:  # likewise a joint's armature (an MJCF file's): 0 keeps the joint's key
+        if not joint.get("armature"):
+            joint.pop("armature", None)
     if robot.mjcf is not None:
         content["mjcf"] = mjcf_content(robot.mjcf)
     for link, stored in zip(robot.links, content["links"]):

@@ -224,6 +224,13 @@ def _repeats(repeats: object) -> str:
     return DEFAULT_REPEATS if repeats is None else check_repeats(repeats)
 
 
+def _flag(name: str, value: object) -> bool:
+    """A switch: True or False (not 1, "yes" or None)."""
+    if not isinstance(value, bool):
+        raise ConfigError(f"{name} must be True or False, got {value!r}")
+    return value
+
+
 def _aligned(align_clock: object, specs) -> set[str]:
     """The tasks whose clocks ``align_clock`` names: True (all), False (none) or task names of ``specs``."""
     if align_clock is None or isinstance(align_clock, bool):
@@ -251,6 +258,7 @@ def evaluate(
     reference: str | None = None,
     repeats: str | None = None,
     targets: str | None = None,
+    keep_repeats: bool = False,
 ) -> Result:
     """Fitness of ``params`` (a mapping, or a params file such as best_params.json; default: the engine's
     generic values) for ``engine`` on ``tasks`` (names or groups: comma-separated, or a list) of ``project``.
@@ -266,10 +274,12 @@ def evaluate(
     ``even`` (the 1st, 3rd ... in sorted order) or ``odd`` (the 2nd, 4th ...): score on the repeats a run was not
     tuned on; the result's ``repeat_files`` name them.  ``targets``: the joint targets the tasks carry, ``task``
     (the default: the task files') or ``published`` (where a task file corrects the published ones:
-    :data:`simtune.tasks.TARGETS`).  An argument of the wrong type or value is a
-    :class:`~simtune.errors.ConfigError` naming it.
+    :data:`simtune.tasks.TARGETS`).  ``keep_repeats``: keep a repeat far from the others, which the repeat check
+    (:mod:`simtune.data.screen`) otherwise leaves out with a warning naming its file.  An argument of the wrong
+    type or value is a :class:`~simtune.errors.ConfigError` naming it.
     """
     kind = _reference(reference)
+    keep = _flag("keep_repeats", keep_repeats)
     selection = _repeats(repeats)
     fitness_weights = _weights(weights)
     proj = _project(project)
@@ -288,7 +298,7 @@ def evaluate(
         values = validate_params(file_values, supported, engine, where=str(given), robot=robot)
     else:
         values = validate_params(dict(given), supported, engine, where="params", robot=robot)
-    references = load_references(_root(data, proj), specs, joint_topic, kind, selection)
+    references = load_references(_root(data, proj), specs, joint_topic, kind, selection, keep)
     objective = Objective(engine, specs, references, weights=fitness_weights)
     try:
         start = time.perf_counter()
@@ -362,6 +372,7 @@ def run_config(
     reference: str | None = None,
     repeats: str | None = None,
     targets: str | None = None,
+    keep_repeats: bool = False,
 ) -> RunConfig:
     """The configuration ``tune`` runs and stores, from the same arguments (``simtune tune``'s options).
 
@@ -369,8 +380,9 @@ def run_config(
     ``optimizer``: None for the default (auto; de with ``paper_exact``); ``reference``: None for the default
     (aligned; mean with ``paper_exact``); ``repeats``: which of each task's repeats it is tuned on (all, even or
     odd; None: all); ``targets``: the tasks' joint targets (task or published; None: task, published with
-    ``paper_exact``).  The project is stored by its project
-    file (the bundled MICO project: not at all), ``data`` absolute.
+    ``paper_exact``); ``keep_repeats``: keep a repeat far from the others (else left out, named, and recorded in
+    the run's fingerprint).  The project is stored by its project file (the bundled MICO project: not at all),
+    ``data`` absolute.
     """
     proj = _project(project)
     fitness_weights = _weights(weights)
@@ -399,6 +411,7 @@ def run_config(
         reference=_reference(reference, paper_exact),
         repeats=_repeats(repeats),
         targets="" if targets is None else _targets(targets, "targets"),
+        keep_repeats=keep_repeats,
     )
     config.check()  # a value of the wrong type or range: one line naming it, before anything runs
     return config
@@ -592,9 +605,9 @@ def grid_spec(
     recorded repeats every run is tuned on (all, even or odd; None: all), ``--repeat-set`` (``repeats`` is the
     number of seeds)."""
     return GridSpec(
-        engines=_listed(engines),
-        tasks=_listed(tasks),
-        spaces=_listed(spaces),
+        engines=_listed(engines, "engines"),
+        tasks=_listed(tasks, "tasks"),
+        spaces=_listed(spaces, "spaces"),
         repeats=repeats,
         data=str(_study_root(data)),
         max_seconds_per_run=max_seconds_per_run,
@@ -628,6 +641,7 @@ def check(
     reference: str | None = None,
     repeats: str | None = None,
     write_task: Path | str | None = None,
+    keep_repeats: bool = False,
 ) -> dict:
     """Before tuning (``simtune check --task``): the recordings' quality per task (with the repeats' clock
     shifts and the floor: their spread with and without alignment), the rest pose after each phase against where
@@ -635,9 +649,10 @@ def check(
     recordings can inform (the Jacobian at the generic point, against ``reference``: aligned, the default, or
     mean), of the repeats ``repeats`` selects (all, the default, even or odd; the result names the files used).
 
-    ``write_task``: a new file to write the one checked task's file to, each phase whose rest lies far off given
-    its proposed targets (the former kept as ``published_targets_deg``, the evidence in a comment); the result's
-    ``written_task`` names it (None where no rest lies far off: nothing is written)."""
+    ``keep_repeats``: keep a repeat far from the others (else left out with a warning, named in each task's
+    ``repeat_check_left_out``).  ``write_task``: a new file to write the one checked task's file to, each phase
+    whose rest lies far off given its proposed targets (the former kept as ``published_targets_deg``, the evidence
+    in a comment); the result's ``written_task`` names it (None where no rest lies far off: nothing is written)."""
     kind = _reference(reference)
     selection = _repeats(repeats)
     proj = _project(project)
@@ -648,7 +663,10 @@ def check(
     if write_task is not None and len(specs) != 1:
         raise ConfigError(f"--write-task writes one task's file: check one task, not {len(specs)}")
     out = None if write_task is None else _path("write_task", write_task)
-    result = run_check(engine, specs, root, space, _workers(workers), reference=kind, repeats=selection)
+    keep = _flag("keep_repeats", keep_repeats)
+    result = run_check(
+        engine, specs, root, space, _workers(workers), reference=kind, repeats=selection, keep_repeats=keep
+    )
     if out is not None:
         result["written_task"] = _write_corrected_task(proj, specs[0], result["data_quality"][0], out)
     return result
@@ -715,10 +733,13 @@ def export(
     return [export_run(runs[0], out, engine=engine, dr=dr, force=force)], []
 
 
-def _listed(value: str | Collection[str]) -> list[str]:
-    """Names given comma-separated or as a list (blank ones dropped)."""
-    parts = value.split(",") if isinstance(value, str) else value
-    return [part.strip() for part in parts if part.strip()]
+#: an example of each list :func:`_listed` reads, for its error
+_LIST_EXAMPLES = {"optimizers": "de,cmaes", "engines": "mujoco,pybullet", "tasks": "single,cube", "spaces": "shared"}
+
+
+def _listed(value: str | Collection[str], name: str = "optimizers") -> list[str]:
+    """Names given comma-separated or as a list (blank ones dropped); anything else a ConfigError naming ``name``."""
+    return _names(name, value, _LIST_EXAMPLES.get(name, "a,b"))
 
 
 def read_run(run_dir: Path | str) -> Result:

@@ -223,7 +223,7 @@ def rest_poses(
 
 
 def task_quality(
-    engine: str, task: TaskSpec, root: Path, reference: str = "aligned", repeats: str = "all"
+    engine: str, task: TaskSpec, root: Path, reference: str = "aligned", repeats: str = "all", keep: bool = False
 ) -> tuple[dict, TaskData]:
     """The data-quality and onset part of the check for one task, and its loaded reference (``reference``: aligned
     or mean; ``repeats``: all, even or odd of the repeats).  The repeats are aligned either way, to report their
@@ -231,8 +231,8 @@ def task_quality(
     with."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        aligned = load_references(root, [task], reference="aligned", repeats=repeats)[task.name]
-        plain = load_references(root, [task], reference="mean", repeats=repeats)[task.name]
+        aligned = load_references(root, [task], reference="aligned", repeats=repeats, keep_repeats=keep)[task.name]
+        plain = load_references(root, [task], reference="mean", repeats=repeats, keep_repeats=keep)[task.name]
     if aligned.wrist_repeats is None or aligned.wrist_mean is None or plain.wrist_repeats is None:
         raise SimtuneError(
             f"check --task {task.name}: its recordings hold no wrist marker (joint logs only); this check reads "
@@ -259,7 +259,9 @@ def task_quality(
         "task": task.name,
         "reference": reference,
         "repeats": rows,
-        "left_out": [str(w.message) for w in caught],
+        # each warning once: both references are read, and each read warns alike
+        "left_out": list(dict.fromkeys(str(w.message) for w in caught)),
+        "repeat_check_left_out": [Path(source).name for source in aligned.left_out],
         "repeat_spread_m": chosen.repeat_spread,
         "repeat_spread_aligned_m": floor.spread_aligned_m,
         "repeat_spread_unaligned_m": floor.spread_unaligned_m,
@@ -327,13 +329,15 @@ def check(
     *,
     reference: str = "aligned",
     repeats: str = "all",
+    keep_repeats: bool = False,
 ) -> dict:
     """Every part of the check for ``tasks`` on ``engine`` with the recordings under ``root`` (the repeats
-    ``repeats`` selects: all, even or odd), the Jacobian's residuals against ``reference`` (aligned or mean)."""
+    ``repeats`` selects: all, even or odd; one far from the others left out unless ``keep_repeats``), the
+    Jacobian's residuals against ``reference`` (aligned or mean)."""
     cls = engine_class(engine)
     per_task, references = [], {}
     for task in tasks:
-        summary, reference_data = task_quality(engine, task, Path(root), reference, repeats)
+        summary, reference_data = task_quality(engine, task, Path(root), reference, repeats, keep_repeats)
         per_task.append(summary)
         references[task.name] = reference_data
     full = get_space(space_name, cls.supported())

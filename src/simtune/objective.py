@@ -19,7 +19,7 @@ from simtune.controller import CONTROLLER_PARAMETERS
 from simtune.data import TaskData, load_task_data
 from simtune.data.sanity import JointRange
 from simtune.engines import Engine, engine_class, make_engine
-from simtune.engines.base import MarkerBudget
+from simtune.engines.base import MarkerBudget, Rollout
 from simtune.errors import ConfigError, RecordingError, RecordingWarning, SimtuneError
 from simtune.fitness import (
     PENALTY,
@@ -38,11 +38,17 @@ from simtune.tasks.lerobot import reading_for
 
 
 def load_task_recordings(
-    folder: Path, task: TaskSpec, joint_topic: str | None = None, reference: str = "mean", repeats: str = "all"
+    folder: Path,
+    task: TaskSpec,
+    joint_topic: str | None = None,
+    reference: str = "mean",
+    repeats: str = "all",
+    keep_repeats: bool = False,
 ) -> TaskData:
     """One task's recordings from ``folder``, with what the task and its robot tell the loader's sanity stage,
     averaged as ``reference`` says (``aligned``: on one clock, :mod:`simtune.data.clock`; ``mean``: as recorded),
-    of the repeats ``repeats`` selects (``all``, ``even`` or ``odd``: :func:`simtune.data.load_task_data`).
+    of the repeats ``repeats`` selects (``all``, ``even`` or ``odd``: :func:`simtune.data.load_task_data`), a
+    repeat far from the others left out unless ``keep_repeats`` (:mod:`simtune.data.screen`).
 
     A task that starts its object where the recordings put it (``start_from_recordings``) needs recordings that
     track the object: joint logs alone are a one-line error.
@@ -62,6 +68,7 @@ def load_task_recordings(
         joint_ranges=ranges,
         reference=reference,
         repeats=repeats,
+        keep_repeats=keep_repeats,
     )
     if task.start_from_recordings and task.object is not None and data.object_start_mean is None:
         raise RecordingError(
@@ -94,10 +101,11 @@ def load_references(
     joint_topic: str | None = None,
     reference: str = "mean",
     repeats: str = "all",
+    keep_repeats: bool = False,
 ) -> dict[str, TaskData]:
     """The recordings of each task, from ``root/<task name>/``, checked against the task and the arm, averaged as
     ``reference`` says (``aligned`` or ``mean``: :func:`load_task_recordings`), of the repeats ``repeats``
-    selects (``all``, ``even`` or ``odd``).
+    selects (``all``, ``even`` or ``odd``), a repeat far from the others left out unless ``keep_repeats``.
 
     Without ``root``, each task's own recordings folder (``TaskSpec.recordings``, from its project).
     The task's duration, its robot's reach and its joint names go to the loader's sanity stage as
@@ -120,7 +128,7 @@ def load_references(
         if not folder.is_dir():
             what = f"{folder} is a file, not a folder" if folder.exists() else f"folder {folder} does not exist"
             raise SimtuneError(f"no recordings for task {task.name!r}: {what}")
-        refs[task.name] = load_task_recordings(folder, task, joint_topic, reference, repeats)
+        refs[task.name] = load_task_recordings(folder, task, joint_topic, reference, repeats, keep_repeats)
         gap = start_pose_gap(task, refs[task.name])
         if gap is not None and gap > START_WARN_M:
             warnings.warn(
@@ -273,6 +281,10 @@ class Objective:
         wrist = 3 * n if reference.wrist_mean is not None else 0
         return wrist + 3 * _has_object_residual(task, self.references) + n * len(reference.joint_names)
 
+    def residual_counts(self) -> list[int]:
+        """The length of each task's part of :meth:`residuals`, in the tasks' order."""
+        return [self._residual_count(t) for t in self.tasks]
+
     @property
     def residual_size(self) -> int:
         """Length of :meth:`residuals`: per task 3 per 20 Hz sample with a wrist marker, 3 with an object, and
@@ -285,6 +297,41 @@ class Objective:
         m = self.residual_size
         largest = max((v for n in (self.noise or {}).values() for v in n.multipliers()), default=1.0)
         return np.full(m, PENALTY * max(1.0, largest) / np.sqrt(m))
+
+    def repeat_deviations(self) -> list[np.ndarray | None]:
+        """Per task, each repeat's deviation from the repeats' mean in the residuals' own units and order: row k is
+        what :meth:`residuals` would be for a simulation that reproduced repeat k exactly (its wrist track, object
+        end position and joint angles), so that the spread of the rows is the spread of the reference's residuals.
+        None for a task with fewer than two repeats of every signal it records.
+
+        Returns:
+            One (repeats, that task's residuals) array per task, in the tasks' order, or None.
+        """
+        found: list[np.ndarray | None] = []
+        for task in self.tasks:
+            reference = self.references[task.name]
+            counts = {
+                len(held)
+                for held in (reference.wrist_repeats, reference.object_final, reference.joint_repeats)
+                if held is not None
+            }
+            if len(counts) != 1 or min(counts) < 2:
+                found.append(None)
+                continue
+            noise = None if self.noise is None else self.noise[task.name]
+            rows = [
+                task_residuals(
+                    _repeat_as_rollout(reference, k),
+                    reference,
+                    {},
+                    weights=self.weights,
+                    joint_names=reference.joint_names,
+                    noise=noise,
+                )
+                for k in range(counts.pop())
+            ]
+            found.append(np.stack(rows))
+        return found
 
     def residuals_and_score(self, params: dict[str, float]) -> tuple[np.ndarray, Score]:
         """Residual vector of ``params`` for least squares, and its score, from the same rollouts.
@@ -437,3 +484,16 @@ def _pruning_monitor(
     # the summed marker error that proves the bound exceeded (with a margin far above rounding, so the
     # rescored lower bound is sure to exceed it too)
     return MarkerBudget(reference.wrist_mean, offset, ((bound - spent) * n * (1 + 1e-9) + 1e-12) / wrist_weight)
+
+
+def _repeat_as_rollout(reference: TaskData, k: int) -> Rollout:
+    """Repeat ``k`` of ``reference`` as a rollout would hold it (its wrist track, joint angles and, at its last
+    sample, the object where that repeat left it): what :func:`~simtune.fitness.residuals` compares with the mean."""
+    n = len(reference.times)
+    wrist = reference.wrist_repeats[k] if reference.wrist_repeats is not None else np.zeros((n, 3))
+    joints = reference.joint_repeats[k] if reference.joint_repeats is not None else np.zeros((n, 0))
+    obj = None
+    if reference.object_final is not None:
+        obj = np.zeros((n, 3))
+        obj[-1] = reference.object_final[k]
+    return Rollout(reference.times, wrist, np.tile(np.eye(3), (n, 1, 1)), joints, obj)

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
 import sys
+import time
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -24,6 +26,8 @@ from simtune.errors import EngineUnavailable, SimtuneError
 from simtune.fitness import reference_floor
 from simtune.objective import load_task_recordings, recordings_folder
 from simtune.project import Project, load_project
+from simtune.robot.generate import servo_shortfalls
+from simtune.spawn_guard import adopt_environment, check_main_guarded, sigint_blocked, worker_context
 
 #: A start position of the tracked link farther than this from the first recorded marker position
 #: is worth a warning [m]: a wrong base pose, tracked link, start pose or unit.
@@ -207,32 +211,102 @@ def _engine_chatter_silenced() -> Iterator[None]:
             os.close(fd)
 
 
+#: How long [s] one engine may take to load the robot in its child process before it counts as hung.
+ENGINE_LOAD_TIMEOUT_S = 300.0
+
+
+def _load_robot(name: str, task) -> tuple[str, object]:
+    """Load ``task``'s robot in engine ``name``, the engines' own chatter silenced: ``("loaded", the tracked link's
+    position)``, ``("unavailable", why)`` or ``("failed", the first line of the error)``."""
+    try:
+        with _engine_chatter_silenced():  # importing pybullet prints its build time
+            cls = engine_class(name)
+    except EngineUnavailable as exc:
+        return "unavailable", str(exc)
+    try:
+        with _engine_chatter_silenced():
+            sim = cls(task)
+            try:
+                sim.reset({})
+                got, _ = sim.wrist_pose()
+            finally:
+                sim.close()
+    except Exception as exc:  # an engine failing on a robot is a finding, not the end of the check
+        return "failed", str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return "loaded", tuple(float(v) for v in got)
+
+
+def _load_robot_child(name: str, task, environ: dict[str, str], conn) -> None:
+    """A child process's :func:`_load_robot`, its answer sent through ``conn``."""
+    adopt_environment(environ)
+    conn.send(_load_robot(name, task))
+    conn.close()
+
+
+def _died(exitcode: int | None) -> str:
+    """How a child that sent no answer ended: ``crashed (signal 11, SIGSEGV)`` or ``exited with status 3``."""
+    if exitcode is not None and exitcode < 0:
+        try:
+            named = f", {signal.Signals(-exitcode).name}"
+        except ValueError:
+            named = ""
+        return f"crashed (signal {-exitcode}{named})"
+    return f"exited with status {exitcode} without an answer"
+
+
+def _load_robot_isolated(engines: tuple[str, ...], task, timeout_s: float) -> dict[str, tuple[str, object]]:
+    """:func:`_load_robot` for each engine in a child process of its own, all at once: an engine that crashes
+    the process (a native abort or segfault) or hangs is ``("failed", "crashed (signal 6, SIGABRT)")`` or
+    ``("failed", "did not load within ... s")``, and the other engines are still reported.  Where a script's
+    ``__main__`` is not guarded (a child would run it again), each loads in this process as before."""
+    try:
+        check_main_guarded("loading the robot in each engine")
+    except SimtuneError:
+        return {name: _load_robot(name, task) for name in engines}
+    context = worker_context()
+    children = {}
+    with sigint_blocked():
+        for name in engines:
+            receive, send = context.Pipe(duplex=False)
+            child = context.Process(  # type: ignore[attr-defined]
+                target=_load_robot_child, args=(name, task, dict(os.environ), send), daemon=True
+            )
+            child.start()
+            send.close()
+            children[name] = (child, receive)
+    results: dict[str, tuple[str, object]] = {}
+    deadline = time.monotonic() + timeout_s
+    for name, (child, receive) in children.items():
+        answer = None
+        if receive.poll(max(deadline - time.monotonic(), 0.0)):
+            try:
+                answer = receive.recv()
+            except EOFError:  # the child died before it answered
+                pass
+        child.join(1.0 if answer is not None else 5.0)
+        if child.is_alive():
+            child.kill()
+            child.join()
+            answer = answer or ("failed", f"did not load within {timeout_s:g} s (killed)")
+        results[name] = answer or ("failed", _died(child.exitcode))
+        receive.close()
+    return results
+
+
 def _check_engines(project: Project, engines: tuple[str, ...]) -> list[Finding]:
-    """Which engines build the robot: each one's tracked link at the first task's start pose, against the
-    robot's own forward kinematics."""
+    """Which engines build the robot (each in a child process of its own: :func:`_load_robot_isolated`): each
+    one's tracked link at the first task's start pose, against the robot's own forward kinematics."""
     task = next(iter(project.tasks.values()))
     want, _ = task.robot.forward_kinematics(np.radians(task.start_pose_deg))
     loaded, findings = [], []
-    for name in engines:
-        try:
-            with _engine_chatter_silenced():  # importing pybullet prints its build time
-                cls = engine_class(name)
-        except EngineUnavailable as exc:
-            findings.append(Finding("note", str(exc)))
+    for name, (outcome, value) in _load_robot_isolated(engines, task, ENGINE_LOAD_TIMEOUT_S).items():
+        if outcome == "unavailable":
+            findings.append(Finding("note", str(value)))
             continue
-        try:
-            with _engine_chatter_silenced():
-                sim = cls(task)
-                try:
-                    sim.reset({})
-                    got, _ = sim.wrist_pose()
-                finally:
-                    sim.close()
-        except Exception as exc:  # an engine failing on a robot is a finding, not the end of the check
-            first_line = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            findings.append(Finding("warning", f"engine {name} cannot load robot {task.robot.name}: {first_line}"))
+        if outcome == "failed":
+            findings.append(Finding("warning", f"engine {name} cannot load robot {task.robot.name}: {value}"))
             continue
-        error = float(np.linalg.norm(np.asarray(got) - want))
+        error = float(np.linalg.norm(np.asarray(value) - want))
         if error > 1e-4:
             findings.append(
                 Finding(
@@ -242,9 +316,33 @@ def _check_engines(project: Project, engines: tuple[str, ...]) -> list[Finding]:
             )
         loaded.append(name)
     findings.append(Finding("note", f"engines that load the robot: {', '.join(loaded) or 'none'}"))
+    findings += _servo_findings(task.robot, loaded)
     if task.robot.mjcf is not None:
         findings.append(Finding("note", _mjcf_engines_line(task.robot.mjcf, loaded)))
     return findings
+
+
+#: The engines whose velocity servo is a hard motor (a velocity constraint up to the force limit), not a gain.
+HARD_MOTOR_ENGINES = ("pybullet", "ode", "dart")
+
+
+def _servo_findings(robot, loaded: list[str]) -> list[Finding]:
+    """A warning per hard-motor engine that loads ``robot`` where a joint's damping or friction holds MuJoCo's
+    servo below its command (:func:`simtune.robot.generate.servo_shortfalls`): their motion differs."""
+    held = servo_shortfalls(robot)
+    if not held or "mujoco" not in loaded:
+        return []
+    causes = "; ".join(f"{joint}: {why}" for joint, why in held.items())
+    return [
+        Finding(
+            "warning",
+            f"engine {name} and mujoco may disagree on robot {robot.name}: {name}'s hard motors hold the commanded "
+            f"speed where MuJoCo's velocity servo, limited by the joint's force limit, is held back ({causes}); "
+            "docs/robots.md, 'The engines agree'",
+        )
+        for name in loaded
+        if name in HARD_MOTOR_ENGINES
+    ]
 
 
 def _mjcf_engines_line(mjcf: str, loaded: list[str]) -> str:

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from simtune.data.formats import recording_kinds
 from simtune.errors import ProjectError, RobotWarning
 from simtune.geometry import rpy_matrix
 from simtune.project import load_project
@@ -49,14 +50,28 @@ START_SEARCH_JOINTS = 12
 def _toml(value) -> str:
     """A TOML value: strings and lists of numbers or strings (JSON writes both the way TOML reads them)."""
     if isinstance(value, float):
-        return f"{value:.6g}" if math.isfinite(value) else json.dumps(value)
+        if not math.isfinite(value):
+            return json.dumps(value)
+        short = f"{value:.6g}"
+        return short if float(short) == value else repr(value)  # a locked joint's angle, say: every digit
     if isinstance(value, tuple | list):
         return "[" + ", ".join(_toml(v) for v in value) + "]"
-    return json.dumps(value)
+    # names as written (an emoji too): JSON's ASCII escapes write one as two surrogates, which TOML refuses
+    return json.dumps(value, ensure_ascii=False)
 
 
-def _deg(values) -> list[float]:
-    return [round(float(v), 3) for v in values]
+def _deg(values, rooms: list[tuple[float, float]]) -> list[float]:
+    """``values`` [deg] rounded to a thousandth inside their ``rooms``: inwards where rounding would leave one, and
+    not at all where no thousandth lies inside (a locked joint, its lower limit equal to its upper)."""
+    rounded = []
+    for value, (low, high) in zip(values, rooms):
+        r = round(float(value), 3)
+        if r < low:
+            r = math.ceil(low * 1000) / 1000
+        if r > high:
+            r = math.floor(high * 1000) / 1000
+        rounded.append(r if low <= r <= high else float(value))
+    return rounded
 
 
 def _room(robot: RobotDescription, name: str) -> tuple[float, float]:
@@ -196,7 +211,8 @@ def reach_poses(robot: RobotDescription) -> tuple[list[float], list[float]]:
         if float(robot.forward_kinematics(np.radians(target))[0][2]) >= CLEARANCE_M:
             break
         scale /= 2
-    return _deg(start), _deg(target)
+    rooms = [_room(robot, name) for name in robot.arm_joints]
+    return _deg(start, rooms), _deg(target, rooms)
 
 
 def project_text(robot: RobotDescription, urdf: Path, package_path: Sequence[str | Path] = ()) -> str:
@@ -219,8 +235,10 @@ def project_text(robot: RobotDescription, urdf: Path, package_path: Sequence[str
         f'description = "{robot.name}, from {urdf.name}"',
         "# task files, relative to this folder; add one per motion you recorded",
         'tasks = ["tasks/reach.toml"]',
-        "# the data root: recordings/<task name>/ holds each task's recordings (motion capture: *.tsv, *.csv, *.c3d;",
-        "# joint logs: *.csv, *.mcap, rosbag2 folders). Without recordings yet: `simtune synth --project <folder> ...`",
+        "# the data root: recordings/<task name>/ holds each task's recordings (motion capture: "
+        f"{recording_kinds('markers')};",
+        f"# joint logs: {recording_kinds('joints')}).",
+        "# Without recordings yet: `simtune synth --project <folder> ...`",
         'data = "recordings"',
         "",
         "[robot]",

@@ -102,6 +102,9 @@ class RunConfig:
     #: recorded signal divided by its own noise (simtune.fitness.signal_noise), or ``plain``, the fitness's parts
     #: as they are; left empty: noise, or plain with paper_exact.  Runs stored before this setting fitted plain ones.
     residuals: str = ""
+    #: keep a repeat far from the others (the repeat check, simtune.data.screen, leaves it out with a warning);
+    #: runs stored before the check kept every repeat, and their fingerprints say which it now leaves out
+    keep_repeats: bool = False
 
     def __post_init__(self) -> None:
         if self.reference == "":
@@ -126,8 +129,9 @@ class RunConfig:
         for key in ("project", "weights", "joint_topic"):
             if values[key] is None:
                 del values[key]
-        if not values["threads"]:
-            del values["threads"]
+        for key in ("threads", "keep_repeats"):
+            if not values[key]:
+                del values[key]
         if values["repeats"] == "all":
             del values["repeats"]
         if values["targets"] == "published":
@@ -191,7 +195,7 @@ class RunConfig:
                 raise bad(key, "a finite number of seconds above 0")
         if self.target_fitness is not None and (not _is_number(self.target_fitness) or self.target_fitness < 0):
             raise bad("target_fitness", "a finite number of at least 0")
-        for key in ("prune", "refine", "paper_exact", "keep_inactive", "task_delays", "threads"):
+        for key in ("prune", "refine", "paper_exact", "keep_inactive", "task_delays", "threads", "keep_repeats"):
             if not isinstance(getattr(self, key), bool):
                 raise bad(key, "true or false")
         if self.only is not None and (
@@ -301,7 +305,10 @@ class RunPlan:
         """The recordings of every task (from the run's data root, else each task's own folder), as the run's
         reference (aligned or mean), of the run's repeats (all, even or odd)."""
         data = None if self.config.data is None else Path(self.config.data)
-        return load_references(data, self.tasks, self.config.joint_topic, self.config.reference, self.config.repeats)
+        config = self.config
+        return load_references(
+            data, self.tasks, config.joint_topic, config.reference, config.repeats, config.keep_repeats
+        )
 
     def search_space(self, inactive: dict[str, str] | None = None) -> ParameterSpace:
         """The space searched: the full space less ``inactive`` (default: the measured ones) unless the run keeps

@@ -98,10 +98,11 @@ def _digest(value) -> str:
     return hashlib.sha256(json.dumps(value, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def run_fingerprint(plan: RunPlan) -> dict:
+def run_fingerprint(plan: RunPlan, screened: bool = True) -> dict:
     """What the fitness of a run depends on besides its parameters: data files, the reference made of them (aligned
     or mean) and which repeats build it (left out when all: the fingerprints of runs stored before the choice
-    stay), task definitions, the robot, engine version."""
+    stay), task definitions, the robot, engine version; with ``screened``, the repeats the repeat check left out
+    (:func:`left_out_repeats`, left out when none: every run stored before the check)."""
     fingerprint = {
         "data": folders_fingerprint({t.name: recordings_folder(plan.config.data, t) for t in plan.tasks}),
         "reference": plan.config.reference,
@@ -113,7 +114,26 @@ def run_fingerprint(plan: RunPlan) -> dict:
     # the robot on its own (its content, not its path), so that a changed URDF is named as such on resume rather than
     # as a changed task (the robot is part of each task's definition)
     fingerprint["robot"] = _digest(robot_content(plan.robot))
+    if screened and (left_out := left_out_repeats(plan)):
+        fingerprint["left_out"] = left_out
     return fingerprint
+
+
+def left_out_repeats(plan: RunPlan) -> dict[str, list[str]]:
+    """Per task, the files of the repeats the repeat check left out of the run's reference (reads the data)."""
+    return {name: [Path(p).name for p in ref.left_out] for name, ref in plan.references.items() if ref.left_out}
+
+
+def left_out_changes(stored: dict, now: dict) -> list[str]:
+    """What the repeat check leaves out now and did not when the run started (``stored``), and the reverse."""
+    changes = []
+    for task in sorted(set(stored) | set(now)):
+        was, is_now = set(stored.get(task, [])), set(now.get(task, []))
+        changes += [f"the repeat check now leaves out {task}/{name}" for name in sorted(is_now - was)]
+        changes += [
+            f"the repeat check now keeps {task}/{name} (left out when the run started)" for name in sorted(was - is_now)
+        ]
+    return changes
 
 
 #: A task's fingerprint now -> the one runs stored before tasks were files, for the same definition: the
@@ -303,7 +323,9 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
             stored_fingerprint = store.get("fingerprint")
             changes = []  # a run from before fingerprints has nothing to compare with
             if stored_fingerprint is not None:
-                changes = fingerprint_differences(stored_fingerprint, run_fingerprint(plan))
+                changes = fingerprint_differences(stored_fingerprint, run_fingerprint(plan, screened=False))
+                if not changes:  # the data as it was: the repeats left out of it must be the same
+                    changes = left_out_changes(stored_fingerprint.get("left_out", {}), left_out_repeats(plan))
             if rescore:
                 return _rescore(run_dir, store, plan, changes, show_progress)
             if changes:

@@ -3,7 +3,7 @@
 One engine simulates each task with chosen "true" parameter values; each
 repeat gets motion-capture-like noise and a little start-time jitter
 (:func:`simtune.reference.make.synthesize`) and is written to
-``OUT/<task>/<task>NNNN<ending>`` in one of :data:`FORMATS`: by default as a
+``OUT/<task>/<task>NNNN<ending>`` by one of :data:`simtune.data.formats.WRITERS`: by default as a
 Qualisys 6D TSV with header, the format real recordings come in, so tuning
 reads them through the same loader; or as joint logs (the arm's joint angles
 with encoder-like noise), beside the markers in simtune CSV or instead of
@@ -25,8 +25,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import simtune
-from simtune.data import Recording, write_csv, write_joint_bag, write_qualisys_tsv
 from simtune.data.fingerprint import task_files
+from simtune.data.formats import writer
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, SimtuneError
 from simtune.fitness import rollout_joint_names
@@ -35,7 +35,6 @@ from simtune.project import Project
 from simtune.reference.make import RATE, synthesize
 from simtune.robot.description import RobotDescription
 from simtune.tasks import parse_tasks
-from simtune.tasks.lerobot import SYNTH_FPS, stated_units, write_task_dataset
 
 TRUTH_FILE = "truth.json"
 #: the most marker noise [m] and encoder noise [deg] synth writes: beyond them the recordings' own checks (a
@@ -45,20 +44,6 @@ MAX_JOINT_NOISE_DEG = 2.0
 DEFAULT_DELAY_S = 1.5  # the real qrg2019 recordings start 1.2-2.3 s before the arm moves
 #: encoder noise of synthetic joint logs [deg]: an arm's encoders read to about a tenth of a degree
 DEFAULT_JOINT_NOISE_DEG = 0.05
-
-#: ``--format``: what each repeat holds and where it goes (file ending; "" is a rosbag2 folder)
-FORMATS = {
-    "tsv": "markers in a Qualisys 6D TSV with header (as real recordings come)",
-    "csv": "markers and joint angles in one simtune CSV",
-    "joints-csv": "joint angles alone in a simtune CSV",
-    "mcap": "joint angles alone as sensor_msgs/JointState in an MCAP file",
-    "rosbag2": "joint angles alone as sensor_msgs/JointState in a rosbag2 folder (SQLite 3 storage)",
-    "lerobot": "joint angles and commanded targets as a LeRobot v3.0 dataset (OUT/<task>/ is the dataset)",
-    "lerobot-v2.1": "the same in LeRobot's v2.1 layout (one Parquet file per episode)",
-}
-_ENDINGS = {"tsv": ".tsv", "csv": ".csv", "joints-csv": ".csv", "mcap": ".mcap", "rosbag2": ""}
-#: ``--format`` -> the LeRobot layout it writes (each task's repeats one dataset, each repeat an episode)
-LEROBOT_FORMATS = {"lerobot": "v3.0", "lerobot-v2.1": "v2.1"}
 
 
 @dataclass
@@ -107,11 +92,12 @@ def make_synthetic(
     """Write ``repeats`` synthetic recordings of each task in ``tasks`` (names, groups, comma-separated) of
     ``project`` (default: the bundled MICO project), and each task's truth (:func:`truth_file`).
 
-    ``fmt`` is a key of :data:`FORMATS`; joint angles get Gaussian noise of
+    ``fmt`` is a key of :data:`simtune.data.formats.WRITERS`; joint angles get Gaussian noise of
     ``joint_noise_rad`` per sample.  ``OUT/truth.json`` holding another truth is refused unless ``force``.
     """
     specs = parse_tasks(tasks, project)
-    _check_settings(fmt, joint_noise_rad, repeats, noise_m, jitter_s)
+    write = writer(fmt)  # a known --format, checked first
+    _check_settings(joint_noise_rad, repeats, noise_m, jitter_s)
     for spec in specs:
         _check_delay(spec.name, spec.duration, truth.get("command_delay", 0.0), jitter_s)
     out = Path(out)
@@ -121,7 +107,7 @@ def make_synthetic(
         "noise_m": noise_m,
         "jitter_s": jitter_s,
         "format": fmt,
-        "joint_noise_rad": joint_noise_rad if fmt != "tsv" else None,
+        "joint_noise_rad": joint_noise_rad if write.joints else None,
         "repeats": repeats,
         "seed": seed,
         "simtune": simtune.__version__,
@@ -130,8 +116,8 @@ def make_synthetic(
     }
     for spec in specs:
         folder = out / spec.name
-        if fmt in LEROBOT_FORMATS:
-            stated_units(spec)  # before any simulation: the dataset's unit must be the one its task reads
+        if write.check is not None:
+            write.check(spec)  # before any simulation: e.g. a dataset's unit must be the one its task reads
         if folder.is_dir() and task_files(folder):
             raise SimtuneError(
                 f"{folder} already holds recordings: choose another --out (new files would be averaged with them)"
@@ -153,23 +139,18 @@ def make_synthetic(
             noise_m=noise_m,
             jitter_s=jitter_s,
             seed=hash_seed(seed, spec.name),
-            suffix=_ENDINGS.get(fmt, ""),
-            rate=SYNTH_FPS if fmt in LEROBOT_FORMATS else RATE,
-            joint_names=None if fmt == "tsv" else rollout_joint_names(spec),
+            suffix=write.ending,
+            rate=write.rate or RATE,
+            joint_names=rollout_joint_names(spec) if write.joints else None,
             joint_noise_rad=joint_noise_rad,
         )
-        if fmt in LEROBOT_FORMATS:
-            files[spec.name] = [write_task_dataset(folder, spec, recordings, LEROBOT_FORMATS[fmt])]
-        else:
-            files[spec.name] = [write_recording(folder / rec.source.name, rec, fmt) for rec in recordings]
+        files[spec.name] = write.write(folder, recordings, spec)
     _write_truths(out, meta, force)
     return SynthResult(out, truth, files, joint_noise_rad)
 
 
-def _check_settings(fmt: str, joint_noise_rad: float, repeats: int, noise_m: float, jitter_s: float) -> None:
-    """One line naming the option for a format, noise, jitter or repeat count no recording can hold."""
-    if fmt not in FORMATS:
-        raise ConfigError(f"--format: unknown format {fmt!r} (known: {', '.join(FORMATS)})")
+def _check_settings(joint_noise_rad: float, repeats: int, noise_m: float, jitter_s: float) -> None:
+    """One line naming the option for a noise, jitter or repeat count no recording can hold."""
     if not joint_noise_rad >= 0:
         raise ConfigError(f"--joint-noise-deg must be zero or more, got {joint_noise_rad:g} rad")
     if repeats < 1:
@@ -269,19 +250,6 @@ def _write_truths(out: Path, meta: dict, force: bool) -> None:
         (out / truth_file(task)).write_text(json.dumps({**meta, "tasks": [task]}, indent=2) + "\n")
     tasks = [t for t in (earlier or {}).get("tasks", []) if t not in meta["tasks"]] + meta["tasks"]
     (out / TRUTH_FILE).write_text(json.dumps({**meta, "tasks": tasks}, indent=2) + "\n")
-
-
-def write_recording(path: Path, rec: Recording, fmt: str) -> Path:
-    """Write one synthetic repeat in format ``fmt``; returns the file or folder written."""
-    if fmt == "tsv":
-        write_qualisys_tsv(path, rec, header=True)
-    elif fmt == "csv":
-        write_csv(path, rec)
-    elif fmt == "joints-csv":
-        write_csv(path, Recording(rec.source, rec.time, joints=rec.joints))
-    else:
-        return write_joint_bag(path, rec, storage="mcap" if fmt == "mcap" else "sqlite3")
-    return path
 
 
 def hash_seed(seed: int, name: str) -> int:

@@ -156,6 +156,44 @@ def directions(J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     return s, vt, keep, null_share
 
 
+@dataclass
+class RepeatSpread:
+    """What the spread of the recordings' repeats says about the parameters, beside Gauss-Newton's residual variance.
+
+    ``deviations``: per task, each repeat's deviation from the mean in residual units (rows; None for a task with
+    one repeat): :meth:`~simtune.objective.Objective.repeat_deviations`.  ``counts``: the residuals of each task, in
+    order.  ``clock``: parameter index -> the variance [s^2] of the aligned reference's clock origin (the median of
+    the repeats' shifts), for each command delay.
+    """
+
+    deviations: list[np.ndarray | None]
+    counts: list[int]
+    clock: dict[int, float]
+
+
+def repeat_covariance(J: np.ndarray, spread: RepeatSpread, keep: np.ndarray, s: np.ndarray, vt: np.ndarray):
+    """The covariance of the parameters (unit coordinates) that the repeats' own scatter gives the mean they are fitted
+    to, and the smallest repeat count: ``A (Sum_k d_k d_k^T / (R (R - 1))) A^T`` per task, summed, with ``A`` the
+    least-squares solution's linear map (``(J^T J)^+ J^T``) and ``d_k`` repeat k's deviation from the mean.  It holds
+    the recordings' whole correlation in time (a smooth misfit shared by a repeat's samples), which the white-noise
+    Gauss-Newton variance only approximates by the correlation time.
+
+    Returns:
+        ``(covariance (D, D), repeats)``; ``(None, 0)`` where no task has two repeats.
+    """
+    v_kept = vt[: len(s)][keep].T
+    solve = (v_kept / s[keep] ** 2) @ v_kept.T @ J.T  # (D, m)
+    cov, start, fewest = np.zeros((J.shape[1], J.shape[1])), 0, 0
+    for rows, count in zip(spread.deviations, spread.counts):
+        if rows is not None:
+            part = solve[:, start : start + count] @ rows.T  # (D, R): each repeat's pull on the parameters
+            repeats = rows.shape[0]
+            cov += part @ part.T / (repeats * (repeats - 1))
+            fewest = repeats if not fewest else min(fewest, repeats)
+        start += count
+    return (cov, fewest) if fewest else (None, 0)
+
+
 def analyse(
     space: ParameterSpace,
     x: np.ndarray,
@@ -163,11 +201,14 @@ def analyse(
     inflation: float = 1.0,
     inactive: dict[str, str] | None = None,
     variance: float | None = None,
+    spread: RepeatSpread | None = None,
 ) -> dict:
     """The uncertainty summary of the searched parameters (``space``, values ``x``) from ``jac``.
 
     ``variance``: of one residual, if known (the check takes it from the repeats' scatter); by
-    default the residuals' own at the point.  ``inflation``: the residuals' correlation time.
+    default the residuals' own at the point.  ``inflation``: the residuals' correlation time.  ``spread``: the
+    repeats' scatter (:class:`RepeatSpread`): each parameter's standard deviation is then the larger of Gauss-Newton's
+    and the repeats' (at Student's t for their count), and a command delay's adds the aligned clock's origin.
     """
     inactive = inactive or {}
     width = np.array([p.high - p.low for p in space.parameters])
@@ -183,9 +224,12 @@ def analyse(
     v_kept = vt[: len(s)][keep].T  # (d, rank)
     cov_unit = (v_kept / s[keep] ** 2) @ v_kept.T * variance * inflation
     cov = cov_unit * np.outer(width, width)
+    sds = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    if spread is not None:
+        sds = _with_repeats(sds, J, spread, keep, s, vt, width)
     entries = []
     for i, p in enumerate(space.parameters):
-        sd = math.sqrt(max(float(cov[i, i]), 0.0))
+        sd = float(sds[i])
         active = p.name not in inactive
         identifiable = bool(active and not kinked[i] and null_share[i] < NULL_SHARE and 2 * Z95 * sd <= width[i])
         entries.append(
@@ -199,7 +243,7 @@ def analyse(
             }
         )
     pairs = []
-    ident = [i for i, e in enumerate(entries) if e["identifiable"]]
+    ident = [i for i, e in enumerate(entries) if e["identifiable"]]  # correlations: Gauss-Newton's
     for a_pos, a in enumerate(ident):
         for b in ident[a_pos + 1 :]:
             denom = math.sqrt(cov[a, a] * cov[b, b])
@@ -223,10 +267,28 @@ def analyse(
         "method": (
             f"Gauss-Newton at the best point: central differences (step {STEP:g} of each range) of the "
             f"per-sample residuals; pseudo-inverse over singular values above {RCOND:g} x the largest; "
-            "covariance x the residuals' integrated autocorrelation time; 95 % = value +- "
+            "covariance x the residuals' integrated autocorrelation time; each standard deviation at least what "
+            "the scatter of the recordings' repeats gives the fitted mean (at Student's t for their count), and a "
+            "command delay's widened by the aligned clock's origin; 95 % = value +- "
             f"{Z95:.2f} sd; a parameter whose forward and backward differences disagree is not identifiable"
         ),
     }
+
+
+def _with_repeats(sds, J, spread: RepeatSpread, keep, s, vt, width) -> np.ndarray:
+    """``sds`` (each parameter's standard deviation, in its units) raised to what the repeats' scatter gives it (at
+    Student's t for the fewest repeats, as a normal-quantile equivalent) and, for a command delay, widened by the
+    aligned clock's origin."""
+    from scipy.stats import t as student
+
+    cov, repeats = repeat_covariance(J, spread, keep, s, vt)
+    sds = np.array(sds, dtype=float)
+    if cov is not None:
+        stretch = float(student.ppf(0.975, repeats - 1)) / Z95
+        sds = np.maximum(sds, stretch * np.sqrt(np.maximum(np.diag(cov), 0.0)) * width)
+    for i, clock_variance in spread.clock.items():
+        sds[i] = math.sqrt(sds[i] ** 2 + clock_variance)
+    return sds
 
 
 def uncertainty(
@@ -240,7 +302,9 @@ def uncertainty(
     space = objective.vector_space()
     jac = jacobian(objective, x, workers)
     inflation = correlation_time(wrist_tracks(jac.residuals, objective))
-    result = analyse(space, np.asarray(x, dtype=float), jac, inflation, inactive)
+    values = space.to_dict(np.asarray(x, dtype=float))
+    spread = repeat_spread(objective, values.get("timestep"))
+    result = analyse(space, np.asarray(x, dtype=float), jac, inflation, inactive, spread=spread)
     searched = {e["name"]: e for e in result["parameters"]}
     left_out = [n for n in full.names if n not in searched]
     generic = generic_values(objective, left_out) if left_out else {}
@@ -259,6 +323,46 @@ def uncertainty(
         entries.append(entry)
     result["parameters"] = entries
     return result
+
+
+#: A median's standard deviation over a mean's, for normal samples (sqrt(pi / 2)): the aligned clock's origin is the
+#: median of the repeats' shifts.
+MEDIAN_EFFICIENCY = math.sqrt(math.pi / 2)
+
+
+def repeat_spread(objective: Objective, x_timestep: float | None = None) -> RepeatSpread:
+    """The repeats' scatter of ``objective``'s references, for :func:`analyse`.
+
+    Each task's repeat deviations in residual units, and, for each command delay of the space (``command_delay``, or a
+    task's own), the variance of its timing: the aligned reference puts its clock at the median of the repeats' shifts
+    onto their median onset, itself uncertain by ``MEDIAN_EFFICIENCY x sd(shifts) / sqrt(R)`` (the plain mean has no
+    such origin), and the simulation resolves a delay to one physics step (a uniform error: ``timestep^2 / 12``).
+
+    Args:
+        objective: the run's objective (its tasks, references and residual weights).
+        x_timestep: the physics time step at the point [s] (None: the engine's generic one).
+    Returns:
+        The :class:`RepeatSpread`.
+    """
+    from simtune.alignment import delay_parameter
+
+    names = objective.vector_space().names
+    counts = objective.residual_counts()
+    # the simulation starts each controller update on a whole physics step: a delay is resolved to one step
+    step = x_timestep if x_timestep is not None else generic_values(objective, ["timestep"]).get("timestep")
+    resolution = 0.0 if step is None else float(step) ** 2 / 12.0
+    clock: dict[int, float] = {}
+    for task in objective.tasks:
+        alignment = objective.references[task.name].alignment
+        shifts = None if alignment is None else np.asarray(alignment.shifts, dtype=float)
+        origin = 0.0
+        if shifts is not None and len(shifts) >= 2:
+            origin = (MEDIAN_EFFICIENCY * float(np.std(shifts, ddof=1))) ** 2 / len(shifts)
+        for name in (delay_parameter(task.name), "command_delay"):
+            if name in names:
+                i = names.index(name)
+                clock[i] = max(clock.get(i, 0.0), origin + resolution)
+    return RepeatSpread(objective.repeat_deviations(), counts, clock)
 
 
 #: a tuned value this far from its generic one (share of its range) is named in the verdict after a tune

@@ -15,6 +15,7 @@ from simtune.cli.options import (
     DataOpt,
     EngineOpt,
     JsonOpt,
+    KeepRepeatsOpt,
     ProjectOpt,
     ReferenceOpt,
     RepeatsOpt,
@@ -27,6 +28,7 @@ from simtune.cli.options import (
     seed_option,
 )
 from simtune.cli.output import err, out, print_json, split
+from simtune.data.formats import FORMATS, WRITERS
 from simtune.errors import SimtuneError
 
 PROJECT_DIR_HELP = "Project folder to check (its simtune.toml); with --task, the project whose tasks are checked."
@@ -47,6 +49,7 @@ def check(
     workers: WorkersOpt = 1,
     reference: ReferenceOpt = None,
     repeats: RepeatsOpt = None,
+    keep_repeats: KeepRepeatsOpt = False,
     write_task: Annotated[
         Path | None,
         typer.Option(
@@ -90,6 +93,7 @@ def check(
         reference=reference,
         repeats=repeats,
         write_task=write_task,
+        keep_repeats=keep_repeats,
     )
     if as_json:
         print_json(result)
@@ -160,11 +164,7 @@ FormatOpt = Annotated[
     str,
     typer.Option(
         "--format",
-        help="What each recording holds: tsv (markers, Qualisys TSV), csv (markers and joint angles, simtune "
-        "CSV), joints-csv (joint angles alone), mcap or rosbag2 (joint angles alone as ROS 2 JointState "
-        "messages: an MCAP file, a rosbag2 folder), lerobot or lerobot-v2.1 (joint angles and commanded "
-        "targets as one LeRobot dataset per task, OUT/<task>/, v3.0 or v2.1 layout; the task file states "
-        "the unit: [recordings] units).",
+        help="What each recording holds: " + "; ".join(f"{w.name}: {w.description}" for w in WRITERS.values()) + ".",
     ),
 ]
 JointNoiseOpt = Annotated[
@@ -239,15 +239,14 @@ def synth(
         joint_noise_rad=math.radians(DEFAULT_JOINT_NOISE_DEG if joint_noise_deg is None else joint_noise_deg),
         force=force,
     )
+    writes = WRITERS[fmt]
+    dataset = next(f.folder for f in FORMATS if writes in f.writers)  # what a dataset writer's folder is
     for name, files in result.files.items():
-        held = f"{repeats} episodes of a LeRobot dataset" if fmt.startswith("lerobot") else f"{len(files)} recordings"
+        held = f"{repeats} episodes of a {dataset}" if writes.dataset else f"{len(files)} recordings"
         out.print(f"{name}: {held} in {out_dir / name}")
     shown = ", ".join(f"{k}={v:g}" for k, v in result.truth.items())
-    noises = {
-        "tsv": f"{noise_mm:g} mm",
-        "csv": f"{noise_mm:g} mm and {math.degrees(result.joint_noise_rad):g} deg",
-    }
-    noise = noises.get(fmt, f"{math.degrees(result.joint_noise_rad):g} deg")
+    noises = [f"{noise_mm:g} mm"] * writes.markers + [f"{math.degrees(result.joint_noise_rad):g} deg"] * writes.joints
+    noise = " and ".join(noises)
     written = ", ".join(str(out_dir / truth_file(name)) for name in result.files)
     out.print(
         f"truth ({engine}): {shown}; noise {noise}, jitter +-{jitter_s:g} s -> {written} and {out_dir / TRUTH_FILE}",

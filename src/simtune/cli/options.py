@@ -16,6 +16,7 @@ import typer
 
 from simtune.data import REPEATS
 from simtune.data.clock import REFERENCES
+from simtune.data.formats import recording_kinds
 from simtune.limits import MAX_SEED, MAX_WORKERS
 from simtune.tasks import TARGETS
 
@@ -96,8 +97,7 @@ DataOpt = Annotated[
     typer.Option(
         "--data",
         "-d",
-        help="Folder with one sub-folder of recordings per task (`ROOT/<task>/*.tsv`, `*.csv`, `*.c3d`; joint logs "
-        "also `*.mcap` or rosbag2 folders). "
+        help=f"Folder with one sub-folder of recordings per task (`ROOT/<task>/{recording_kinds()}`). "
         "Default: the reference recordings shipped with simtune.",
         callback=path,
     ),
@@ -205,6 +205,25 @@ TuneSpaceOpt = Annotated[
         "-s",
         help=f"{SPACE_HELP} Default: calibrated (shared with --paper-exact): docs/tuning.md says why.",
         show_default=False,
+    ),
+]
+AlignClockOpt = Annotated[
+    bool | None,
+    typer.Option(
+        "--align-clock/--no-align-clock",
+        help="Align each task's recording clock first: its command delay estimated from its recordings "
+        "(motion onset, then a 1-D search over the delay with the physics held fixed). Default: the tasks "
+        "a run's --params-file was not tuned on (its 'tasks' field), which carry another recording's delay.",
+        show_default=False,
+    ),
+]
+KeepRepeatsOpt = Annotated[
+    bool,
+    typer.Option(
+        "--keep-repeats",
+        help="Keep a repeat far from the others by the aligned floor (a marker glitch, a mirrored or body-swapped "
+        "take, an object never touched), which is otherwise left out with a warning naming its file "
+        "(docs/recordings.md, the repeat check).",
     ),
 ]
 KeepInactiveOpt = Annotated[

@@ -11,12 +11,14 @@ import typer
 
 from simtune.cli.options import (
     OPTIMIZER_HELP,
+    AlignClockOpt,
     DataOpt,
     EngineOpt,
     EvalTimeoutOpt,
     JointTopicOpt,
     JsonOpt,
     KeepInactiveOpt,
+    KeepRepeatsOpt,
     MaxEvalsOpt,
     OnlyOpt,
     ProjectOpt,
@@ -56,16 +58,6 @@ ParamsFileOpt = Annotated[
         "-p",
         help="JSON of parameter values (e.g. a run's best_params.json); default: the engine's generic values.",
         callback=path,
-    ),
-]
-AlignClockOpt = Annotated[
-    bool | None,
-    typer.Option(
-        "--align-clock/--no-align-clock",
-        help="Align each task's recording clock first: its command delay estimated from its recordings "
-        "(motion onset, then a 1-D search over the delay with the physics held fixed). Default: the tasks "
-        "a run's --params-file was not tuned on (its 'tasks' field), which carry another recording's delay.",
-        show_default=False,
     ),
 ]
 TuneOptimizerOpt = Annotated[
@@ -152,6 +144,7 @@ def evaluate(
     align_clock: AlignClockOpt = None,
     reference: ReferenceOpt = None,
     repeats: RepeatsOpt = None,
+    keep_repeats: KeepRepeatsOpt = False,
     targets: TargetsOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
@@ -174,6 +167,7 @@ def evaluate(
         reference=reference,
         repeats=repeats,
         targets=targets,
+        keep_repeats=keep_repeats,
     )
     if as_json:
         print_json(evaluation_json(engine, task, score))
@@ -292,6 +286,7 @@ def tune(
     project: ProjectOpt = None,
     reference: ReferenceOpt = None,
     repeats: RepeatsOpt = None,
+    keep_repeats: KeepRepeatsOpt = False,
     targets: TargetsOpt = None,
     quiet: QuietOpt = False,
     as_json: JsonOpt = False,
@@ -331,6 +326,7 @@ def tune(
         reference=reference,
         repeats=repeats,
         targets=targets,
+        keep_repeats=keep_repeats,
     )
     from simtune.activity import announcing
 

@@ -11,19 +11,26 @@ import hashlib
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from simtune.data.lerobot import dataset_members, is_lerobot_dataset
+from simtune.data.formats import format_of
 from simtune.data.loaders import is_recording_file
 
 
 def task_files(folder: Path | str) -> list[Path]:
     """The recordings of one task folder (files, rosbag2 and LeRobot dataset folders), sorted by name; a task
-    folder that is itself a LeRobot dataset is its one source.
+    folder that is itself a dataset (a format holding episodes) is its one source.
 
     macOS AppleDouble companions (``._name.tsv``, written beside every file
     copied from a Mac onto a foreign file system) hold metadata, not data.
+
+    Args:
+        folder: a task's folder of recordings.
+
+    Returns:
+        Its recordings.
     """
     folder = Path(folder)
-    if is_lerobot_dataset(folder):
+    own = format_of(folder) if folder.is_dir() else None
+    if own is not None and own.episodes:
         return [folder]
     return sorted(
         (
@@ -36,11 +43,19 @@ def task_files(folder: Path | str) -> list[Path]:
 
 
 def file_fingerprint(path: Path) -> dict:
-    """``{"file", "bytes", "sha256"}`` of one file, or of a rosbag2 folder (its files' names and content), or of
-    a LeRobot dataset (the files simtune reads: not its videos)."""
+    """The fingerprint of one recording.
+
+    Args:
+        path: a file, or a folder recording: a rosbag2 folder (its files' names and content), a LeRobot dataset
+            (the files simtune reads, its format's ``members``: not its videos).
+
+    Returns:
+        ``{"file", "bytes", "sha256"}``.
+    """
     digest = hashlib.sha256()
-    if is_lerobot_dataset(path):
-        members = dataset_members(path)
+    fmt = format_of(path) if path.is_dir() else None
+    if fmt is not None and fmt.members is not None:
+        members = fmt.members(path)
     else:
         members = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
     for member in members:

@@ -26,7 +26,7 @@ import math
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -40,7 +40,7 @@ from simtune.data.sanity import (
     declared_units_problem,
     schedule_units_problem,
 )
-from simtune.errors import RecordingError
+from simtune.errors import ConfigError, RecordingError
 
 #: the dataset's description, relative to its folder
 INFO = "meta/info.json"
@@ -753,3 +753,81 @@ def _write_metadata(
         for k, (_, state, action) in enumerate(episodes)
     ]
     (root / "meta/episodes_stats.jsonl").write_text("\n".join(stat_lines) + "\n", encoding="utf-8")
+
+
+#: frames per second of the LeRobot datasets ``simtune synth`` writes (LeRobot records the SO-100/SO-101 at 30)
+SYNTH_FPS = 30.0
+
+
+class _Named(Protocol):
+    @property
+    def name(self) -> str: ...
+
+
+class WrittenTask(Protocol):
+    """What a writer of a task's repeats may need of the task (a :class:`simtune.tasks.TaskSpec` is one): declared
+    here, so that the data layer knows nothing of tasks."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def description(self) -> str: ...
+    @property
+    def joints(self) -> tuple[str, ...]: ...
+    @property
+    def lerobot(self) -> LeRobotReading | None: ...
+    @property
+    def schedule(self) -> tuple[np.ndarray, np.ndarray]: ...
+    @property
+    def robot(self) -> _Named: ...
+
+
+def stated_units(task: WrittenTask) -> str:
+    """The unit the task states for LeRobot datasets' angles.
+
+    Args:
+        task: the task whose ``[recordings]`` table is read.
+
+    Returns:
+        ``"deg"`` or ``"rad"``; a ConfigError naming the key when the task states none.
+    """
+    if task.lerobot is None or task.lerobot.units is None:
+        raise ConfigError(
+            f"task {task.name!r}: a LeRobot dataset's angles need a stated unit: add units = \"deg\" (LeRobot's "
+            'SO-100/SO-101) or units = "rad" to the [recordings] table of its task file'
+        )
+    return task.lerobot.units
+
+
+def write_task_dataset(root: Path, task: WrittenTask, recordings: Sequence[Recording], version: str) -> Path:
+    """``recordings`` (repeats of ``task`` logging its driven joints, sampled at :data:`SYNTH_FPS`) as a LeRobot
+    dataset in ``root``: ``observation.state`` their angles, ``action`` the task's targets in force at each frame,
+    in the unit the task states, named as its ``[recordings.joints]`` maps them (else ``<joint>.pos``).
+
+    Args:
+        root: the dataset folder to write.
+        task: the task the repeats are of (its joints, schedule, stated unit and names).
+        recordings: the repeats, each one episode.
+        version: the layout, one of :data:`WRITE_VERSIONS`.
+
+    Returns:
+        ``root``.
+    """
+    reading = task.lerobot or LeRobotReading()
+    factor = ANGLE_UNITS[stated_units(task)]
+    starts, table = task.schedule
+    episodes = []
+    for rec in recordings:
+        state = np.column_stack([rec.joints[j] for j in task.joints]) / factor
+        action = np.radians(table[np.searchsorted(starts, rec.time, side="right")]) / factor
+        episodes.append((rec.time, state, action))
+    names = [reading.dataset_name(j) for j in task.joints]
+    return write_lerobot_dataset(
+        root,
+        episodes,
+        names,
+        SYNTH_FPS,
+        version=version,
+        task=task.description or task.name,
+        robot_type=task.robot.name,
+    )

@@ -2,48 +2,31 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection
-from dataclasses import dataclass
+from collections.abc import Collection
 from pathlib import Path
 
 from simtune.data._table import display_name
-from simtune.data.c3dformat import read_c3d
-from simtune.data.csvformat import read_csv
-from simtune.data.lerobot import LeRobotReading, is_lerobot_dataset, read_lerobot_dataset
-from simtune.data.qualisys import read_qualisys_tsv
+from simtune.data.formats import RECORDING_SUFFIXES, ReadOptions, RecordingFormat, expected_names, format_of
+from simtune.data.lerobot import LeRobotReading
 from simtune.data.recording import Recording
-from simtune.data.rosbag import is_bag_folder, read_joint_bag
 from simtune.errors import RecordingError
 
-
-@dataclass(frozen=True)
-class ReadOptions:
-    """What a reader may need besides the file: see :func:`load_recording`."""
-
-    body_names: list[str] | None = None
-    joint_names: Collection[str] | None = None
-    joint_topic: str | None = None
-    joint_units: str | None = None
-
-
-#: The file formats, by name ending (lower case): a new format is a module in data/ and one line here.
-FILE_FORMATS: tuple[tuple[tuple[str, ...], Callable[[Path, ReadOptions], Recording]], ...] = (
-    ((".tsv", ".tsv.gz"), lambda path, o: read_qualisys_tsv(path, o.body_names)),
-    ((".csv", ".csv.gz"), lambda path, o: read_csv(path, o.joint_names, o.joint_units)),
-    ((".c3d",), lambda path, o: read_c3d(path)),
-    ((".mcap",), lambda path, o: read_joint_bag(path, o.joint_names, o.joint_topic, o.joint_units)),
-)
-#: File endings load_recording understands (lower case); a rosbag2 folder is a recording too.
-RECORDING_SUFFIXES = tuple(ending for endings, _ in FILE_FORMATS for ending in endings)
+__all__ = ["RECORDING_SUFFIXES", "ReadOptions", "is_recording_file", "load_recording", "load_recordings"]
 
 
 def is_recording_file(path: Path) -> bool:
-    """True for a file named with one of RECORDING_SUFFIXES (case-insensitive), a rosbag2 folder or a LeRobot
-    dataset folder."""
+    """Whether a path is a recording simtune reads.
+
+    Args:
+        path: a file or folder.
+
+    Returns:
+        True for a file named with one of RECORDING_SUFFIXES (case-insensitive), or a folder that one of the
+        folder formats (a rosbag2 folder, a LeRobot dataset) recognises.
+    """
     path = Path(path)
-    if path.is_dir():
-        return is_bag_folder(path) or is_lerobot_dataset(path)
-    return path.name.lower().endswith(RECORDING_SUFFIXES)
+    fmt = format_of(path)
+    return fmt is not None and (fmt.is_folder is not None) == path.is_dir()
 
 
 def load_recording(
@@ -54,38 +37,38 @@ def load_recording(
     joint_topic: str | None = None,
     joint_units: str | None = None,
 ) -> Recording:
-    """Load a recording, its format told by its name (see docs/recordings.md).
+    """Load a recording, its format told by its name or its folder (:data:`simtune.data.formats.FORMATS`;
+    docs/recordings.md).
 
-    ``.tsv[.gz]``: Qualisys 6D TSV (mm); ``.csv[.gz]``: simtune CSV (m, and
-    joint angles); ``.c3d``: C3D marker points (positions only);
-    ``.mcap`` or a rosbag2 folder: ROS 2 JointState messages
-    (of ``joint_topic``, by default the one JointState topic).  For text files
-    the name picks the format only: compression and text encoding are read
-    from the content (see :func:`simtune.data._table.decode_content`).
+    For text files the name picks the format only: compression and text
+    encoding are read from the content (see :func:`simtune.data._table.decode_content`).
 
-    ``body_names`` names the bodies of a headerless TSV in column order
-    (default QRG2019_BODIES); a TSV header's BODY_NAMES wins, and CSV files
-    carry their own names.  ``joint_names`` are the joints a recording may
-    name (the arm's); None accepts any.  ``joint_units`` ("rad", "deg") is the
-    unit of joint angles whose file does not declare one (the task's; None:
-    the format's, radians).
+    Args:
+        path: a recording file, or a rosbag2 folder (a LeRobot dataset holds many: :func:`load_recordings`).
+        body_names: the bodies of a headerless TSV in column order (default QRG2019_BODIES); a TSV header's
+            BODY_NAMES wins, and CSV files carry their own names.
+        joint_names: the joints a recording may name (the arm's); None accepts any.
+        joint_topic: the topic of a ROS 2 log's JointState messages (default: the one JointState topic).
+        joint_units: ("rad", "deg") the unit of joint angles whose file does not declare one (the task's;
+            None: the format's, radians).
+
+    Returns:
+        The recording.
     """
     path = Path(path)
-    name = path.name.lower()
-    if is_lerobot_dataset(path):
-        raise RecordingError(
-            f"{display_name(path)}: a LeRobot dataset holds many episodes: read it with load_recordings"
-        )
-    options = ReadOptions(body_names, joint_names, joint_topic, joint_units)
-    if is_bag_folder(path):
-        return read_joint_bag(path, joint_names, joint_topic, joint_units)
-    for endings, read in FILE_FORMATS:
-        if name.endswith(endings):
-            return read(path, options)
-    raise RecordingError(
-        f"{display_name(path)}: unknown recording format "
-        f"(expected {', '.join(RECORDING_SUFFIXES)}, or a rosbag2 folder)"
-    )
+    fmt = _format(path)
+    if fmt.episodes:
+        raise RecordingError(f"{display_name(path)}: a {fmt.folder} holds many episodes: read it with load_recordings")
+    (recording,) = fmt.read(path, ReadOptions(body_names, joint_names, joint_topic, joint_units))
+    return recording
+
+
+def _format(path: Path) -> RecordingFormat:
+    """The format of ``path`` (:func:`simtune.data.formats.format_of`), or a RecordingError naming it."""
+    fmt = format_of(path)
+    if fmt is None:
+        raise RecordingError(f"{display_name(path)}: unknown recording format (expected {expected_names()})")
+    return fmt
 
 
 def load_recordings(
@@ -96,10 +79,21 @@ def load_recordings(
     joint_topic: str | None = None,
     lerobot: LeRobotReading | None = None,
 ) -> list[Recording]:
-    """The repeats one recording source holds: each episode of a LeRobot dataset folder (``lerobot``: its
-    angle unit, names and episodes), else the one recording :func:`load_recording` reads."""
+    """The repeats one recording source holds: each episode of a LeRobot dataset folder, else the one recording
+    :func:`load_recording` reads.
+
+    Args:
+        path: a recording file or folder.
+        body_names: as for :func:`load_recording`.
+        joint_names: as for :func:`load_recording`.
+        joint_topic: as for :func:`load_recording`.
+        lerobot: how the task reads a dataset (its angle unit, names and episodes); its unit is the task's unit
+            of every joint log.
+
+    Returns:
+        The repeats, in the source's order.
+    """
     path = Path(path)
-    if is_lerobot_dataset(path):
-        return read_lerobot_dataset(path, joint_names, lerobot)
+    fmt = _format(path)
     units = None if lerobot is None else lerobot.units  # the task's unit, for every joint log
-    return [load_recording(path, body_names, joint_names=joint_names, joint_topic=joint_topic, joint_units=units)]
+    return fmt.read(path, ReadOptions(body_names, joint_names, joint_topic, units, lerobot))

@@ -14,6 +14,7 @@ import numpy as np
 from simtune.data._table import display_name
 from simtune.data.clock import ClockAlignment, align_clocks, check_reference, spread, warn_outliers
 from simtune.data.fingerprint import task_files
+from simtune.data.formats import recording_kinds
 from simtune.data.lerobot import LeRobotReading
 from simtune.data.loaders import load_recordings
 from simtune.data.recording import Recording
@@ -28,6 +29,7 @@ from simtune.data.sanity import (
     duration_floor,
     wrist_distance,
 )
+from simtune.data.screen import far_repeats
 from simtune.errors import ConfigError, RecordingError, RecordingWarning, check_choice
 
 #: Which of a task's repeats build its reference: ``all``, or every other one in the loader's sorted order,
@@ -84,6 +86,8 @@ class TaskData:
     repeats: str = DEFAULT_REPEATS
     #: the repeats the loader kept that the selection left out (none with ``all``), in sorted order
     held_out: list[Path] = field(default_factory=list)
+    #: the repeats the repeat check left out as far from the others (:mod:`simtune.data.screen`), in sorted order
+    left_out: list[Path] = field(default_factory=list)
 
     @property
     def object_start_mean(self) -> np.ndarray | None:
@@ -169,7 +173,7 @@ def _fill_gaps(time: np.ndarray, xyz: np.ndarray, max_gap_s: float) -> tuple[np.
     return filled, None
 
 
-_KINDS = "*.tsv, *.csv, *.c3d, *.mcap, rosbag2 folders, LeRobot datasets"
+_KINDS = recording_kinds()  # "*.tsv, *.csv, ..., rosbag2 folders, LeRobot datasets"
 
 
 def _check_joints(rec: Recording, joints: list[str], display: str) -> None:
@@ -345,16 +349,17 @@ def _object_positions(repeats: list[_Repeat], object_body: str) -> tuple[np.ndar
 
 
 def _aligned_clocks(
-    repeats: list[_Repeat], bodies: list[str], joints: list[str], wrist_body: str, rate: float
+    repeats: list[_Repeat], bodies: list[str], joints: list[str], wrist_body: str, rate: float, warn: bool = True
 ) -> ClockAlignment:
     """Each repeat's shift onto the task's clock, from its wrist track (joint logs: its joint angles); a shift
-    that is an outlier is warned about."""
+    that is an outlier is warned about (``warn``)."""
     if bodies:
         tracks = [filled[wrist_body] for _, _, filled in repeats]
     else:
         tracks = [np.stack([rec.joints[j] for j in joints], axis=1) for rec, _, _ in repeats]
     alignment = align_clocks([t for _, t, _ in repeats], tracks, rate)
-    warn_outliers([rec.source for rec, _, _ in repeats], alignment.shifts, 1.0 / rate)
+    if warn:
+        warn_outliers([rec.source for rec, _, _ in repeats], alignment.shifts, 1.0 / rate)
     return alignment
 
 
@@ -383,15 +388,17 @@ def _on_common_clock(
     wrist_body: str,
     object_body: str | None,
     reference: str = "mean",
+    warn: bool = True,
 ) -> TaskData:
     """The repeats resampled to ``rate`` over the shortest one's length, and their means; with the ``aligned``
-    reference each repeat is shifted onto the task's clock first (its ends held where the shift uncovers them)."""
+    reference each repeat is shifted onto the task's clock first (its ends held where the shift uncovers them),
+    warning about an outlying shift (``warn``)."""
     shortest = min(float(t[-1]) for _, t, _ in repeats)
     # floor(duration * rate) + 1 samples: every repeat covers the last one.
     n = int(math.floor(shortest * rate + 1e-9)) + 1
     alignment = None
     if reference == "aligned" and (bodies or joints):
-        alignment = _aligned_clocks(repeats, bodies, joints, wrist_body, rate)
+        alignment = _aligned_clocks(repeats, bodies, joints, wrist_body, rate, warn)
     shifts = np.zeros(len(repeats)) if alignment is None else alignment.shifts
     wrists = unaligned = None
     if bodies:
@@ -429,6 +436,32 @@ def _on_common_clock(
     )
 
 
+def _screen(
+    task: str, rate: float, kept: list[_Repeat], tracks: tuple[list[str], list[str], str, str | None]
+) -> tuple[list[_Repeat], list[_Repeat], TaskData | None]:
+    """Repeat check (:mod:`simtune.data.screen`): the repeats kept and those left out as far from the others by
+    the aligned floor, each with a warning naming its file; and the aligned reference of the repeats kept that
+    the check measured.  The farthest repeat goes first, and the rest are aligned and judged again without it,
+    while fewer than half are gone.  ``tracks``: the bodies, joints, wrist and object body."""
+    bodies, joints, wrist_body, object_body = tracks
+    left_out: list[_Repeat] = []
+    while True:
+        aligned = _on_common_clock(task, rate, kept, bodies, joints, wrist_body, object_body, "aligned", warn=False)
+        far = far_repeats(aligned.wrist_repeats, aligned.object_final, aligned.joint_repeats)
+        if not far or 2 * (len(left_out) + 1) >= len(kept) + len(left_out):
+            return kept, left_out, aligned
+        worst = max(far, key=lambda f: f.excess)
+        warnings.warn(
+            f"{display_name(kept[worst.index][0].source)}: repeat check: left out: far from the other repeats of "
+            f"{task} ({worst.describe()}): a marker glitch, a mirrored or swapped body, an object never touched, or "
+            "another motion? --keep-repeats keeps it",
+            RecordingWarning,
+            stacklevel=3,  # at load_task_data's caller
+        )
+        left_out.append(kept[worst.index])
+        kept = [r for i, r in enumerate(kept) if i != worst.index]
+
+
 def load_task_data(
     folder: Path | str,
     task: str,
@@ -447,6 +480,7 @@ def load_task_data(
     joint_ranges: Mapping[str, JointRange] | None = None,
     reference: str = "mean",
     repeats: str = DEFAULT_REPEATS,
+    keep_repeats: bool = False,
 ) -> TaskData:
     """Load every repeat in ``folder`` (sorted by name), check it, and put the repeats on a common clock.
 
@@ -480,6 +514,10 @@ def load_task_data(
     ``repeats``: which of the repeats kept (after the checks above, in sorted order) build the reference, before
     their clocks are aligned and they are averaged: ``all``, ``even`` (indices 0, 2, 4 ...) or ``odd`` (1, 3 ...);
     the ones left out are :attr:`TaskData.held_out`.  A selection of none is a RecordingError.
+
+    Before the selection, a repeat far from the others by the aligned floor (:mod:`simtune.data.screen`: a marker
+    glitch, a mirrored or body-swapped take, an object never touched) is left out with a RecordingWarning naming
+    its file, and listed in :attr:`TaskData.left_out`; ``keep_repeats`` keeps every repeat.
     """
     check_reference(reference)
     check_repeats(repeats)
@@ -498,8 +536,16 @@ def load_task_data(
     kept, short, reason = _drop_short(kept, duration_s)
     if not kept:
         _none_usable(folder, len(recordings), lost, unreadable, short, reason, max_gap_s)
+    left_out: list[_Repeat] = []
+    data = None
+    if not keep_repeats:
+        kept, left_out, data = _screen(task, rate, kept, (bodies, joints, wrist_body, object_body))
     chosen, held_out = _select(folder, kept, repeats)
-    data = _on_common_clock(task, rate, chosen, bodies, joints, wrist_body, object_body, reference)
+    if data is not None and repeats == "all" and reference == "aligned" and data.alignment is not None:
+        warn_outliers(data.sources, data.alignment.shifts, 1.0 / rate)  # the check measured this reference
+    else:
+        data = _on_common_clock(task, rate, chosen, bodies, joints, wrist_body, object_body, reference)
     data.repeats = repeats
     data.held_out = [rec.source for rec, _, _ in held_out]
+    data.left_out = sorted(rec.source for rec, _, _ in left_out)
     return data

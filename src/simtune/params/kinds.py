@@ -383,11 +383,13 @@ def joint_bounds(kind: str, robot: RobotDescription, index: int) -> tuple[float,
         low, high = ESTIMATED_MASS_FACTORS if robot.driven_links[index] in robot.estimated_masses else MASS_FACTORS
         return low * m, high * m
     if kind == "max_torque_joint":
-        if joint.effort is None:
-            return TORQUE_RANGE
+        if joint.effort is None:  # the paper's range, reaching up to what the arm's own weight asks (an industrial arm)
+            generic = robot.generic_effort(index)
+            return TORQUE_RANGE[0], max(TORQUE_RANGE[1], EFFORT_FACTORS[1] * generic)
         return EFFORT_FACTORS[0] * joint.effort, EFFORT_FACTORS[1] * joint.effort
     if kind == "armature_joint":
-        return 0.0, max(ARMATURE_FLOOR, ARMATURE_FACTOR * float(robot.joint_inertias()[index]))
+        inertia = ARMATURE_FACTOR * float(robot.joint_inertias()[index])
+        return 0.0, max(ARMATURE_FLOOR, inertia, 2.0 * joint.armature)
     if kind == "friction_joint":
         return 0.0, max(FRICTION_FRACTION * robot.generic_effort(index), 2.0 * joint.friction)
     if kind == "compliance_joint":
@@ -413,7 +415,7 @@ def generic_joint_value(kind: str, robot: RobotDescription, index: int, task_kp:
         return float(robot.joint_by_name[robot.arm_joints[index]].friction)
     if kind == "kp_joint":
         return float(task_kp)
-    return 0.0
+    return float(robot.joint_by_name[robot.arm_joints[index]].armature)  # 0 but an MJCF file's own
 
 
 def engine_parameters(engine: str, n_joints: int, applied_by: Iterable[str] = (ENGINE,)) -> frozenset[str]:

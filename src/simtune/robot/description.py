@@ -28,6 +28,9 @@ from simtune.geometry import rpy_matrix
 
 #: Standard gravity [m/s^2], as every engine's scene has it (along -z).
 GRAVITY = 9.81
+#: A joint described without a force limit gets at least this multiple of the largest gravity load it carries (it
+#: must hold the arm up and still accelerate it).
+LOAD_MARGIN = 2.0
 
 Vec3 = tuple[float, float, float]
 ZERO3: Vec3 = (0.0, 0.0, 0.0)
@@ -136,6 +139,7 @@ class Joint:
     velocity: float | None = None  # the source's velocity limit [rad/s or m/s]; None = not given
     damping: float = 0.0  # viscous damping [N m s/rad]
     friction: float = 0.0  # Coulomb friction [N m] (URDF <dynamics friction>)
+    armature: float = 0.0  # rotor inertia added about the axis [kg m^2] (an MJCF file's armature; URDF has none)
 
     @property
     def moves(self) -> bool:
@@ -253,9 +257,18 @@ class RobotDescription:
         return tuple(self.link_by_name[link].mass for link in self.driven_links)
 
     def generic_effort(self, index: int) -> float:
-        """The generic force limit of driven joint ``index`` (0-based): the source's, else the default."""
+        """The generic force limit of driven joint ``index`` (0-based): the source's; where it gives none, the
+        default or :data:`LOAD_MARGIN` times the largest gravity load the joint can carry, whichever is larger (an
+        industrial arm described without efforts must hold itself up: MuJoCo and Drake compensate gravity beside
+        their servos, but PyBullet's, ODE's and DART's motors carry it within this limit)."""
         effort = self.joint_by_name[self.arm_joints[index]].effort
-        return self.default_effort if effort is None else float(effort)
+        if effort is not None:
+            return float(effort)
+        return max(self.default_effort, LOAD_MARGIN * float(self._load_bounds[index]))
+
+    @cached_property
+    def _load_bounds(self) -> np.ndarray:
+        return self.gravity_load_bounds()
 
     @property
     def reach(self) -> float:
@@ -287,10 +300,17 @@ class RobotDescription:
                     rot = rot @ r
         return pos, rot
 
-    def joint_inertias(self) -> np.ndarray:
-        """Per driven joint, the moment of inertia [kg m^2] about its axis of every link below it, at the
-        zero pose: what its servo accelerates (the arm's reflected inertia, no motor rotor)."""
-        q = np.zeros(self.n_joints)
+    def joint_inertias(self, q: np.ndarray | None = None) -> np.ndarray:
+        """Per driven joint, the moment of inertia [kg m^2] about its axis of every link below it: what its servo
+        accelerates (the arm's reflected inertia, no motor rotor).
+
+        Args:
+            q: the driven joints' positions [rad or m]; default the zero pose.
+
+        Returns:
+            One inertia per driven joint.
+        """
+        q = np.zeros(self.n_joints) if q is None else np.asarray(q, dtype=float)
         frames = {link.name: self.forward_kinematics(q, link.name) for link in self.links}
         inertias = np.zeros(self.n_joints)
         for i, name in enumerate(self.arm_joints):

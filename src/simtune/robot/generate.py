@@ -8,6 +8,7 @@ otherwise push the links apart).  Meshes are referenced by their absolute paths.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import re
@@ -21,6 +22,7 @@ import numpy as np
 from simtune.geometry import matrix_quat_wxyz, rpy_matrix
 from simtune.robot.description import Box, Cylinder, Joint, Link, Mesh, RobotDescription, Sphere
 from simtune.robot.meshes import convex_hull_file
+from simtune.robot.mjcf import home_pose as mjcf_home_pose
 
 #: Gain of MuJoCo's joint velocity servos [N m s/rad].
 SERVO_KV = 50.0
@@ -33,27 +35,98 @@ SERVO_LAG_S = 0.01
 SPIN_LIMIT = 1.0
 #: MuJoCo's own default time step [s], which the generated scene keeps as its generic value.
 GENERIC_TIMESTEP = 0.002
+#: A joint's viscous damping d slows a velocity servo of gain kv to kv / (kv + d) of its command: the default gain
+#: is at least this multiple of d (the speed within 2 % of the command, as the other engines' hard motors hold it).
+DAMPING_MULTIPLE = 50.0
+#: A joint's Coulomb friction f (an MJCF file's frictionloss) holds a servo's speed up to f / kv below its command:
+#: the default gain keeps that under this [rad/s].
+FRICTION_SLIP = 0.01
+#: The fastest velocity command [rad/s] (40 deg/s): the gain raised for damping or friction stays under the joint's
+#: force limit over this, since a servo force MuJoCo clips at a larger gain stalls the joint (measured: the xArm7's
+#: shoulder, 50 N m, did not move at a gain of 120 and a 2 ms step).
+FASTEST_COMMAND = 0.7
+
+
+def _largest_inertias(robot: RobotDescription) -> np.ndarray:
+    """Each driven joint's inertia at the zero pose or, where larger, at an MJCF's home keyframe (a Menagerie Panda
+    stands upright at zero, where its first joint turns a tenth of what it turns from home)."""
+    inertias = robot.joint_inertias()
+    if robot.mjcf is None:
+        return inertias
+    home = _home_pose(robot.mjcf, robot.arm_joints)
+    return inertias if home is None else np.maximum(inertias, robot.joint_inertias(np.asarray(home)))
+
+
+@functools.lru_cache(maxsize=16)
+def _home_pose(mjcf: str, joints: tuple[str, ...]) -> tuple[float, ...] | None:
+    """:func:`simtune.robot.mjcf.home_pose`, compiled once per process and file (each engine asks)."""
+    home = mjcf_home_pose(mjcf, joints)
+    return None if home is None else tuple(home)
 
 
 def servo_gains(robot: RobotDescription) -> tuple[float, ...]:
     """The gain of MuJoCo's velocity servo on each driven joint [N m s/rad]: the robot's ``servo_gain``
-    where it sets one, else :data:`SERVO_KV`, raised where the joint's inertia (at the zero pose) would make
+    where it sets one, else :data:`SERVO_KV`, raised where the joint's inertia (at the zero pose, or an MJCF's home
+    keyframe where larger) would make
     the servo lag its command by more than :data:`SERVO_LAG_S` (a heavy arm's shoulder), and lowered to keep
     the largest command step's force within the joint's generic force limit where a clipped force would
     spin the link (:data:`SPIN_LIMIT`): a clipped servo force is not damped by the implicit integrator
-    (the MICO's light wrist in seed-2; a SO-101, whose URDF allows 10 N m, at every step with 50).  For the
-    MICO the gain stays 50."""
+    (the MICO's light wrist in seed-2; a SO-101, whose URDF allows 10 N m, at every step with 50).  The
+    inertia counts the joint's armature (an MJCF file's rotor inertia: 4 kg m^2 on dm_control's Jaco), and
+    the gain is raised as well where the joint's damping or Coulomb friction would hold its speed below the
+    command (:data:`DAMPING_MULTIPLE`, :data:`FRICTION_SLIP`, up to :data:`FASTEST_COMMAND`'s force limit): the
+    other engines' hard motors hold the commanded speed against both, and a servo they slow lags them by
+    centimetres.  For the MICO the gain stays 50.
+
+    Args:
+        robot: the robot.
+
+    Returns:
+        One gain per driven joint [N m s/rad].
+    """
     if robot.servo_gain is not None:
         return (robot.servo_gain,) * robot.n_joints
     gains = []
-    for index, inertia in enumerate(robot.joint_inertias()):
+    for index, inertia in enumerate(_largest_inertias(robot)):
         effort = robot.generic_effort(index)
-        gain = max(SERVO_KV, float(inertia) / SERVO_LAG_S)
+        joint = robot.joint_by_name[robot.arm_joints[index]]
+        inertia = float(inertia) + joint.armature
+        held_back = min(max(DAMPING_MULTIPLE * joint.damping, joint.friction / FRICTION_SLIP), effort / FASTEST_COMMAND)
+        gain = max(SERVO_KV, inertia / SERVO_LAG_S, held_back)
         clipped = gain * LARGEST_COMMAND_STEP > effort
         if clipped and effort * GENERIC_TIMESTEP > SPIN_LIMIT * inertia:
             gain = effort / LARGEST_COMMAND_STEP
         gains.append(gain)
     return tuple(gains)
+
+
+#: Below this fraction of its command a servo's speed is held back (by damping) enough to warn of.
+SHORTFALL_WARNING = 0.9
+
+
+def servo_shortfalls(robot: RobotDescription) -> dict[str, str]:
+    """The driven joints whose damping or Coulomb friction MuJoCo's velocity servo (:func:`servo_gains`) cannot
+    outweigh (the gain held at the joint's force limit): joint -> what holds it back.  PyBullet's, ODE's and
+    DART's hard motors hold the commanded speed against both, so their motion of such a joint differs from
+    MuJoCo's (and Drake's, whose servo is MuJoCo's): what ``simtune check`` warns of.
+
+    Args:
+        robot: the robot.
+
+    Returns:
+        Joint name -> the cause in words; empty where every servo holds its command.
+    """
+    out = {}
+    for index, gain in enumerate(servo_gains(robot)):
+        joint = robot.joint_by_name[robot.arm_joints[index]]
+        speed = gain / (gain + joint.damping)
+        slip = joint.friction / gain
+        if speed < SHORTFALL_WARNING:
+            out[joint.name] = (
+                f"damping {joint.damping:g} N m s/rad and friction {joint.friction:g} N m against a servo gain of "
+                f"{gain:.3g}: {100 * speed:.0f} % of the commanded speed, {slip:.2g} rad/s slip"
+            )
+    return out
 
 
 #: Name of the MuJoCo/URDF body that carries the task's object.

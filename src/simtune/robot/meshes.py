@@ -179,3 +179,15 @@ def hull_of_points(points, name: str) -> Path:
         Path(staging).unlink(missing_ok=True)
         raise
     return target
+
+
+@functools.lru_cache(maxsize=1024)
+def _extent(source: Path, stamp: tuple[int, int]) -> float:
+    return float(max(_read(source, str(source)).extents))
+
+
+def mesh_extent(source: str | Path) -> float:
+    """The longest side of the axis-aligned box around the mesh in ``source``, in the file's own units (read once
+    per version of the file)."""
+    source = Path(source)
+    return _extent(source, _stamp(source))

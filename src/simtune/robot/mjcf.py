@@ -10,7 +10,8 @@ convex hull MuJoCo collides with (an OBJ in the mesh cache; :func:`~simtune.robo
 planes, height fields and SDFs are left out (a note says so).  The MuJoCo engine builds the
 robot from the file itself (:attr:`RobotDescription.mjcf`), keeping its geoms; the other
 engines build it from the URDF the description generates (docs/robots.md, "MJCF robots", says
-what that leaves out: armature, joint friction, springs).
+what that leaves out: springs; the file's armature and friction loss are the description's joints' own, for the
+engines that have those parameters and for MuJoCo's servo gains).
 
 simtune owns the control and the contacts, so the file's actuators, sensors, tendons,
 equality constraints, contact pairs and keyframes are dropped when the scene is built,
@@ -261,6 +262,8 @@ def _joints(
                 lower=float(jnt.range[0]) if limited else None,
                 upper=float(jnt.range[1]) if limited else None,
                 damping=float(model.dof_damping[int(jnt.dofadr[0])]),
+                friction=float(model.dof_frictionloss[int(jnt.dofadr[0])]),
+                armature=float(model.dof_armature[int(jnt.dofadr[0])]),
             )
         )
     return joints, held

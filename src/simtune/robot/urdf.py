@@ -72,7 +72,7 @@ from simtune.robot.description import (
     axis_angle_matrix,
 )
 from simtune.robot.inertia import DEFAULT_DENSITY, Solid, solid_of, with_solid_mass
-from simtune.robot.meshes import engine_mesh
+from simtune.robot.meshes import engine_mesh, mesh_extent
 
 _MOVABLE = ("revolute", "continuous", "prismatic")
 
@@ -366,18 +366,21 @@ def _check_names(root, path: Path) -> None:
     """One line for a ``<link>`` or ``<joint>`` without a name, or with the name of another of its kind: the
     engines address links and joints by name (PyBullet crashes on a joint name used twice or empty)."""
     for kind in ("link", "joint"):
-        first_line: dict[str, int | None] = {}
+        lines: dict[str, list[int | None]] = {}
         for element in root.findall(kind):
             name = element.get("name")
             if not name:
                 what = "an empty name" if name is not None else "no name"
                 raise RobotError(f"{path} line {element.sourceline}: a <{kind}> has {what}: every {kind} needs its own")
-            if name in first_line:
+            lines.setdefault(name, []).append(element.sourceline)
+        for name, where in lines.items():
+            if len(where) > 1:
+                times = "twice" if len(where) == 2 else f"{len(where)} times"
+                again = f", again on lines {', '.join(map(str, where[1:]))}" if len(where) > 2 else ""
                 raise RobotError(
-                    f"{path} line {element.sourceline}: {kind} {name!r} is defined twice (first on line "
-                    f"{first_line[name]}): {kind} names must be unique"
+                    f"{path} line {where[1]}: {kind} {name!r} is defined {times} (first on line {where[0]}{again}): "
+                    f"{kind} names must be unique"
                 )
-            first_line[name] = element.sourceline
 
 
 #: The numeric attributes of a link's or joint's elements that the URDF reader parses, with how many numbers
@@ -476,6 +479,89 @@ def _check_tree(robot, path: Path) -> None:
             on_trail.add(link)
             link = parent_joint[link].parent
         done.update(trail)
+
+
+def _check_mimics(robot, path: Path) -> None:
+    """One line for a mimic joint that follows a joint the URDF lacks, or mimics that form a loop (a joint that
+    follows itself, directly or through others): its position would depend on itself."""
+    by_name = {j.name: j for j in robot.joints}
+    for j in robot.joints:
+        if j.mimic is not None and j.mimic.joint not in by_name:
+            raise RobotError(
+                f"{path}: joint {j.name!r} mimics {j.mimic.joint!r}, which is not a joint of the URDF (a typo, or a "
+                "joint removed?)"
+            )
+    for j in robot.joints:
+        trail = [j.name]
+        follows = j
+        while follows.mimic is not None:
+            follows = by_name[follows.mimic.joint]
+            if follows.name in trail:
+                loop = trail[trail.index(follows.name) :] + [follows.name]
+                raise RobotError(
+                    f"{path}: joint {follows.name!r}: mimic joints follow each other in a loop "
+                    f"({' -> '.join(map(repr, loop))}): one of them must follow a joint that mimics none"
+                )
+            trail.append(follows.name)
+
+
+def _warn_off_chain(tree: _Tree, path: Path, driven: list[str], tracked_link: str) -> None:
+    """One warning naming the continuous joints off the arm's chain (a mobile base's wheels): held, they never
+    turn; simtune simulates the base fixed."""
+    chain = {j.name for j in tree.chain(tracked_link)}
+    below = {tracked_link}
+    for j in tree.order:
+        if j.parent in below:
+            below.add(j.child)
+    off = [
+        j.name
+        for j in tree.order
+        if j.type == "continuous" and j.name not in driven and j.name not in chain and j.parent not in below
+    ]
+    if off:
+        warnings.warn(
+            f"{path}: continuous joint{'s' if len(off) > 1 else ''} {', '.join(map(repr, off))} "
+            f"{'lie' if len(off) > 1 else 'lies'} off the arm's chain from {tree.root!r} to "
+            f"{tracked_link!r}: held at 0 and never turned (a mobile base's wheels? simtune simulates the base fixed; "
+            "drive a joint by naming it in arm_joints)",
+            RobotWarning,
+            stacklevel=3,
+        )
+
+
+#: A mesh whose longest side (scaled) is more than this many times the robot's largest joint offset ...
+MILLIMETRE_FACTOR = 100.0
+#: ... and longer than this [m] is taken for a mesh in millimetres: a link is never 100 x the lever it hangs on.
+MILLIMETRE_MIN_M = 2.0
+
+
+def _warn_millimetre_meshes(robot, path: Path, kind: str, package_path: Iterable[str | Path]) -> None:
+    """One warning per mesh in millimetres (an STL has no units; :data:`MILLIMETRE_FACTOR`), naming the link and the
+    file and suggesting the ``scale`` attribute: read as metres it makes a link hundreds of metres long, which an
+    engine calls unstable or scores quietly."""
+    offsets = [
+        float(np.linalg.norm(np.asarray(j.origin, dtype=float)[:3, 3])) for j in robot.joints if j.origin is not None
+    ]
+    reach = max(offsets, default=0.0)
+    if reach <= 0:
+        return
+    for link in robot.links:
+        for k, element in enumerate(link.collisions if kind == "collision" else link.visuals):
+            mesh = element.geometry.mesh if element.geometry is not None else None
+            source = None if mesh is None else resolve_mesh(mesh.filename, path, package_path)
+            if mesh is None or source is None:
+                continue
+            where = f"link {link.name!r} {kind} {k + 1}"
+            scale = 1.0 if mesh.scale is None else float(np.max(np.abs(np.asarray(mesh.scale, dtype=float))))
+            extent = mesh_extent(engine_mesh(source, f"{path}: {where}")) * scale
+            if extent > MILLIMETRE_FACTOR * reach and extent > MILLIMETRE_MIN_M:
+                warnings.warn(
+                    f"{path}: {where}: mesh {mesh.filename!r} spans {extent:.4g} m, {extent / reach:.0f} x the robot's "
+                    f"largest joint offset ({reach:.3g} m): is it in millimetres? give its <mesh> the attribute "
+                    'scale="0.001 0.001 0.001"',
+                    RobotWarning,
+                    stacklevel=3,
+                )
 
 
 def _check_joint(joint, path: Path) -> None:
@@ -731,6 +817,55 @@ def _with_floor_masses(links: list[Link], joints: list[Joint], path: Path) -> tu
     return filled, tuple(n for n in (link.name for link in links) if n in light)
 
 
+#: A link lighter than this [kg] is a frame's token mass, not a body's (left as described).
+TOKEN_MASS = 1e-6
+#: The radius [m] of the solid sphere whose inertia a link with mass but none of its own gets where it has no shape.
+LEAST_INERTIA_RADIUS = 0.01
+
+
+def _with_rotational_inertia(links: list[Link], path: Path) -> list[Link]:
+    """``links`` with an inertia for each link that has a mass but no rotational inertia (every principal moment 0,
+    as some descriptions write ``<inertia>`` of zeros beside a real mass), with one warning naming them.
+
+    The engines disagree on such a body - MuJoCo refuses it, ODE aborts the process, Drake's mass matrix loses rank,
+    PyBullet and DART simulate it - so every engine gets the same stand-in: the inertia of the link's shapes as a
+    solid of its mass (:mod:`simtune.robot.inertia`), or a solid sphere of :data:`LEAST_INERTIA_RADIUS` where it has
+    none.  The mass and centre of mass stay as described."""
+    from simtune.robot.inertia import solid_of
+
+    filled, named = [], []
+    for link in links:
+        moments = np.linalg.eigvalsh(link.inertia_matrix())
+        if link.mass <= TOKEN_MASS or moments.max() > 1e-12 * link.mass:
+            filled.append(link)
+            continue
+        solid = solid_of(link.shapes)
+        if solid is not None:
+            tensor = solid.inertia * (link.mass / solid.volume)
+            how = "of its shapes"
+        else:
+            tensor = 0.4 * link.mass * LEAST_INERTIA_RADIUS**2 * np.eye(3)
+            how = f"of a {LEAST_INERTIA_RADIUS * 100:g}-cm sphere"
+        filled.append(
+            replace(
+                link,
+                inertia=(float(tensor[0, 0]), float(tensor[1, 1]), float(tensor[2, 2])),
+                products=(float(tensor[0, 1]), float(tensor[0, 2]), float(tensor[1, 2])),
+                inertia_rpy=ZERO3,
+            )
+        )
+        named.append(f"{link.name} ({how})")
+    if named:
+        warnings.warn(
+            f"{path}: link {', '.join(named)} has a mass but no rotational inertia (its <inertia> is all zeros): the "
+            "engines disagree on such a body (MuJoCo refuses it, ODE aborts), so each gets the inertia of its shapes "
+            "as a solid of that mass, else of a small sphere; give the link its own <inertia> to use that instead",
+            RobotWarning,
+            stacklevel=3,
+        )
+    return filled
+
+
 def _check_mass_options(path: Path, density: float | None, total_mass: float | None) -> None:
     """One line for a density or total mass that is not above 0, or for both given."""
     if density is not None and total_mass is not None:
@@ -825,6 +960,7 @@ def load_urdf(
     _check_tree(robot, path)
     for j in robot.joints:
         _check_joint(j, path)
+    _check_mimics(robot, path)
     # the caller's numbers too: a NaN pose would reach the loader's rotations (a LinAlgError) and the engines
     for what, values in (("base_position", base_position), ("base_rpy", base_rpy)):
         if not np.all(np.isfinite(np.asarray(values, dtype=float))):
@@ -837,6 +973,7 @@ def load_urdf(
         tree, path, link_names, None if arm_joints is None else list(arm_joints), tracked_link
     )
     _check_driven(robot, path, driven, held)
+    _warn_off_chain(tree, path, driven, tracked_link)
     links_by_name = {link.name: link for link in robot.links}
     if tracked_link != tree.root and tracked_link not in tree.parent_joint:
         raise RobotError(f"{path}: tracked link {tracked_link!r} is not in the robot's tree from {tree.root!r}")
@@ -879,6 +1016,7 @@ def load_urdf(
             stacklevel=2,
         )
     kind = "visual" if visual_only else "collision"
+    _warn_millimetre_meshes(robot, path, kind, package_path)
     links = [
         _link(links_by_name[n], path, "gripper" if n in gripper else "arm", package_path, kind) for n in ordered_links
     ]
@@ -887,6 +1025,7 @@ def load_urdf(
         notes.append(f"no <collision> in the robot: the visual geometry of link {shown} stands in for its collisions")
     links, estimated, estimate_notes = _estimated_masses(links, links_by_name, path, package_path, density, total_mass)
     links, placeholders = _with_floor_masses(links, joints, path)
+    links = _with_rotational_inertia(links, path)
     description = RobotDescription(
         name=name or robot.name or path.stem,
         links=tuple(links),

@@ -15,10 +15,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from simtune.data.lerobot import ANGLE_UNITS, LeRobotReading, read_lerobot_actions, write_lerobot_dataset
-from simtune.data.recording import Recording
+from simtune.data.lerobot import ANGLE_UNITS, LeRobotReading, read_lerobot_actions
 from simtune.data.sanity import JointRange
-from simtune.errors import ConfigError, ProjectError, RecordingError
+from simtune.errors import ProjectError, RecordingError
 from simtune.robot.description import RobotDescription
 from simtune.tasks.spec import Phase, TaskSpec
 
@@ -153,41 +152,3 @@ def lerobot_schedule(
     targets = np.degrees(np.column_stack([actions.targets.get(j, np.full(len(time), held[j])) for j in joints]))
     phases = tuple(Phase(float(time[i]), tuple(float(v) for v in targets[i])) for i in keep)
     return phases, start_pose
-
-
-#: frames per second of the LeRobot datasets ``simtune synth`` writes (LeRobot records the SO-100/SO-101 at 30)
-SYNTH_FPS = 30.0
-
-
-def stated_units(task: TaskSpec) -> str:
-    """The unit the task states for LeRobot datasets' angles; a ConfigError naming the key when it states none."""
-    if task.lerobot is None or task.lerobot.units is None:
-        raise ConfigError(
-            f"task {task.name!r}: a LeRobot dataset's angles need a stated unit: add units = \"deg\" (LeRobot's "
-            'SO-100/SO-101) or units = "rad" to the [recordings] table of its task file'
-        )
-    return task.lerobot.units
-
-
-def write_task_dataset(root: Path, task: TaskSpec, recordings: Sequence[Recording], version: str) -> Path:
-    """``recordings`` (repeats of ``task`` logging its driven joints, sampled at :data:`SYNTH_FPS`) as a LeRobot
-    dataset in ``root``: ``observation.state`` their angles, ``action`` the task's targets in force at each frame,
-    in the unit the task states, named as its ``[recordings.joints]`` maps them (else ``<joint>.pos``)."""
-    reading = task.lerobot or LeRobotReading()
-    factor = ANGLE_UNITS[stated_units(task)]
-    starts, table = task.schedule
-    episodes = []
-    for rec in recordings:
-        state = np.column_stack([rec.joints[j] for j in task.joints]) / factor
-        action = np.radians(table[np.searchsorted(starts, rec.time, side="right")]) / factor
-        episodes.append((rec.time, state, action))
-    names = [reading.dataset_name(j) for j in task.joints]
-    return write_lerobot_dataset(
-        root,
-        episodes,
-        names,
-        SYNTH_FPS,
-        version=version,
-        task=task.description or task.name,
-        robot_type=task.robot.name,
-    )

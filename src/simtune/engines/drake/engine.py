@@ -12,7 +12,7 @@ PD-controlled actuator model (only the D term: ``kd * (v_cmd - v)``), solved
 implicitly in the contact solver and clamped to the actuator's effort limit
 (the maximum torque), plus gravity compensation as feed-forward torque updated
 at each control command (the arm's own controller compensates gravity; this
-is MuJoCo's gravcomp + velocity servo, kd = MuJoCo's kv = 100).
+is MuJoCo's gravcomp + velocity servo, kd = MuJoCo's kv where above 100, else 100).
 
 Contact: Drake's hydroelastic model with point-contact fallback.  The object
 is a compliant hydroelastic box / cylinder / convex cone and the floor a rigid
@@ -40,7 +40,7 @@ from simtune.engines.base import Engine, library_version, unreachable_servo_limi
 from simtune.geometry import rpy_matrix
 from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot import MICO
-from simtune.robot.generate import robot_urdf_file
+from simtune.robot.generate import robot_urdf_file, servo_gains
 from simtune.tasks.spec import ObjectSpec, TaskSpec
 
 if TYPE_CHECKING:  # for the annotations of _System (mypy reads pydrake as untyped: see pyproject.toml)
@@ -79,7 +79,9 @@ else:
     # contact (there is none here); keep the log to errors
     logging.getLogger("drake").setLevel(logging.ERROR)
 
-SERVO_KD = 100.0  # [N m s/rad] the velocity servo's gain, as MuJoCo's kv
+#: [N m s/rad] the velocity servo's least gain (the MICO's): MuJoCo's gain (``servo_gains``) where that is higher,
+#: raised for a heavy, damped or rubbing joint (a UR10's shoulder, 1138: at 100 Drake lagged MuJoCo by 14 mm)
+SERVO_KD = 100.0
 #: hydroelastic mesh resolution for the objects [m]: at 1 cm the faceted 37.5 mm cylinder rolls off a
 #: facet edge on its own and keeps rolling; at 5 mm it settles within 3 mm
 RESOLUTION_HINT = 0.005
@@ -228,10 +230,13 @@ class DrakeEngine(Engine):
         return system
 
     def _add_servo(self, plant: MultibodyPlant, joint: RevoluteJoint, index: int) -> JointActuator:
-        """The velocity servo of driven joint ``index`` (0 = the first): a PD actuator with only the D term."""
+        """The velocity servo of driven joint ``index`` (0 = the first): a PD actuator with only the D term, its
+        gain MuJoCo's where that is above :data:`SERVO_KD` (a gain MuJoCo lowers to keep a clipped force from
+        spinning a light link is not needed here: Drake solves the clamped servo implicitly)."""
         robot = self.task.robot
         actuator = plant.AddJointActuator(f"{joint.name()}_servo", joint, robot.generic_effort(index))
-        actuator.set_controller_gains(PdControllerGains(p=0.0, d=robot.servo_gain or SERVO_KD))
+        gain = robot.servo_gain or max(SERVO_KD, servo_gains(robot)[index])
+        actuator.set_controller_gains(PdControllerGains(p=0.0, d=gain))
         return actuator
 
     def _add_object(

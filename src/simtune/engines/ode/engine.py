@@ -135,7 +135,9 @@ def _surface(surface: PairSurface):
 
 
 def _set_mass(body, mass: float, inertia) -> None:
-    """Give an ODE body its mass and its inertia tensor (about the centre of mass, as ODE expects)."""
+    """Give an ODE body its mass and its inertia tensor (about the centre of mass, as ODE expects).  ODE aborts the
+    process on a tensor that is not positive definite: the robot loader gives a link with mass and no inertia one
+    (:func:`simtune.robot.urdf.load_urdf`), and ``simtune check`` loads each engine in a child process."""
     m = ode.dMass()
     ode.dMassSetParameters(
         byref(m),

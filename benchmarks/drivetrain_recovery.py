@@ -1,0 +1,284 @@
+"""Drive-train recovery: armature, Coulomb friction and servo gain of every driven joint, from synthetic
+recordings of the SO-101 and the Franka Panda of the robot corpus, in each engine that has the kinds.
+
+Everything goes through the command line, as a user would run it:
+
+1. ``simtune init --robot <URDF> --out P`` (the corpus robot's URDF, used in place), and a task ``drive``
+   added to P: every driven joint steps between poses around the example's start pose, each joint on its
+   own schedule, with a velocity clamp fast enough that the servos reach their force limits at every step.
+   The example ``reach`` (+20 deg and back at 30 deg/s) cannot identify armature: its velocity changes are
+   too small for the reflected inertia to show against 0.05 deg of encoder noise; ``drive``'s steps start
+   and stop at up to ``MAX_VELOCITY_DEG`` (the robot's own speed class), where the servo's force limit
+   makes each joint's acceleration its torque over its inertia (armature included).
+2. Per engine: the truth (``truth()``: each joint's armature, Coulomb friction and ``kp`` at chosen
+   shares of their ranges; only the kinds that engine has) is synthesised by that engine: ``simtune synth
+   --format csv`` (markers and joint angles), 2 mm marker noise, 0.05 deg encoder noise, +-0.05 s start
+   jitter, 10 repeats.
+3. ``simtune tune --only <the truth's parameters> --max-seconds S`` (optimizer auto) in the same engine;
+   the 95 % intervals are the run's Gauss-Newton uncertainty (``simtune uncertainty`` where the run left it
+   out for its time budget).
+4. Per parameter: truth, estimate, error as % of its range, the 95 % interval, and whether it holds the
+   truth.  Done-when: every error within 5 % and the truth inside at least 80 % of the intervals.
+
+    python benchmarks/drivetrain_recovery.py [--robots so101,panda] [--engines mujoco,pybullet,ode,dart,drake]
+        [--max-seconds 150] [--delay-s 0.4] [--jitter-s 0.05] [--out DIR] [--results benchmarks/results]
+
+``--delay-s 0`` holds the command delay at 0 (the truth's) instead of tuning it with the drive train.
+
+Writes ``drivetrain-recovery-<date>.md`` (the tables) and ``.json`` to --results; prints the tables.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from common import add_engines_option, add_results_option, make_parser, write_json_result, write_result
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from robot_corpus import CORPUS
+
+ROBOTS = {"so101": "SO-101", "panda": "Franka Panda"}
+KINDS = ("armature_joint", "friction_joint", "kp_joint")
+#: the velocity clamp of the drive task [deg/s]: an STS3215 hobby servo turns about 200 deg/s unloaded, a
+#: Panda's joints 150-180 deg/s
+MAX_VELOCITY_DEG = {"so101": 180.0, "panda": 120.0}
+#: each joint's offsets from the start pose [deg], phase by phase (joint i takes the pattern rotated by i)
+PATTERN = (35.0, -15.0, 25.0, -30.0, 10.0, 0.0)
+PHASE_S = 1.0
+#: the arm rests at its start pose this long before the first step [s] (so each recording's motion onset, which
+#: aligns the repeats' clocks, can be seen)
+REST_S = 0.5
+#: the truth, as shares of each range (armature, friction) and as gains (kp), cycled over the joints
+ARMATURE_SHARE = (0.4, 0.6, 0.3, 0.5, 0.7, 0.35, 0.45)
+FRICTION_SHARE = (0.25, 0.15, 0.35, 0.2, 0.3, 0.1, 0.4)
+KP = (6.0, 14.0, 9.0, 18.0, 12.0, 7.0, 16.0)
+#: the true command delay [s], tuned with the drive train: every repeat's start is jittered about it and the
+#: aligned reference sits on the repeats' median clock, so a delay held at the truth would leave the median
+#: jitter (up to tens of ms) to be absorbed by the gains and the armature (0.4: its remainder by the 20 Hz
+#: control period is exactly 0 in floating point)
+DELAY_S = 0.4
+NOISE_MM = 2.0
+JOINT_NOISE_DEG = 0.05
+JITTER_S = 0.05
+REPEATS = 10
+WITHIN = 5.0  # [% of the range]
+COVERAGE = 0.8
+
+
+def simtune(*args: object) -> str:
+    """Run one simtune command; its standard output (stops the benchmark on failure)."""
+    command = [sys.executable, "-m", "simtune.cli", *map(str, args)]
+    result = subprocess.run(command, check=False, capture_output=True, text=True)
+    if result.returncode != 0:
+        sys.exit(f"failed: simtune {' '.join(map(str, args))}\n{result.stderr}")
+    return result.stdout
+
+
+def last_json(text: str) -> dict:
+    return json.loads(next(line for line in reversed(text.splitlines()) if line.startswith("{")))
+
+
+def drive_task(joints: list[str], start: list[float], limits: list[tuple[float, float]], robot: str) -> str:
+    """The ``drive`` task file: each joint steps through :data:`PATTERN` (rotated by its index) around ``start``,
+    kept 5 deg inside its limits."""
+    phases = [f"[[phases]]\nstart = 0.0\ntargets_deg = {json.dumps(start)}\n"]
+    for k in range(len(PATTERN)):
+        targets = []
+        for i, (s, (lo, hi)) in enumerate(zip(start, limits, strict=True)):
+            offset = PATTERN[(k + i) % len(PATTERN)] * (1.0 if i % 2 == 0 else -1.0)
+            targets.append(round(min(max(s + offset, lo + 5.0), hi - 5.0), 2))
+        phases.append(f"[[phases]]\nstart = {REST_S + k * PHASE_S:g}\ntargets_deg = {json.dumps(targets)}\n")
+    return (
+        'name = "drive"\n'
+        'description = "every driven joint steps fast between poses, each on its own schedule"\n'
+        f"duration = {REST_S + len(PATTERN) * PHASE_S + 0.5:g}\n"
+        f"joints = {json.dumps(joints)}\n"
+        f"start_pose_deg = {json.dumps(start)}\n\n"
+        '[controller]\nlaw = "clamped-p-velocity"\ngain = 10.0\n'
+        f"max_velocity_deg = {MAX_VELOCITY_DEG[robot]:g}\n\n"
+        '[mocap]\nlink = "{link}"\nbody = "hand"\n\n' + "\n".join(phases)
+    )
+
+
+def make_project(folder: Path, robot: str) -> Path:
+    from simtune.project import load_project
+
+    (entry,) = [r for r in CORPUS if r.name == ROBOTS[robot]]
+    if entry.path is None:
+        sys.exit(f"{entry.name}: its package {entry.package} is not installed")
+    project = folder / robot
+    simtune("init", "--robot", entry.path, "--out", project)
+    reach = load_project(project).task("reach")
+    description = reach.robot
+    joints = list(description.arm_joints)
+    limits = []
+    for name in joints:
+        joint = description.joint_by_name[name]
+        lo = -180.0 if joint.lower is None else float(joint.lower) * 57.29577951308232
+        hi = 180.0 if joint.upper is None else float(joint.upper) * 57.29577951308232
+        limits.append((lo, hi))
+    start = [round(float(v), 2) for v in reach.start_pose_deg]
+    text = drive_task(joints, start, limits, robot).replace("{link}", description.tracked_link)
+    (project / "tasks" / "drive.toml").write_text(text)
+    file = project / "simtune.toml"
+    file.write_text(
+        file.read_text().replace('tasks = ["tasks/reach.toml"]', 'tasks = ["tasks/reach.toml", "tasks/drive.toml"]')
+    )
+    return project
+
+
+def ranges(project: Path, engine: str) -> dict[str, tuple[float, float]]:
+    """The drive-train parameters ``engine`` has for the project's robot, with their ranges."""
+    from simtune.engines import engine_class
+    from simtune.params import get_space
+    from simtune.project import load_project
+
+    robot = load_project(project).task("drive").robot
+    space = get_space("extended", engine_class(engine).supported(robot), robot=robot)
+    return {p.name: (p.low, p.high) for p in space.parameters if p.name.rsplit("_", 1)[0] in KINDS}
+
+
+def truth(bounds: dict[str, tuple[float, float]]) -> dict[str, float]:
+    out = {}
+    for name, (lo, hi) in bounds.items():
+        kind, index = name.rsplit("_", 1)
+        i = int(index) - 1
+        if kind == "kp_joint":
+            out[name] = KP[i % len(KP)]
+        else:
+            share = (ARMATURE_SHARE if kind == "armature_joint" else FRICTION_SHARE)[i % len(ARMATURE_SHARE)]
+            out[name] = round(lo + share * (hi - lo), 6)
+    return out
+
+
+def intervals(run: Path) -> dict[str, dict]:
+    """The run's 95 % intervals by parameter (computed by ``simtune uncertainty`` where the run left them out)."""
+    from simtune.store import RunStore
+
+    store = RunStore(run)
+    try:
+        stored = store.get("uncertainty") or {}
+    finally:
+        store.close()
+    if not stored.get("parameters"):
+        stored = last_json(simtune("uncertainty", run, "--json", "--workers", 2))
+    return {e["name"]: e for e in stored.get("parameters", [])}
+
+
+def recover(
+    project: Path, work: Path, engine: str, max_seconds: float, jitter_s: float = JITTER_S, delay_s: float = DELAY_S
+) -> dict:
+    """Synthesise the truth in ``engine``, tune it back, and compare per parameter (the command delay tuned with
+    the drive train unless ``delay_s`` is 0: then it is held at 0, the truth's)."""
+    bounds = ranges(project, engine)
+    true = truth(bounds)
+    truth_file = work / f"truth-{engine}.json"
+    truth_file.write_text(json.dumps({"command_delay": delay_s, **true}))
+    data = work / f"recordings-{engine}"
+    simtune("synth", "--project", project, "--engine", engine, "--task", "drive", "--truth", truth_file,
+            "--format", "csv", "--noise-mm", NOISE_MM, "--joint-noise-deg", JOINT_NOISE_DEG, "--jitter-s", jitter_s,
+            "--repeats", REPEATS, "--delay-s", delay_s, "--out", data)  # fmt: skip
+    generic = last_json(simtune("evaluate", "--project", project, "--engine", engine, "--task", "drive",
+                                "--data", data, "--json"))["fitness"]  # fmt: skip
+    floor = last_json(simtune("evaluate", "--project", project, "--engine", engine, "--task", "drive",
+                              "--data", data, "--params-file", truth_file, "--json"))["fitness"]  # fmt: skip
+    run = work / f"tune-{engine}"
+    only = ",".join(["command_delay", *true] if delay_s > 0 else true)
+    started = time.monotonic()
+    simtune("tune", "--project", project, "--engine", engine, "--task", "drive", "--data", data,
+            "--only", only, "--max-seconds", max_seconds, "--out", run, "--quiet", "--json")  # fmt: skip
+    wall = time.monotonic() - started
+    best = json.loads((run / "best_params.json").read_text())
+    values = best.get("params", best)
+    found = intervals(run)
+    rows = []
+    for name, value in true.items():
+        lo, hi = bounds[name]
+        entry = found.get(name, {})
+        low, high = entry.get("low"), entry.get("high")
+        rows.append(
+            {
+                "name": name,
+                "truth": value,
+                "estimate": float(values[name]),
+                "error_pct": 100.0 * abs(float(values[name]) - value) / (hi - lo),
+                "low": low,
+                "high": high,
+                "holds": low is not None and high is not None and low <= value <= high,
+                "range": [lo, hi],
+            }
+        )
+    tuned = float(best.get("fitness", float("nan"))) if isinstance(best, dict) else float("nan")
+    delay = {"truth": delay_s, "estimate": float(values.get("command_delay", 0.0)), **found.get("command_delay", {})}
+    return {"engine": engine, "wall_s": round(wall, 1), "generic": generic, "floor": floor, "tuned": tuned,
+            "rows": rows, "delay": delay}  # fmt: skip
+
+
+def table(robot: str, result: dict) -> list[str]:
+    rows = result["rows"]
+    within = sum(r["error_pct"] <= WITHIN for r in rows)
+    holds = sum(r["holds"] for r in rows)
+    lines = [
+        f"### {ROBOTS[robot]}, {result['engine']}: tune {result['wall_s']:g} s; fitness generic "
+        f"{result['generic']:.5f}, truth (noise floor) {result['floor']:.5f}, tuned {result['tuned']:.5f}",
+        "",
+        f"{within}/{len(rows)} within {WITHIN:g} % of the range; the truth inside {holds}/{len(rows)} intervals "
+        f"({'meets' if within == len(rows) and holds >= COVERAGE * len(rows) else 'misses'} the done-when); "
+        f"command delay {result['delay']['estimate']:.4f} s (truth {result['delay']['truth']:g} s + the repeats' "
+        "median start jitter)",
+        "",
+        "| parameter | range | truth | estimate | error [% of range] | 95 % interval | holds the truth |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        interval = "unbounded" if r["low"] is None else f"[{r['low']:.4g}, {r['high']:.4g}]"
+        lo, hi = r["range"]
+        lines.append(
+            f"| `{r['name']}` | [{lo:.4g}, {hi:.4g}] | {r['truth']:.4g} | {r['estimate']:.4g} | {r['error_pct']:.2f} "
+            f"| {interval} | {'yes' if r['holds'] else 'no'} |"
+        )
+    return lines
+
+
+def main() -> None:
+    parser = make_parser(__doc__)
+    parser.add_argument("--robots", default="so101,panda", help="so101, panda, joined by commas")
+    add_engines_option(parser, "mujoco,pybullet,ode,dart,drake")
+    parser.add_argument("--max-seconds", type=float, default=150.0, help="time budget of each tune [s]")
+    parser.add_argument("--out", type=Path, help="working folder (default: a temporary one)")
+    parser.add_argument("--jitter-s", type=float, default=JITTER_S, help="synth's start jitter [s]")
+    parser.add_argument("--delay-s", type=float, default=DELAY_S, help="the true command delay [s]; 0: held, not tuned")
+    add_results_option(parser)
+    args = parser.parse_args()
+    results: dict = {}
+    lines: list[str] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        work = args.out or Path(tmp)
+        for robot in args.robots.split(","):
+            folder = work / robot
+            folder.mkdir(parents=True, exist_ok=True)
+            project = make_project(folder, robot)
+            for engine in args.engines.split(","):
+                started = time.monotonic()
+                result = recover(project, folder, engine, args.max_seconds, args.jitter_s, args.delay_s)
+                result["total_s"] = round(time.monotonic() - started, 1)
+                results.setdefault(robot, []).append(result)
+                lines += [*table(robot, result), ""]
+                print("\n".join(table(robot, result)) + "\n", flush=True)
+    header = (
+        f"Drive-train recovery: synthetic `drive` recordings (csv: marker and joint angles; {NOISE_MM:g} mm, "
+        f"{JOINT_NOISE_DEG:g} deg, +-{args.jitter_s:g} s start jitter, {REPEATS} repeats), each engine tuned on its "
+        f"own with --max-seconds {args.max_seconds:g}, optimizer auto; true command delay {args.delay_s:g} s "
+        f"({'tuned with the drive train' if args.delay_s > 0 else 'held'})\n"
+    )
+    write_result(args.results, "drivetrain-recovery", "md", header + "\n" + "\n".join(lines))
+    write_json_result(args.results, "drivetrain-recovery", results)
+
+
+if __name__ == "__main__":
+    main()
