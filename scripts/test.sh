@@ -13,10 +13,11 @@
 # with another test.
 #
 # It installs the system packages the tests need when they are missing and it can (root, apt-get):
-# Debian's libode8 (the library the ODE engine's binding loads) and postgresql (a throwaway server
-# for the grid's PostgreSQL index). Without them the tests that need them skip, naming the command
-# that installs them. Then it makes .venv (PYTHON, default python3.11) and installs simtune with its
-# test extras (and, for --ci, its lint extras) into it.
+# Debian's libode8 (the library the ODE engine's binding loads), postgresql (a throwaway server
+# for the grid's PostgreSQL index) and chromium with chromium-driver (the report's browser test).
+# Without them the tests that need them skip, naming the command that installs them. Then it makes
+# .venv (PYTHON, default python3.11) and installs simtune with its test extras (and, for --ci, its lint
+# extras) into it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PYTHON="${PYTHON:-python3.11}"
@@ -37,6 +38,9 @@ missing=()
 "$PYTHON" -c "import ctypes.util, sys; sys.exit(ctypes.util.find_library('ode') is None)" || missing+=(libode8)
 # the PostgreSQL index tests start a server from Debian's postgresql programs (tests/test_grid.py)
 compgen -G "/usr/lib/postgresql/*/bin/initdb" >/dev/null || command -v initdb >/dev/null || missing+=(postgresql)
+# the report's browser test (tests/test_report_first_screen.py) drives Debian's Chromium through its ChromeDriver
+command -v chromium >/dev/null || missing+=(chromium)
+command -v chromedriver >/dev/null || missing+=(chromium-driver)
 # Debian's own Python makes virtual environments only with its -venv package
 "$PYTHON" -c "import ensurepip" 2>/dev/null || missing+=("${PYTHON##*/}-venv")
 

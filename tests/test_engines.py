@@ -297,7 +297,7 @@ def test_every_part_the_registry_names_is_there(engine):
     """Each entry's engine class, exporter and replay import by their module paths, with or without the
     engine's library (which only the engine itself needs, when it builds a scene)."""
     from simtune.engines import Engine, load_part
-    from simtune.export.replay import FromFiles
+    from simtune.engines.replay_base import FromFiles
 
     entry = ENGINES[engine]
     assert issubclass(entry.engine_class(), Engine) and entry.engine_class().name == engine

@@ -172,3 +172,24 @@ def test_run_fingerprint_records_left_out_repeats(tmp_path: Path, mocap_root: Pa
     assert left_out_changes(fingerprint["left_out"], {}) == [
         f"the repeat check now keeps single/{name} (left out when the run started)"
     ]
+
+
+def test_report_and_export_read_the_repeats_a_run_was_scored_against(tmp_path: Path, mocap_root: Path) -> None:
+    """A run tuned with --keep-repeats is reported against every repeat, one without against the screened ones."""
+    from simtune.report.collect import load_run
+    from simtune.report.simulate import References
+    from simtune.runs import start_run
+
+    root, _ = damaged_root(tmp_path, mocap_root, "single", glitch)
+    counts = {}
+    for keep in (False, True):
+        config = RunConfig(
+            engine="mujoco", tasks="single", space="extended", data=str(root), only=["command_delay"],
+            max_evaluations=6, keep_repeats=keep,
+        )  # fmt: skip
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            start_run(config, tmp_path / f"run-{keep}", show_progress=False)
+            run = load_run(tmp_path / f"run-{keep}")
+            counts[keep] = len(References().for_run(run)["single"].sources)
+    assert counts == {False: 7, True: 8}

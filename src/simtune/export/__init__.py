@@ -28,18 +28,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from simtune.engines import ENGINES, load_part, make_engine
+from simtune.engines.export_base import ExportContext, RobotDescription, exported_robot, hash_comment
 from simtune.errors import ConfigError, SimtuneError
-from simtune.export.common import (
-    CONTROLLER_FILE,
-    PROVENANCE_FILE,
-    ExportContext,
-    RobotDescription,
-    controller_yaml,
-    exported_robot,
-    now_utc,
-    provenance,
-    sha256,
-)
+from simtune.export.common import CONTROLLER_FILE, PROVENANCE_FILE, controller_yaml, now_utc, provenance, sha256
 from simtune.export.source import ExportWarning, TunedRun, read_run
 from simtune.tasks import TaskSpec
 
@@ -168,7 +159,16 @@ def _export(run: TunedRun, out: Path, robot: RobotDescription, ranges: dict | No
         for engine in engines.values():
             engine.reset(run.params)
             values.update({**engine.defaults(), **run.params})
-        ctx = ExportContext(run, run.engine, robot, out, engines, values, provenance(run, run.engine, now_utc()))
+        ctx = ExportContext(
+            engine=run.engine,
+            robot=robot,
+            out=out,
+            params=run.params,
+            tasks=run.tasks,
+            engines=engines,
+            values=values,
+            provenance=provenance(run, run.engine, now_utc()),
+        )
         write_model = load_part(ENGINES[run.engine].exporter)  # the engine's own exporter, in its folder
         write_model(ctx)
         ctx.write(CONTROLLER_FILE, controller_yaml(ctx, _samples(run)))
@@ -197,7 +197,8 @@ def _samples(run: TunedRun) -> dict[str, int]:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the run warned about its recordings already
-            refs = load_references(None if data is None else Path(data), run.tasks)
+            keep = bool(run.config.get("keep_repeats", False))  # the repeats the run was scored against
+            refs = load_references(None if data is None else Path(data), run.tasks, keep_repeats=keep)
     except SimtuneError as exc:
         missing = data is not None and not Path(data).is_dir()
         why = f"its data folder {data} was not found" if missing else f"its recordings cannot be read ({exc})"
@@ -227,8 +228,6 @@ def _dr_ranges(runs: list[TunedRun]) -> dict:
 
 def _write_dr(ctx: ExportContext, ranges: dict) -> None:
     import yaml
-
-    from simtune.export.common import hash_comment
 
     engine = ctx.engine
     lines = ctx.header(f"dr_ranges.yaml: domain-randomisation ranges for {engine}")

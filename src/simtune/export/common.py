@@ -1,16 +1,15 @@
-"""What every engine's export shares: provenance, the header comment, controller.yaml, number formatting.
+"""What every export shares above the engines: the provenance of a run, controller.yaml, the files' hashes.
 
 Every exported file names where it comes from: XML files and scripts in a
-header comment, JSON sidecars in a ``provenance`` member, and the folder as a
-whole in ``provenance.json`` (which also lists each file with its SHA-256).
+header comment, JSON sidecars in a ``provenance`` member (both written from the
+export context, :mod:`simtune.engines.export_base`), and the folder as a whole in
+``provenance.json`` (which also lists each file with its SHA-256).
 """
 
 from __future__ import annotations
 
 import datetime as dt
 import hashlib
-import json
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -18,66 +17,13 @@ import yaml
 
 import simtune
 from simtune.controller import CONTROL_PERIOD, JointController
-from simtune.engines import Engine, engine_class
+from simtune.engines import engine_class
+from simtune.engines.export_base import ExportContext, hash_comment
 from simtune.export.source import TunedRun
-from simtune.robot import description, generate
-from simtune.tasks.spec import ObjectSpec, TaskSpec
+from simtune.tasks.spec import TaskSpec
 
 PROVENANCE_FILE = "provenance.json"
 CONTROLLER_FILE = "controller.yaml"
-
-
-@dataclass(frozen=True)
-class RobotDescription:
-    """The robot as export sees it: names and the generic model files, never the engines' internals.
-
-    Every exporter takes the robot from here, so a robot described another way (a
-    URDF of the user's) needs only another constructor, not other exporters.
-    Tuning parameter ``<kind>_<i>`` of a joint or link (``joint_damping_3``,
-    ``mass_link_3``) belongs to the i-th driven joint and to that joint's child link.
-    """
-
-    name: str
-    driven_joints: tuple[str, ...]
-    driven_links: tuple[str, ...]  # the child link of each driven joint
-    wrist_link: str
-    base_link: str
-    base_position: tuple[float, float, float]
-    urdf: str  # the robot alone, with generic values, base frame at the origin
-    link_materials: dict[str, str]  # link -> material group of the friction/restitution parameters
-    floor: str  # names of the floor and object elements in the scenes the engines build
-    object: str
-    description: description.RobotDescription  # the robot the engines built
-
-    def scene_mjcf(self, obj: ObjectSpec | None) -> str:
-        """The MuJoCo scene (robot, floor, the task's object) with generic values."""
-        return generate.scene_mjcf(self.description, obj)
-
-
-def exported_robot(robot: description.RobotDescription) -> RobotDescription:
-    """The robot as exporters see it, from the description the engines built the run's tasks with."""
-    return RobotDescription(
-        name=robot.name,
-        driven_joints=tuple(robot.arm_joints),
-        driven_links=robot.driven_links,
-        wrist_link=robot.tracked_link,
-        base_link=robot.root,
-        base_position=tuple(float(v) for v in robot.base_position),  # type: ignore[arg-type]
-        urdf=generate.robot_urdf(robot),
-        link_materials={link.name: link.material for link in robot.links},
-        floor=generate.FLOOR,
-        object=generate.OBJECT_BODY,
-        description=robot,
-    )
-
-
-def num(value: float) -> str:
-    """A float written so that parsing it gives the same double back (Python's shortest round-trip form)."""
-    return repr(float(value))
-
-
-def nums(values) -> str:
-    return " ".join(num(v) for v in np.asarray(values, dtype=float).ravel())
 
 
 def sha256(path: Path) -> str:
@@ -118,84 +64,10 @@ def provenance(run: TunedRun, engine: str, when: dt.datetime) -> dict:
     }
 
 
-def header_lines(prov: dict, what: str) -> list[str]:
-    """The provenance as comment lines (without comment markers); values are JSON, so they parse back exactly."""
-    j = json.dumps
-    fitness = prov["fitness"]
-    lines = [
-        f"{what}",
-        f"Exported by {prov['exported_by']} on {prov['date']} from a tuned run; provenance.json has the full record.",
-        f"run: {j(prov['run'])}",
-        f"engine: {j(prov['engine'])} {j(prov['engine_version'])} (run tuned with {j(prov['engine_version_of_run'])})",
-        f"simtune: {j(prov['simtune_version'])}",
-        f"tasks: {j(prov['tasks'])}  space: {j(prov['space'])}  seed: {j(prov['seed'])}  "
-        f"optimizer: {j(prov['optimizer'])}  evaluations: {prov['evaluations']}",
-        f"tuned fitness: {j(fitness)} m (wrist {j(prov['wrist_error'])} m, object {j(prov['object_error'])} m; "
-        f"generic {j(prov['generic_fitness'])} m)",
-        f"command: {j(prov['command'])}",
-        f"data: {j(prov['data'])} ({prov['data_note']})",
-    ]
-    for task, files in prov["data_files"].items():
-        lines += [f"data file: {j(task + '/' + f['file'])} {f['bytes']} bytes sha256 {f['sha256']}" for f in files]
-    return lines
-
-
-def xml_comment(lines: list[str]) -> str:
-    # "--" may not appear inside an XML comment: it is written as "-\u002d", which JSON reads back as "--"
-    body = "\n".join("  " + line.replace("--", "-\\u002d") for line in lines)
-    return f"<!--\n{body}\n-->\n"
-
-
-def hash_comment(lines: list[str]) -> str:
-    return "".join(f"# {line}\n" if line else "#\n" for line in lines)
-
-
-@dataclass
-class ExportContext:
-    """One export in progress: the run, the folder, and one engine per task with the tuned values applied."""
-
-    run: TunedRun
-    engine: str
-    robot: RobotDescription
-    out: Path
-    engines: dict[str, Engine]  # task name -> engine after reset(values)
-    values: dict[str, float]  # every engine parameter in force: the engine's generic values, then the tuned
-    provenance: dict
-    files: list[str] = field(default_factory=list)
-
-    def header(self, what: str) -> list[str]:
-        return header_lines(self.provenance, what)
-
-    def write(self, name: str, text: str) -> Path:
-        path = self.out / name
-        path.write_text(text)
-        if name not in self.files:
-            self.files.append(name)
-        return path
-
-    def write_json(self, name: str, about: dict, body: dict) -> Path:
-        """A JSON sidecar: ``about`` (what each member means), ``provenance``, then ``body``."""
-        data = {"about": about, "provenance": self.provenance, **body}
-        return self.write(name, json.dumps(data, indent=2) + "\n")
-
-
-def write_cone_mesh(ctx: ExportContext, obj, task: str) -> str:
-    """Write the convex hull of a cone object (the run's collision shape) as ``object_<task>.obj``; its name."""
-    from simtune.engines._shapes import cone_hull
-
-    vertices, faces, _ = cone_hull(obj)
-    name = f"object_{task}.obj"
-    lines = [f"v {num(x)} {num(y)} {num(z)}" for x, y, z in vertices]
-    lines += ["f " + " ".join(str(int(i) + 1) for i in face) for face in faces]
-    header = hash_comment(ctx.header(f"convex hull of task {task!r}'s cone (the run's collision shape)"))
-    ctx.write(name, header + "\n".join(lines) + "\n")
-    return name
-
-
 def controller_yaml(ctx: ExportContext, samples: dict[str, int]) -> str:
     """controller.yaml: everything needed to drive the exported model as the run did, without simtune."""
-    params = ctx.run.params
-    tasks = {task.name: _task_control(ctx, task, samples.get(task.name)) for task in ctx.run.tasks}
+    params = ctx.params
+    tasks = {task.name: _task_control(ctx, task, samples.get(task.name)) for task in ctx.tasks}
     delay = float(params.get("command_delay", 0.0))
     values = ctx.values
     joints = range(1, len(ctx.robot.driven_joints) + 1)
@@ -227,7 +99,7 @@ def controller_yaml(ctx: ExportContext, samples: dict[str, int]) -> str:
 
 def _task_control(ctx: ExportContext, task: TaskSpec, samples: int | None) -> dict:
     """controller.yaml's entry of ``task``: its schedule, gain, delay, velocity clamps, start pose and object."""
-    params = ctx.run.params
+    params = ctx.params
     ctl = JointController(task, params)
     starts, table = task.schedule
     return {

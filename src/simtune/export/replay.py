@@ -1,30 +1,23 @@
 """Drive exported model files with each engine's own Python API: the round trip of `simtune export`.
 
-Nothing here builds a model from simtune's robot description: each class loads
-only the files of an export folder (the model files, the sidecar, controller.yaml).
-The classes are `Engine`s so that simtune's shared control loop
-(`Engine.rollout`: the 20 Hz controller, its phase, the step counting) drives
-them exactly as it drove the tuned run, and simtune's fitness scores them.
+Each engine's replay (``engines/<name>/replay.py``, a :class:`~simtune.engines.replay_base.FromFiles`) loads
+only the files of an export folder (the model files, the sidecar, controller.yaml).  They are `Engine`s, so
+simtune's shared control loop (`Engine.rollout`: the 20 Hz controller, its phase, the step counting) drives
+them exactly as it drove the tuned run, and simtune's fitness scores them here.
 Used by the round-trip tests and ``benchmarks/export_round_trip.py``.
 """
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
-
-import yaml
 
 from simtune.data import TaskData
 from simtune.engines import ENGINES, load_part
-from simtune.engines.base import Engine, Rollout
+from simtune.engines.base import Rollout
+from simtune.engines.replay_base import controller
 from simtune.errors import SimtuneError
 from simtune.fitness import TaskScore, rollout_joint_names, score_rollout
 from simtune.tasks.spec import Phase, TaskSpec
-
-
-def controller(folder: Path) -> dict:
-    return yaml.safe_load((folder / "controller.yaml").read_text())
 
 
 def task_from_controller(folder: Path, name: str, like: TaskSpec) -> TaskSpec:
@@ -64,33 +57,6 @@ def controller_params(folder: Path, name: str) -> dict[str, float]:
     return params
 
 
-def load_script(folder: Path, name: str):
-    """An export's example script, imported as a module."""
-    spec = importlib.util.spec_from_file_location(f"exported_{Path(name).stem}", folder / name)
-    if spec is None or spec.loader is None:
-        raise SimtuneError(f"{folder / name}: cannot load the export's script")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-class FromFiles(Engine):
-    """An engine that loads nothing but an export folder's files (each engine's ``replay.py`` has one)."""
-
-    engine_parameters = frozenset()
-
-    def __init__(self, task: TaskSpec, folder: Path):
-        super().__init__(task)
-        ctl = controller(folder)
-        self.folder = folder
-        self.joints = ctl["control"]["joints"]
-        self.wrist = ctl["tracking"]["link"]
-        self.has_object = ctl["tasks"][task.name]["object"] is not None
-
-    def defaults(self) -> dict[str, float]:
-        return {}
-
-
 #: engines whose exported files can be driven again (the registry's; ODE has no model file)
 REPLAYS: tuple[str, ...] = tuple(name for name, entry in ENGINES.items() if entry.replay is not None)
 
@@ -112,3 +78,11 @@ def replay_task(engine: str, folder: Path, task: TaskSpec, reference: TaskData) 
     finally:
         sim.close()
     return rollout, score_rollout(rollout, reference, params, joint_names=rollout_joint_names(task))
+
+
+__all__ = [
+    "REPLAYS",
+    "controller_params",
+    "replay_task",
+    "task_from_controller",
+]

@@ -9,8 +9,8 @@ report's generic values (:func:`outside_generics`) and docs/parameters.md's tabl
 Adding a kind: one :class:`Kind` entry here (its range rule in :func:`bounds`), and in each engine
 that has it, the one method named by ``apply`` (``Engine.<apply>(values)``, per driven joint); an engine
 not listed in ``engines`` lacks the kind, and a value for it there is refused with one clear line
-(:func:`lacking`).  Exporters write the kinds of :data:`DRIVE_KINDS` through
-:func:`simtune.export.common.drive_values`.
+(:func:`lacking`).  Exporters write the kinds of :data:`DRIVE_KINDS` from the engines' drive values
+(:meth:`simtune.engines.Engine.drive_defaults` and the run's parameters).
 """
 
 from __future__ import annotations

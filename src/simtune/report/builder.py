@@ -205,7 +205,9 @@ def _floors(groups: list[Group], references: References, warn: Warn) -> list[Rep
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RecordingWarning)  # said when the runs were tuned
-                aligned = references.get(run.data, run.task(name), "aligned", references.selection(run))
+                aligned = references.get(
+                    run.data, run.task(name), "aligned", references.selection(run), run.keep_repeats
+                )
         except SimtuneError as exc:
             warn(f"task {name}: no floor: its recordings are unavailable ({exc})")
             continue
@@ -239,7 +241,9 @@ def _score_published(folder: Path, groups: list[Group], references: References, 
             continue
         run = next(r for g in groups if item.task in g.task_names for r in g.runs)
         try:
-            reference = references.get(run.data, run.task(item.task), references.kind(run), references.selection(run))
+            reference = references.get(
+                run.data, run.task(item.task), references.kind(run), references.selection(run), run.keep_repeats
+            )
         except SimtuneError as exc:
             warn(f"{item.path}: not scored: recordings of {item.task!r} unavailable ({exc})")
             continue

@@ -79,6 +79,11 @@ class ReportedRun:
         return str(self.config.get("repeats", "all"))
 
     @property
+    def keep_repeats(self) -> bool:
+        """Whether the run kept every repeat (``--keep-repeats``) where the repeat check would leave a far one out."""
+        return bool(self.config.get("keep_repeats", False))
+
+    @property
     def paper_exact(self) -> bool:
         """Whether the run searched exactly as the seed paper ran SciPy (``simtune tune --paper-exact``)."""
         return bool(self.config.get("paper_exact", False))

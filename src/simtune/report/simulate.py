@@ -28,14 +28,20 @@ class References:
     def __init__(self, reference: str | None = None, repeats: str | None = None) -> None:
         self.reference = reference
         self.repeats = repeats
-        self._cache: dict[tuple[str, str, str, str], TaskData | SimtuneError] = {}
+        self._cache: dict[tuple[str, str, str, str, bool], TaskData | SimtuneError] = {}
 
-    def get(self, data: str | None, task: TaskSpec, reference: str = "mean", repeats: str = "all") -> TaskData:
-        key = (str(recordings_folder(data, task).resolve()), task.name, reference, repeats)
+    def get(
+        self, data: str | None, task: TaskSpec, reference: str = "mean", repeats: str = "all", keep: bool = False
+    ) -> TaskData:
+        """``task``'s recordings under ``data`` as ``reference`` and ``repeats`` say (``keep``: every repeat, as a run
+        tuned with ``--keep-repeats`` saw them; else the repeat check leaves a far one out, as the run did)."""
+        key = (str(recordings_folder(data, task).resolve()), task.name, reference, repeats, keep)
         if key not in self._cache:
             try:
                 root = None if data is None else Path(data)
-                self._cache[key] = load_references(root, [task], reference=reference, repeats=repeats)[task.name]
+                self._cache[key] = load_references(
+                    root, [task], reference=reference, repeats=repeats, keep_repeats=keep
+                )[task.name]
             except SimtuneError as exc:
                 self._cache[key] = exc
         value = self._cache[key]
@@ -58,7 +64,10 @@ class References:
         return kind if selection == "all" else f"{kind} of the {selection} repeats"
 
     def for_run(self, run: ReportedRun) -> dict[str, TaskData]:
-        return {t: self.get(run.data, run.task(t), self.kind(run), self.selection(run)) for t in run.task_names}
+        return {
+            t: self.get(run.data, run.task(t), self.kind(run), self.selection(run), run.keep_repeats)
+            for t in run.task_names
+        }
 
 
 @dataclass

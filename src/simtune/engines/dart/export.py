@@ -25,8 +25,8 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from simtune.export import urdf
-from simtune.export.common import ExportContext, hash_comment, num
+from simtune.engines import urdf_edit as urdf
+from simtune.engines.export_base import ExportContext, hash_comment, num
 from simtune.tasks.spec import ObjectSpec
 
 SIDECAR = "dart.json"
@@ -50,14 +50,12 @@ def _surface(shape_node) -> dict:
 
 def write(ctx: ExportContext) -> list[str]:
     robot = ctx.robot
-    first = ctx.engines[ctx.run.tasks[0].name]
+    first = ctx.engines[ctx.tasks[0].name]
     skeleton = first.robot  # type: ignore[attr-defined]
     forces = _write_robot(ctx, skeleton)
     gripper = [link for link, m in robot.link_materials.items() if m == "gripper"]
     floor_shape = first.world.getSkeleton("floor").getBodyNode(0).getShapeNodes()[0]  # type: ignore[attr-defined]
-    objects = {
-        task.name: _write_object(ctx, task.name, task.object) for task in ctx.run.tasks if task.object is not None
-    }
+    objects = {task.name: _write_object(ctx, task.name, task.object) for task in ctx.tasks if task.object is not None}
     world = first.world  # type: ignore[attr-defined]
     ctx.write_json(
         SIDECAR,

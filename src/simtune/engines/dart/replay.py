@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from simtune.export.replay import FromFiles, load_script
+from simtune.engines.replay_base import FromFiles, load_script
 
 
 class DartFiles(FromFiles):

@@ -28,9 +28,9 @@ from typing import cast
 
 import numpy as np
 
+from simtune.engines import urdf_edit as urdf
 from simtune.engines.drake.engine import RESOLUTION_HINT
-from simtune.export import urdf
-from simtune.export.common import ExportContext, hash_comment, num, nums, write_cone_mesh, xml_comment
+from simtune.engines.export_base import ExportContext, hash_comment, num, nums, write_cone_mesh, xml_comment
 from simtune.tasks.spec import ObjectSpec, TaskSpec
 
 SIDECAR = "drake.json"
@@ -55,14 +55,14 @@ def _friction(parent: ET.Element, mu: float, tag: str = "drake:proximity_propert
 def write(ctx: ExportContext) -> list[str]:
     from pydrake.geometry import SceneGraphConfig
 
-    first = ctx.engines[ctx.run.tasks[0].name]
+    first = ctx.engines[ctx.tasks[0].name]
     s = first._sys  # type: ignore[attr-defined]
     generic_mu = first.defaults()["lateral_friction_gripper"]  # the parser's friction: what the other boxes keep
     root, actuators = _write_robot(ctx, s, generic_mu)
     _write_floor(ctx)
     modulus = cast(float, SceneGraphConfig().default_proximity_properties.hydroelastic_modulus)  # Drake's default
     objects = {
-        task.name: _write_object(ctx, task, task.object, modulus) for task in ctx.run.tasks if task.object is not None
+        task.name: _write_object(ctx, task, task.object, modulus) for task in ctx.tasks if task.object is not None
     }
     _write_sidecar(ctx, s.timestep, ["robot.urdf", "floor.sdf"], root.get("name"), actuators, objects)
     ctx.write(SCRIPT, hash_comment(ctx.header("load_drake.py: load this export in Drake (pydrake)")) + _SCRIPT)
@@ -86,7 +86,7 @@ def _write_robot(ctx: ExportContext, s, generic_mu: float) -> tuple[ET.Element, 
         element = urdf.joints(root)[name]
         joint, actuator = s.joints[i - 1], s.actuators[i - 1]
         urdf.set_damping(element, float(joint.GetDamping(pctx)))
-        v_max = ctx.run.params.get(f"max_velocity_joint_{i}", ctx.run.tasks[0].max_velocity_deg)
+        v_max = ctx.params.get(f"max_velocity_joint_{i}", ctx.tasks[0].max_velocity_deg)
         urdf.set_limit(element, float(actuator.effort_limit()), float(np.radians(v_max)))
         gains = actuator.get_controller_gains()
         transmission = ET.SubElement(root, "transmission", name=f"{name}_transmission")

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from simtune.export.replay import FromFiles, load_script
+from simtune.engines.replay_base import FromFiles, load_script
 
 
 class DrakeFiles(FromFiles):

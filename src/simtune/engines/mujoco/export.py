@@ -24,13 +24,13 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from simtune.engines.export_base import ExportContext, num, nums, xml_comment
 from simtune.errors import SimtuneError
-from simtune.export.common import ExportContext, num, nums, xml_comment
 
 
 def write(ctx: ExportContext) -> list[str]:
     names = []
-    for task in ctx.run.tasks:
+    for task in ctx.tasks:
         engine = ctx.engines[task.name]
         name = f"scene_{task.name}.xml"
         root = ET.fromstring(ctx.robot.scene_mjcf(task.object))

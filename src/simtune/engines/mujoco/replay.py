@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from simtune.export.replay import FromFiles
+from simtune.engines.replay_base import FromFiles
 
 
 class MujocoFiles(FromFiles):

@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from simtune.engines._shapes import cone_hull, host_mass_properties, link_boxes_in_host, object_mass_properties
+from simtune.engines.export_base import ExportContext, RobotDescription
 from simtune.engines.ode.mapping import BOUNCE_VELOCITY, DEFAULT_CONTACT, pair_surface
-from simtune.export.common import ExportContext, RobotDescription
 
 SIDECAR = "ode.json"
 
@@ -107,7 +107,7 @@ def _objects(ctx: ExportContext) -> dict[str, dict]:
     """Each task's object body (mass properties, start pose, a cone's convex hull), by task."""
     values = ctx.values
     objects = {}
-    for task in ctx.run.tasks:
+    for task in ctx.tasks:
         obj = task.object
         if obj is None:
             continue

@@ -26,9 +26,9 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from simtune.engines import urdf_edit as urdf
+from simtune.engines.export_base import ExportContext, hash_comment, num, write_cone_mesh
 from simtune.engines.pybullet.mapping import dynamics_changes, material_groups
-from simtune.export import urdf
-from simtune.export.common import ExportContext, hash_comment, num, write_cone_mesh
 from simtune.tasks.spec import ObjectSpec
 
 SIDECAR = "pybullet.json"
@@ -38,7 +38,7 @@ SCRIPT = "load_pybullet.py"
 def write(ctx: ExportContext) -> list[str]:
     import pybullet as p
 
-    first = ctx.engines[ctx.run.tasks[0].name]
+    first = ctx.engines[ctx.tasks[0].name]
     _write_robot(ctx, p, first.client, first.robot)  # type: ignore[attr-defined]
     floor = urdf.single_link(
         ctx.robot.floor,
@@ -58,7 +58,7 @@ def write(ctx: ExportContext) -> list[str]:
         },
     ]
     changes: list[dict] = []
-    for task in ctx.run.tasks:
+    for task in ctx.tasks:
         if task.object is not None:
             bodies.append(_write_object(ctx, p, task.name, task.object))
         for change in _changes(ctx, task):
@@ -82,14 +82,14 @@ def _write_robot(ctx: ExportContext, p, client: int, body: int) -> None:
     for name, link in urdf.links(root).items():
         if name in index or p.getDynamicsInfo(body, -1, physicsClientId=client)[0] > 0:
             urdf.set_inertial(link, _inertial(p, client, body, index.get(name, -1)))
-    velocities = ctx.run.tasks[0]  # the controller's velocity clamp (the same for every task unless untuned)
+    velocities = ctx.tasks[0]  # the controller's velocity clamp (the same for every task unless untuned)
     for name, joint in urdf.joints(root).items():
         if joint.get("type") == "fixed":
             continue
         i = robot.driven_joints.index(name) + 1
         # the tuned damping (changeDynamics(jointDamping=) does not show in getJointInfo)
         urdf.set_damping(joint, ctx.values[f"joint_damping_{i}"])
-        v_max = ctx.run.params.get(f"max_velocity_joint_{i}", velocities.max_velocity_deg)
+        v_max = ctx.params.get(f"max_velocity_joint_{i}", velocities.max_velocity_deg)
         urdf.set_limit(joint, ctx.values[f"max_torque_joint_{i}"], float(np.radians(v_max)))
     what = "URDF of the tuned robot for PyBullet: load it as load_pybullet.py does (pybullet.json has the rest)"
     ctx.write("robot.urdf", urdf.document(root, ctx.header(what)))

@@ -1,4 +1,4 @@
-"""URDF editing for the exports: tuned masses, inertias, joint damping and limits written into a robot's URDF.
+"""URDF editing for the engines' exporters: tuned masses, inertias, joint damping and limits in a robot's URDF.
 
 The robot's own URDF (generic values) is edited element by element, so its
 kinematics, collision shapes and names stay exactly as the engines loaded them.
@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simtune.engines.export_base import num, nums, xml_comment
 from simtune.errors import SimtuneError
-from simtune.export.common import num, nums, xml_comment
 
 
 @dataclass
