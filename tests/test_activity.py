@@ -193,3 +193,19 @@ def test_tune_searches_the_active_parameters_unless_told_to_keep_them(tmp_path):
     # a run that keeps every parameter records the declared list (no probe): the measured one adds to it
     assert set(kept["inactive_parameters"]) <= set(active["inactive_parameters"])
     assert "mass_cube_wood" in active["inactive_parameters"]
+
+
+def test_a_probe_at_a_terminal_says_so_and_shows_its_rollouts_on_a_bar(capsys, monkeypatch):
+    """Issue 48: the probe has its own progress bar (on stderr at a terminal, where its note goes), counting the
+    rollouts of each round; the results are those of a probe without one."""
+    monkeypatch.setenv("FORCE_COLOR", "1")  # Rich draws its bar as at a terminal
+    space = get_space("extended", engine_class("mujoco").supported(), ["command_delay", "mass_cube_wood"])
+    counted: list[int] = []
+    quiet = measure_activity("mujoco", get_task("cube"), space, on_rollouts=counted.append)
+    assert counted[0] == 1 and sum(counted) >= 1 + len(space.names)  # the base point, then each parameter moved
+    with activity.announcing(True):
+        shown = task_activity("mujoco", get_task("cube"), space, use_cache=False)
+    err = capsys.readouterr().err
+    assert "measuring which of 2 parameters change the rollouts of task 'cube'" in err
+    assert "probe" in err.split("...", 1)[1]  # the bar, after the note
+    assert shown == quiet

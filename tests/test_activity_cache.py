@@ -224,7 +224,7 @@ def test_an_mjcf_robot_is_read_by_content_with_its_includes_and_meshes(tmp_path)
 def fake_probe(calls: list):
     """A stand-in for the rollouts: every parameter active, each call counted."""
 
-    def measure(engine, task, space, points=activity.PROBE_POINTS, samples=None, workers=1):
+    def measure(engine, task, space, points=activity.PROBE_POINTS, samples=None, workers=1, on_rollouts=None):
         calls.append(task.name)
         return {name: Activity(name, True, 1.0) for name in space.names}
 

@@ -37,7 +37,7 @@ import os
 import signal
 import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -132,12 +132,14 @@ def measure_activity(
     points: int = PROBE_POINTS,
     samples: int | None = None,
     workers: int = 1,
+    on_rollouts: Callable[[int], None] | None = None,
 ) -> dict[str, Activity]:
     """Probe every parameter of ``space`` on ``task`` (see the module's notes): name -> Activity.
 
     With ``workers`` > 1 the rollouts of each round (every parameter still inactive at its lower bound,
     then those unmoved at their upper bound) run on that many worker processes: the same rollouts as one
     after the other, so the same outcome, in about 1 / ``workers`` of the time (minutes for a slow engine).
+    ``on_rollouts(n)`` is told after each round how many rollouts it ran (a progress bar).
     """
     cls = engine_class(engine)
     declared = schedule_reasons(task) | cls.inactive_parameters(task)
@@ -154,12 +156,17 @@ def measure_activity(
             if not pending:
                 break
             (seen,) = probe.tracks([base])
+            if on_rollouts is not None:
+                on_rollouts(1)
             if seen is None:
                 continue
             for bound in ("low", "high"):  # the upper bound only for what the lower one left unmoved
                 unmoved = [p for p in pending if largest[p.name] <= TOLERANCE]
                 moved = [{**base, p.name: getattr(p, bound)} for p in unmoved]
-                for p, track in zip(unmoved, probe.tracks(moved)):
+                tracks = probe.tracks(moved)
+                if on_rollouts is not None:
+                    on_rollouts(len(moved))
+                for p, track in zip(unmoved, tracks):
                     change = float(np.abs(track - seen).max()) if track is not None else np.inf
                     largest[p.name] = max(largest[p.name], change)
             for p in pending:
@@ -512,10 +519,37 @@ def task_activity(
             pass  # not cached yet, or a damaged entry: measure again
     if _announces():
         print(probe_note(engine, task, space, points, workers, use_cache), file=sys.stderr, flush=True)
-    found = measure_activity(engine, task, space, points, workers=workers)
+        found = _measured_with_a_bar(engine, task, space, points, workers)
+    else:
+        found = measure_activity(engine, task, space, points, workers=workers)
     if use_cache:
         _write_cache(path, {name: asdict(a) for name, a in found.items()})
         _MEMORY[path] = found
+    return found
+
+
+def _measured_with_a_bar(
+    engine: str, task: TaskSpec, space: ParameterSpace, points: int, workers: int
+) -> dict[str, Activity]:
+    """:func:`measure_activity` with a progress bar on stderr over its rollouts (at most the bound
+    :func:`probe_note` gives; the bar completes when the probe ends early, its parameters all found active), where
+    stderr is a terminal (a pipe or a log gets the note alone)."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    console = Console(stderr=True)
+    if not console.is_terminal:
+        return measure_activity(engine, task, space, points, workers=workers)
+
+    supported = engine_class(engine).supported(task.robot)
+    bound = (points + 1) * (1 + 2 * sum(is_supported(name, supported) for name in space.names))
+    columns = (TextColumn("[bold]probe[/]"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    with Progress(*columns, console=console, transient=True) as progress:
+        bar = progress.add_task("probe", total=bound)
+        found = measure_activity(
+            engine, task, space, points, workers=workers, on_rollouts=lambda n: progress.advance(bar, n)
+        )
+        progress.update(bar, completed=bound)
     return found
 
 
