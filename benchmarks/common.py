@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -127,3 +129,17 @@ def load_best(run: Path) -> tuple[dict[str, Any], TaskSpec]:
     best = json.loads((run / "best_params.json").read_text())
     (task,) = parse_tasks(best["tasks"])
     return best, task
+
+
+def simtune(*args: object) -> str:
+    """Run one simtune command in a new process; its standard output (stops the benchmark on failure)."""
+    command = [sys.executable, "-m", "simtune.cli", *map(str, args)]
+    result = subprocess.run(command, check=False, capture_output=True, text=True)
+    if result.returncode != 0:
+        sys.exit(f"failed: simtune {' '.join(map(str, args))}\n{result.stderr}")
+    return result.stdout
+
+
+def last_json(text: str) -> dict:
+    """The JSON object a --json command printed (the last line starting with '{')."""
+    return json.loads(next(line for line in reversed(text.splitlines()) if line.startswith("{")))

@@ -31,13 +31,20 @@ Writes ``drivetrain-recovery-<date>.md`` (the tables) and ``.json`` to --results
 from __future__ import annotations
 
 import json
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-from common import add_engines_option, add_results_option, make_parser, write_json_result, write_result
+from common import (
+    add_engines_option,
+    add_results_option,
+    last_json,
+    make_parser,
+    simtune,
+    write_json_result,
+    write_result,
+)
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from robot_corpus import CORPUS
@@ -68,19 +75,6 @@ JITTER_S = 0.05
 REPEATS = 10
 WITHIN = 5.0  # [% of the range]
 COVERAGE = 0.8
-
-
-def simtune(*args: object) -> str:
-    """Run one simtune command; its standard output (stops the benchmark on failure)."""
-    command = [sys.executable, "-m", "simtune.cli", *map(str, args)]
-    result = subprocess.run(command, check=False, capture_output=True, text=True)
-    if result.returncode != 0:
-        sys.exit(f"failed: simtune {' '.join(map(str, args))}\n{result.stderr}")
-    return result.stdout
-
-
-def last_json(text: str) -> dict:
-    return json.loads(next(line for line in reversed(text.splitlines()) if line.startswith("{")))
 
 
 def drive_task(joints: list[str], start: list[float], limits: list[tuple[float, float]], robot: str) -> str:

@@ -27,14 +27,13 @@ Writes ``panda-recovery-<date>.md`` (the table) and ``.json`` to --results; prin
 from __future__ import annotations
 
 import json
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 import pybullet_data
-from common import add_results_option, make_parser, write_json_result, write_result
+from common import add_results_option, last_json, make_parser, simtune, write_json_result, write_result
 
 PANDA = Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf"
 TASKS = ("reach", "push")
@@ -98,20 +97,6 @@ targets_deg = [0.0, 38.1, 0.0, -110.2, 0.0, 148.4, 90.0]
 start = 9.5
 targets_deg = [-0.1, 20.8, 0.1, -110.6, 0.0, 131.4, 90.0]
 """
-
-
-def simtune(*args: object) -> str:
-    """Run one simtune command; its standard output (stops the benchmark on failure)."""
-    command = [sys.executable, "-m", "simtune.cli", *map(str, args)]
-    result = subprocess.run(command, check=False, capture_output=True, text=True)
-    if result.returncode != 0:
-        sys.exit(f"failed: simtune {' '.join(map(str, args))}\n{result.stderr}")
-    return result.stdout
-
-
-def last_json(text: str) -> dict:
-    """The JSON object a --json command printed (the last line starting with '{')."""
-    return json.loads(next(line for line in reversed(text.splitlines()) if line.startswith("{")))
 
 
 def make_project(folder: Path, servo_gain: float | None) -> Path:

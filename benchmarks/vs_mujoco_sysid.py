@@ -57,7 +57,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-from common import QRG2019_DATA, add_results_option, make_parser, write_json_result, write_result
+from common import QRG2019_DATA, add_results_option, last_json, make_parser, write_json_result, write_result
 
 import simtune
 import simtune.api as st
@@ -105,10 +105,6 @@ def simtune_cmd(args: list[object], src: str | None) -> str:
     if result.returncode != 0:
         sys.exit(f"failed: simtune {' '.join(map(str, args))}\n{result.stdout[-2000:]}\n{result.stderr[-4000:]}")
     return result.stdout
-
-
-def last_json(text: str) -> dict:
-    return json.loads(next(line for line in reversed(text.splitlines()) if line.startswith("{")))
 
 
 def project_args(p: Problem) -> list[object]:
