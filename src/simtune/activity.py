@@ -454,6 +454,25 @@ def _announces() -> bool:
         return False
 
 
+def probe_size(engine: str, task: TaskSpec, space: ParameterSpace, points: int) -> tuple[int, int]:
+    """How many parameters a probe measures (those the engine has) and at most how many rollouts it runs: each base
+    point its own rollout, then each parameter at its lower and (if unmoved) its upper bound - what the first line of
+    a fresh machine can promise (active parameters drop out after one point).
+
+    Args:
+        engine: the engine's registry name.
+        task: the task probed.
+        space: the parameters probed.
+        points: random base points besides the generic one.
+
+    Returns:
+        ``(parameters, rollouts)``.
+    """
+    supported = engine_class(engine).supported(task.robot)
+    probed = sum(is_supported(name, supported) for name in space.names)
+    return probed, (points + 1) * (1 + 2 * probed)
+
+
 def probe_note(engine: str, task: TaskSpec, space: ParameterSpace, points: int, workers: int, cached: bool) -> str:
     """The line that announces a probe: what it measures, on which engine, at most how many rollouts of what length.
 
@@ -468,11 +487,7 @@ def probe_note(engine: str, task: TaskSpec, space: ParameterSpace, points: int, 
     Returns:
         One line, without its newline.
     """
-    supported = engine_class(engine).supported(task.robot)
-    probed = sum(is_supported(name, supported) for name in space.names)
-    # each base point: its own rollout, then each parameter at its lower and (if unmoved) its upper bound; the
-    # bound is what the first line of a fresh machine can promise (active parameters drop out after one point)
-    rollouts = (points + 1) * (1 + 2 * probed)
+    probed, rollouts = probe_size(engine, task, space, points)
     on = f" on {workers} workers" if workers > 1 else ""
     after = "; cached afterwards" if cached else ""
     return (
@@ -541,8 +556,7 @@ def _measured_with_a_bar(
     if not console.is_terminal:
         return measure_activity(engine, task, space, points, workers=workers)
 
-    supported = engine_class(engine).supported(task.robot)
-    bound = (points + 1) * (1 + 2 * sum(is_supported(name, supported) for name in space.names))
+    _, bound = probe_size(engine, task, space, points)
     columns = (TextColumn("[bold]probe[/]"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     with Progress(*columns, console=console, transient=True) as progress:
         bar = progress.add_task("probe", total=bound)
