@@ -289,7 +289,7 @@ class Objective:
     def residual_size(self) -> int:
         """Length of :meth:`residuals`: per task 3 per 20 Hz sample with a wrist marker, 3 with an object, and
         one per sample and logged joint."""
-        return sum(self._residual_count(t) for t in self.tasks)
+        return sum(self.residual_counts())
 
     def penalty_residuals(self) -> np.ndarray:
         """The residuals of a simulation that blew up or failed: their squares sum to ``PENALTY**2`` (times the
