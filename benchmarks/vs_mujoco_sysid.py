@@ -730,10 +730,10 @@ def _iv(iv) -> str:
 
 
 NOT_EXPRESSED = (
-    "Left out of both (cannot be expressed identically): armature and frictionloss (simtune has no such "
-    "parameter), the actuator gain (simtune's servo gain is a fixed project setting, not a tuned parameter; "
-    "MuJoCo's velocity servo kv for mujoco.sysid), the controller's velocity clamp on A (mujoco.sysid replays "
-    "the commands the clamp already shaped: nothing to identify)."
+    "Left out of problems mico and panda (problem drive has armature and frictionloss): the actuator gain "
+    "(simtune's velocity-servo gain is a project setting, its position controller's kp_joint_<i> another gain "
+    "than MuJoCo's velocity servo kv for mujoco.sysid), the controller's velocity clamp on A (mujoco.sysid "
+    "replays the commands the clamp already shaped: nothing to identify)."
 )
 
 
