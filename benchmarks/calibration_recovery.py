@@ -24,7 +24,7 @@ from common import add_search_options, make_parser, start_or_resume
 from simtune.objective import Objective, load_references
 from simtune.params import get_space
 from simtune.runs import RunConfig
-from simtune.synth import make_synthetic
+from simtune.studies.synth import make_synthetic
 from simtune.tasks import parse_tasks
 
 TASK = "cube"

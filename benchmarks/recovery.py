@@ -37,13 +37,13 @@ import numpy as np
 from common import add_search_options, make_parser, start_or_resume
 from scipy.stats import spearmanr
 
-from simtune.check import check
+from simtune.check.task import check
 from simtune.objective import Objective, load_references
 from simtune.params import find_parameter
 from simtune.report.simulate import nominal_values
 from simtune.runs import RunConfig
 from simtune.store import RunStore
-from simtune.synth import make_synthetic
+from simtune.studies.synth import make_synthetic
 from simtune.tasks import parse_tasks
 
 TASK = "cube"

@@ -44,9 +44,9 @@ import numpy as np
 from common import add_data_option, load_best, make_parser
 from scipy.optimize import least_squares, minimize
 
-from simtune.controller import JointController
 from simtune.data.clock import REFERENCES
 from simtune.engines import engine_class
+from simtune.engines.controller import JointController
 from simtune.fitness import marker_positions
 from simtune.objective import Objective, load_references
 from simtune.store import read_record
@@ -232,9 +232,9 @@ def rest_pose_changes(task, ref, params: dict, true_angles: np.ndarray) -> None:
     wrist where the recordings (position and orientation, mean over the aligned repeats) put it."""
     from scipy.spatial.transform import Rotation
 
-    from simtune.check import REST_WINDOW_S
-    from simtune.controller import JointController
+    from simtune.check.task import REST_WINDOW_S
     from simtune.data.loaders import load_recording
+    from simtune.engines.controller import JointController
 
     shifts = ref.alignment.shifts if ref.alignment is not None else np.zeros(len(ref.sources))
     recordings = [load_recording(source) for source in ref.sources]

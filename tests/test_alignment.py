@@ -7,7 +7,7 @@ import sys
 import pytest
 
 from simtune.alignment import estimate_delay
-from simtune.controller import JointController
+from simtune.engines.controller import JointController
 from simtune.errors import ConfigError
 from simtune.objective import Objective, load_references
 from simtune.params import get_space, validate_params

@@ -1,13 +1,13 @@
 """The Python API refuses values that mean nothing with one ConfigError naming the argument (issue 50, item 10):
-negative or string worker counts, worker counts past simtune.limits.MAX_WORKERS (10**6 used to fork until the
+negative or string worker counts, worker counts past simtune.common.limits.MAX_WORKERS (10**6 used to fork until the
 machine stalled), negative budgets and sample counts (sensitivity_evaluations(..., -5) returned -270), None
 where a count is due."""
 
 import pytest
 
 import simtune.api as st
+from simtune.common.limits import MAX_WORKERS
 from simtune.errors import ConfigError
-from simtune.limits import MAX_WORKERS
 
 
 @pytest.mark.parametrize("workers", [0, -1, "2", 2.0, None, True, MAX_WORKERS + 1, 10**6])

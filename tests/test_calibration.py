@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from conftest import engine_or_skip
 
-from simtune.controller import JointController
 from simtune.engines import ENGINES, engine_class
+from simtune.engines.controller import JointController
 from simtune.errors import EngineUnavailable
 from simtune.params import get_space
 from simtune.params.kinds import FULL_LOAD_DEFLECTION_DEG

@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from simtune.check import rest_poses
+from simtune.check.task import rest_poses
 from simtune.data import TaskData
 from simtune.data.onset import ONSET_M, motion_onset
 from simtune.reference import REFERENCE_DIR

@@ -14,10 +14,10 @@ from pathlib import Path
 import pytest
 from test_urdf_defects import arm
 
+from simtune.check.project import _died
 from simtune.engines import engine_class
 from simtune.errors import EngineUnavailable
-from simtune.project_check import _died
-from simtune.project_init import init_project
+from simtune.tasks.init_project import init_project
 
 pytest.importorskip("yourdfpy")
 
@@ -39,8 +39,8 @@ def crashing_project(tmp_path_factory) -> Path:
 def test_an_engine_that_crashes_is_one_line_and_the_others_are_reported(crashing_project: Path) -> None:
     from dataclasses import replace
 
+    from simtune.check.project import _load_robot_isolated
     from simtune.project import load_project
-    from simtune.project_check import _load_robot_isolated
 
     task = next(iter(load_project(crashing_project).tasks.values()))
     # the robot as the URDF wrote it, before the loader's stand-in: a moving link with a mass and zero inertia

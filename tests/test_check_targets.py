@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from simtune import api
-from simtune.check import task_quality
+from simtune.check.task import task_quality
 from simtune.errors import SimtuneError
 from simtune.project import BUNDLED_DIR, load_project
 from simtune.reference import REFERENCE_DIR

@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 from conftest import engine_or_skip, every_engine
 
-from simtune.controller import JointController
 from simtune.engines import make_engine
+from simtune.engines.controller import JointController
 from simtune.tasks import get_task
 
 

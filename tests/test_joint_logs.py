@@ -473,7 +473,7 @@ def test_residuals_weigh_markers_and_joints_like_the_fitness(tmp_path: Path) -> 
     pytest.importorskip("mujoco")
     from simtune.fitness import marker_positions
     from simtune.objective import Objective, load_references
-    from simtune.synth import make_synthetic
+    from simtune.studies.synth import make_synthetic
     from simtune.tasks import parse_tasks
 
     make_synthetic("mujoco", "single", tmp_path, truth={"command_delay": 1.3}, repeats=2, fmt="csv")
@@ -498,7 +498,7 @@ def test_residuals_weigh_markers_and_joints_like_the_fitness(tmp_path: Path) -> 
 def test_the_python_api_takes_weights(tmp_path: Path) -> None:
     pytest.importorskip("mujoco")
     from simtune import api
-    from simtune.synth import make_synthetic
+    from simtune.studies.synth import make_synthetic
 
     make_synthetic("mujoco", "single", tmp_path, truth={"command_delay": 1.3}, repeats=2, fmt="joints-csv")
     one = api.evaluate("mujoco", "single", data=tmp_path, weights={"joint": 1.0})

@@ -264,7 +264,7 @@ def test_the_same_schedule_from_phases_and_from_actions(tmp_path, simulated):
 def test_synth_writes_a_dataset_that_tunes(tmp_path, simulated, fmt):
     """The SO-101 owner's path in the small: a task driven by a dataset's actions, recordings synthesised as a
     LeRobot dataset, tuned."""
-    from simtune.synth import make_synthetic
+    from simtune.studies.synth import make_synthetic
 
     source = tmp_path / "proj" / "source"
     write_raw(source, "v3.0", simulated[:1])
@@ -288,7 +288,7 @@ def test_synth_writes_a_dataset_that_tunes(tmp_path, simulated, fmt):
 
 
 def test_synth_refuses_a_task_without_a_stated_unit(tmp_path):
-    from simtune.synth import make_synthetic
+    from simtune.studies.synth import make_synthetic
 
     root = make_project(tmp_path / "proj", schedule="phases")
     text = (root / "tasks" / "wave.toml").read_text().replace('[recordings]\nunits = "deg"\n', "")
@@ -570,8 +570,8 @@ def so101_urdf() -> Path:
 def test_so101_path_from_lerobot_actions_to_a_tuned_delay(tmp_path):
     """An SO-101 owner's path: LeRobot's names and degrees (gripper 0-100, a held joint here, left out), a task
     driven by a teleoperated episode's actions, recordings synthesised as a LeRobot dataset, tuned."""
-    from simtune.project_init import init_project
-    from simtune.synth import make_synthetic
+    from simtune.studies.synth import make_synthetic
+    from simtune.tasks.init_project import init_project
 
     root = tmp_path / "so101"
     init_project(so101_urdf(), root)

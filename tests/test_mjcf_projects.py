@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 
 import simtune.api as st
+from simtune.check.project import check_project
 from simtune.engines import ENGINES, engine_class
 from simtune.errors import EngineUnavailable
 from simtune.project import load_project
-from simtune.project_check import check_project
 
 FIXTURE = Path(__file__).resolve().parent / "fixtures" / "mjcf_arm" / "arm.xml"
 #: the fixture's home keyframe, for its driven joints j1..j4 [rad]

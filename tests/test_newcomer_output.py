@@ -79,7 +79,7 @@ def test_distinct_warnings_are_each_printed(command_line) -> None:
 def _synth_jitter_defaults() -> list[float]:
     """The start jitter ``simtune synth`` uses by default, as the API and the command line state it."""
     from simtune.cli.data_commands import synth as synth_command
-    from simtune.synth import make_synthetic
+    from simtune.studies.synth import make_synthetic
 
     return [
         inspect.signature(make_synthetic).parameters["jitter_s"].default,
@@ -107,7 +107,7 @@ def test_a_uniform_designed_jitter_is_never_an_outlier(repeats: int) -> None:
 def test_synthetic_recordings_are_not_called_odd(tmp_path) -> None:
     """``simtune synth``'s recordings with its default jitter: 8 repeats whose extremes 3 scaled MADs flagged."""
     from simtune.objective import load_task_recordings
-    from simtune.synth import make_synthetic
+    from simtune.studies.synth import make_synthetic
     from simtune.tasks import get_task
 
     make_synthetic("mujoco", "single", tmp_path, truth={"command_delay": 0.3}, repeats=8, seed=3)
@@ -221,7 +221,7 @@ def test_the_progress_line_counts_what_the_summary_counts(tmp_path, monitor_prog
 def monitor_progress(monkeypatch):
     """Every TuneProgress a run makes, kept for the test to read."""
     from simtune import runs
-    from simtune.progress import TuneProgress
+    from simtune.optimize.progress import TuneProgress
 
     made: list[TuneProgress] = []
 

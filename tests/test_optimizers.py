@@ -210,7 +210,7 @@ def test_compare_prints_the_table_from_the_run_stores(tmp_path):
 
 
 def test_compare_summary_counts_evaluations_to_target():
-    from simtune.compare import RunCurve, summarise
+    from simtune.studies.compare import RunCurve, summarise
 
     curves = [
         RunCurve("a", 0, [0.3, 0.2, 0.1, 0.1], 1.0, ""),

@@ -8,10 +8,10 @@ from pathlib import Path
 import pytest
 
 import simtune.api as st
+from simtune.check.project import check_project
 from simtune.errors import ConfigError, ProjectError, RobotError
 from simtune.project import load_project
-from simtune.project_check import check_project
-from simtune.project_init import init_project
+from simtune.tasks.init_project import init_project
 
 pybullet_data = pytest.importorskip("pybullet_data")
 PANDA = Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf"

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from conftest import engine_or_skip
 
-from simtune.controller import JointController, controller_parameters
 from simtune.engines import ENGINES, engine_class
+from simtune.engines.controller import JointController, controller_parameters
 from simtune.errors import ConfigError
 from simtune.params import SPACES, validate_params
 from simtune.params.kinds import BY_NAME, DRIVE_KINDS, KINDS, lacking

@@ -29,7 +29,7 @@ from simtune.objective import load_task_recordings
 from simtune.project import load_project
 from simtune.robot.mico import ARM_JOINTS
 from simtune.store import STORE_FILE, RunStore
-from simtune.synth import make_synthetic
+from simtune.studies.synth import make_synthetic
 
 pytest.importorskip("rosbags")
 
@@ -150,7 +150,7 @@ def test_a_degrees_log_within_two_turns_stops_naming_file_joint_and_units_key(tm
     code, err = cli("evaluate", "--project", str(root), "--task", "nudge", capsys=capsys)
     one_line(code, err, "nudge/nudge0001.csv", "joint 'joint_2'", "limits", 'units = "deg"', "[recordings]")
     # simtune check calls it a problem, not a warning about the start pose
-    from simtune.project_check import check_project
+    from simtune.check.project import check_project
 
     problems = [f.message for f in check_project(root, engines=()) if f.level == "problem"]
     assert len(problems) == 1 and "units check" in problems[0] and "joint_2" in problems[0], problems

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from test_data_sanity import Fields, rewrite
 
-from simtune.check import task_quality
+from simtune.check.task import task_quality
 from simtune.data.screen import far_repeats
 from simtune.errors import RecordingWarning
 from simtune.objective import load_references

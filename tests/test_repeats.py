@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import simtune.api as st
-from simtune.check import task_quality
+from simtune.check.task import task_quality
 from simtune.data import Recording, load_task_data, write_csv
 from simtune.data.task import check_repeats
 from simtune.errors import ConfigError, RecordingError, RecordingWarning

@@ -385,7 +385,7 @@ def test_command_line(grid, tmp_path):
     import typer
     from typer.testing import CliRunner
 
-    from simtune.report.command import report as report_command
+    from simtune.cli.report_command import report as report_command
 
     app = typer.Typer()
     app.command()(report_command)

@@ -181,7 +181,7 @@ def test_mujocos_servo_counts_armature_home_pose_and_damping_and_check_warns_whe
     """The servo gains behind the agreement (docs/robots.md, "The servo gain"), and the one detectable cause of a
     difference between MuJoCo's servo and the hard motors: damping the force limit keeps the gain from outweighing
     (the xArm7), which ``check`` names per hard-motor engine."""
-    from simtune.project_check import _servo_findings
+    from simtune.check.project import _servo_findings
     from simtune.robot import MICO
     from simtune.robot.generate import servo_gains, servo_shortfalls
 

@@ -24,9 +24,9 @@ from simtune.errors import ConfigError, SimtuneError
 from simtune.optimize import OPTIMIZERS
 from simtune.optimize.evaluator import TIMEOUT_REASON, failed_score, timed_out
 from simtune.reference import REFERENCE_DIR
-from simtune.runlock import LOCK_FILE
 from simtune.runs import RunConfig, fingerprint_differences, resume_run, start_run, write_json_atomic
 from simtune.store import STORE_FILE, RunStore
+from simtune.store.lock import LOCK_FILE
 
 ONLY = ["command_delay", "max_velocity_joint_2"]
 
@@ -498,7 +498,7 @@ def test_a_store_killed_while_being_created_is_replaced_not_refused(tmp_path, le
 
 
 def test_the_lock_is_reentrant_removed_when_done_and_a_stale_file_does_not_block(tmp_path):
-    from simtune.runlock import RunBusy, check_free, holds, run_lock
+    from simtune.store.lock import RunBusy, check_free, holds, run_lock
 
     (tmp_path / LOCK_FILE).write_text('{"pid": 999999999, "host": "gone"}\n')  # left by a killed process
     with run_lock(tmp_path):
@@ -510,7 +510,7 @@ def test_the_lock_is_reentrant_removed_when_done_and_a_stale_file_does_not_block
             [
                 sys.executable,
                 "-c",
-                "from simtune.runlock import run_lock; import sys; run_lock(sys.argv[1]).__enter__()",
+                "from simtune.store.lock import run_lock; import sys; run_lock(sys.argv[1]).__enter__()",
             ]
             + [str(tmp_path)],
             capture_output=True,
@@ -529,7 +529,7 @@ def held_elsewhere(folder: Path):
         [
             sys.executable,
             "-c",
-            "import sys, time; from simtune.runlock import run_lock\n"
+            "import sys, time; from simtune.store.lock import run_lock\n"
             "with run_lock(sys.argv[1]):\n    print('held', flush=True); time.sleep(60)",
             str(folder),
         ],
@@ -546,7 +546,7 @@ def held_elsewhere(folder: Path):
 
 def test_a_grid_unit_whose_folder_another_process_writes_is_refused(tmp_path):
     from simtune.grid import GridSpec, Unit, run_unit
-    from simtune.runlock import RunBusy
+    from simtune.store.lock import RunBusy
 
     unit = Unit("mujoco", "cube", "extended", 0)
     spec = GridSpec(["mujoco"], ["cube"], ["extended"], 1, str(REFERENCE_DIR), max_generations=1, only=ONLY)

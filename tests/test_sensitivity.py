@@ -9,8 +9,8 @@ import pytest
 
 from simtune.errors import ConfigError, SimtuneError
 from simtune.reference import REFERENCE_DIR
-from simtune.sensitivity import STORE_NAME, run_sensitivity
 from simtune.store import RunStore
+from simtune.studies.sensitivity import STORE_NAME, run_sensitivity
 
 ONLY = ["command_delay", "mass_cuboid_wood", "max_velocity_joint_2"]
 

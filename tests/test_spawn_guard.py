@@ -12,7 +12,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from simtune.spawn_guard import unguarded_call
+from simtune.common.spawn_guard import unguarded_call
 
 SCRIPT = """\
 import simtune.api as st
@@ -93,8 +93,8 @@ def test_workers_fork_from_the_server_with_the_environment_of_the_moment_they_we
     reading the recordings), yet see the environment as it was when the Evaluator opened, as spawned ones do."""
     from test_batch import objective
 
+    from simtune.common.spawn_guard import start_worker_server, worker_context
     from simtune.optimize.evaluator import Evaluator
-    from simtune.spawn_guard import start_worker_server, worker_context
     from simtune.store import RunStore
 
     if sys.platform.startswith("linux"):

@@ -18,7 +18,6 @@ from typer.testing import CliRunner
 
 import simtune
 from simtune.cli import app
-from simtune.compare import curve_from_store
 from simtune.export import export_run
 from simtune.fitness import PENALTY, Score, TaskScore, pruned_message
 from simtune.reference import REFERENCE_DIR
@@ -26,6 +25,7 @@ from simtune.reference.make import make as make_reference
 from simtune.report.collect import load_run
 from simtune.runs import BEST_PARAMS_FILE, RunConfig, resume_run, start_run
 from simtune.store import STORE_FILE, RunStore, read_record, vector_key
+from simtune.studies.compare import curve_from_store
 
 
 def config(**kw) -> RunConfig:

@@ -12,7 +12,7 @@ from simtune.engines import make_engine
 from simtune.errors import ConfigError
 from simtune.fitness import marker_positions
 from simtune.runs import RunConfig, start_run
-from simtune.synth import load_truth, make_synthetic
+from simtune.studies.synth import load_truth, make_synthetic
 from simtune.tasks import get_task
 
 

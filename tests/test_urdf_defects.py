@@ -27,7 +27,8 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as hs
 
 from simtune.errors import RobotError, RobotWarning
-from simtune.project_init import (
+from simtune.robot.urdf import load_urdf
+from simtune.tasks.init_project import (
     START_CANDIDATES_DEG,
     START_CLEARANCE_M,
     START_SEARCH_JOINTS,
@@ -36,7 +37,6 @@ from simtune.project_init import (
     clearance,
     init_project,
 )
-from simtune.robot.urdf import load_urdf
 
 pytest.importorskip("yourdfpy")
 
@@ -482,7 +482,7 @@ def build_in_mujoco(robot) -> None:
     """What ``init`` computes for the example task, then the robot built and stepped in MuJoCo (in this process:
     MuJoCo reports a model it cannot build, where PyBullet, ODE and Drake may end the process)."""
     from simtune.engines import engine_class
-    from simtune.project_init import reach_poses
+    from simtune.tasks.init_project import reach_poses
     from simtune.tasks.spec import Phase, TaskSpec
 
     start, target = reach_poses(robot)
@@ -529,9 +529,9 @@ def test_random_descriptions_through_init_and_check_in_every_engine(mesh_folder,
     ``check`` in all five engines - ``init`` stops with one SimtuneError line or writes a project, and ``check``
     reports it in lines (an engine that crashes in its child process is one of them): no crash of the command, no
     hang, no traceback."""
+    from simtune.check.project import check_project
     from simtune.errors import SimtuneError
-    from simtune.project_check import check_project
-    from simtune.project_init import init_project
+    from simtune.tasks.init_project import init_project
 
     text = data.draw(descriptions(str(mesh_folder / "tetra.obj")))
     folder = Path(tempfile.mkdtemp(dir=tmp_path))

@@ -23,9 +23,9 @@ from robot_corpus import ENGINES, FK_TOLERANCE_M, cli, fk_error
 from simtune.errors import ProjectError, RobotError, RobotWarning
 from simtune.params.space import robot_spaces
 from simtune.project import load_project
-from simtune.project_init import init_project
 from simtune.robot.inertia import DEFAULT_DENSITY
 from simtune.robot.urdf import FLOOR_MASS, load_urdf
+from simtune.tasks.init_project import init_project
 
 pytest.importorskip("yourdfpy")
 trimesh = pytest.importorskip("trimesh")
@@ -165,7 +165,7 @@ def test_only_a_link_without_any_geometry_gets_a_placeholder(tmp_path):
     assert robot.placeholder_masses == ("upper",) and robot.estimated_masses == ("fore",)
     assert robot.link_by_name["upper"].mass == FLOOR_MASS
 
-    from simtune.project_check import check_project
+    from simtune.check.project import check_project
 
     bare = write(tmp_path, arm({"base": "", "upper": "", "fore": ""}), "bare.urdf")
     for file, level in ((urdf, "warning"), (bare, "problem")):

@@ -47,14 +47,14 @@ from pathlib import Path
 import numpy as np
 
 import simtune
-from simtune.controller import CONTROL_PERIOD
+from simtune.common.spawn_guard import adopt_environment, check_main_guarded, worker_context
 from simtune.engines import engine_class, make_engine
 from simtune.engines.base import Rollout
+from simtune.engines.controller import CONTROL_PERIOD
 from simtune.fitness import marker_positions
 from simtune.params import ParameterSpace
 from simtune.params.space import is_supported
 from simtune.robot.description import Mesh, RobotDescription
-from simtune.spawn_guard import adopt_environment, check_main_guarded, worker_context
 from simtune.tasks import TaskSpec
 from simtune.tasks.spec import FINGERPRINT
 
@@ -182,7 +182,7 @@ def measure_activity(
 
 class _Probe:
     """The probe's rollouts: each parameter dict's visible track (None where the rollout blew up), here or on
-    ``workers`` processes (:func:`~simtune.spawn_guard.worker_context`: none shares an engine with this one).
+    ``workers`` processes (:func:`~simtune.common.spawn_guard.worker_context`: none shares an engine with this one).
 
     Here, each round goes to the engine as one batch (:meth:`~simtune.engines.Engine.rollout_batch`): MuJoCo runs
     it in lockstep control periods with the controller and the checks as NumPy over the batch, bit for bit the

@@ -27,9 +27,10 @@ from datetime import date
 from pathlib import Path
 
 from simtune.alignment import DelayEstimate, aligned, estimate_delay
-from simtune.check import check as run_check
-from simtune.check import moved_joints
-from simtune.compare import run_compare
+from simtune.check.project import check_project
+from simtune.check.task import check as run_check
+from simtune.check.task import moved_joints
+from simtune.common.limits import MAX_SEED, MAX_WORKERS
 from simtune.data.clock import DEFAULT_REFERENCE, check_reference, default_reference
 from simtune.data.task import DEFAULT_REPEATS, check_repeats
 from simtune.engines import engine_class
@@ -38,23 +39,22 @@ from simtune.export import ExportResult, export_run, export_runs
 from simtune.fitness import FitnessWeights, Score, TaskScore
 from simtune.grid import GridIndex, GridSpec, run_grid
 from simtune.grid import plan_grid as _plan_grid
-from simtune.limits import MAX_SEED, MAX_WORKERS
 from simtune.objective import Objective, load_references
 from simtune.optimize import TuneResult
 from simtune.params import get_space, read_params_file, validate_params
 from simtune.project import Project, get_project
 from simtune.project import load_project as _load_project
-from simtune.project_check import check_project
-from simtune.project_init import init_project
 from simtune.reference import REFERENCE_DIR, run_demo
 from simtune.run_plan import RunConfig, default_space, new_run_config
 from simtune.runs import resume_run, run_uncertainty, start_run
-from simtune.sensitivity import evaluation_count, run_sensitivity
 from simtune.store import STORE_FILE, read_record
-from simtune.synth import SynthResult, load_truth, make_synthetic
+from simtune.studies.compare import run_compare
+from simtune.studies.sensitivity import evaluation_count, run_sensitivity
+from simtune.studies.synth import SynthResult, load_truth, make_synthetic
+from simtune.studies.transfer import run_transfer
 from simtune.tasks import check_targets, with_targets
+from simtune.tasks.init_project import init_project
 from simtune.tasks.spec import common_robot
-from simtune.transfer import run_transfer
 
 
 @dataclass(frozen=True)
@@ -136,7 +136,7 @@ def _count(name: str, value: object, low: int = 1, high: int | None = None) -> i
 
 
 def _workers(value: object) -> int:
-    """A worker count: 1 to :data:`~simtune.limits.MAX_WORKERS`."""
+    """A worker count: 1 to :data:`~simtune.common.limits.MAX_WORKERS`."""
     return _count("workers", value, 1, MAX_WORKERS)
 
 
@@ -706,7 +706,7 @@ def synth(
 ) -> SynthResult:
     """Recordings with a known ground truth in the data root ``out`` (``simtune synth``): ``truth`` a params
     file (default: the engine's generic values), ``delay_s`` the true command delay; ``recording`` are
-    :func:`simtune.synth.make_synthetic`'s noise_m, repeats, seed, jitter_s, fmt, joint_noise_rad and force."""
+    :func:`simtune.studies.synth.make_synthetic`'s noise_m, repeats, seed, jitter_s, fmt, joint_noise_rad and force."""
     robot = _project(project).robot.description  # a truth is checked against its robot's ranges (None: the MICO)
     values = load_truth(None if truth is None else _path("truth", truth), engine, delay_s, robot)
     return make_synthetic(engine, _task_spec(tasks), _path("out", out), truth=values, project=project, **recording)
@@ -731,6 +731,48 @@ def export(
     if len(runs) != 1:
         raise SimtuneError(f"give one run folder (got {len(runs)}), or --all-engines for several")
     return [export_run(runs[0], out, engine=engine, dr=dr, force=force)], []
+
+
+def report(
+    runs: Path | str | Collection[Path | str],
+    out: Path | str,
+    published_sims: Path | str | None = None,
+    *,
+    show_progress: bool = False,
+    figure4_parameter: str = "timestep",
+    project: Path | str | None = None,
+    reference: str | None = None,
+    repeats: str | None = None,
+) -> Path:
+    """Write the HTML report of tuning runs (``simtune report``; docs/report.md).
+
+    Args:
+        runs: run folders, or folders holding run folders at any depth (a grid); every run.sqlite below them is read.
+        out: the report folder: new, empty, or one an earlier report wrote (only its files are replaced).
+        published_sims: a folder of published simulations ``<task>_<Engine>.csv``, scored next to the engines'
+            generic fitness; None: none.
+        show_progress: draw a progress bar at a terminal.
+        figure4_parameter: the parameter whose tuned values the paper's Figure 4 shows.
+        project: read the runs' tasks from this project folder; None: the one each run names.
+        reference: re-score every run against ``aligned`` or ``mean``; None: each run against its own.
+        repeats: re-score against ``all``, ``even`` or ``odd`` repeats; None: each run's own.
+
+    Returns:
+        The report's ``index.html``.
+    """
+    from simtune.report import make_report
+
+    paths = [Path(runs)] if isinstance(runs, str | os.PathLike) else [Path(run) for run in runs]
+    return make_report(
+        paths,
+        Path(out),
+        None if published_sims is None else Path(published_sims),
+        show_progress=show_progress,
+        figure4_parameter=figure4_parameter,
+        project=project,
+        reference=reference,
+        repeats=repeats,
+    )
 
 
 #: an example of each list :func:`_listed` reads, for its error

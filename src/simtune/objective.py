@@ -15,11 +15,11 @@ from typing import TypeVar
 
 import numpy as np
 
-from simtune.controller import CONTROLLER_PARAMETERS
 from simtune.data import TaskData, load_task_data
 from simtune.data.sanity import JointRange
 from simtune.engines import Engine, engine_class, make_engine
 from simtune.engines.base import MarkerBudget, Rollout
+from simtune.engines.controller import CONTROLLER_PARAMETERS
 from simtune.errors import ConfigError, RecordingError, RecordingWarning, SimtuneError
 from simtune.fitness import (
     PENALTY,

@@ -16,12 +16,12 @@ from functools import cached_property
 from pathlib import Path
 
 from simtune.activity import active_space, declared_inactive, inactive_parameters
+from simtune.common.limits import MAX_SEED, MAX_WORKERS
 from simtune.data import TaskData, check_repeats
 from simtune.data.clock import check_reference, default_reference
 from simtune.engines import Engine, engine_class
 from simtune.errors import ConfigError, RecordingWarning, check_choice
 from simtune.fitness import FitnessWeights
-from simtune.limits import MAX_SEED, MAX_WORKERS
 from simtune.objective import Objective, check_weights, load_references
 from simtune.optimize import get_optimizer
 from simtune.params import ParameterSpace, get_space

@@ -11,7 +11,7 @@ session, in the format ``--params-file`` reads.
 
 Safety of a run folder:
 
-- one process writes it at a time (:mod:`simtune.runlock`); a second is refused at once;
+- one process writes it at a time (:mod:`simtune.store.lock`); a second is refused at once;
 - ``start_run`` refuses a folder that holds a run (resume it) or anything else that is
   not simtune's (the user's files are never overwritten);
 - ``resume_run`` reads a ``run.sqlite`` read-only until it knows it is a run store of
@@ -44,17 +44,17 @@ import numpy as np
 
 import simtune
 from simtune.activity import announce, robot_content
+from simtune.common.spawn_guard import check_main_guarded, start_worker_server
 from simtune.data.fingerprint import fingerprint_changes, folders_fingerprint
 from simtune.errors import RunInterrupted, SimtuneError
 from simtune.objective import Objective, recordings_folder
 from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squares_refine
 from simtune.optimize.evaluator import timed_out
+from simtune.optimize.progress import TuneProgress
 from simtune.params.space import is_supported
-from simtune.progress import TuneProgress
 from simtune.run_plan import RunConfig, RunPlan, plan_run
-from simtune.runlock import LOCK_FILE, check_free, run_lock
-from simtune.spawn_guard import check_main_guarded, start_worker_server
 from simtune.store import STORE_FILE, RunStore, check_store_file
+from simtune.store.lock import LOCK_FILE, check_free, run_lock
 from simtune.tasks import TaskSpec
 from simtune.tasks.spec import FINGERPRINT
 from simtune.uncertainty import uncertainty, verdict

@@ -19,8 +19,8 @@ from rich.markup import escape
 
 from simtune.cli import data_commands, export_command, grid_command, info_commands, run_commands, study_commands
 from simtune.cli.output import err, show_warning
+from simtune.cli.report_command import report
 from simtune.errors import SimtuneError
-from simtune.report.command import report
 
 app = typer.Typer(
     help="Tune physics-engine parameters until a simulated robot reproduces its motion-capture recordings.\n\n"

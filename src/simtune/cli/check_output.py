@@ -6,7 +6,7 @@ from __future__ import annotations
 from rich.markup import escape
 
 from simtune.cli.output import fmt_g, out
-from simtune.console import text_table
+from simtune.common.console import text_table
 
 
 def print_data_quality(parts: list[dict]) -> None:
@@ -65,7 +65,7 @@ def print_data_quality(parts: list[dict]) -> None:
 
 
 def _print_rest_poses(part: dict) -> None:
-    from simtune.check import moved_joints  # on use: the check module brings the engines
+    from simtune.check.task import moved_joints  # on use: the check module brings the engines
 
     table = text_table(
         f"{part['task']}: rest poses - where each phase's targets put the marker (generic simulation) against the "

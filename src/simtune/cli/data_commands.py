@@ -222,7 +222,7 @@ def synth(
     Example: simtune synth --engine mujoco --task single,cube,double --delay-s 1.5 --out data/synthetic
     """
     from simtune import api
-    from simtune.synth import DEFAULT_JOINT_NOISE_DEG, TRUTH_FILE, truth_file
+    from simtune.studies.synth import DEFAULT_JOINT_NOISE_DEG, TRUTH_FILE, truth_file
 
     result = api.synth(
         engine,

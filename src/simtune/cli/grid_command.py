@@ -20,7 +20,7 @@ from simtune.cli.options import (
     out_option,
 )
 from simtune.cli.output import err, only_names, out, split
-from simtune.console import text_table
+from simtune.common.console import text_table
 
 ExperimentsOpt = Annotated[
     str,

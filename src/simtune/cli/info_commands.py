@@ -11,7 +11,7 @@ from rich.markup import escape
 
 from simtune.cli.options import ProjectOpt, out_option, seconds
 from simtune.cli.output import err, out
-from simtune.console import text_table
+from simtune.common.console import text_table
 from simtune.errors import SimtuneError
 
 

@@ -14,10 +14,10 @@ from typing import Annotated, Any
 
 import typer
 
+from simtune.common.limits import MAX_SEED, MAX_WORKERS
 from simtune.data import REPEATS
 from simtune.data.clock import REFERENCES
 from simtune.data.formats import recording_kinds
-from simtune.limits import MAX_SEED, MAX_WORKERS
 from simtune.tasks import TARGETS
 
 #: the longest file or folder name common file systems allow [bytes]

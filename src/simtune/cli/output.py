@@ -10,7 +10,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.measure import Measurement
 
-from simtune.console import text_table
+from simtune.common.console import text_table
 from simtune.errors import SimtuneError
 
 err = Console(stderr=True)

@@ -32,7 +32,7 @@ from simtune.cli.options import (
     seed_option,
 )
 from simtune.cli.output import err, fmt, only_names, out, print_json, split
-from simtune.console import text_table
+from simtune.common.console import text_table
 
 CompareOutOpt = Annotated[
     Path,
@@ -75,7 +75,7 @@ def compare(
     Example: simtune compare --engine mujoco --task cube --data DATA --budget-evals 300 --seeds 3 --target 0.05
     """
     from simtune import api
-    from simtune.compare import markdown_table
+    from simtune.studies.compare import markdown_table
 
     def note(name: str, seed: int, what: str) -> None:
         if not as_json:
@@ -262,7 +262,7 @@ def sensitivity(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from simtune import api
-    from simtune.sensitivity import sensitivity_table
+    from simtune.studies.sensitivity import sensitivity_table
 
     total = api.sensitivity_evaluations(engine, space, method, samples, only_names(only))
     columns = (TextColumn("[bold]sensitivity[/]"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())

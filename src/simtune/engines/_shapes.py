@@ -11,7 +11,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from simtune.geometry import rpy_matrix
+from simtune.common.geometry import rpy_matrix
 from simtune.robot.description import Box, Cylinder, Mesh, RobotDescription, Sphere, mesh_hull
 from simtune.tasks.spec import ObjectSpec
 

@@ -17,7 +17,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from simtune.controller import CONTROL_PERIOD, JointController
+from simtune.engines.controller import CONTROL_PERIOD, JointController
 from simtune.errors import ConfigError, RobotError, SimtuneError
 from simtune.params.kinds import (
     ALL_ENGINES,

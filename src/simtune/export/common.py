@@ -16,8 +16,8 @@ import numpy as np
 import yaml
 
 import simtune
-from simtune.controller import CONTROL_PERIOD, JointController
 from simtune.engines import engine_class
+from simtune.engines.controller import CONTROL_PERIOD, JointController
 from simtune.engines.export_base import ExportContext, hash_comment
 from simtune.export.source import TunedRun
 from simtune.tasks.spec import TaskSpec

@@ -25,9 +25,9 @@ from simtune.errors import SimtuneError
 from simtune.objective import recordings_folder
 from simtune.params import validate_params
 from simtune.run_plan import stored_targets
-from simtune.runlock import LOCK_FILE, RunBusy, check_free, describe_holder
 from simtune.runs import BEST_PARAMS_FILE
 from simtune.store import STORE_FILE, RunRecord, read_record
+from simtune.store.lock import LOCK_FILE, RunBusy, check_free, describe_holder
 from simtune.tasks import TaskSpec, parse_tasks
 from simtune.tasks.spec import common_robot
 

@@ -16,10 +16,10 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict
 from pathlib import Path
 
+from simtune.common.spawn_guard import check_main_guarded
 from simtune.errors import ConfigError, SimtuneError
 from simtune.grid.index import GridIndex, open_index
 from simtune.grid.spec import GridSpec, Unit, run_unit
-from simtune.spawn_guard import check_main_guarded
 
 EXECUTORS = ("local", "dask")
 MAX_ATTEMPTS = 3

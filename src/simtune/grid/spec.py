@@ -70,9 +70,9 @@ class GridSpec:
 def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
     """Run or resume one optimisation; returns its summary.  Safe to run again after a crash."""
     from simtune.run_plan import new_run_config
-    from simtune.runlock import run_lock
     from simtune.runs import has_run, resume_run, start_run
     from simtune.store import read_record
+    from simtune.store.lock import run_lock
 
     path = Path(run_dir)
     config = new_run_config(

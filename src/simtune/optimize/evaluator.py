@@ -52,12 +52,12 @@ import scipy.linalg  # noqa: F401  (loads SciPy's own BLAS, so that threadpool_l
 from pebble import ProcessExpired, ProcessPool
 from threadpoolctl import threadpool_limits
 
-from simtune.controller import CONTROL_PERIOD
+from simtune.common.spawn_guard import adopt_environment, check_main_guarded, sigint_blocked, worker_context
 from simtune.engines import Engine, engine_class
+from simtune.engines.controller import CONTROL_PERIOD
 from simtune.errors import SimtuneError
 from simtune.fitness import PENALTY, Score, TaskScore
 from simtune.objective import Objective
-from simtune.spawn_guard import adopt_environment, check_main_guarded, sigint_blocked, worker_context
 from simtune.store import RunStore
 
 

@@ -6,7 +6,7 @@ delay between the start of the recording and the start of the commanded
 motion, where the motion-capture marker sits on the hand, and the drive train's
 armature, Coulomb joint friction and controller gain per joint.  ``calibrated``
 adds the arm's calibration errors: encoder zero offsets and the joints'
-elastic deflection under gravity (:mod:`simtune.controller`).
+elastic deflection under gravity (:mod:`simtune.engines.controller`).
 
 A space is engine independent but robot dependent: the per-joint parameters
 come from the task's robot (:func:`robot_spaces`, rules in docs/parameters.md);

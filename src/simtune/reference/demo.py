@@ -7,12 +7,12 @@ from pathlib import Path
 
 from rich.console import Console
 
-from simtune.console import text_table
+from simtune.common.console import text_table
 from simtune.reference import REFERENCE_DIR
 from simtune.run_plan import new_run_config
-from simtune.runlock import run_lock
 from simtune.runs import discard_run, has_run, start_run
 from simtune.store import read_record
+from simtune.store.lock import run_lock
 
 #: What the demo tunes: the parameters the reference recording hides, in the extended space's ranges.
 DEMO_PARAMETERS = (

@@ -10,10 +10,10 @@ The paper's tables follow in their own sections.
 
 from __future__ import annotations
 
+from simtune.common.table import Column, Table
 from simtune.fitness import RepeatFloor
 from simtune.report.collect import Group
 from simtune.report.tables import interval_texts
-from simtune.table import Column, Table
 
 
 def headline_table(groups: list[Group], floors: list[RepeatFloor]) -> Table:

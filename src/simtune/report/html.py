@@ -6,8 +6,8 @@ import base64
 import html
 from dataclasses import dataclass, field
 
+from simtune.common.table import Table
 from simtune.report.folder import generator_tag
-from simtune.table import Table
 
 LONG_TABLE = 40  # rows; longer tables start folded
 

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from simtune.common.table import Table
 from simtune.engines import Rollout
 from simtune.engines.contact import ContactProbe
 from simtune.fitness import RepeatFloor
@@ -32,7 +33,6 @@ from simtune.report.headline import headline_table, moved_parameters_table
 from simtune.report.html import FigureRef, Section
 from simtune.report.published import PublishedSim
 from simtune.report.simulate import GroupSimulation
-from simtune.table import Table
 from simtune.tasks import TaskSpec
 
 
@@ -393,7 +393,7 @@ def dr_section(data: ReportData, out: ReportOutput) -> Section:
 
 def sensitivity_section(data: ReportData, out: ReportOutput) -> Section | None:
     """Table and figure of each ``sensitivity.json`` under or next to the inputs; None when there is none."""
-    from simtune.sensitivity import find_results, sensitivity_figure, sensitivity_table
+    from simtune.studies.sensitivity import find_results, sensitivity_figure, sensitivity_table
 
     items: list[Table | FigureRef] = []
     for k, path in enumerate(find_results(data.paths), start=1):

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from simtune.controller import JointController
 from simtune.data import TaskData
 from simtune.engines import make_engine
+from simtune.engines.controller import JointController
 from simtune.errors import SimtuneError
 from simtune.fitness import TaskScore, marker_positions, rollout_joint_names, score_rollout
 from simtune.objective import Objective, load_references, recordings_folder

@@ -1,6 +1,6 @@
 """The report's tables, built from plain records (see :mod:`simtune.report.collect`).
 
-Each builder returns a :class:`simtune.table.Table`; nothing here simulates or draws.
+Each builder returns a :class:`simtune.common.table.Table`; nothing here simulates or draws.
 """
 
 from __future__ import annotations
@@ -11,11 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simtune.common.table import Column, Table
 from simtune.data.clock import spread_per_sample
 from simtune.fitness import RepeatFloor
 from simtune.params.space import PARAMETERS
 from simtune.report.collect import Group, ReportedRun
-from simtune.table import Column, Table
 
 #: q below which the report calls a parameter's narrowing by tuning significant
 SIGNIFICANCE = 0.05

@@ -24,7 +24,7 @@ from functools import cached_property
 
 import numpy as np
 
-from simtune.geometry import rpy_matrix
+from simtune.common.geometry import rpy_matrix
 
 #: Standard gravity [m/s^2], as every engine's scene has it (along -z).
 GRAVITY = 9.81

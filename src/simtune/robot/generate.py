@@ -19,7 +19,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from simtune.geometry import matrix_quat_wxyz, rpy_matrix
+from simtune.common.geometry import matrix_quat_wxyz, rpy_matrix
 from simtune.robot.description import Box, Cylinder, Joint, Link, Mesh, RobotDescription, Sphere
 from simtune.robot.meshes import convex_hull_file
 from simtune.robot.mjcf import home_pose as mjcf_home_pose

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from simtune.geometry import rpy_matrix
+from simtune.common.geometry import rpy_matrix
 from simtune.robot.description import ZERO3, Box, Cylinder, Link, Mesh, Shape, Sphere
 
 #: The density [kg/m^3] of a link estimated from its geometry unless told otherwise: aluminium's, what most arm

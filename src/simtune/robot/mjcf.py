@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from simtune.common.geometry import rpy_matrix
 from simtune.errors import RobotError
-from simtune.geometry import rpy_matrix
 from simtune.robot.description import Box as BoxShape
 from simtune.robot.description import Cylinder, Joint, Link, Mesh, RobotDescription, Shape, Sphere, Vec3
 

@@ -56,8 +56,8 @@ from typing import Any
 
 import numpy as np
 
+from simtune.common.geometry import rpy_matrix
 from simtune.errors import RobotError, RobotWarning
-from simtune.geometry import rpy_matrix
 from simtune.robot.description import (
     ZERO3,
     Box,

@@ -1,7 +1,7 @@
 """A task file corrected to the targets the robot ran: ``simtune check --task T --write-task FILE``.
 
 The check measures where the real arm rested after each phase and, where that lies far from where the
-phase's targets put it, proposes targets that put it there (:func:`simtune.check.propose_targets`).  This module
+phase's targets put it, proposes targets that put it there (:func:`simtune.check.task.propose_targets`).  This module
 writes the task file again with those targets: the file's own text, line for line, with each corrected phase's
 ``targets_deg`` replaced, its former targets kept as ``published_targets_deg`` (docs/task-files.md, "Corrected
 targets") and the evidence in a comment.  It edits the text rather than writing the parsed task back so that

@@ -24,7 +24,7 @@ from simtune.tasks.lerobot import SCHEDULE_KEYS, lerobot_schedule, recordings_ke
 from simtune.tasks.spec import MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
 from simtune.tasks.yamlfile import load_yaml
 
-#: The joint control laws a task file may name (``controller.law``); simtune.controller runs them.
+#: The joint control laws a task file may name (``controller.law``); simtune.engines.controller runs them.
 CONTROL_LAWS = ("clamped-p-velocity",)
 #: Suffixes of the formats a task or project file may be written in.
 TOML_SUFFIXES = (".toml",)

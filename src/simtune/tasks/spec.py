@@ -2,7 +2,7 @@
 
 A task is data, not code: a joint-target schedule, a duration, the controller
 gains, and optionally one object on the floor.  Every engine runs the same
-spec through the same controller (:mod:`simtune.controller`).
+spec through the same controller (:mod:`simtune.engines.controller`).
 """
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ from functools import cached_property
 
 import numpy as np
 
+from simtune.common.geometry import rpy_matrix
 from simtune.data.lerobot import LeRobotReading
 from simtune.errors import ConfigError
-from simtune.geometry import rpy_matrix
 from simtune.robot.description import RobotDescription
 from simtune.robot.mico import ARM_JOINTS, MICO, WRIST_LINK
 

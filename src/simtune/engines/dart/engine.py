@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from simtune.common.geometry import rpy_matrix
 from simtune.engines._shapes import object_mass_properties
 from simtune.engines.base import Engine, unloaded_hard_motors
-from simtune.geometry import rpy_matrix
 from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot import MICO
 from simtune.robot.generate import robot_urdf_file

@@ -36,8 +36,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from simtune.controller import CONTROL_PERIOD, JointController
 from simtune.engines.base import CHECK_EVERY, OBJECT_LIMIT, MarkerBudget, Monitor, Rollout, _first_bad, wrist_limit
+from simtune.engines.controller import CONTROL_PERIOD, JointController
 
 if TYPE_CHECKING:
     from simtune.engines.mujoco.engine import MujocoEngine

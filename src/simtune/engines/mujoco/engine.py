@@ -27,10 +27,10 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from simtune.controller import JointController
+from simtune.common.geometry import matrix_quat_wxyz, rpy_matrix
 from simtune.engines.base import Engine, Monitor, Rollout, unreachable_servo_limits
+from simtune.engines.controller import JointController
 from simtune.engines.mujoco.batch import Batch, Stepper
-from simtune.geometry import matrix_quat_wxyz, rpy_matrix
 from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot import MICO
 from simtune.robot.description import RobotDescription

@@ -30,8 +30,8 @@ from itertools import pairwise
 
 import numpy as np
 
-from simtune.controller import CONTROL_PERIOD, JointController
 from simtune.engines.base import CHECK_EVERY, Engine, Monitor, Rollout, _first_bad, wrist_limit
+from simtune.engines.controller import CONTROL_PERIOD, JointController
 from simtune.engines.mujoco.engine import MujocoEngine, mujoco
 from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot.generate import OBJECT_BODY

@@ -22,15 +22,15 @@ from pathlib import Path
 
 import numpy as np
 
+from simtune.common.geometry import rpy_matrix
 from simtune.data.formats import recording_kinds
 from simtune.errors import ProjectError, RobotWarning
-from simtune.geometry import rpy_matrix
-from simtune.project import load_project
 from simtune.robot.description import ZERO3, RobotDescription
 from simtune.robot.inertia import DEFAULT_DENSITY
 from simtune.robot.load import load_robot
 from simtune.robot.mjcf import home_pose
 from simtune.robot.urdf import package_entry
+from simtune.tasks.project import load_project
 
 #: How far the example reach turns each joint [deg] (less where its limits leave less room).
 REACH_DEG = 20.0

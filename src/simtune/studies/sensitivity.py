@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from simtune.common.table import Column, Table
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, SimtuneError
 from simtune.fitness import Score
@@ -37,7 +38,6 @@ from simtune.objective import Objective, load_references
 from simtune.optimize.evaluator import Evaluator
 from simtune.params import get_space
 from simtune.store import RunStore
-from simtune.table import Column, Table
 from simtune.tasks import parse_tasks
 from simtune.tasks.spec import common_robot
 
@@ -191,7 +191,7 @@ def _analyse(problem: dict, X: np.ndarray, Y: np.ndarray, method: str, seed: int
 
 # --- presentation (also used by `simtune report`) -------------------------------------------------------
 def sensitivity_table(result: dict, name: str = "sensitivity") -> Table:
-    """The result as a :class:`~simtune.table.Table`, most influential parameter first."""
+    """The result as a :class:`~simtune.common.table.Table`, most influential parameter first."""
     where = f"{result['engine']} on {result['tasks']} (space {result['space']})"
     note = (
         f"{result['evaluations']} evaluations ({result['unstable']} unstable, scored as the penalty); fitness "

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from simtune.common.spawn_guard import adopt_environment, check_main_guarded, sigint_blocked, worker_context
 from simtune.data import TaskData
 from simtune.engines import ENGINES, engine_class
 from simtune.errors import EngineUnavailable, SimtuneError
@@ -27,7 +28,6 @@ from simtune.fitness import reference_floor
 from simtune.objective import load_task_recordings, recordings_folder
 from simtune.project import Project, load_project
 from simtune.robot.generate import servo_shortfalls
-from simtune.spawn_guard import adopt_environment, check_main_guarded, sigint_blocked, worker_context
 
 #: A start position of the tracked link farther than this from the first recorded marker position
 #: is worth a warning [m]: a wrong base pose, tracked link, start pose or unit.
