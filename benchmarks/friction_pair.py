@@ -24,7 +24,7 @@ def main() -> None:
     parser = make_parser(__doc__)
     add_data_option(parser)
     args = parser.parse_args()
-    config = RunConfig(engine="mujoco", tasks="cube", space="extended", data=str(args.data))
+    config = RunConfig(optimizer="de", engine="mujoco", tasks="cube", space="extended", data=str(args.data))
     objective = plan_run(config).objective()
     start = objective.vector_space().to_dict(aligned_generic_start(objective))
     print("real cube, mujoco, extended, from auto's opening point (generic, delay aligned)")

@@ -43,6 +43,7 @@ def main() -> None:
                     t0 = time.time()
                     start_run(
                         RunConfig(
+                            optimizer="de",
                             engine=engine,
                             tasks=task,
                             space=space,

@@ -227,6 +227,7 @@ def main() -> None:
                     seed=1,
                     max_generations=generations,
                     workers=2,
+                    optimizer="de",
                 )
                 full = start_run(RunConfig(**cfg, prune=False), Path(tmp) / "full", show_progress=False)
                 pruned = start_run(RunConfig(**cfg), Path(tmp) / "pruned", show_progress=False)
@@ -271,6 +272,7 @@ def main() -> None:
             with tempfile.TemporaryDirectory() as tmp:
                 res = start_run(
                     RunConfig(
+                        optimizer="de",
                         engine="mujoco",
                         tasks="cube",
                         space="extended",

@@ -57,6 +57,7 @@ def tune(data: Path, generations: int, workers: int, keep_inactive: bool, folder
     RunStore.record_evaluation, RunStore.record_generation = keep_evaluation, keep_generation  # type: ignore[method-assign]
     try:
         config = RunConfig(
+            optimizer="de",
             engine="mujoco",
             tasks="cube",
             space="extended",

@@ -84,7 +84,7 @@ def test_several_tasks_leave_out_only_what_acts_in_none():
 
 
 def _config(**kw):
-    base = dict(engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR))
+    base = dict(engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), optimizer="de")
     return RunConfig(**{**base, **kw})
 
 

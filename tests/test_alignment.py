@@ -33,7 +33,7 @@ def test_tasks_tuned_together_get_one_delay_each():
     assert get_space("extended", tasks=["cube"]).names == get_space("extended").names
     only = get_space("extended", None, ["command_delay"], tasks=["single", "cube"])
     assert only.names == ["command_delay_single", "command_delay_cube"]
-    config = RunConfig(engine="mujoco", tasks="single,cube", space="extended", data=str(REFERENCE_DIR))
+    config = RunConfig(optimizer="de", engine="mujoco", tasks="single,cube", space="extended", data=str(REFERENCE_DIR))
     assert {"command_delay_single", "command_delay_cube"} <= set(plan_run(config).full_space.names)
     # a run stored before per-task delays shared one delay: resuming it keeps its parameter list
     stored = {"engine": "mujoco", "tasks": "single,cube", "space": "extended", "data": "x"}

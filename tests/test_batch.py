@@ -82,7 +82,15 @@ def test_threads_and_chunked_worker_processes_store_what_one_process_stores(tmp_
 def test_a_run_on_threads_is_the_run_of_one_process(tmp_path):
     from simtune.runs import RunConfig, start_run
 
-    base = dict(engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), seed=2, max_generations=2)
+    base = dict(
+        engine="mujoco",
+        tasks="cube",
+        space="extended",
+        data=str(REFERENCE_DIR),
+        seed=2,
+        max_generations=2,
+        optimizer="de",
+    )
     base["only"] = ["command_delay", "max_velocity_joint_2", "mass_link_3"]
     one = start_run(RunConfig(**base), tmp_path / "one", show_progress=False)
     threaded = start_run(RunConfig(**base, workers=2, threads=True), tmp_path / "threads", show_progress=False)

@@ -16,7 +16,12 @@ from simtune.uncertainty import MEDIAN_EFFICIENCY, RepeatSpread, directions, rep
 @pytest.fixture(scope="module")
 def objective():
     config = RunConfig(
-        engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), only=["command_delay", "timestep"]
+        optimizer="de",
+        engine="mujoco",
+        tasks="cube",
+        space="extended",
+        data=str(REFERENCE_DIR),
+        only=["command_delay", "timestep"],
     )
     return plan_run(config).objective()
 

@@ -21,7 +21,9 @@ ONLY = ["command_delay", "max_velocity_joint_2", "marker_offset_z"]
 
 def _phase(run_dir: Path, workers: int, max_nfev: int):
     """A local phase from a fixed start on ``workers`` threads: SciPy's result and the size of each batch."""
-    config = RunConfig(engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), only=ONLY)
+    config = RunConfig(
+        optimizer="de", engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), only=ONLY
+    )
     objective = plan_run(config).objective()
     store = RunStore(run_dir, create=True)
     search = BatchSearch(objective, store, TuneSettings(workers=workers, threads=True))

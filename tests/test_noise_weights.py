@@ -104,14 +104,22 @@ def test_residuals_divide_each_signal_by_its_noise():
 
 
 def test_new_runs_weigh_by_noise_and_the_papers_and_stored_runs_keep_plain_residuals():
-    assert RunConfig(engine="mujoco", tasks="cube", space="extended", data=None).residuals == "noise"
-    exact = RunConfig(engine="mujoco", tasks="cube", space="shared", data=None, paper_exact=True)
+    assert RunConfig(optimizer="de", engine="mujoco", tasks="cube", space="extended", data=None).residuals == "noise"
+    exact = RunConfig(optimizer="de", engine="mujoco", tasks="cube", space="shared", data=None, paper_exact=True)
     assert exact.residuals == "plain" and "residuals" not in exact.record()
-    stored = RunConfig(engine="mujoco", tasks="cube", space="extended", data=None).record()
+    stored = RunConfig(optimizer="de", engine="mujoco", tasks="cube", space="extended", data=None).record()
     assert stored["residuals"] == "noise"
     del stored["residuals"]  # a store from before the setting
     assert RunConfig.from_stored(stored, "run.sqlite").residuals == "plain"
     with pytest.raises(ConfigError, match="residuals"):
-        RunConfig(engine="mujoco", tasks="cube", space="extended", data=None, residuals="loud").check()
+        RunConfig(optimizer="de", engine="mujoco", tasks="cube", space="extended", data=None, residuals="loud").check()
     with pytest.raises(ConfigError, match="paper-exact"):
-        RunConfig(engine="mujoco", tasks="cube", space="shared", data=None, paper_exact=True, residuals="noise").check()
+        RunConfig(
+            optimizer="de",
+            engine="mujoco",
+            tasks="cube",
+            space="shared",
+            data=None,
+            paper_exact=True,
+            residuals="noise",
+        ).check()

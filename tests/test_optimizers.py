@@ -30,6 +30,7 @@ def config(**kw):
         workers=1,
         only=ONLY,
         max_evaluations=BUDGET,
+        optimizer="de",
     )
     base.update(kw)
     return RunConfig(**base)

@@ -45,6 +45,7 @@ def test_paper_exact_is_scipys_own_run(single_data, tmp_path):
     """Same seed, same objective: every generation's population and fitness, and the polished end point,
     equal SciPy's when it is called directly with the paper's settings."""
     config = RunConfig(
+        optimizer="de",
         engine="mujoco",
         tasks="single",
         space="shared",
@@ -119,7 +120,9 @@ def test_paper_exact_refuses_what_the_paper_did_not_do(change, message):
 def test_paper_exact_keeps_parameters_the_engine_lacks(single_data):
     """The individual space in Drake: 57 parameters in the vector, though Drake maps far fewer of them."""
     pytest.importorskip("pydrake")
-    config = RunConfig(engine="drake", tasks="single", space="individual", data=str(single_data), paper_exact=True)
+    config = RunConfig(
+        optimizer="de", engine="drake", tasks="single", space="individual", data=str(single_data), paper_exact=True
+    )
     assert len(plan_run(config).objective().vector_space()) == 57
     config.paper_exact = False
     assert len(plan_run(config).objective().vector_space()) < 57

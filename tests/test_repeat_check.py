@@ -158,7 +158,7 @@ def test_check_and_evaluate_name_it(tmp_path: Path, mocap_root: Path, capsys) ->
 
 def test_run_fingerprint_records_left_out_repeats(tmp_path: Path, mocap_root: Path) -> None:
     root, name = damaged_root(tmp_path, mocap_root, "single", glitch)
-    config = RunConfig(engine="mujoco", tasks="single", space="shared", data=str(root))
+    config = RunConfig(optimizer="de", engine="mujoco", tasks="single", space="shared", data=str(root))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         fingerprint = run_fingerprint(plan_run(config))
@@ -183,7 +183,7 @@ def test_report_and_export_read_the_repeats_a_run_was_scored_against(tmp_path: P
     root, _ = damaged_root(tmp_path, mocap_root, "single", glitch)
     counts = {}
     for keep in (False, True):
-        config = RunConfig(
+        config = RunConfig(optimizer="de",
             engine="mujoco", tasks="single", space="extended", data=str(root), only=["command_delay"],
             max_evaluations=6, keep_repeats=keep,
         )  # fmt: skip

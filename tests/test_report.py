@@ -109,7 +109,14 @@ def grid(tmp_path_factory):
         for task in TASKS:
             for seed in SEEDS:
                 config = RunConfig(
-                    engine=engine, tasks=task, space="extended", data=str(data), seed=seed, max_generations=2, only=ONLY
+                    optimizer="de",
+                    engine=engine,
+                    tasks=task,
+                    space="extended",
+                    data=str(data),
+                    seed=seed,
+                    max_generations=2,
+                    only=ONLY,
                 )
                 start_run(config, runs / f"{engine}-{task}" / f"seed{seed}", show_progress=False)
     # broken run folders, each must be named in a warning and left out
@@ -402,7 +409,13 @@ def test_command_line(grid, tmp_path):
 def test_report_of_one_short_run(tmp_path):
     run = tmp_path / "run"
     config = RunConfig(
-        engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), max_generations=1, only=ONLY
+        optimizer="de",
+        engine="mujoco",
+        tasks="cube",
+        space="extended",
+        data=str(REFERENCE_DIR),
+        max_generations=1,
+        only=ONLY,
     )
     result = start_run(config, run, show_progress=False)
     index = make_report(run, tmp_path / "out", show_progress=False)
@@ -443,7 +456,7 @@ def test_paper_tables_figure4_and_titles_of_a_short_run(tmp_path):
 
     runs = []
     for seed in (0, 1):
-        config = RunConfig(
+        config = RunConfig(optimizer="de",
             engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), max_generations=1,
             only=ONLY, seed=seed, max_seconds=600,
         )  # fmt: skip

@@ -30,7 +30,13 @@ def one_run(tmp_path_factory) -> Path:
     """One short run of `cube` on the shipped reference recording, and its report."""
     root = tmp_path_factory.mktemp("first_screen")
     config = RunConfig(
-        engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), max_generations=2, only=ONLY
+        optimizer="de",
+        engine="mujoco",
+        tasks="cube",
+        space="extended",
+        data=str(REFERENCE_DIR),
+        max_generations=2,
+        only=ONLY,
     )
     start_run(config, root / "run", show_progress=False)
     with warnings.catch_warnings():

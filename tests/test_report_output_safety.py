@@ -35,7 +35,13 @@ def made(tmp_path_factory):
     """A finished run, and a report of it with Figure 4 of command_delay (a figure the default report lacks)."""
     root = tmp_path_factory.mktemp("report_safety")
     config = RunConfig(
-        engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), max_generations=1, only=ONLY
+        optimizer="de",
+        engine="mujoco",
+        tasks="cube",
+        space="extended",
+        data=str(REFERENCE_DIR),
+        max_generations=1,
+        only=ONLY,
     )
     start_run(config, root / "run", show_progress=False)
     with warnings.catch_warnings():

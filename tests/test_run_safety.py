@@ -33,7 +33,14 @@ ONLY = ["command_delay", "max_velocity_joint_2"]
 
 def config(**kw) -> RunConfig:
     base = dict(
-        engine="mujoco", tasks="cube", space="extended", data=str(REFERENCE_DIR), seed=3, max_generations=2, only=ONLY
+        engine="mujoco",
+        tasks="cube",
+        space="extended",
+        data=str(REFERENCE_DIR),
+        seed=3,
+        max_generations=2,
+        only=ONLY,
+        optimizer="de",
     )
     base.update(kw)
     return RunConfig(**base)

@@ -37,6 +37,7 @@ def config(**kw) -> RunConfig:
         seed=5,
         max_generations=3,
         only=["command_delay", "max_velocity_joint_2"],
+        optimizer="de",
     )
     return RunConfig(**{**base, **kw})
 

@@ -333,7 +333,7 @@ def test_a_changed_robot_is_named_as_such_on_resume():
     from simtune.run_plan import plan_run
     from simtune.runs import RunConfig, fingerprint_differences, run_fingerprint
 
-    now = run_fingerprint(plan_run(RunConfig("mujoco", "cube", "calibrated", None)))
+    now = run_fingerprint(plan_run(RunConfig("mujoco", "cube", "calibrated", None, optimizer="de")))
     assert len(now["robot"]) == 64
     stored = {**now, "robot": "0" * 64, "tasks": {"cube": "1" * 64}}
     assert fingerprint_differences(stored, now) == ["the robot changed (its description or a mesh file)"]

@@ -25,6 +25,7 @@ def config(**kw):
         workers=1,
         max_generations=4,
         only=ONLY,
+        optimizer="de",
     )
     base.update(kw)
     return RunConfig(**base)
@@ -137,6 +138,7 @@ def test_a_folder_with_a_run_is_not_overwritten(tmp_path):
 def test_short_tune_on_real_recordings_improves_on_generic(mocap_root, tmp_path):
     """A few generations on the real `single` repeats already find the command delay."""
     cfg = RunConfig(
+        optimizer="de",
         engine="mujoco",
         tasks="single",
         space="extended",

@@ -70,6 +70,7 @@ def short_run(tmp_path_factory):
     run = tmp_path_factory.mktemp("unc") / "run"
     only = ["command_delay", "marker_offset_x", "mass_cube_wood", "lateral_friction_plastic"]
     config = RunConfig(
+        optimizer="de",
         engine="mujoco",
         tasks="cube",
         space="extended",

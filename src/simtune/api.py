@@ -22,9 +22,10 @@ import os
 import sqlite3
 import time
 from collections.abc import Callable, Collection, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from datetime import date
 from pathlib import Path
+from typing import Any
 
 from simtune.alignment import DelayEstimate, aligned, estimate_delay
 from simtune.check.project import check_project
@@ -45,7 +46,8 @@ from simtune.params import get_space, read_params_file, validate_params
 from simtune.project import Project, get_project
 from simtune.project import load_project as _load_project
 from simtune.reference import REFERENCE_DIR, run_demo
-from simtune.run_plan import RunConfig, default_space, new_run_config
+from simtune.run_config import COMPARE_DEFAULTS, COMPARE_SETS, TRANSFER_DEFAULTS
+from simtune.run_plan import RunConfig, new_run_config
 from simtune.runs import resume_run, run_uncertainty, start_run
 from simtune.store import STORE_FILE, read_record
 from simtune.studies.compare import run_compare
@@ -352,66 +354,44 @@ def run_config(
     *,
     project: Project | Path | str | None = None,
     data: Path | str | None = None,
-    space: str | None = None,
-    optimizer: str | None = None,
-    refine: bool = False,
-    seed: int = 0,
-    workers: int = 1,
-    max_evaluations: int | None = None,
-    max_seconds: float | None = None,
-    max_generations: int = 1000,
-    target_fitness: float | None = None,
-    only: str | Collection[str] | None = None,
-    eval_timeout: float = 600.0,
     weights: FitnessWeights | Mapping[str, float] | str | None = None,
-    joint_topic: str | None = None,
-    prune: bool = True,
-    paper_exact: bool = False,
-    keep_inactive: bool = False,
-    threads: bool = False,
-    reference: str | None = None,
-    repeats: str | None = None,
-    targets: str | None = None,
-    keep_repeats: bool = False,
+    only: str | Collection[str] | None = None,
+    **settings: Any,
 ) -> RunConfig:
-    """The configuration ``tune`` runs and stores, from the same arguments (``simtune tune``'s options).
+    """The configuration ``tune`` runs and stores (``simtune tune``'s options, by RunConfig's names).
 
-    ``space``: None for the default (calibrated; shared with ``paper_exact``: :func:`default_space`);
-    ``optimizer``: None for the default (auto; de with ``paper_exact``); ``reference``: None for the default
-    (aligned; mean with ``paper_exact``); ``repeats``: which of each task's repeats it is tuned on (all, even or
-    odd; None: all); ``targets``: the tasks' joint targets (task or published; None: task, published with
-    ``paper_exact``); ``keep_repeats``: keep a repeat far from the others (else left out, named, and recorded in
-    the run's fingerprint).  The project is stored by its project file (the bundled MICO project: not at all),
-    ``data`` absolute.
+    Args:
+        engine: the physics engine (``simtune engines``).
+        tasks: a task name, several joined by commas, or a list of names.
+        project: a Project or its folder; None: the bundled MICO project.  Stored by its project file.
+        data: the folder with one sub-folder of recordings per task (stored absolute); None: the project's.
+        weights: FitnessWeights, a mapping or ``"joint=0.1,wrist=1"``; None: the defaults.
+        only: the parameters to tune (a comma-separated string or a list); None: the whole space.
+        settings: any other field of :class:`~simtune.run_plan.RunConfig` by name (space, optimizer, seed,
+            workers, max_seconds, max_evaluations, paper_exact, reference, repeats, targets, residuals ...), its
+            default where left out or None (calibrated and auto, or shared and de with ``paper_exact``).
+
+    Returns:
+        The checked configuration.
+
+    Raises:
+        ConfigError: an unknown setting, or a value of the wrong type or range (one line naming it).
     """
+    known = {f.name: f.default for f in fields(RunConfig)}
+    for key in settings:
+        if key not in known or key in ("engine", "tasks", "project", "data", "weights"):
+            raise ConfigError(f"unknown run setting {key!r}; the settings are RunConfig's: {', '.join(known)}")
+    given = _given(settings)
     proj = _project(project)
-    fitness_weights = _weights(weights)
     config = new_run_config(
         engine,
         _task_spec(tasks),
-        default_space(paper_exact) if space is None else space,
+        given.pop("space", ""),
         data=_root(data, proj),
         project=proj,
-        weights=fitness_weights,
-        seed=seed,
-        workers=workers,
-        max_seconds=max_seconds,
-        max_generations=max_generations,
+        weights=_weights(weights),
         only=None if only is None else _names("only", only, "command_delay"),
-        eval_timeout=eval_timeout,
-        target_fitness=target_fitness,
-        prune=prune,
-        optimizer=optimizer or ("de" if paper_exact else "auto"),
-        refine=refine,
-        max_evaluations=max_evaluations,
-        paper_exact=paper_exact,
-        joint_topic=joint_topic,
-        keep_inactive=keep_inactive,
-        threads=threads,
-        reference=_reference(reference, paper_exact),
-        repeats=_repeats(repeats),
-        targets="" if targets is None else _targets(targets, "targets"),
-        keep_repeats=keep_repeats,
+        **given,
     )
     config.check()  # a value of the wrong type or range: one line naming it, before anything runs
     return config
@@ -451,6 +431,21 @@ def uncertainty(run_dir: Path | str, workers: int = 1) -> dict:
     return run_uncertainty(_path("run_dir", run_dir), _workers(workers))
 
 
+def _given(settings: Mapping[str, Any]) -> dict[str, Any]:
+    """The run settings given: None stands for the default of a setting chosen by name (space, optimizer,
+    reference, repeats, targets, residuals: the command line's "not given"); for a count or a switch it is a
+    value, refused by the check."""
+    defaults = {f.name: f.default for f in fields(RunConfig)}
+    return {
+        key: value for key, value in settings.items() if value is not None or not isinstance(defaults.get(key), str)
+    }
+
+
+def _study_settings(defaults: Mapping[str, Any], settings: Mapping[str, Any]) -> dict[str, Any]:
+    """A study's run settings: those given, else the study's declared defaults."""
+    return {**defaults, **_given(settings)}
+
+
 def compare(
     engine: str = "mujoco",
     tasks: str | Collection[str] = "cube",
@@ -460,29 +455,31 @@ def compare(
     seeds: int = 3,
     budget: int = 300,
     target: float | None = None,
-    data: Path | str | None = None,
-    space: str = "extended",
-    workers: int = 1,
-    only: str | Collection[str] | None = None,
-    eval_timeout: float = 600.0,
     on_run: Callable[[str, int, str], None] | None = None,
-    reference: str | None = None,
-    repeats: str | None = None,
+    **settings: Any,
 ) -> dict:
-    """Optimisers head to head on ``budget`` evaluations, ``seeds`` runs each, in ``out`` (``simtune compare``);
-    ``on_run(optimizer, seed, "running" or "resuming")`` before each run that is not reused."""
-    # each run's optimiser, seed and budget are the comparison's
-    base = run_config(
-        engine,
-        tasks,
-        data=data,
-        space=space,
-        workers=workers,
-        only=only,
-        eval_timeout=eval_timeout,
-        reference=reference,
-        repeats=repeats,
-    )
+    """Optimisers head to head on ``budget`` evaluations, ``seeds`` runs each (``simtune compare``).
+
+    Args:
+        engine: the physics engine.
+        tasks: a task name, several joined by commas, or a list.
+        out: the folder for the runs (``OUT/<optimizer>/seed-<s>``) and compare.json; finished runs are reused.
+        optimizers: the optimisers, comma-separated or a list.
+        seeds: runs per optimiser (seeds 0..N-1).
+        budget: evaluations each run may use.
+        target: a fitness to reach: the evaluations each optimiser needed.
+        on_run: called as ``on_run(optimizer, seed, "running" or "resuming")`` before each run not reused.
+        settings: :func:`run_config`'s settings (data, space, workers, only, reference ...), the comparison's
+            defaults (:data:`~simtune.run_config.COMPARE_DEFAULTS`) where left out; not those each run sets
+            itself (optimizer, seed, the budgets).
+
+    Returns:
+        The comparison, as OUT/compare.json holds it.
+    """
+    for key in COMPARE_SETS:
+        if key in settings:
+            raise ConfigError(f"compare sets {key} for each run itself: leave it out")
+    base = run_config(engine, tasks, **_study_settings(COMPARE_DEFAULTS, settings))
     # none named: run_compare says to name at least one
     seeds, budget = _count("seeds", seeds), _count("budget", budget)
     return run_compare(base, _listed(optimizers), seeds, budget, _path("out", out), target, on_run=on_run)
@@ -494,42 +491,29 @@ def transfer(
     test: str | Collection[str] = "double",
     *,
     out: Path | str,
-    data: Path | str | None = None,
     test_data: Path | str | None = None,
-    space: str = "extended",
-    optimizer: str = "de",
-    refine: bool = False,
-    seed: int = 0,
-    workers: int = 1,
-    max_seconds: float | None = None,
-    max_generations: int = 1000,
-    max_evaluations: int | None = None,
-    only: str | Collection[str] | None = None,
-    eval_timeout: float = 600.0,
     align_clock: bool = True,
     show_progress: bool = False,
-    reference: str | None = None,
-    repeats: str | None = None,
+    **settings: Any,
 ) -> dict:
     """Tune on ``train``, then score the tuned and the generic parameters on ``train`` and the unseen ``test``
-    tasks (``simtune transfer``); the result as OUT/transfer.json holds it."""
-    config = run_config(
-        engine,
-        train,
-        data=data,
-        space=space,
-        optimizer=optimizer,
-        refine=refine,
-        seed=seed,
-        workers=workers,
-        max_seconds=max_seconds,
-        max_generations=max_generations,
-        max_evaluations=max_evaluations,
-        only=only,
-        eval_timeout=eval_timeout,
-        reference=reference,
-        repeats=repeats,
-    )
+    tasks (``simtune transfer``).
+
+    Args:
+        engine: the physics engine.
+        train: the tasks tuned on together (comma-separated or a list).
+        test: the unseen tasks the tuned parameters are scored on.
+        out: the folder for the tuning run (OUT/run) and transfer.json; run again, it resumes or reuses the run.
+        test_data: the data root of the test tasks; None: the tuning run's.
+        align_clock: also score each test task with its own recording clock aligned.
+        show_progress: draw the tuning run's progress bar.
+        settings: :func:`run_config`'s settings for the tuning run, the study's defaults
+            (:data:`~simtune.run_config.TRANSFER_DEFAULTS`) where left out.
+
+    Returns:
+        The result, as OUT/transfer.json holds it.
+    """
+    config = run_config(engine, train, **_study_settings(TRANSFER_DEFAULTS, settings))
     test_root = None if test_data is None else _path("test_data", test_data)
     return run_transfer(
         config, _task_spec(test), _path("out", out), test_root, show_progress=show_progress, align_clock=align_clock

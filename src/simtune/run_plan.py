@@ -9,240 +9,29 @@ the engine class, the parameter space, the inactive parameters, the references a
 
 from __future__ import annotations
 
-import math
 import warnings
-from dataclasses import MISSING, asdict, dataclass, fields
+from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
 
 from simtune.activity import active_space, declared_inactive, inactive_parameters
-from simtune.common.limits import MAX_SEED, MAX_WORKERS
-from simtune.data import TaskData, check_repeats
-from simtune.data.clock import check_reference, default_reference
+from simtune.data import TaskData
 from simtune.engines import Engine, engine_class
-from simtune.errors import ConfigError, RecordingWarning, check_choice
+from simtune.errors import ConfigError, RecordingWarning
 from simtune.fitness import FitnessWeights
 from simtune.objective import Objective, check_weights, load_references
-from simtune.optimize import get_optimizer
 from simtune.params import ParameterSpace, get_space
 from simtune.project import Project, get_project
 from simtune.robot.description import RobotDescription
-from simtune.tasks import TaskSpec, check_targets, parse_tasks
+from simtune.run_config import (  # noqa: F401 (run_plan is its public home too: simtune.runs, the studies)
+    DEFAULT_SPACE,
+    RESIDUALS,
+    RunConfig,
+    default_space,
+    stored_targets,
+)
+from simtune.tasks import TaskSpec, parse_tasks
 from simtune.tasks.spec import common_robot
-
-#: ``simtune tune``'s space where none is given: ``calibrated`` fits both real tasks better and sooner than
-#: ``extended`` (docs/tuning.md "The default space", measured 2026-11-26); a paper-exact run takes ``shared``, the
-#: paper's 31 parameters (--paper-exact runs only the paper's spaces, shared and individual)
-DEFAULT_SPACE = "calibrated"
-#: What least squares fits (RunConfig.residuals): each signal divided by its noise, or the fitness's parts as they are
-RESIDUALS = ("noise", "plain")
-
-
-def default_space(paper_exact: bool) -> str:
-    """The space a tune runs in when none is named: :data:`DEFAULT_SPACE`, or ``shared`` for a paper-exact run."""
-    return "shared" if paper_exact else DEFAULT_SPACE
-
-
-def _is_int(value) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-
-
-@dataclass
-class RunConfig:
-    engine: str
-    tasks: str  # as given: "cube" or "single,cube"
-    space: str
-    data: str | None  # folder with one sub-folder of recordings per task; None: each task's own (its project's)
-    seed: int = 0
-    workers: int = 1
-    max_seconds: float | None = None
-    max_generations: int = 1000
-    only: list[str] | None = None  # tune just these parameters of the space
-    eval_timeout: float | None = None  # seconds before a worker's evaluation is abandoned
-    prune: bool = True  # stop trials that can no longer beat their parent (same search, less simulation)
-    target_fitness: float | None = None  # stop once the best fitness reaches this
-    optimizer: str = "de"  # a key of simtune.optimize.OPTIMIZERS
-    refine: bool = False  # polish the best point with least squares on the residuals afterwards
-    max_evaluations: int | None = None  # stop once this many evaluations were used (checked per batch)
-    #: the seed paper's exact search: SciPy's DE with immediate updating and polish, one worker, no
-    #: pruning, and the paper's whole parameter list (parameters the engine lacks kept, without effect)
-    paper_exact: bool = False
-    #: weights of the fitness's parts (simtune.fitness.FitnessWeights keys); None: the defaults
-    weights: dict[str, float] | None = None
-    #: the JointState topic of ROS 2 joint logs; None: each log's only one
-    joint_topic: str | None = None
-    #: the project file the tasks are read from (absolute); None: the bundled MICO project
-    project: str | None = None
-    #: keep parameters that change no rollout of the tasks in the search (the paper's full D); implied by
-    #: paper_exact.  Runs stored before this setting existed kept them all.
-    keep_inactive: bool = False
-    #: with several tasks, one command delay per task (``command_delay_<task>``) instead of one shared
-    #: delay; runs stored before this setting existed shared one
-    task_delays: bool = True
-    #: evaluate each batch in the coordinating process on --workers threads (the engine's batch path; the same
-    #: results as worker processes, without their crash isolation and time-outs)
-    threads: bool = False
-    #: what the simulation is scored against: ``aligned`` (the repeats on one clock, then averaged) or ``mean``
-    #: (the paper's plain mean); left empty: aligned, or mean with paper_exact.  Runs stored before this setting
-    #: existed scored against the mean
-    reference: str = ""
-    #: which of each task's repeats build the reference (held-out scoring): ``all``, ``even`` (the 1st, 3rd ...
-    #: in sorted order) or ``odd`` (the 2nd, 4th ...); runs stored before this setting existed used all
-    repeats: str = "all"
-    #: which targets the tasks' phases carry (simtune.tasks.TARGETS): ``task``, the task files' (what the robot
-    #: ran), or ``published``, a phase's published targets where its file corrects them (the bundled `cube`'s
-    #: phase 2); left empty: task, or published with paper_exact.  Runs stored before the correction ran the
-    #: published ones.
-    targets: str = ""
-    #: what least squares, the intervals and the identifiability check fit (:data:`RESIDUALS`): ``noise``, every
-    #: recorded signal divided by its own noise (simtune.fitness.signal_noise), or ``plain``, the fitness's parts
-    #: as they are; left empty: noise, or plain with paper_exact.  Runs stored before this setting fitted plain ones.
-    residuals: str = ""
-    #: keep a repeat far from the others (the repeat check, simtune.data.screen, leaves it out with a warning);
-    #: runs stored before the check kept every repeat, and their fingerprints say which it now leaves out
-    keep_repeats: bool = False
-
-    def __post_init__(self) -> None:
-        if self.reference == "":
-            self.reference = default_reference(self.paper_exact is True)
-        if self.targets == "":
-            self.targets = "published" if self.paper_exact is True else "task"
-        if self.residuals == "":
-            self.residuals = "plain" if self.paper_exact is True else "noise"
-
-    @property
-    def worker_processes(self) -> bool:
-        """Whether the run's evaluations go to worker processes (more than one worker, not on threads): what needs
-        a script's ``__main__`` guard and what the fork server is started for."""
-        return self.workers > 1 and not self.threads
-
-    def record(self) -> dict:
-        """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
-        ``weights`` and ``joint_topic`` at their defaults (None), ``threads`` when off, ``repeats`` when
-        ``all`` and ``targets`` when ``published``, so that the stores of runs made before projects, joint logs,
-        the batch path, the choice of repeats and the corrected targets and of new MICO runs compare equal."""
-        values = asdict(self)
-        for key in ("project", "weights", "joint_topic"):
-            if values[key] is None:
-                del values[key]
-        for key in ("threads", "keep_repeats"):
-            if not values[key]:
-                del values[key]
-        if values["repeats"] == "all":
-            del values["repeats"]
-        if values["targets"] == "published":
-            del values["targets"]
-        if values["residuals"] == "plain":
-            del values["residuals"]
-        return values
-
-    @classmethod
-    def from_stored(cls, values, where: str) -> RunConfig:
-        """The configuration a run store holds; one line naming ``where`` and the key for anything unknown or bad."""
-        if not isinstance(values, dict):
-            raise ConfigError(f"{where}: the stored configuration is not a JSON object")
-        known = {f.name for f in fields(cls)}
-        for key in values:
-            if key not in known:
-                raise ConfigError(
-                    f"{where}: unknown key {key!r} in the stored configuration (written by another simtune version?)"
-                )
-        # a run from before these settings searched every parameter, with one shared command delay, and scored
-        # against the plain mean of the repeats, on the targets as published (stored_targets)
-        values = {
-            "keep_inactive": True,
-            "task_delays": False,
-            "reference": "mean",
-            "targets": "published",
-            "residuals": "plain",
-            **values,
-        }
-        for f in fields(cls):
-            if f.default is MISSING and f.name not in values:
-                raise ConfigError(f"{where}: the stored configuration has no {f.name!r}")
-        config = cls(**values)
-        config.check(where)
-        return config
-
-    def check(self, where: str = "") -> None:
-        """One-line ConfigError for settings no optimiser can run with (each value's type and range)."""
-        at = f"{where}: " if where else ""
-
-        def bad(key: str, what: str) -> ConfigError:
-            return ConfigError(f"{at}{key} must be {what}, got {getattr(self, key)!r}")
-
-        for key in ("engine", "tasks", "space", "optimizer"):
-            if not isinstance(getattr(self, key), str):
-                raise bad(key, "a string")
-        for key in ("data", "project"):
-            if getattr(self, key) is not None and not isinstance(getattr(self, key), str):
-                raise bad(key, "a string or null")
-        if not _is_int(self.seed) or not 0 <= self.seed <= MAX_SEED:
-            raise bad("seed", f"an integer from 0 to {MAX_SEED}")
-        if not _is_int(self.workers) or not 1 <= self.workers <= MAX_WORKERS:
-            raise bad("workers", f"an integer from 1 to {MAX_WORKERS}")
-        if not _is_int(self.max_generations) or self.max_generations < 1:
-            raise bad("max_generations", "an integer of at least 1")
-        if self.max_evaluations is not None and (not _is_int(self.max_evaluations) or self.max_evaluations < 1):
-            raise bad("max_evaluations", "an integer of at least 1")
-        for key in ("max_seconds", "eval_timeout"):
-            value = getattr(self, key)
-            if value is not None and (not _is_number(value) or value <= 0):
-                raise bad(key, "a finite number of seconds above 0")
-        if self.target_fitness is not None and (not _is_number(self.target_fitness) or self.target_fitness < 0):
-            raise bad("target_fitness", "a finite number of at least 0")
-        for key in ("prune", "refine", "paper_exact", "keep_inactive", "task_delays", "threads", "keep_repeats"):
-            if not isinstance(getattr(self, key), bool):
-                raise bad(key, "true or false")
-        if self.only is not None and (
-            not isinstance(self.only, list) or not all(isinstance(n, str) for n in self.only)
-        ):
-            raise bad("only", "a list of parameter names")
-        if self.weights is not None:
-            if not isinstance(self.weights, dict):
-                raise bad("weights", "a mapping of weight names to numbers")
-            FitnessWeights.from_mapping(self.weights, f"{at}weights")
-        if self.joint_topic is not None and not isinstance(self.joint_topic, str):
-            raise bad("joint_topic", "a topic name")
-        get_optimizer(self.optimizer)
-        check_reference(self.reference, f"{at}reference")
-        check_repeats(self.repeats, f"{at}repeats")
-        check_targets(self.targets, f"{at}targets")
-        check_choice(self.residuals, RESIDUALS, f"{at}residuals", "weighed by each signal's noise, or plain")
-        if self.paper_exact:
-            if self.reference != "mean":
-                raise ConfigError(
-                    f"{at}--paper-exact scores against the plain mean of the repeats (the paper's fitness): "
-                    f"drop --reference {self.reference}"
-                )
-            if self.optimizer != "de":
-                raise ConfigError(f"{at}--paper-exact runs differential evolution, not --optimizer {self.optimizer}")
-            if self.space not in ("shared", "individual"):
-                raise ConfigError(
-                    f"{at}--paper-exact needs one of the paper's spaces (shared, individual), not {self.space!r}"
-                )
-            if self.only:
-                raise ConfigError(f"{at}--paper-exact tunes the paper's whole parameter list: drop --only")
-            if self.workers != 1:
-                raise ConfigError(
-                    f"{at}--paper-exact evaluates one trial at a time (SciPy's immediate updating): drop --workers"
-                )
-            if self.refine:
-                raise ConfigError(f"{at}--paper-exact ends with SciPy's own polish: drop --refine")
-            if self.targets != "published":
-                raise ConfigError(f"{at}--paper-exact runs the published targets: drop --targets {self.targets}")
-            if self.residuals != "plain":
-                raise ConfigError(f"{at}--paper-exact fits the plain residuals: drop residuals={self.residuals!r}")
-
-
-def stored_targets(config: dict) -> str:
-    """The targets (``task`` or ``published``) of a run from its stored configuration: a run stored without them
-    ran the published ones (before the task files corrected them, and every paper-exact run)."""
-    return str(config.get("targets", "published"))
 
 
 def new_run_config(

@@ -5,50 +5,39 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
 from simtune.cli.options import (
-    OPTIMIZER_HELP,
     AlignClockOpt,
     DataOpt,
     EngineOpt,
-    EvalTimeoutOpt,
     JointTopicOpt,
     JsonOpt,
-    KeepInactiveOpt,
     KeepRepeatsOpt,
-    MaxEvalsOpt,
-    OnlyOpt,
     ProjectOpt,
     QuietOpt,
     ReferenceOpt,
     RepeatsOpt,
-    SeedOpt,
     TargetsOpt,
     TaskOpt,
-    TuneSpaceOpt,
     WeightsOpt,
     WorkersOpt,
-    max_generations_option,
-    max_seconds_option,
-    not_negative,
     out_option,
     path,
-    refine_option,
 )
 from simtune.cli.output import (
     err,
     evaluation_json,
     fmt,
-    only_names,
     out,
     print_evaluation,
     print_json,
     print_uncertainty,
     print_verdict,
 )
+from simtune.cli.run_options import run_options
 from simtune.errors import SimtuneError
 
 ParamsFileOpt = Annotated[
@@ -58,64 +47,6 @@ ParamsFileOpt = Annotated[
         "-p",
         help="JSON of parameter values (e.g. a run's best_params.json); default: the engine's generic values.",
         callback=path,
-    ),
-]
-TuneOptimizerOpt = Annotated[
-    str | None,
-    typer.Option("--optimizer", help=f"Default auto (de with --paper-exact). {OPTIMIZER_HELP}", show_default=False),
-]
-RefineOpt = Annotated[
-    bool,
-    refine_option(
-        "Afterwards, polish the best point with bounded least "
-        "squares (SciPy) on the per-sample residuals; its evaluations are stored "
-        "too."
-    ),
-]
-ThreadsOpt = Annotated[
-    bool,
-    typer.Option(
-        "--threads",
-        help="Evaluate on --workers threads of this process instead of worker processes (MuJoCo; the same "
-        "results; no --eval-timeout and no crash isolation).  On 2 cores processes are faster: "
-        "benchmarks/batch_threads.py.",
-    ),
-]
-MaxSecondsOpt = Annotated[
-    float | None,
-    max_seconds_option(
-        "A cap on the command's wall time [s]: the start-up (reading the recordings, the inactive-parameter probe) "
-        "counts, the search stops at the first batch past it, and the uncertainty after the search is left out "
-        "where the cap cannot hold it (`simtune uncertainty RUN` computes it). Without a cap auto stops when "
-        "converged."
-    ),
-]
-MaxGenerationsOpt = Annotated[
-    int,
-    max_generations_option(
-        "Stop after this many generations (bo and random: D evaluations count as one; auto: each batch, a DE "
-        "generation, a least-squares trial point or a Jacobian)."
-    ),
-]
-TargetFitnessOpt = Annotated[
-    float | None, typer.Option(help="Stop once the best fitness reaches this.", callback=not_negative)
-]
-NoPruneOpt = Annotated[
-    bool,
-    typer.Option(
-        "--no-prune",
-        help="Simulate every trial to the end (by default a "
-        "DE trial that can no longer beat its parent stops early: same search, "
-        "its stored fitness a lower bound).",
-    ),
-]
-PaperExactOpt = Annotated[
-    bool,
-    typer.Option(
-        "--paper-exact",
-        help="Differential evolution exactly as the paper ran SciPy: immediate updating, SciPy's polish, "
-        "one worker, no pruning, the paper's whole parameter list (--space shared or individual; "
-        "parameters the engine lacks are kept, without effect).",
     ),
 ]
 TuneOutOpt = Annotated[
@@ -261,35 +192,12 @@ def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
         )
 
 
+@run_options()
 def tune(
-    engine: EngineOpt = "mujoco",
-    task: TaskOpt = "cube",
-    data: DataOpt = None,
-    space: TuneSpaceOpt = None,
-    optimizer: TuneOptimizerOpt = None,
-    refine: RefineOpt = False,
-    seed: SeedOpt = 0,
-    workers: WorkersOpt = 1,
-    threads: ThreadsOpt = False,
-    max_seconds: MaxSecondsOpt = None,
-    max_generations: MaxGenerationsOpt = 1000,
-    max_evaluations: MaxEvalsOpt = None,
-    target_fitness: TargetFitnessOpt = None,
-    no_prune: NoPruneOpt = False,
-    only: OnlyOpt = None,
-    keep_inactive: KeepInactiveOpt = False,
-    eval_timeout: EvalTimeoutOpt = 600.0,
-    paper_exact: PaperExactOpt = False,
     out_dir: TuneOutOpt = Path("runs/latest"),
-    weights: WeightsOpt = None,
-    joint_topic: JointTopicOpt = None,
-    project: ProjectOpt = None,
-    reference: ReferenceOpt = None,
-    repeats: RepeatsOpt = None,
-    keep_repeats: KeepRepeatsOpt = False,
-    targets: TargetsOpt = None,
     quiet: QuietOpt = False,
     as_json: JsonOpt = False,
+    **settings: Any,
 ) -> None:
     """Tune an engine's parameters to recorded tasks (global then local by default; --optimizer de: the paper's DE).
 
@@ -301,33 +209,7 @@ def tune(
     """
     from simtune import api
 
-    config = api.run_config(
-        engine,
-        task,
-        project=project,
-        data=data,
-        space=space,
-        optimizer=optimizer,
-        refine=refine,
-        seed=seed,
-        workers=workers,
-        max_evaluations=max_evaluations,
-        max_seconds=max_seconds,
-        max_generations=max_generations,
-        target_fitness=target_fitness,
-        only=only_names(only),
-        eval_timeout=eval_timeout,
-        weights=weights,
-        joint_topic=joint_topic,
-        prune=not no_prune,
-        paper_exact=paper_exact,
-        keep_inactive=keep_inactive,
-        threads=threads,
-        reference=reference,
-        repeats=repeats,
-        targets=targets,
-        keep_repeats=keep_repeats,
-    )
+    config = api.run_config(**settings)
     from simtune.activity import announcing
 
     # the probe's note goes with the progress bar: a terminal's, never with --quiet or --json

@@ -4,7 +4,7 @@ into :mod:`simtune.api`."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -13,26 +13,21 @@ from simtune.cli.options import (
     EngineOpt,
     EvalTimeoutOpt,
     JsonOpt,
-    MaxEvalsOpt,
     OnlyOpt,
     OptimizerOpt,
     QuietOpt,
-    ReferenceOpt,
-    RepeatsOpt,
-    SeedOpt,
     SpaceOpt,
     TaskOpt,
     WorkersOpt,
-    max_generations_option,
-    max_seconds_option,
     not_negative,
     out_option,
     path,
-    refine_option,
     seed_option,
 )
 from simtune.cli.output import err, fmt, only_names, out, print_json, split
+from simtune.cli.run_options import run_options
 from simtune.common.console import text_table
+from simtune.run_config import COMPARE_DEFAULTS, TRANSFER_DEFAULTS
 
 CompareOutOpt = Annotated[
     Path,
@@ -47,24 +42,29 @@ TargetOpt = Annotated[
 ]
 
 
+@run_options(
+    "engine",
+    "tasks",
+    "data",
+    "space",
+    "workers",
+    "only",
+    "eval_timeout",
+    "reference",
+    "repeats",
+    defaults=COMPARE_DEFAULTS,
+    options={"space": SpaceOpt},
+)
 def compare(
     optimizers: Annotated[
         str, typer.Option(help="Optimisers to compare, comma-separated: de, cmaes, bo, random.")
     ] = "de,cmaes,bo,random",
-    engine: EngineOpt = "mujoco",
-    task: TaskOpt = "cube",
-    data: DataOpt = None,
-    space: SpaceOpt = "extended",
     budget_evals: Annotated[int, typer.Option("--budget-evals", min=1, help="Evaluations each run may use.")] = 300,
     seeds: Annotated[int, typer.Option(min=1, help="Runs per optimiser (seeds 0..N-1); medians are over them.")] = 3,
     target: TargetOpt = None,
-    workers: WorkersOpt = 1,
-    only: OnlyOpt = None,
-    eval_timeout: EvalTimeoutOpt = 600.0,
     out_dir: CompareOutOpt = Path("runs/compare"),
-    reference: ReferenceOpt = None,
-    repeats: RepeatsOpt = None,
     as_json: JsonOpt = False,
+    **settings: Any,
 ) -> None:
     """Compare optimisers on the same budget of evaluations: best fitness at 25/50/100 % of it, evaluations to a target.
 
@@ -82,27 +82,22 @@ def compare(
             err.print(f"{what} {name} seed {seed} ...", highlight=False)
 
     result = api.compare(
-        engine,
-        task,
         out=out_dir,
         optimizers=split(optimizers),
         seeds=seeds,
         budget=budget_evals,
         target=target,
-        data=data,
-        space=space,
-        workers=workers,
-        only=only_names(only),
-        eval_timeout=eval_timeout,
         on_run=note,
-        reference=reference,
-        repeats=repeats,
+        **settings,
     )
     if as_json:
         print_json({k: v for k, v in result.items() if k != "runs"})
         return
     text = markdown_table(result)
-    print(f"{engine} on {task}, space {space}: {budget_evals} evaluations x {seeds} seeds (median over seeds)\n")
+    print(
+        f"{result['engine']} on {result['tasks']}, space {result['space']}: {budget_evals} evaluations x {seeds} "
+        "seeds (median over seeds)\n"
+    )
     print(text)
     (out_dir / "compare.md").write_text(text)
     out.print(f"runs and compare.json, compare.md in {out_dir}", highlight=False, soft_wrap=True)
@@ -120,30 +115,35 @@ TransferAlignOpt = Annotated[
 TransferOutOpt = Annotated[Path, out_option("Folder for the tuning run (OUT/run) and transfer.json.")]
 
 
+@run_options(
+    "engine",
+    "data",
+    "space",
+    "optimizer",
+    "refine",
+    "seed",
+    "workers",
+    "max_seconds",
+    "max_generations",
+    "max_evaluations",
+    "only",
+    "eval_timeout",
+    "reference",
+    "repeats",
+    defaults=TRANSFER_DEFAULTS,
+    options={"space": SpaceOpt, "optimizer": OptimizerOpt},
+)
 def transfer(
-    engine: EngineOpt = "mujoco",
     train: Annotated[str, typer.Option(help="Tasks to tune on together (comma-separated).")] = "single,cube",
     test: Annotated[str, typer.Option(help="Unseen tasks to evaluate the tuned parameters on.")] = "double",
-    data: DataOpt = None,
     test_data: Annotated[
         Path | None, typer.Option(help="Data root of the test tasks (default: --data).", callback=path)
     ] = None,
-    space: SpaceOpt = "extended",
-    optimizer: OptimizerOpt = "de",
-    refine: Annotated[bool, refine_option("Polish the tuned point with least squares.")] = False,
-    seed: SeedOpt = 0,
-    workers: WorkersOpt = 1,
-    max_seconds: Annotated[float | None, max_seconds_option("Tuning wall-time limit [s].")] = None,
-    max_generations: Annotated[int, max_generations_option("Tuning generation limit.")] = 1000,
-    max_evaluations: MaxEvalsOpt = None,
-    only: OnlyOpt = None,
-    eval_timeout: EvalTimeoutOpt = 600.0,
     out_dir: TransferOutOpt = Path("runs/transfer"),
     align_clock: TransferAlignOpt = True,
-    reference: ReferenceOpt = None,
-    repeats: RepeatsOpt = None,
     quiet: QuietOpt = False,
     as_json: JsonOpt = False,
+    **settings: Any,
 ) -> None:
     """Tune on some tasks, then test the tuned parameters on tasks never tuned on, against generic.
 
@@ -156,31 +156,23 @@ def transfer(
     from simtune import api
 
     result = api.transfer(
-        engine,
-        train,
-        test,
+        train=train,
+        test=test,
         out=out_dir,
-        data=data,
         test_data=test_data,
-        space=space,
-        optimizer=optimizer,
-        refine=refine,
-        seed=seed,
-        workers=workers,
-        max_seconds=max_seconds,
-        max_generations=max_generations,
-        max_evaluations=max_evaluations,
-        only=only_names(only),
-        eval_timeout=eval_timeout,
         align_clock=align_clock,
         show_progress=not quiet and not as_json,
-        reference=reference,
-        repeats=repeats,
+        **settings,
     )
     if as_json:
         print_json({k: v for k, v in result.items() if k != "params"})
         return
-    out.print(_transfer_table(result, f"{engine}: tuned on {train} ({space}, {optimizer}), tested on {test}"))
+    out.print(
+        _transfer_table(
+            result,
+            f"{settings['engine']}: tuned on {train} ({settings['space']}, {settings['optimizer']}), tested on {test}",
+        )
+    )
     for r in result["tasks"]:
         if r["delay_s"] is not None:
             out.print(

@@ -88,6 +88,10 @@ def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
         keep_inactive=spec.keep_inactive,
         reference=spec.reference,
         repeats=spec.repeat_set,
+        # a grid's unit runs the paper's DE, one worker without a time-out, as grids always have: a grid resumed
+        # after an upgrade finds its units' stored settings unchanged
+        optimizer="de",
+        eval_timeout=None,
     )
     try:
         path.mkdir(parents=True, exist_ok=True)
