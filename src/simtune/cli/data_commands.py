@@ -20,6 +20,7 @@ from simtune.cli.options import (
     ReferenceOpt,
     RepeatsOpt,
     SpaceOpt,
+    TargetsOpt,
     WorkersOpt,
     finite,
     not_negative,
@@ -50,6 +51,7 @@ def check(
     reference: ReferenceOpt = None,
     repeats: RepeatsOpt = None,
     keep_repeats: KeepRepeatsOpt = False,
+    targets: TargetsOpt = None,
     write_task: Annotated[
         Path | None,
         typer.Option(
@@ -94,6 +96,7 @@ def check(
         repeats=repeats,
         write_task=write_task,
         keep_repeats=keep_repeats,
+        targets=targets,
     )
     if as_json:
         print_json(result)
