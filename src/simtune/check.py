@@ -113,6 +113,9 @@ ORIENTATION_LEVER_M = 0.1
 #: an orientation left within this [deg] of the recorded one needs no further joint: the rests that lie near agree
 #: with each other to 0.8-1.8 deg on the real MICO (qrg2019 `single` and `cube`)
 ORIENTATION_TOL_DEG = 2.0
+#: a rest turned more than this [deg] from the simulated one is far by its orientation, whatever its position: the rests
+#: that lie near agree to 0.8-1.8 deg; the `cube`'s phase-2 joint 3 at its published 65 deg turns the wrist 10 deg
+ORIENTATION_WARN_DEG = 5.0
 
 
 def moved_joints(proposal: dict) -> str:
@@ -192,9 +195,11 @@ def _add_joint(task: TaskSpec, q0: np.ndarray, moving: list[int], miss) -> tuple
 
 def _placed(left: np.ndarray, before: np.ndarray) -> bool:
     """Whether a pose (its miss ``left``, against ``before``: :func:`_pose_miss`'s) places the rest: the position
-    within :data:`SINGLE_JOINT_SHARE` of its gap, and the orientation (where fitted) within that share of its turn
-    or within :data:`ORIENTATION_TOL_DEG`: else the orientation asks for other joints."""
-    if np.linalg.norm(left[:3]) > SINGLE_JOINT_SHARE * np.linalg.norm(before[:3]):
+    within :data:`SINGLE_JOINT_SHARE` of its gap (or of :data:`~simtune.objective.START_WARN_M`), and the orientation
+    (where fitted) within that share of its turn or within :data:`ORIENTATION_TOL_DEG`: else the orientation asks
+    for other joints."""
+    # a rest far by its orientation alone may lie near: a position already within the far threshold asks no more
+    if np.linalg.norm(left[:3]) > SINGLE_JOINT_SHARE * max(np.linalg.norm(before[:3]), START_WARN_M):
         return False
     tolerance = max(
         SINGLE_JOINT_SHARE * np.linalg.norm(before[3:]), ORIENTATION_LEVER_M * np.radians(ORIENTATION_TOL_DEG)
@@ -344,31 +349,58 @@ def _recorded_frames(task: TaskSpec, reference: TaskData) -> tuple[dict, Callabl
     return {"source": None, "note": note}, None
 
 
-def _orient(entries: list[dict], frames: list, orientation: dict) -> list[np.ndarray | None]:
-    """Each rest's turn (the recorded link rotation in the simulated rest's link frame; None where unknown), and
-    each entry's ``orientation_deg`` (its angle).  ``frames``: per entry, the simulated and recorded rotation.
-
-    A wrist body's rotation is read in the link's frame through its fixed turn there (where the rigid body's axes
-    were put when it was defined): the mean over the rests that lie near, each near rest measured against the
-    others' mean, so that its angle says how well the near rests agree."""
+def _against_near(raw: list, near: list[int]) -> list[np.ndarray | None]:
+    """Each raw turn (simulated link frame to the recorded body's) read in the link's frame through the body's fixed
+    turn there: the mean of the ``near`` rests' raw turns but its own; None where there is nothing to read it by."""
     from scipy.spatial.transform import Rotation
 
+    turns: list[np.ndarray | None] = []
+    for i, turn in enumerate(raw):
+        others = [raw[k] for k in near if k != i]
+        if turn is None or not others:
+            turns.append(None)  # no near rest, or a lone near rest itself
+        else:
+            turns.append(turn @ Rotation.from_matrix(np.stack(others)).mean().as_matrix().T)
+    return turns
+
+
+def _orient(entries: list[dict], frames: list, orientation: dict) -> list[np.ndarray | None]:
+    """Each rest's turn (the recorded link rotation in the simulated rest's link frame; None where unknown); each
+    entry's ``orientation_deg`` (its angle) and, where that exceeds :data:`ORIENTATION_WARN_DEG`, ``orientation`` in
+    its ``far_in`` (and it is ``far``).  ``frames``: per entry, the simulated and recorded rotation.
+
+    A wrist body's rotation is read in the link's frame through its fixed turn there (where the rigid body's axes
+    were put when it was defined): the mean over the rests that lie near, each of them measured against the others'
+    mean.  Of three or more, the one the others disagree with most is left out while it lies more than
+    :data:`ORIENTATION_WARN_DEG` off (far by its orientation); two that disagree cannot tell which one is turned."""
     raw = [None if real is None else sim.T @ real for sim, real in frames]
-    turns = list(raw)
+    turns, near = list(raw), list(range(len(entries)))
     if orientation["source"] == "wrist body":
         near = [i for i, e in enumerate(entries) if not e["far"] and raw[i] is not None]
+        while True:
+            turns = _against_near(raw, near)
+            offs = {i: angle_deg(t) for i, t in zip(near, (turns[i] for i in near)) if t is not None}
+            worst = max(offs, key=offs.__getitem__, default=None)
+            if worst is None or offs[worst] <= ORIENTATION_WARN_DEG:
+                break
+            if len(near) < 3:
+                orientation["note"] += (
+                    f"; the two rests that lie near are turned {offs[worst]:.1f} deg from each other (which one is, "
+                    "two cannot tell: neither is called far)"
+                )
+                break
+            near.remove(worst)
         orientation["reference_rests"] = [entries[i]["stretch"] for i in near]
         if not near:
             orientation["note"] += "; every rest lies far, so none gives that turn: the proposals fit the position"
-        turns = []
-        for i, turn in enumerate(raw):
-            others = [raw[k] for k in near if k != i]
-            if turn is None or not others:
-                turns.append(None)  # nothing to read it against: no near rest, or a lone near rest itself
-            else:
-                turns.append(turn @ Rotation.from_matrix(np.stack(others)).mean().as_matrix().T)
-    for entry, turn in zip(entries, turns):
+    for i, (entry, turn) in enumerate(zip(entries, turns)):
         entry["orientation_deg"] = None if turn is None else angle_deg(turn)
+        entry["far_in"] = ["position"] if entry["far"] else []
+        # a near rest of a wrist body that is still among the near ones is what the turn is read by: never far
+        judged = orientation["source"] == "joint logs" or i not in near
+        if judged and turn is not None and entry["orientation_deg"] > ORIENTATION_WARN_DEG:
+            entry["far_in"].append("orientation")
+            entry["far"] = True
     return turns
 
 

@@ -72,6 +72,11 @@ def _residuals(proposal: dict) -> str:
     return f"{text} (kinematics of the wrist's {proposal.get('fit', 'position only')})"
 
 
+def _far(row: dict, by: str) -> str:
+    """`` (far)`` where ``row`` lies far by ``by`` (position or orientation); rows of older checks name none."""
+    return " (far)" if by in row.get("far_in", ["position"] if row["far"] else []) else ""
+
+
 def _print_rest_poses(part: dict) -> None:
     from simtune.check import moved_joints  # on use: the check module brings the engines
 
@@ -87,8 +92,8 @@ def _print_rest_poses(part: dict) -> None:
             f"{r['end_s']:g}",
             " ".join(f"{1000 * v:.0f}" for v in r["simulated_m"]),
             " ".join(f"{1000 * v:.0f}" for v in r["recorded_m"]),
-            f"{1000 * r['distance_m']:.1f}" + (" (far)" if r["far"] else ""),
-            "-" if r.get("orientation_deg") is None else f"{r['orientation_deg']:.1f}",
+            f"{1000 * r['distance_m']:.1f}" + _far(r, "position"),
+            "-" if r.get("orientation_deg") is None else f"{r['orientation_deg']:.1f}" + _far(r, "orientation"),
         )
     out.print(table)
     if orientation:
