@@ -119,6 +119,24 @@ def test_a_rest_turned_in_place_is_far_by_its_orientation_where_it_can_be_told(r
     assert "the proposals fit the position alone" in capsys.readouterr().out
 
 
+def test_the_marker_offset_the_near_rests_place_brings_the_shipped_reference_to_its_truth(tmp_path):
+    """The shipped reference: a simulation of `cube` with joint 3 at 74 deg in phase 2 and its marker (8, -10, 12) mm
+    from the link's origin.  Checked against 65 deg, the three rests that lie near place the marker, and with it
+    the far rest's position and orientation agree on 74 deg (without it: 76.6 deg, 12 mm and 2.6 deg left)."""
+    from test_check_targets import published_cube_project
+
+    from simtune.reference import REFERENCE_DIR
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RecordingWarning)
+        summary, _ = task_quality("mujoco", load_project(published_cube_project(tmp_path)).task("cube"), REFERENCE_DIR)
+    np.testing.assert_allclose(summary["orientation"]["marker_offset_m"], [0.008, -0.010, 0.012], atol=0.001)
+    proposal = summary["rest_poses"][1]["proposal"]
+    assert list(proposal["changed"]) == ["joint_3"] and abs(proposal["changed"]["joint_3"][1] - 74) <= 0.3
+    assert proposal["residual_after_m"] < 0.002 and proposal["orientation_after_deg"] < 0.5
+    assert proposal["marker_offset_m"] == summary["orientation"]["marker_offset_m"]
+
+
 # --- the real recordings ------------------------------------------------------------------------------------------
 def _real(task, mocap_root: Path) -> dict:
     with warnings.catch_warnings():

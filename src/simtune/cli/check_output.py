@@ -65,11 +65,14 @@ def print_data_quality(parts: list[dict]) -> None:
 
 
 def _residuals(proposal: dict) -> str:
-    """A proposal's residual before -> after: position [mm], and orientation [deg] where it was fitted."""
+    """A proposal's residual before -> after: position [mm], and orientation [deg] where it was fitted (with the
+    marker's point in the link's frame the rests near place, where the check measured one)."""
     text = f"{1000 * proposal['residual_before_m']:.1f} -> {1000 * proposal['residual_after_m']:.1f} mm"
     if proposal.get("orientation_before_deg") is not None:
         text += f", {proposal['orientation_before_deg']:.1f} -> {proposal['orientation_after_deg']:.1f} deg"
-    return f"{text} (kinematics of the wrist's {proposal.get('fit', 'position only')})"
+    offset = proposal.get("marker_offset_m")
+    at = "" if offset is None else f"; the marker at {'/'.join(f'{1000 * v:.0f}' for v in offset)} mm in the link"
+    return f"{text} (kinematics of the wrist's {proposal.get('fit', 'position only')}{at})"
 
 
 def _far(row: dict, by: str) -> str:
@@ -97,9 +100,7 @@ def _print_rest_poses(part: dict) -> None:
         )
     out.print(table)
     if orientation:
-        rests = orientation.get("reference_rests")
-        named = f" (the rests near: {', '.join(rests)})" if rests else ""
-        out.print(f"  {escape(orientation['note'])}{named}", highlight=False, soft_wrap=True)
+        out.print(f"  {escape(orientation['note'])}", highlight=False, soft_wrap=True)
     for r in part["rest_poses"]:
         proposal = r.get("proposal")
         if proposal is None:
