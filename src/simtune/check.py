@@ -15,8 +15,13 @@ Three parts, per task and then for the tasks together:
 - the rest poses: at the end of each phase the generic simulation rests where the phase's targets put
   the arm; the recorded wrist over that phase's last second (on the recordings' clock, the delay
   above added) is compared with it (:func:`rest_poses`).  Where one lies more than
-  :data:`~simtune.objective.START_WARN_M` off while the others agree, that phase's targets are not
-  what the real arm reached: a tuned calibration cannot take that up;
+  :data:`~simtune.objective.START_WARN_M` off (or, where the recordings give the wrist's orientation, is
+  turned more than :data:`ORIENTATION_WARN_DEG`) while the others agree, that phase's targets are not
+  what the real arm reached: a tuned calibration cannot take that up.  For such a rest (and a far start pose)
+  the check proposes the targets that place it: inverse kinematics of the tracked link's position and
+  orientation (:func:`propose_targets`; the orientation from a motion-capture body's rotation or from joint logs
+  of every driven joint, :func:`_recorded_frames`), of its position alone where the recordings give no
+  orientation;
 - which parameters the tasks can inform: the Jacobian of the per-sample residuals at the
   generic point (:func:`simtune.uncertainty.jacobian`, one batch of rollouts), its rank and
   singular values, and for each active parameter whether the recordings could pin it: the
