@@ -102,3 +102,10 @@ def test_a_start_pose_far_from_the_first_recorded_second_gets_one_proposed(tmp_p
         "mujoco", load_project(published_cube_project(tmp_path / "as-shipped")).task("cube"), REFERENCE_DIR
     )
     assert not shipped["start_pose"]["far"] and "proposal" not in shipped["start_pose"]
+
+
+def test_check_refuses_targets_it_does_not_know():
+    from simtune.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="targets must be one of task, published, got 'bogus'"):
+        api.check("mujoco", "cube", targets="bogus")
