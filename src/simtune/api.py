@@ -675,6 +675,22 @@ def check(
     return result
 
 
+def _evidence(row: dict, proposal: dict) -> str:
+    """The comment above a corrected phase's targets: how far its recorded rest lay and what the proposal leaves,
+    in mm and (where the check fitted the orientation) deg."""
+    turned, offset = proposal.get("orientation_before_deg"), proposal.get("marker_offset_m")
+    before = f"{1000 * row['distance_m']:.1f} mm" + ("" if turned is None else f" and {turned:.1f} deg")
+    after = f"{1000 * proposal['residual_after_m']:.1f} mm" + (
+        "" if turned is None else f" and {proposal['orientation_after_deg']:.1f} deg"
+    )
+    point = "" if offset is None else f", the marker at {'/'.join(f'{1000 * v:.0f}' for v in offset)} mm in the link"
+    return (
+        f"simtune check ({date.today().isoformat()}): the recorded rest after {row['stretch']} lies {before} from "
+        f"where the former targets put the wrist;\n{moved_joints(proposal)} leaves {after} (inverse kinematics of "
+        f"the wrist's {proposal.get('fit', 'position only')}{point})"
+    )
+
+
 def _write_corrected_task(proj: Project, task, quality: dict, out: Path) -> str | None:
     """Write ``task``'s file corrected by the check's proposals (``quality``: its data-quality part) to ``out``."""
     from simtune.tasks.correct import Correction, write_corrected_task
@@ -684,17 +700,7 @@ def _write_corrected_task(proj: Project, task, quality: dict, out: Path) -> str 
         proposal = row.get("proposal")
         if proposal is None or row.get("phase") is None:
             continue  # a rest that is not far, or the start pose (not a phase's targets)
-        moved, turned = moved_joints(proposal), proposal.get("orientation_before_deg")
-        evidence = (
-            f"simtune check ({date.today().isoformat()}): the recorded rest after {row['stretch']} lies "
-            f"{1000 * row['distance_m']:.1f} mm"
-            + ("" if turned is None else f" and {turned:.1f} deg")
-            + f" from where the former targets put the wrist;\n{moved} leaves "
-            f"{1000 * proposal['residual_after_m']:.1f} mm"
-            + ("" if turned is None else f" and {proposal['orientation_after_deg']:.1f} deg")
-            + f" (inverse kinematics of the wrist's {proposal.get('fit', 'position only')})"
-        )
-        corrections[row["phase"]] = Correction(tuple(proposal["targets_deg"]), evidence)
+        corrections[row["phase"]] = Correction(tuple(proposal["targets_deg"]), _evidence(row, proposal))
         previous[row["phase"]] = tuple(row["targets_deg"])
     if not corrections:
         return None

@@ -408,7 +408,7 @@ def _orient(entries: list[dict], frames: list, orientation: dict) -> list[np.nda
         orientation["reference_rests"] = [entries[i]["stretch"] for i in near]
         if near:
             orientation["note"] += f"; the rests near: {', '.join(orientation['reference_rests'])}"
-        if not near:
+        else:
             orientation["note"] += "; every rest lies far, so none gives that turn: the proposals fit the position"
     for i, (entry, turn) in enumerate(zip(entries, turns)):
         entry["orientation_deg"] = None if turn is None else angle_deg(turn)
