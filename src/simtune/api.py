@@ -626,6 +626,7 @@ def check(
     repeats: str | None = None,
     write_task: Path | str | None = None,
     keep_repeats: bool = False,
+    targets: str | None = None,
 ) -> dict:
     """Before tuning (``simtune check --task``): the recordings' quality per task (with the repeats' clock
     shifts and the floor: their spread with and without alignment), the rest pose after each phase against where
@@ -636,14 +637,15 @@ def check(
     ``keep_repeats``: keep a repeat far from the others (else left out with a warning, named in each task's
     ``repeat_check_left_out``).  ``write_task``: a new file to write the one checked task's file to, each phase
     whose rest lies far off given its proposed targets (the former kept as ``published_targets_deg``, the evidence
-    in a comment); the result's ``written_task`` names it (None where no rest lies far off: nothing is written)."""
+    in a comment); the result's ``written_task`` names it (None where no rest lies far off: nothing is written).
+    ``targets``: the tasks' targets checked (:data:`simtune.tasks.TARGETS`; None: the task files' own)."""
     kind = _reference(reference)
     selection = _repeats(repeats)
     proj = _project(project)
     root = _root(data, proj)
     if root is None:
         raise SimtuneError(f"check: the project {project} names no data root: give the recordings with --data")
-    specs = proj.parse_tasks(_task_spec(tasks))
+    specs = with_targets(proj.parse_tasks(_task_spec(tasks)), _targets(targets, "targets"))
     if write_task is not None and len(specs) != 1:
         raise ConfigError(f"--write-task writes one task's file: check one task, not {len(specs)}")
     out = None if write_task is None else _path("write_task", write_task)
@@ -651,9 +653,26 @@ def check(
     result = run_check(
         engine, specs, root, space, _workers(workers), reference=kind, repeats=selection, keep_repeats=keep
     )
+    result["targets"] = _targets(targets, "targets")
     if out is not None:
         result["written_task"] = _write_corrected_task(proj, specs[0], result["data_quality"][0], out)
     return result
+
+
+def _evidence(row: dict, proposal: dict) -> str:
+    """The comment above a corrected phase's targets: how far its recorded rest lay and what the proposal leaves,
+    in mm and (where the check fitted the orientation) deg."""
+    turned, offset = proposal.get("orientation_before_deg"), proposal.get("marker_offset_m")
+    before = f"{1000 * row['distance_m']:.1f} mm" + ("" if turned is None else f" and {turned:.1f} deg")
+    after = f"{1000 * proposal['residual_after_m']:.1f} mm" + (
+        "" if turned is None else f" and {proposal['orientation_after_deg']:.1f} deg"
+    )
+    point = "" if offset is None else f", the marker at {'/'.join(f'{1000 * v:.0f}' for v in offset)} mm in the link"
+    return (
+        f"simtune check ({date.today().isoformat()}): the recorded rest after {row['stretch']} lies {before} from "
+        f"where the former targets put the wrist;\n{moved_joints(proposal)} leaves {after} (inverse kinematics of "
+        f"the wrist's {proposal.get('fit', 'position only')}{point})"
+    )
 
 
 def _write_corrected_task(proj: Project, task, quality: dict, out: Path) -> str | None:
@@ -665,13 +684,7 @@ def _write_corrected_task(proj: Project, task, quality: dict, out: Path) -> str 
         proposal = row.get("proposal")
         if proposal is None or row.get("phase") is None:
             continue  # a rest that is not far, or the start pose (not a phase's targets)
-        moved = moved_joints(proposal)
-        evidence = (
-            f"simtune check ({date.today().isoformat()}): the recorded rest after {row['stretch']} lies "
-            f"{1000 * row['distance_m']:.1f} mm from where the former targets put the wrist;\n{moved} leaves "
-            f"{1000 * proposal['residual_after_m']:.1f} mm (inverse kinematics of the wrist's position)"
-        )
-        corrections[row["phase"]] = Correction(tuple(proposal["targets_deg"]), evidence)
+        corrections[row["phase"]] = Correction(tuple(proposal["targets_deg"]), _evidence(row, proposal))
         previous[row["phase"]] = tuple(row["targets_deg"])
     if not corrections:
         return None

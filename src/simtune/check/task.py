@@ -15,8 +15,13 @@ Three parts, per task and then for the tasks together:
 - the rest poses: at the end of each phase the generic simulation rests where the phase's targets put
   the arm; the recorded wrist over that phase's last second (on the recordings' clock, the delay
   above added) is compared with it (:func:`rest_poses`).  Where one lies more than
-  :data:`~simtune.objective.START_WARN_M` off while the others agree, that phase's targets are not
-  what the real arm reached: a tuned calibration cannot take that up;
+  :data:`~simtune.objective.START_WARN_M` off (or, where the recordings give the wrist's orientation, is
+  turned more than :data:`ORIENTATION_WARN_DEG`) while the others agree, that phase's targets are not
+  what the real arm reached: a tuned calibration cannot take that up.  For such a rest (and a far start pose)
+  the check proposes the targets that place it: inverse kinematics of the tracked link's position and
+  orientation (:func:`propose_targets`; the orientation from a motion-capture body's rotation or from joint logs
+  of every driven joint, :func:`_recorded_frames`), of its position alone where the recordings give no
+  orientation;
 - which parameters the tasks can inform: the Jacobian of the per-sample residuals at the
   generic point (:func:`simtune.uncertainty.jacobian`, one batch of rollouts), its rank and
   singular values, and for each active parameter whether the recordings could pin it: the
@@ -27,6 +32,7 @@ Three parts, per task and then for the tasks together:
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -36,11 +42,14 @@ from simtune.alignment import PROBE_DELAY_S
 from simtune.data import TaskData, load_recording
 from simtune.data.clock import outlying_shifts
 from simtune.data.onset import motion_onset
+from simtune.data.orientation import RecordedRotations
+from simtune.data.task import REST_S
 from simtune.engines import engine_class, make_engine
 from simtune.errors import SimtuneError
 from simtune.fitness import NOISE_UNIT_M, marker_positions, reference_floor, repeat_floor
 from simtune.objective import START_WARN_M, Objective, generic_values, load_references
 from simtune.params import get_space
+from simtune.params.kinds import FIXED_BOUNDS
 from simtune.tasks import TaskSpec
 from simtune.uncertainty import RCOND, analyse, correlation_time, jacobian
 
@@ -104,6 +113,15 @@ SINGLE_JOINT_SHARE = 0.5
 #: the weight [m per rad] that keeps joints the recorded rest does not ask for where they are, in the every-joint
 #: fit: a millimetre of position is worth moving a joint by about 0.06 deg
 STAY_WEIGHT_M_PER_RAD = 0.001
+#: an orientation error weighs in the inverse kinematics as the position error it makes this far [m] from the
+#: tracked link's origin, about a hand's length: a degree counts as 1.7 mm
+ORIENTATION_LEVER_M = 0.1
+#: an orientation left within this [deg] of the recorded one needs no further joint: the rests that lie near agree
+#: with each other to 0.8-1.8 deg on the real MICO (qrg2019 `single` and `cube`)
+ORIENTATION_TOL_DEG = 2.0
+#: a rest turned more than this [deg] from the simulated one is far by its orientation, whatever its position: the rests
+#: that lie near agree to 0.8-1.8 deg; the `cube`'s phase-2 joint 3 at its published 65 deg turns the wrist 10 deg
+ORIENTATION_WARN_DEG = 5.0
 
 
 def moved_joints(proposal: dict) -> str:
@@ -125,62 +143,147 @@ def _joint_range(task: TaskSpec, index: int, around: float) -> tuple[float, floa
     return around - np.pi, around + np.pi
 
 
-def propose_targets(task: TaskSpec, targets_deg, gap_m) -> dict:
-    """The joint targets that put the tracked link's rest ``gap_m`` [m] (recorded minus simulated) from where
-    ``targets_deg`` put it: inverse kinematics of its position within the joint limits (the recordings' wrist
-    track holds no orientation here).
+def angle_deg(rotation: np.ndarray) -> float:
+    """The angle [deg] of a rotation matrix (3, 3): how far it turns, about whatever axis."""
+    return float(np.degrees(np.arccos(np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0))))
+
+
+def _pose_miss(task: TaskSpec, q0: np.ndarray, gap_m, turn: np.ndarray | None, offset: np.ndarray | None = None):
+    """The marker's miss at joint angles q [rad] from the goal ``gap_m`` and ``turn`` set: its position [m] (the
+    tracked link's origin, or the point ``offset`` from it in the link's frame), then (with ``turn``) its
+    orientation as a rotation vector times :data:`ORIENTATION_LEVER_M` [m]."""
+    from scipy.spatial.transform import Rotation
+
+    robot, link = task.robot, task.tracked_link
+    point = np.zeros(3) if offset is None else np.asarray(offset, dtype=float)
+    origin, frame = robot.forward_kinematics(q0, link)
+    goal = origin + frame @ point + np.asarray(gap_m, dtype=float)
+    # the gap is kept in the link's frame: the simulated rest's own turn from the kinematic pose (the sag) stays
+    goal_frame = None if turn is None else frame @ turn
+
+    def miss(q: np.ndarray) -> np.ndarray:
+        position, rotation = robot.forward_kinematics(q, link)
+        position = position + rotation @ point
+        if goal_frame is None:
+            return position - goal
+        twist = Rotation.from_matrix(goal_frame.T @ rotation).as_rotvec()
+        return np.concatenate([position - goal, ORIENTATION_LEVER_M * twist])
+
+    return miss
+
+
+def _add_joint(task: TaskSpec, q0: np.ndarray, moving: list[int], miss) -> tuple[np.ndarray, int | None]:
+    """The pose ``q0`` (whose joints ``moving`` are free) with one more joint free: for each other joint a grid over
+    its range, then a bounded refinement of it with ``moving``; the best pose and its joint, or ``q0`` and None
+    where no joint lowers the miss."""
+    from scipy.optimize import least_squares
+
+    best_q, best_joint, best_miss = q0, None, float(np.linalg.norm(miss(q0)))
+    for j in (j for j in range(len(q0)) if j not in moving):
+        free = [*moving, j]
+        low, high = _joint_range(task, j, q0[j])
+        grid = np.linspace(low, high, 721)
+        trial = np.repeat(q0[None], len(grid), axis=0)
+        trial[:, j] = grid
+        start = q0.copy()
+        start[j] = grid[int(np.argmin([np.linalg.norm(miss(q)) for q in trial]))]
+        ranges = np.array([_joint_range(task, k, q0[k]) for k in free])
+
+        def free_miss(x: np.ndarray, free: list[int] = free) -> np.ndarray:
+            q = q0.copy()
+            q[free] = x
+            return miss(q)
+
+        fit = least_squares(free_miss, np.clip(start[free], ranges[:, 0], ranges[:, 1]), bounds=ranges.T)
+        q = q0.copy()
+        q[free] = fit.x
+        if np.linalg.norm(miss(q)) < best_miss:
+            best_q, best_joint, best_miss = q, j, float(np.linalg.norm(miss(q)))
+    return best_q, best_joint
+
+
+def _placed(left: np.ndarray, before: np.ndarray) -> bool:
+    """Whether a pose (its miss ``left``, against ``before``: :func:`_pose_miss`'s) places the rest: the position
+    within :data:`SINGLE_JOINT_SHARE` of its gap (or of :data:`~simtune.objective.START_WARN_M`), and the orientation
+    (where fitted) within that share of its turn or within :data:`ORIENTATION_TOL_DEG`: else the orientation asks
+    for other joints."""
+    # a rest far by its orientation alone may lie near: a position already within the far threshold asks no more
+    if np.linalg.norm(left[:3]) > SINGLE_JOINT_SHARE * max(np.linalg.norm(before[:3]), START_WARN_M):
+        return False
+    tolerance = max(
+        SINGLE_JOINT_SHARE * np.linalg.norm(before[3:]), ORIENTATION_LEVER_M * np.radians(ORIENTATION_TOL_DEG)
+    )
+    return len(left) == 3 or bool(np.linalg.norm(left[3:]) <= tolerance)
+
+
+def _fewest_joints(task: TaskSpec, q0: np.ndarray, miss, oriented: bool) -> np.ndarray:
+    """The pose that places the rest (:func:`_placed`) moving the fewest joints: one joint alone where it does,
+    else (with an orientation) one joint more at a time, the one that leaves the least; where that does not place
+    it either, every joint, each weighed to stay where it is (:data:`STAY_WEIGHT_M_PER_RAD`), if that leaves less."""
+    from scipy.optimize import least_squares
+
+    before = miss(q0)
+    best_q, moving = q0, []
+    # a position alone asks for one joint or for all: its 3 numbers cannot tell which second joint it asks for
+    while len(moving) < (len(q0) if oriented else 1) and not _placed(miss(best_q), before):
+        q, joint = _add_joint(task, best_q, moving, miss)
+        if joint is None:
+            break
+        best_q, moving = q, [*moving, joint]
+    if _placed(miss(best_q), before):
+        return best_q
+    ranges = np.array([_joint_range(task, j, q0[j]) for j in range(len(q0))])
+    fit = least_squares(
+        lambda q: np.concatenate([miss(q), STAY_WEIGHT_M_PER_RAD * (q - q0)]),
+        np.clip(q0, ranges[:, 0], ranges[:, 1]),
+        bounds=(ranges[:, 0], ranges[:, 1]),
+    )
+    return fit.x if np.linalg.norm(miss(fit.x)) < np.linalg.norm(miss(best_q)) else best_q
+
+
+def propose_targets(
+    task: TaskSpec, targets_deg, gap_m, turn: np.ndarray | None = None, offset: np.ndarray | None = None
+) -> dict:
+    """The joint targets that put the tracked link's rest ``gap_m`` [m] (recorded minus simulated) and, where the
+    recordings give the orientation, ``turn`` (the recorded rest's rotation in the simulated rest's link frame)
+    from where ``targets_deg`` put it: inverse kinematics within the joint limits.
 
     The simulated rest's own offset from the kinematic pose at the targets (gravity's sag, the controller's steady
-    error) is kept: the goal is the kinematic pose moved by the gap.  One joint alone is proposed where it takes the
-    rest within :data:`SINGLE_JOINT_SHARE` of the gap (the joint the best); otherwise every joint moves, each
-    weighed to stay where it is (:data:`STAY_WEIGHT_M_PER_RAD`).
+    error) is kept: the goal is the kinematic pose moved by the gap (and turned by ``turn``), its orientation
+    weighed by :data:`ORIENTATION_LEVER_M`.  The fewest joints that place the rest move (:func:`_fewest_joints`):
+    a joint the position and orientation do not ask for stays where it is.
 
     Args:
         task: the task (its robot, driven joints and tracked link).
         targets_deg: the phase's targets (or the start pose) [deg], one per driven joint.
         gap_m: the recorded rest minus the simulated one [m], (3,).
+        turn: the simulated rest's link rotation to the recorded one, in the link's frame (3, 3); None where the
+            recordings give the position only.
+        offset: the marker's point in the link's frame [m] (:func:`marker_offset`), which ``gap_m`` was measured
+            from; None: the link's origin.
     Returns:
         ``targets_deg`` (the proposal), ``changed`` (the joints it moves: name -> [before, after] deg),
-        ``residual_before_m`` (the gap's length) and ``residual_after_m`` (what the kinematics leave of it).
+        ``residual_before_m`` (the gap's length) and ``residual_after_m`` (what the kinematics leave of it),
+        ``fit`` (``position and orientation`` or ``position only``), ``orientation_before_deg`` and
+        ``orientation_after_deg`` (the turn's angle, and what is left of it; None for a position-only fit) and
+        ``marker_offset_m`` (``offset``, or None).
     """
-    from scipy.optimize import least_squares
-
-    robot, link = task.robot, task.tracked_link
     q0 = np.radians(np.asarray(targets_deg, dtype=float))
-    goal = robot.forward_kinematics(q0, link)[0] + np.asarray(gap_m, dtype=float)
-
-    def miss(q: np.ndarray) -> np.ndarray:
-        return robot.forward_kinematics(q, link)[0] - goal
-
-    best_q, best_miss = q0, float(np.linalg.norm(gap_m))
-    for j in range(len(q0)):  # each joint alone: a grid over its range, then a bounded refinement
-        low, high = _joint_range(task, j, q0[j])
-        grid = np.linspace(low, high, 721)
-        trial = np.repeat(q0[None], len(grid), axis=0)
-        trial[:, j] = grid
-        start = grid[int(np.argmin([np.linalg.norm(miss(q)) for q in trial]))]
-        fit = least_squares(lambda x, j=j: miss(np.concatenate([q0[:j], x, q0[j + 1 :]])), [start], bounds=(low, high))
-        q = q0.copy()
-        q[j] = fit.x[0]
-        if np.linalg.norm(miss(q)) < best_miss:
-            best_q, best_miss = q, float(np.linalg.norm(miss(q)))
-    if best_miss > SINGLE_JOINT_SHARE * np.linalg.norm(gap_m):
-        ranges = np.array([_joint_range(task, j, q0[j]) for j in range(len(q0))])
-        fit = least_squares(
-            lambda q: np.concatenate([miss(q), STAY_WEIGHT_M_PER_RAD * (q - q0)]),
-            np.clip(q0, ranges[:, 0], ranges[:, 1]),
-            bounds=(ranges[:, 0], ranges[:, 1]),
-        )
-        if np.linalg.norm(miss(fit.x)) < best_miss:
-            best_q, best_miss = fit.x, float(np.linalg.norm(miss(fit.x)))
+    miss = _pose_miss(task, q0, gap_m, turn, offset)
+    best_q = _fewest_joints(task, q0, miss, turn is not None)
     proposal = [round(float(v), 1) for v in np.degrees(best_q)]
     proposal = [float(t) if abs(p - t) < 0.05 else p for p, t in zip(proposal, targets_deg)]
-    rounded = np.radians(proposal)
+    left = miss(np.radians(proposal))
+    turned_deg = float(np.degrees(np.linalg.norm(left[3:]) / ORIENTATION_LEVER_M))  # 0 where it fits position only
     return {
         "targets_deg": proposal,
         "changed": {name: [float(t), p] for name, t, p in zip(task.joints, targets_deg, proposal) if p != float(t)},
         "residual_before_m": float(np.linalg.norm(gap_m)),
-        "residual_after_m": float(np.linalg.norm(miss(rounded))),
+        "residual_after_m": float(np.linalg.norm(left[:3])),
+        "fit": "position only" if turn is None else "position and orientation",
+        "orientation_before_deg": None if turn is None else angle_deg(turn),
+        "orientation_after_deg": None if turn is None else turned_deg,
+        "marker_offset_m": None if offset is None else [float(v) for v in offset],
     }
 
 
@@ -189,16 +292,20 @@ def rest_poses(
 ) -> list[dict]:
     """Per stretch of ``task``: where the generic simulation (``simulated``: its times and marker, no command delay)
     rests at the stretch's end, against the mean recorded wrist over the same last second on the recordings' clock
-    (``delay`` [s] later; the recording's last second where that runs past it)."""
+    (``delay`` [s] later; the recording's last second where that runs past it).  Each row names the two windows
+    averaged (``simulated_window_s`` and ``recorded_window_s``); :func:`task_quality` adds the orientation and the
+    proposals."""
     assert reference.wrist_mean is not None
     times, marker = simulated
     early, late = REST_WINDOW_S
     clock = reference.times
     rows = []
     for label, start, end in task.stretches():  # a stretch shorter than the window: from its start on
-        at_rest = (times >= max(start, end - early)) & (times <= end - late)
+        sim_window = (max(start, end - early), end - late)
         recorded_end = min(end + delay, float(clock[-1]) + late)
-        recorded = (clock >= max(start + delay, recorded_end - early)) & (clock <= recorded_end - late)
+        real_window = (max(start + delay, recorded_end - early), recorded_end - late)
+        at_rest = (times >= sim_window[0]) & (times <= sim_window[1])
+        recorded = (clock >= real_window[0]) & (clock <= real_window[1])
         if not at_rest.any() or not recorded.any():
             continue
         sim_pose, real_pose = marker[at_rest].mean(axis=0), reference.wrist_mean[recorded].mean(axis=0)
@@ -206,20 +313,173 @@ def rest_poses(
         # "phase N" (the N-th phase, from 1), or the start pose held before a first phase that starts later
         phase = int(label.split()[-1]) - 1 if label.startswith("phase ") else -1
         targets = task.start_pose_deg if phase < 0 else task.phases[phase].targets_deg
-        row = {
-            "stretch": label,
-            "end_s": float(end),
-            "simulated_m": [float(v) for v in sim_pose],
-            "recorded_m": [float(v) for v in real_pose],
-            "distance_m": distance,
-            "far": distance > START_WARN_M,
-            "phase": None if phase < 0 else phase,
-            "targets_deg": [float(v) for v in targets],
-        }
-        if row["far"]:
-            row["proposal"] = propose_targets(task, targets, real_pose - sim_pose)
-        rows.append(row)
+        rows.append(
+            {
+                "stretch": label,
+                "end_s": float(end),
+                "simulated_m": [float(v) for v in sim_pose],
+                "recorded_m": [float(v) for v in real_pose],
+                "distance_m": distance,
+                "far": distance > START_WARN_M,
+                "phase": None if phase < 0 else phase,
+                "targets_deg": [float(v) for v in targets],
+                "simulated_window_s": [float(v) for v in sim_window],
+                "recorded_window_s": [float(v) for v in real_window],
+            }
+        )
     return rows
+
+
+def _recorded_frames(task: TaskSpec, reference: TaskData) -> tuple[dict, Callable | None]:
+    """Where the recordings give the tracked link's orientation: ``orientation`` (its ``source``: ``joint logs``,
+    ``wrist body`` or None, and a ``note`` saying what that means) and a function of a window on the recordings'
+    clock [s] giving the recorded rotation there (3, 3), or None (position only)."""
+    logged = reference.joint_names
+    if reference.joint_mean is not None and set(task.joints) <= set(logged):
+        columns = [logged.index(j) for j in task.joints]
+        joint_mean = reference.joint_mean
+
+        def from_joints(start: float, end: float) -> np.ndarray | None:
+            at = (reference.times >= start) & (reference.times <= end)
+            if not at.any():
+                return None
+            return task.robot.forward_kinematics(joint_mean[at][:, columns].mean(axis=0), task.tracked_link)[1]
+
+        note = (
+            "turned [deg]: the link's frame at the logged angles (every driven joint logged) against the simulated one"
+        )
+        return {"source": "joint logs", "note": note}, from_joints
+    rotations = RecordedRotations(reference, task.wrist_body)
+    if rotations.available:
+        note = (
+            f"turned [deg]: the rotation of motion-capture body {task.wrist_body!r} against the simulated link's, read "
+            "in the link's frame through the body's fixed turn there (the mean over the rests that lie near; each of "
+            "those against the others')"
+        )
+        return {"source": "wrist body", "note": note}, rotations.mean
+    note = (
+        f"turned: not measured: the recordings give the position of {task.wrist_body!r} only (no rotation, no joint "
+        "log of every driven joint), so the proposals fit the position alone"
+    )
+    return {"source": None, "note": note}, None
+
+
+def _against_near(raw: list, near: list[int]) -> list[np.ndarray | None]:
+    """Each raw turn (simulated link frame to the recorded body's) read in the link's frame through the body's fixed
+    turn there: the mean of the ``near`` rests' raw turns but its own; None where there is nothing to read it by."""
+    from scipy.spatial.transform import Rotation
+
+    turns: list[np.ndarray | None] = []
+    for i, turn in enumerate(raw):
+        others = [raw[k] for k in near if k != i]
+        if turn is None or not others:
+            turns.append(None)  # no near rest, or a lone near rest itself
+        else:
+            turns.append(turn @ Rotation.from_matrix(np.stack(others)).mean().as_matrix().T)
+    return turns
+
+
+def _orient(entries: list[dict], frames: list, orientation: dict) -> list[np.ndarray | None]:
+    """Each rest's turn (the recorded link rotation in the simulated rest's link frame; None where unknown); each
+    entry's ``orientation_deg`` (its angle) and, where that exceeds :data:`ORIENTATION_WARN_DEG`, ``orientation`` in
+    its ``far_in`` (and it is ``far``).  ``frames``: per entry, the simulated and recorded rotation.
+
+    A wrist body's rotation is read in the link's frame through its fixed turn there (where the rigid body's axes
+    were put when it was defined): the mean over the rests that lie near, each of them measured against the others'
+    mean.  Of three or more, the one the others disagree with most is left out while it lies more than
+    :data:`ORIENTATION_WARN_DEG` off (far by its orientation); two that disagree cannot tell which one is turned."""
+    raw = [None if real is None else sim.T @ real for sim, real in frames]
+    turns, near = list(raw), list(range(len(entries)))
+    if orientation["source"] == "wrist body":
+        near = [i for i, e in enumerate(entries) if not e["far"] and raw[i] is not None]
+        while True:
+            turns = _against_near(raw, near)
+            offs = {i: angle_deg(t) for i, t in zip(near, (turns[i] for i in near)) if t is not None}
+            worst = max(offs, key=offs.__getitem__, default=None)
+            if worst is None or offs[worst] <= ORIENTATION_WARN_DEG:
+                break
+            if len(near) < 3:
+                orientation["note"] += (
+                    f"; the two rests that lie near are turned {offs[worst]:.1f} deg from each other (which one is, "
+                    "two cannot tell: neither is called far)"
+                )
+                break
+            near.remove(worst)
+        orientation["reference_rests"] = [entries[i]["stretch"] for i in near]
+        if near:
+            orientation["note"] += f"; the rests near: {', '.join(orientation['reference_rests'])}"
+        else:
+            orientation["note"] += "; every rest lies far, so none gives that turn: the proposals fit the position"
+    for i, (entry, turn) in enumerate(zip(entries, turns)):
+        entry["orientation_deg"] = None if turn is None else angle_deg(turn)
+        entry["far_in"] = ["position"] if entry["far"] else []
+        # a near rest of a wrist body that is still among the near ones is what the turn is read by: never far
+        judged = orientation["source"] == "joint logs" or i not in near
+        if judged and turn is not None and entry["orientation_deg"] > ORIENTATION_WARN_DEG:
+            entry["far_in"].append("orientation")
+            entry["far"] = True
+    return turns
+
+
+def marker_offset(entries: list[dict], frames: list, turns: list) -> np.ndarray | None:
+    """Where the marker sits in the tracked link's frame [m] (3,), as the rests that lie near and whose orientation
+    is known place it: the least-squares point whose turn with each simulated rest takes up their gaps, within the
+    marker offset's range; None with fewer than two such rests (one would put its whole gap on the offset).
+
+    The fit of a far rest's orientation turns the hand, and a marker off the link's origin moves with it: on the
+    shipped reference (its marker 17 mm off) the proposal's joint 3 is 76.6 deg without the offset, 74.1 (the
+    truth: 74) with it."""
+    from scipy.optimize import lsq_linear
+
+    near = [i for i, entry in enumerate(entries) if not entry["far"] and turns[i] is not None]
+    if len(near) < 2:
+        return None
+    rotations = np.concatenate([frames[i][0] for i in near])
+    gaps = np.concatenate([np.subtract(entries[i]["recorded_m"], entries[i]["simulated_m"]) for i in near])
+    low, high = FIXED_BOUNDS["marker_offset"]
+    return lsq_linear(rotations, gaps, bounds=(low, high)).x
+
+
+def _rests(task: TaskSpec, reference: TaskData, rollout, marker: np.ndarray, delay: float) -> tuple[list, dict, dict]:
+    """The rest poses (:func:`rest_poses`) and the start pose (the first recorded second against the simulated
+    arm's first sample), their orientation where the recordings give it, and targets proposed for those far off."""
+    from scipy.spatial.transform import Rotation
+
+    rows = rest_poses(task, reference, (rollout.times, marker), delay)
+    start = None
+    if reference.wrist_start_mean is not None:
+        gap = reference.wrist_start_mean - marker[0]
+        start = {
+            "start_pose_deg": [float(v) for v in task.start_pose_deg],
+            "recorded_m": [float(v) for v in reference.wrist_start_mean],
+            "distance_m": float(np.linalg.norm(gap)),
+            "far": bool(np.linalg.norm(gap) > START_WARN_M),
+            "stretch": "start pose",
+            "simulated_m": [float(v) for v in marker[0]],
+            "simulated_window_s": [0.0, 0.0],
+            "recorded_window_s": [0.0, REST_S],
+        }
+    entries = rows + ([] if start is None else [start])
+    orientation, recorded = _recorded_frames(task, reference)
+    frames = []
+    for entry in entries:
+        low, high = entry["simulated_window_s"]
+        at = (rollout.times >= low) & (rollout.times <= high)
+        sim = Rotation.from_matrix(rollout.wrist_rot[at] if at.any() else rollout.wrist_rot[:1]).mean().as_matrix()
+        frames.append((sim, None if recorded is None else recorded(*entry["recorded_window_s"])))
+    turns = _orient(entries, frames, orientation)
+    offset = marker_offset(entries, frames, turns)
+    if offset is not None:
+        orientation["marker_offset_m"] = [float(v) for v in offset]
+    for entry, turn, (sim, _) in zip(entries, turns, frames):
+        if not entry["far"]:
+            continue
+        targets = entry.get("targets_deg", task.start_pose_deg)
+        gap = np.asarray(entry["recorded_m"]) - np.asarray(entry["simulated_m"])
+        if turn is not None and offset is not None:  # measured from the marker's point, not the link's origin
+            gap = gap - sim @ offset
+        entry["proposal"] = propose_targets(task, targets, gap, turn, None if turn is None else offset)
+    return rows, start or {}, orientation
 
 
 def task_quality(
@@ -276,20 +536,11 @@ def task_quality(
         "onset_std_s": float(np.std(onsets, ddof=1)) if len(onsets) > 1 else None,
         "simulated_onset_s": sim_onset,
         "implied_command_delay_s": delay,
-        "rest_poses": rest_poses(task, chosen, (rollout.times, sim_marker), max(delay or 0.0, 0.0)),
     }
-    # the start pose as the first recorded second puts it: targets proposed where it lies far off, as for a rest
-    recorded_start = chosen.wrist_start_mean
-    if recorded_start is not None:
-        gap = recorded_start - sim_marker[0]
-        summary["start_pose"] = {
-            "start_pose_deg": [float(v) for v in task.start_pose_deg],
-            "recorded_m": [float(v) for v in recorded_start],
-            "distance_m": float(np.linalg.norm(gap)),
-            "far": bool(np.linalg.norm(gap) > START_WARN_M),
-        }
-        if summary["start_pose"]["far"]:
-            summary["start_pose"]["proposal"] = propose_targets(task, task.start_pose_deg, gap)
+    rests, start, orientation = _rests(task, chosen, rollout, sim_marker, max(delay or 0.0, 0.0))
+    summary["rest_poses"], summary["orientation"] = rests, orientation
+    if start:
+        summary["start_pose"] = start
     if repeats != "all":  # which repeats the check used (the rows name them) and which it held out
         summary["repeat_selection"] = repeats
         summary["repeat_files"] = [row["file"] for row in rows]

@@ -64,13 +64,30 @@ def print_data_quality(parts: list[dict]) -> None:
         _print_rest_poses(part)
 
 
+def _residuals(proposal: dict) -> str:
+    """A proposal's residual before -> after: position [mm], and orientation [deg] where it was fitted (with the
+    marker's point in the link's frame the rests near place, where the check measured one)."""
+    text = f"{1000 * proposal['residual_before_m']:.1f} -> {1000 * proposal['residual_after_m']:.1f} mm"
+    if proposal.get("orientation_before_deg") is not None:
+        text += f", {proposal['orientation_before_deg']:.1f} -> {proposal['orientation_after_deg']:.1f} deg"
+    offset = proposal.get("marker_offset_m")
+    at = "" if offset is None else f"; the marker at {'/'.join(f'{1000 * v:.0f}' for v in offset)} mm in the link"
+    return f"{text} (kinematics of the wrist's {proposal.get('fit', 'position only')}{at})"
+
+
+def _far(row: dict, by: str) -> str:
+    """`` (far)`` where ``row`` lies far by ``by`` (position or orientation); rows of older checks name none."""
+    return " (far)" if by in row.get("far_in", ["position"] if row["far"] else []) else ""
+
+
 def _print_rest_poses(part: dict) -> None:
     from simtune.check.task import moved_joints  # on use: the check module brings the engines
 
+    orientation = part.get("orientation") or {}
     table = text_table(
         f"{part['task']}: rest poses - where each phase's targets put the marker (generic simulation) against the "
         "recorded wrist over the phase's last second",
-        ("stretch", "ends [s]", "simulated [mm]", "recorded [mm]", "apart [mm]"),
+        ("stretch", "ends [s]", "simulated [mm]", "recorded [mm]", "apart [mm]", "turned [deg]"),
     )
     for r in part["rest_poses"]:
         table.add_row(
@@ -78,9 +95,12 @@ def _print_rest_poses(part: dict) -> None:
             f"{r['end_s']:g}",
             " ".join(f"{1000 * v:.0f}" for v in r["simulated_m"]),
             " ".join(f"{1000 * v:.0f}" for v in r["recorded_m"]),
-            f"{1000 * r['distance_m']:.1f}" + (" (far)" if r["far"] else ""),
+            f"{1000 * r['distance_m']:.1f}" + _far(r, "position"),
+            "-" if r.get("orientation_deg") is None else f"{r['orientation_deg']:.1f}" + _far(r, "orientation"),
         )
     out.print(table)
+    if orientation:
+        out.print(f"  {escape(orientation['note'])}", highlight=False, soft_wrap=True)
     for r in part["rest_poses"]:
         proposal = r.get("proposal")
         if proposal is None:
@@ -88,23 +108,12 @@ def _print_rest_poses(part: dict) -> None:
         moved = moved_joints(proposal)
         out.print(
             f"  proposed for {r['stretch']}: {moved or 'no joint change helps'} "
-            f"(targets {' '.join(f'{v:g}' for v in proposal['targets_deg'])} deg): "
-            f"{1000 * proposal['residual_before_m']:.1f} -> {1000 * proposal['residual_after_m']:.1f} mm "
-            "(kinematics of the wrist's position); `--write-task FILE` writes the task file with it",
+            f"(targets {' '.join(f'{v:g}' for v in proposal['targets_deg'])} deg): {_residuals(proposal)}; "
+            "`--write-task FILE` writes the task file with it",
             highlight=False,
             soft_wrap=True,
         )
-    start = part.get("start_pose") or {}
-    if start.get("proposal"):
-        proposal = start["proposal"]
-        moved = moved_joints(proposal)
-        out.print(
-            f"  the first recorded second lies {1000 * start['distance_m']:.1f} mm from the start pose's: proposed "
-            f"start_pose_deg {' '.join(f'{v:g}' for v in proposal['targets_deg'])} ({moved or 'no joint change helps'}"
-            f"; {1000 * proposal['residual_after_m']:.1f} mm left)",
-            highlight=False,
-            soft_wrap=True,
-        )
+    _print_start_pose(part.get("start_pose") or {})
     far = [r["stretch"] for r in part["rest_poses"] if r["far"]]
     if far and len(far) < len(part["rest_poses"]):
         out.print(
@@ -113,6 +122,22 @@ def _print_rest_poses(part: dict) -> None:
             highlight=False,
             soft_wrap=True,
         )
+
+
+def _print_start_pose(start: dict) -> None:
+    if not start.get("proposal"):
+        return
+    from simtune.check import moved_joints  # on use: the check module brings the engines
+
+    proposal = start["proposal"]
+    turned = "" if start.get("orientation_deg") is None else f" and turned {start['orientation_deg']:.1f} deg"
+    out.print(
+        f"  the first recorded second lies {1000 * start['distance_m']:.1f} mm{turned} from the start pose's: "
+        f"proposed start_pose_deg {' '.join(f'{v:g}' for v in proposal['targets_deg'])} "
+        f"({moved_joints(proposal) or 'no joint change helps'}; {_residuals(proposal)})",
+        highlight=False,
+        soft_wrap=True,
+    )
 
 
 def print_informed(result: dict) -> None:

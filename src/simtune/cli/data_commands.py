@@ -20,6 +20,7 @@ from simtune.cli.options import (
     ReferenceOpt,
     RepeatsOpt,
     SpaceOpt,
+    TargetsOpt,
     WorkersOpt,
     finite,
     not_negative,
@@ -50,6 +51,7 @@ def check(
     reference: ReferenceOpt = None,
     repeats: RepeatsOpt = None,
     keep_repeats: KeepRepeatsOpt = False,
+    targets: TargetsOpt = None,
     write_task: Annotated[
         Path | None,
         typer.Option(
@@ -67,7 +69,8 @@ def check(
     per finding, exit 2 if any is a problem.  With --task T (and --data ROOT, or DIR's recordings): per task,
     lost marker frames and the longest gap of each recording, how well the repeats agree, how far each starts
     from the simulated arm, each repeat's motion onset (and the command delay it implies), each phase's rest
-    against where its targets put the arm (with proposed targets where it lies far off); then the rank
+    against where its targets put the arm, in position and (where the recordings give it) orientation, with
+    proposed targets where it lies far off; then the rank
     and singular values of the residuals' Jacobian at the generic point and, per active parameter,
     whether the recordings can inform it.
     """
@@ -94,6 +97,7 @@ def check(
         repeats=repeats,
         write_task=write_task,
         keep_repeats=keep_repeats,
+        targets=targets,
     )
     if as_json:
         print_json(result)
