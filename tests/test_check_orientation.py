@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from simtune import api
-from simtune.check import task_quality
+from simtune.check.task import task_quality
 from simtune.data import load_recording, write_qualisys_tsv
 from simtune.errors import RecordingWarning
 from simtune.project import BUNDLED_DIR, load_project

@@ -127,7 +127,7 @@ def _print_rest_poses(part: dict) -> None:
 def _print_start_pose(start: dict) -> None:
     if not start.get("proposal"):
         return
-    from simtune.check import moved_joints  # on use: the check module brings the engines
+    from simtune.check.task import moved_joints  # on use: the check module brings the engines
 
     proposal = start["proposal"]
     turned = "" if start.get("orientation_deg") is None else f" and turned {start['orientation_deg']:.1f} deg"
