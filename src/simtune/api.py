@@ -121,7 +121,14 @@ class Result:
 
 
 def load_project(path: Path | str | None = None) -> Project:
-    """The project in folder ``path`` (docs/task-files.md); None: the bundled Kinova MICO project."""
+    """The project in a folder (docs/task-files.md).
+
+    Args:
+        path: the project folder (or its simtune.toml); None: the bundled Kinova MICO project.
+
+    Returns:
+        The Project: its robot, ``tasks`` by name, ``groups`` and data root.
+    """
     return get_project(None) if path is None else _load_project(_path("path", path))
 
 
@@ -262,23 +269,35 @@ def evaluate(
     targets: str | None = None,
     keep_repeats: bool = False,
 ) -> Result:
-    """Fitness of ``params`` (a mapping, or a params file such as best_params.json; default: the engine's
-    generic values) for ``engine`` on ``tasks`` (names or groups: comma-separated, or a list) of ``project``.
+    """The fitness of parameter values for an engine on tasks (``simtune evaluate``).
 
-    ``data``: the data root (``DATA/<task>/``); default: the project's recordings.  ``weights``: of the
-    fitness's parts (``simtune.fitness.FitnessWeights``, a mapping or ``"joint=0.1,wrist=1"``);
-    ``joint_topic``: the JointState topic of ROS 2 joint logs (docs/recordings.md).  ``align_clock``:
-    True, or the names of the tasks whose recording clock is aligned first (their command delay estimated
-    from the recordings with the physics of ``params`` held fixed, :mod:`simtune.alignment`); the result's
-    ``fitness_unaligned`` is the fitness without it.  ``reference``: what the simulation is scored against,
-    ``aligned`` (the default: the repeats shifted onto one clock, then averaged) or ``mean`` (the paper's plain
-    mean of the repeats).  ``repeats``: which of each task's repeats build that reference, ``all`` (the default),
-    ``even`` (the 1st, 3rd ... in sorted order) or ``odd`` (the 2nd, 4th ...): score on the repeats a run was not
-    tuned on; the result's ``repeat_files`` name them.  ``targets``: the joint targets the tasks carry, ``task``
-    (the default: the task files') or ``published`` (where a task file corrects the published ones:
-    :data:`simtune.tasks.TARGETS`).  ``keep_repeats``: keep a repeat far from the others, which the repeat check
-    (:mod:`simtune.data.screen`) otherwise leaves out with a warning naming its file.  An argument of the wrong
-    type or value is a :class:`~simtune.errors.ConfigError` naming it.
+    Args:
+        engine: the physics engine (``simtune engines``).
+        tasks: task names or groups, comma-separated or a list, of ``project``.
+        project: a Project or its folder; None: the bundled MICO project.
+        data: the data root (``DATA/<task>/``); None: the project's recordings.
+        params: a mapping of parameter values, or a params file such as best_params.json; None: the engine's
+            generic values.
+        weights: of the fitness's parts: ``simtune.fitness.FitnessWeights``, a mapping or ``"joint=0.1,wrist=1"``;
+            None: the defaults.
+        joint_topic: the JointState topic of ROS 2 joint logs (docs/recordings.md); None: each log's only one.
+        align_clock: True, or the names of the tasks whose recording clock is aligned first (their command delay
+            estimated from the recordings with the physics of ``params`` held fixed, :mod:`simtune.alignment`).
+        reference: ``aligned`` (None, the default: the repeats shifted onto one clock, then averaged) or ``mean``
+            (the paper's plain mean of the repeats).
+        repeats: which of each task's repeats build that reference: ``all`` (None, the default), ``even`` (the
+            1st, 3rd ... in sorted order) or ``odd`` (the 2nd, 4th ...): score on the repeats a run was not tuned on.
+        targets: the joint targets the tasks carry: ``task`` (None, the default: the task files') or ``published``
+            (where a task file corrects the published ones: :data:`simtune.tasks.TARGETS`).
+        keep_repeats: keep a repeat far from the others, which the repeat check (:mod:`simtune.data.screen`)
+            otherwise leaves out with a warning naming its file.
+
+    Returns:
+        A Result: the fitness and its parts per task; ``fitness_unaligned`` the fitness without the clock
+        alignment; ``repeat_files`` the repeats scored against.
+
+    Raises:
+        ConfigError: an argument of the wrong type or value, named.
     """
     kind = _reference(reference)
     keep = _flag("keep_repeats", keep_repeats)
@@ -405,11 +424,20 @@ def tune(
     show_progress: bool = False,
     **settings,
 ) -> Result:
-    """Tune ``engine`` on ``tasks`` into the new run folder ``out`` (``simtune tune``); ``settings`` are
-    :func:`run_config`'s (project, data, space, optimizer, max_evaluations ...).
+    """Tune ``engine`` on ``tasks`` into a new run folder (``simtune tune``).
 
     The run is an ordinary one: ``simtune resume OUT`` continues it, ``read_run(OUT)`` reads it.
-    ``only``: the parameters to tune (a comma-separated string or a list; None: the whole space).
+
+    Args:
+        engine: the physics engine.
+        tasks: a task name, several joined by commas, or a list.
+        out: the new run folder.
+        show_progress: draw the progress bar at a terminal.
+        settings: :func:`run_config`'s (project, data, weights, only and RunConfig's fields: space, optimizer,
+            max_evaluations ...).
+
+    Returns:
+        The finished run, read back (:func:`read_run`).
     """
     out_dir = _path("out", out)
     start_run(run_config(engine, tasks, **settings), out_dir, show_progress=show_progress)
@@ -417,17 +445,43 @@ def tune(
 
 
 def start(config: RunConfig, out: Path | str, *, show_progress: bool = False) -> TuneResult:
-    """Run ``config`` (see :func:`run_config`) in the new run folder ``out``; the optimiser's result."""
+    """Run a configuration in a new run folder.
+
+    Args:
+        config: a RunConfig (see :func:`run_config`).
+        out: the new run folder.
+        show_progress: draw the progress bar at a terminal.
+
+    Returns:
+        The optimiser's TuneResult (what ``simtune tune`` prints).
+    """
     return start_run(config, _path("out", out), show_progress=show_progress)
 
 
 def resume(run_dir: Path | str, *, rescore: bool = False, show_progress: bool = False) -> TuneResult:
-    """Continue the run in ``run_dir`` (``simtune resume``); ``rescore``: anew on the data as it is now."""
+    """Continue a stopped or killed run (``simtune resume``), keeping every finished evaluation.
+
+    Args:
+        run_dir: the run folder.
+        rescore: start anew on the data as it is now, from the old run's last population.
+        show_progress: draw the progress bar at a terminal.
+
+    Returns:
+        The optimiser's TuneResult.
+    """
     return resume_run(_path("run_dir", run_dir), show_progress=show_progress, rescore=rescore)
 
 
 def uncertainty(run_dir: Path | str, workers: int = 1) -> dict:
-    """How well the recordings pin each parameter at a finished run's best point (``simtune uncertainty``)."""
+    """How well the recordings pin each parameter at a finished run's best point (``simtune uncertainty``).
+
+    Args:
+        run_dir: a finished run folder.
+        workers: processes for the Jacobian's rollouts.
+
+    Returns:
+        The summary stored in the run: rank, condition number, a 95 % interval per parameter, correlated pairs.
+    """
     return run_uncertainty(_path("run_dir", run_dir), _workers(workers))
 
 
@@ -535,8 +589,25 @@ def sensitivity(
     eval_timeout: float | None = 600.0,
     on_evaluation: Callable[[Score, bool], None] | None = None,
 ) -> dict:
-    """Global sensitivity of the fitness to each parameter (``simtune sensitivity``): SALib's Morris or Sobol,
-    the evaluations cached in OUT/sensitivity.sqlite; ``on_evaluation(score, reused)`` after each."""
+    """Global sensitivity of the fitness to each parameter (``simtune sensitivity``).
+
+    Args:
+        engine: the physics engine.
+        tasks: a task name, several joined by commas, or a list.
+        out: the folder for sensitivity.sqlite (the evaluations, cached) and the result.
+        data: the data root; None: the recordings shipped with simtune.
+        space: the parameter space.
+        samples: Morris trajectories or Sobol base samples.
+        method: ``morris`` or ``sobol`` (SALib).
+        only: these parameters of the space alone (comma-separated or a list).
+        seed: the sampling seed.
+        workers: processes evaluating in parallel.
+        eval_timeout: seconds before a worker's evaluation is abandoned; None: never.
+        on_evaluation: called as ``on_evaluation(score, reused)`` after each evaluation.
+
+    Returns:
+        The result (each parameter's indices), as written into ``out``.
+    """
     return run_sensitivity(
         engine,
         _task_spec(tasks),
@@ -556,15 +627,35 @@ def sensitivity(
 def sensitivity_evaluations(
     engine: str, space: str, method: str, samples: int, only: str | Collection[str] | None = None
 ) -> int:
-    """The evaluations :func:`sensitivity` runs with these arguments (its progress bar's total)."""
+    """The evaluations :func:`sensitivity` runs with these arguments (its progress bar's total).
+
+    Args:
+        engine: the physics engine.
+        space: the parameter space.
+        method: ``morris`` or ``sobol``.
+        samples: as :func:`sensitivity`'s.
+        only: as :func:`sensitivity`'s.
+
+    Returns:
+        The number of evaluations.
+    """
     names = None if only is None else _names("only", only, "command_delay")
     samples = _count("samples", samples)
     return evaluation_count(method, samples, len(get_space(space, engine_class(engine).supported(), names)))
 
 
 def demo(out: Path | str = "runs/demo", workers: int = 2, max_seconds: float = 120.0, console=None) -> dict:
-    """``simtune demo``: tune MuJoCo to the shipped reference recording, printing generic vs tuned on ``console``
-    (a rich Console; None: standard output); the two fitness values."""
+    """``simtune demo``: tune MuJoCo to the shipped reference recording and print generic vs tuned.
+
+    Args:
+        out: the run folder (started afresh).
+        workers: processes evaluating in parallel.
+        max_seconds: the wall-time cap [s].
+        console: a rich Console to print on; None: standard output.
+
+    Returns:
+        The generic and the tuned fitness (``generic``, ``tuned``).
+    """
     return run_demo(
         _path("out", out), workers=_workers(workers), max_seconds=_seconds("max_seconds", max_seconds), console=console
     )
@@ -584,10 +675,26 @@ def grid_spec(
     reference: str | None = None,
     repeat_set: str | None = None,
 ) -> GridSpec:
-    """An experiment grid (``simtune grid``'s options): engines x experiments x spaces x ``repeats`` seeds; an
-    experiment joins tasks tuned together with '+' (``single+cube``).  ``repeat_set``: which of each task's
-    recorded repeats every run is tuned on (all, even or odd; None: all), ``--repeat-set`` (``repeats`` is the
-    number of seeds)."""
+    """An experiment grid (``simtune grid``'s options): engines x experiments x spaces x seeds.
+
+    Args:
+        engines: engine names, comma-separated or a list.
+        tasks: experiments, comma-separated or a list; an experiment joins tasks tuned together with '+'
+            (``single+cube``).
+        spaces: parameter spaces, comma-separated or a list.
+        repeats: seeds per cell (the number of runs).
+        data: the data root; None: the recordings shipped with simtune.
+        max_seconds_per_run: each run's wall-time cap [s]; None: none.
+        max_generations: each run's generation limit.
+        only: these parameters of each space alone.
+        keep_inactive: keep parameters that change no rollout in the search.
+        reference: ``aligned`` or ``mean``; None: aligned.
+        repeat_set: which of each task's recorded repeats every run is tuned on (all, even or odd; None: all);
+            ``--repeat-set`` on the command line.
+
+    Returns:
+        The GridSpec, checked.
+    """
     return GridSpec(
         engines=_listed(engines, "engines"),
         tasks=_listed(tasks, "tasks"),
@@ -604,13 +711,28 @@ def grid_spec(
 
 
 def grid(spec: GridSpec, out: Path | str, **execution) -> GridIndex:
-    """Run every unfinished optimisation of ``spec`` in the grid folder ``out`` (``simtune grid``); its index.
-    ``execution``: :func:`simtune.grid.run_grid`'s executor, workers, scheduler, index_url and on_event."""
+    """Run every unfinished optimisation of a grid in its folder (``simtune grid``).
+
+    Args:
+        spec: the grid (:func:`grid_spec`).
+        out: the grid folder.
+        execution: :func:`simtune.grid.run_grid`'s executor, workers, scheduler, index_url and on_event.
+
+    Returns:
+        The grid's index.
+    """
     return run_grid(spec, _path("out", out), **execution)
 
 
 def plan_grid(spec: GridSpec) -> list[dict]:
-    """Size and estimated cost of ``spec`` per engine x experiment x space (``simtune grid --plan``)."""
+    """Size and estimated cost of a grid (``simtune grid --plan``).
+
+    Args:
+        spec: the grid (:func:`grid_spec`).
+
+    Returns:
+        One row per engine x experiment x space.
+    """
     return _plan_grid(spec)
 
 
@@ -628,17 +750,32 @@ def check(
     keep_repeats: bool = False,
     targets: str | None = None,
 ) -> dict:
-    """Before tuning (``simtune check --task``): the recordings' quality per task (with the repeats' clock
-    shifts and the floor: their spread with and without alignment), the rest pose after each phase against where
-    its targets put the arm (with proposed targets for a rest that lies far off), and which active parameters the
-    recordings can inform (the Jacobian at the generic point, against ``reference``: aligned, the default, or
-    mean), of the repeats ``repeats`` selects (all, the default, even or odd; the result names the files used).
+    """Before tuning (``simtune check --task``): the recordings' quality and what they can inform.
 
-    ``keep_repeats``: keep a repeat far from the others (else left out with a warning, named in each task's
-    ``repeat_check_left_out``).  ``write_task``: a new file to write the one checked task's file to, each phase
-    whose rest lies far off given its proposed targets (the former kept as ``published_targets_deg``, the evidence
-    in a comment); the result's ``written_task`` names it (None where no rest lies far off: nothing is written).
-    ``targets``: the tasks' targets checked (:data:`simtune.tasks.TARGETS`; None: the task files' own)."""
+    Per task: the recordings' quality (the repeats' clock shifts and the floor: their spread with and without
+    alignment), the rest pose after each phase against where its targets put the arm (with proposed targets for a
+    rest that lies far off), and which active parameters the recordings can inform (the Jacobian at the generic
+    point).
+
+    Args:
+        engine: the physics engine.
+        tasks: a task name, several joined by commas, or a list.
+        project: a Project or its folder; None: the bundled MICO project.
+        data: the data root; None: the project's.
+        space: the parameter space whose identifiability is checked.
+        workers: processes for the Jacobian's rollouts.
+        reference: ``aligned`` (None, the default) or ``mean``.
+        repeats: ``all`` (None, the default), ``even`` or ``odd``; the result names the files used.
+        write_task: a new file to write the one checked task's file to, each phase whose rest lies far off given
+            its proposed targets (the former kept as ``published_targets_deg``, the evidence in a comment).
+        keep_repeats: keep a repeat far from the others (else left out with a warning, named in each task's
+            ``repeat_check_left_out``).
+        targets: the tasks' targets checked (:data:`simtune.tasks.TARGETS`; None: the task files' own).
+
+    Returns:
+        The check's findings as ``simtune check --json`` prints them; ``written_task`` names the file written
+        (None where no rest lies far off: nothing is written).
+    """
     kind = _reference(reference)
     selection = _repeats(repeats)
     proj = _project(project)
@@ -701,9 +838,21 @@ def synth(
     project: Project | Path | str | None = None,
     **recording,
 ) -> SynthResult:
-    """Recordings with a known ground truth in the data root ``out`` (``simtune synth``): ``truth`` a params
-    file (default: the engine's generic values), ``delay_s`` the true command delay; ``recording`` are
-    :func:`simtune.studies.synth.make_synthetic`'s noise_m, repeats, seed, jitter_s, fmt, joint_noise_rad and force."""
+    """Recordings with a known ground truth (``simtune synth``).
+
+    Args:
+        engine: the engine that simulates them.
+        tasks: a task name, several joined by commas, or a list.
+        out: the data root to write (``OUT/<task>/``).
+        truth: a params file of the true values; None: the engine's generic values.
+        delay_s: the true command delay [s]; None: the truth's.
+        project: a Project or its folder; None: the bundled MICO project.
+        recording: :func:`simtune.studies.synth.make_synthetic`'s noise_m, repeats, seed, jitter_s, fmt,
+            joint_noise_rad and force.
+
+    Returns:
+        The SynthResult: the data root, the truth and the recordings written per task.
+    """
     robot = _project(project).robot.description  # a truth is checked against its robot's ranges (None: the MICO)
     values = load_truth(None if truth is None else _path("truth", truth), engine, delay_s, robot)
     return make_synthetic(engine, _task_spec(tasks), _path("out", out), truth=values, project=project, **recording)
@@ -718,8 +867,19 @@ def export(
     dr: bool = False,
     force: bool = False,
 ) -> tuple[list[ExportResult], list[tuple[Path, str]]]:
-    """A tuned run as the engine's own model files in ``out`` (``simtune export``); with ``all_engines`` every
-    finished run under ``run_dirs``, each as its own engine's.  The exports, and the folders skipped and why."""
+    """Tuned runs as each engine's own model files (``simtune export``).
+
+    Args:
+        run_dirs: a finished run folder, or with ``all_engines`` folders holding runs.
+        out: the export folder.
+        engine: export as this engine's files; None: the run's own engine.
+        all_engines: export every finished run under ``run_dirs``, each as its own engine's.
+        dr: also write ``dr_ranges.yaml`` (domain-randomisation ranges of the tuned parameters).
+        force: replace a previous export in a non-empty ``out``.
+
+    Returns:
+        The exports, and the folders skipped with the reason.
+    """
     runs = [run_dirs] if isinstance(run_dirs, str | os.PathLike) else list(run_dirs)
     if all_engines and engine is not None:
         raise SimtuneError("--all-engines exports each run with its own engine: leave out --engine")
