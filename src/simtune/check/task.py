@@ -208,10 +208,11 @@ def _placed(left: np.ndarray, before: np.ndarray) -> bool:
     (where fitted) within that share of its turn or within :data:`ORIENTATION_TOL_DEG`: else the orientation asks
     for other joints."""
     # a rest far by its orientation alone may lie near: a position already within the far threshold asks no more
-    if np.linalg.norm(left[:3]) > SINGLE_JOINT_SHARE * max(np.linalg.norm(before[:3]), START_WARN_M):
+    if np.linalg.norm(left[:3]) > SINGLE_JOINT_SHARE * max(float(np.linalg.norm(before[:3])), START_WARN_M):
         return False
     tolerance = max(
-        SINGLE_JOINT_SHARE * np.linalg.norm(before[3:]), ORIENTATION_LEVER_M * np.radians(ORIENTATION_TOL_DEG)
+        SINGLE_JOINT_SHARE * float(np.linalg.norm(before[3:])),
+        ORIENTATION_LEVER_M * float(np.radians(ORIENTATION_TOL_DEG)),
     )
     return len(left) == 3 or bool(np.linalg.norm(left[3:]) <= tolerance)
 
@@ -223,7 +224,7 @@ def _fewest_joints(task: TaskSpec, q0: np.ndarray, miss, oriented: bool) -> np.n
     from scipy.optimize import least_squares
 
     before = miss(q0)
-    best_q, moving = q0, []
+    best_q, moving = q0, list[int]()
     # a position alone asks for one joint or for all: its 3 numbers cannot tell which second joint it asks for
     while len(moving) < (len(q0) if oriented else 1) and not _placed(miss(best_q), before):
         q, joint = _add_joint(task, best_q, moving, miss)

@@ -10,7 +10,6 @@ from __future__ import annotations
 import csv
 import math
 import tomllib
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,6 +19,7 @@ import yaml
 from simtune.errors import ProjectError
 from simtune.robot.description import RobotDescription
 from simtune.robot.mico import MICO
+from simtune.tasks.keys import Keys, kind_of
 from simtune.tasks.lerobot import SCHEDULE_KEYS, lerobot_schedule, recordings_key
 from simtune.tasks.spec import MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
 from simtune.tasks.yamlfile import load_yaml
@@ -79,112 +79,8 @@ def read_document(path: Path) -> dict[str, Any]:
     if data is None:
         data = {}
     if not isinstance(data, dict):
-        raise ProjectError(f"{path}: expected a mapping of keys at the top level, got a {_kind(data)}")
+        raise ProjectError(f"{path}: expected a mapping of keys at the top level, got a {kind_of(data)}")
     return data
-
-
-def _kind(value: object) -> str:
-    if isinstance(value, bool):
-        return "true/false"
-    if isinstance(value, int | float):
-        return "number"
-    if isinstance(value, str):
-        return "string"
-    if isinstance(value, list | tuple):
-        return "list"
-    if isinstance(value, dict):
-        return "table"
-    return type(value).__name__
-
-
-class Keys:
-    """One table of a file, read key by key with one-line errors naming the file and the key's full name."""
-
-    def __init__(self, path: Path, data: Mapping[str, Any], known: Sequence[str], prefix: str = ""):
-        self.path = path
-        self.data = data
-        self.prefix = prefix
-        for key in data:
-            if key not in known:
-                raise self.error(str(key), f"unknown key (known here: {', '.join(known)})")
-
-    def error(self, key: str, what: str) -> ProjectError:
-        return ProjectError(f"{self.path}: {self.prefix}{key}: {what}")
-
-    def has(self, key: str) -> bool:
-        return key in self.data
-
-    def _get(self, key: str, required: bool) -> Any:
-        if key not in self.data and required:
-            raise self.error(key, "missing (required)")
-        return self.data.get(key)
-
-    def string(self, key: str, default: str | None = None, required: bool = False) -> str | None:
-        value = self._get(key, required)
-        if value is None:
-            return default
-        if not isinstance(value, str):
-            raise self.error(key, f"expected a string, got a {_kind(value)}")
-        return value
-
-    def flag(self, key: str, default: bool) -> bool:
-        value = self._get(key, False)
-        if value is None:
-            return default
-        if not isinstance(value, bool):
-            raise self.error(key, f"expected true or false, got a {_kind(value)}")
-        return value
-
-    def number(self, key: str, default: float | None = None, required: bool = False, above: float | None = None):
-        value = self._get(key, required)
-        if value is None:
-            return default
-        return self.check_number(key, value, above)
-
-    def check_number(self, key: str, value: Any, above: float | None = None) -> float:
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise self.error(key, f"expected a number, got a {_kind(value)}")
-        if not math.isfinite(value):
-            raise self.error(key, f"expected a finite number, got {value}")
-        if above is not None and not value > above:
-            raise self.error(key, f"must be above {above:g}, got {value:g}")
-        return float(value)
-
-    def numbers(self, key: str, length: int | None = None, of: str = "", required: bool = False):
-        """A list of finite numbers; ``length`` checked, ``of`` says what each entry stands for in the message."""
-        value = self._get(key, required)
-        if value is None:
-            return None
-        if not isinstance(value, list):
-            raise self.error(key, f"expected a list of numbers, got a {_kind(value)}")
-        if length is not None and len(value) != length:
-            raise self.error(key, f"expected {length} numbers{of}, got {len(value)}")
-        return tuple(self.check_number(f"{key}[{i}]", v) for i, v in enumerate(value))
-
-    def strings(self, key: str, required: bool = False) -> tuple[str, ...] | None:
-        value = self._get(key, required)
-        if value is None:
-            return None
-        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise self.error(key, f"expected a list of strings, got {value!r}")
-        return tuple(value)
-
-    def table(self, key: str, known: Sequence[str], required: bool = False) -> Keys | None:
-        value = self._get(key, required)
-        if value is None:
-            return None
-        if not isinstance(value, dict):
-            raise self.error(key, f"expected a table of keys, got a {_kind(value)}")
-        return Keys(self.path, value, known, f"{self.prefix}{key}.")
-
-    def tables(self, key: str, known: Sequence[str]) -> list[Keys] | None:
-        """A list of tables (TOML's ``[[key]]``)."""
-        value = self._get(key, False)
-        if value is None:
-            return None
-        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
-            raise self.error(key, "expected a list of tables (TOML: [[" + key + "]] sections)")
-        return [Keys(self.path, v, known, f"{self.prefix}{key}[{i}].") for i, v in enumerate(value)]
 
 
 TASK_KEYS = (

@@ -22,7 +22,7 @@ from simtune.robot.description import RobotDescription
 from simtune.tasks.spec import Phase, TaskSpec
 
 if TYPE_CHECKING:
-    from simtune.tasks.files import Keys
+    from simtune.tasks.keys import Keys
 
 #: keys of a task file's ``[recordings]`` table (``recordings = "folder"`` is the short form of ``folder``)
 RECORDINGS_KEYS = ("folder", "units", "joints", "episodes")

@@ -32,7 +32,7 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -40,7 +40,25 @@ from simtune.engines.base import CHECK_EVERY, OBJECT_LIMIT, MarkerBudget, Monito
 from simtune.engines.controller import CONTROL_PERIOD, JointController
 
 if TYPE_CHECKING:
-    from simtune.engines.mujoco.engine import MujocoEngine
+    from simtune.tasks import TaskSpec
+
+
+class Member(Protocol):
+    """What a batch reads of each member engine (a MujocoEngine; declared here so that the engine, which runs its
+    batches through this module, and this module do not import each other)."""
+
+    task: TaskSpec
+    model: Any
+    data: Any
+    _arm_qpos: Any
+    _wrist: Any
+    _object: Any
+
+    @property
+    def timestep(self) -> float: ...
+
+    def diverged(self) -> str: ...
+
 
 try:
     import mujoco
@@ -112,7 +130,7 @@ class Batch:
 
     def __init__(
         self,
-        engines: Sequence[MujocoEngine],
+        engines: Sequence[Member],
         controllers: Sequence[JointController],
         monitors: Sequence[Monitor | None],
         n_samples: int,
