@@ -364,7 +364,7 @@ def test_init_takes_tracked_link_and_driven_joints_and_says_why(tmp_path):
 
 def test_meshes_are_converted_once_into_the_cache_and_found_through_the_package_path(tmp_path, monkeypatch):
     trimesh = pytest.importorskip("trimesh")
-    monkeypatch.setenv("SIMTUNE_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("SIMTUNE_CACHE_DIR", str(tmp_path / "cache"))
     package = tmp_path / "elsewhere" / "my_arm_description"
     (package / "meshes").mkdir(parents=True)
     trimesh.creation.box(extents=(0.04, 0.04, 0.2)).export(package / "meshes" / "upper.STL")

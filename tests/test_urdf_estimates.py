@@ -231,7 +231,7 @@ def test_a_task_without_an_object_needs_no_gripper_surface_and_one_with_an_objec
 
 
 def test_a_package_name_maps_to_a_folder_of_another_name(tmp_path, monkeypatch):
-    monkeypatch.setenv("SIMTUNE_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("SIMTUNE_CACHE_DIR", str(tmp_path / "cache"))
     folder = tmp_path / "ws" / "my_arm_description"
     (folder / "meshes").mkdir(parents=True)
     trimesh.creation.box(extents=(0.04, 0.04, 0.2)).export(folder / "meshes" / "upper.stl")

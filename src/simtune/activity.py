@@ -47,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 import simtune
+from simtune.common.cache import CACHE_ENV, cache_root  # noqa: F401 (CACHE_ENV: tests move the cache)
 from simtune.common.spawn_guard import adopt_environment, check_main_guarded, worker_context
 from simtune.engines import engine_class, make_engine
 from simtune.engines.base import Rollout
@@ -68,8 +69,6 @@ PROBE_VERSION = 2
 PROBE_SEED = 0
 #: How far out along each hand axis the probe watches a point [m] (turns of the hand about the wrist).
 HAND_ARM_M = 0.1
-#: The environment variable that moves the cache (default ``$XDG_CACHE_HOME/simtune`` or ``~/.cache/simtune``).
-CACHE_ENV = "SIMTUNE_CACHE_DIR"
 
 
 def measured_reason(change: float, points: int = PROBE_POINTS) -> str:
@@ -260,11 +259,8 @@ def _tracks(params: list[dict[str, float]]) -> list[np.ndarray | None]:
 
 
 def cache_dir() -> Path:
-    """Where probe results are cached: ``$SIMTUNE_CACHE_DIR``, else the user's cache folder."""
-    if os.environ.get(CACHE_ENV):
-        return Path(os.environ[CACHE_ENV])
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "simtune"
+    """The cache folder the probe's results are kept under (:func:`simtune.common.cache.cache_root`)."""
+    return cache_root()
 
 
 def cache_key(engine: str, task: TaskSpec, space: ParameterSpace, points: int) -> str:

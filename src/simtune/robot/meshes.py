@@ -6,7 +6,7 @@ PyBullet and DART most.  So the description (:func:`simtune.robot.urdf.load_urdf
 for every mesh: an OBJ source as it is, any other converted through trimesh (pycollada for Collada,
 whose ``<unit>`` is applied: a description in millimetres becomes metres) into a cache folder, keyed by
 the source file's content hash, so a second load reads the converted file and an edited mesh is
-converted anew.  The cache is ``$SIMTUNE_CACHE/meshes`` (default ``~/.cache/simtune/meshes``, XDG's
+converted anew.  The cache is ``$SIMTUNE_CACHE_DIR/meshes`` (default ``~/.cache/simtune/meshes``, XDG's
 ``$XDG_CACHE_HOME`` where set); files are written whole (a temporary name, then renamed), so parallel
 workers converting the same mesh never read half a file.
 """
@@ -19,6 +19,7 @@ import os
 import tempfile
 from pathlib import Path
 
+from simtune.common.cache import cache_root
 from simtune.errors import RobotError
 
 #: Extensions every engine reads as they are (compared in lower case).
@@ -29,11 +30,7 @@ CONVERTED = (".stl", ".dae", ".ply", ".off", ".glb", ".gltf")
 
 def cache_folder() -> Path:
     """Where converted meshes are kept (see the module's docstring)."""
-    root = os.environ.get("SIMTUNE_CACHE")
-    if root:
-        return Path(root).expanduser() / "meshes"
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    return (Path(xdg).expanduser() if xdg else Path.home() / ".cache") / "simtune" / "meshes"
+    return cache_root() / "meshes"
 
 
 def _stamp(path: Path) -> tuple[int, int]:
