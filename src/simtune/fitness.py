@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from simtune.data import TaskData
+from simtune.data.screen import JOINT_WEIGHT  # the joint error's default weight [m/rad], below the fitness
 from simtune.engines.base import Rollout
 from simtune.errors import ConfigError, SimtuneError
 from simtune.tasks import TaskSpec
@@ -38,10 +39,6 @@ from simtune.tasks import TaskSpec
 #: Fitness of a rollout that exploded [m]: worse than any arm that stays in its workspace.
 PENALTY = 10.0
 
-#: Default weight of the joint error [m per rad]: an angle error of 1 rad counts as 0.5 m, about the
-#: lever from a table-top arm's shoulder to its wrist, so a joint error and the wrist displacement it
-#: causes weigh about alike when a recording holds both.
-JOINT_WEIGHT = 0.5
 
 
 @dataclass(frozen=True)

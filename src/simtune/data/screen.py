@@ -38,7 +38,10 @@ PEAK_FACTOR = 8.0
 PEAK_MIN = 0.05
 #: Fewer repeats than this cannot tell which one is wrong.
 FAR_MIN_REPEATS = 3
-#: The joint part's weight [m per rad], as the fitness's default (:data:`simtune.fitness.JOINT_WEIGHT`).
+#: Weight of a joint error [m per rad], here and as the fitness's default (:data:`simtune.fitness.JOINT_WEIGHT`,
+#: defined here, below it): an angle error of 1 rad counts as 0.5 m, about the lever from a table-top arm's
+#: shoulder to its wrist, so a joint error and the wrist displacement it causes weigh about alike when a recording
+#: holds both.
 JOINT_WEIGHT = 0.5
 
 
