@@ -43,17 +43,11 @@ AGREE_M = 0.005
 #: translation): none today.  Every pair measured stays within it since MuJoCo's servo counts an MJCF's armature,
 #: its home pose and a joint's damping and friction, and Drake's servo takes MuJoCo's gain (docs/robots.md).
 #: A pair added here must name a cause that ``simtune check`` detects from the description and warns of.
-_KR16 = (
-    "KUKA KR 16-2: 7.2-7.5 mm from MuJoCo in all four other engines, which agree with one another within 0.3 mm; "
-    "MuJoCo alone differs, cause not found (its masses are the description's 2 kg a link, its limits the generic "
-    "2 x gravity load; measured 2026-11-27)"
-)
 _HEAVY_PYBULLET = (
     "PyBullet alone on the heaviest arms (links of 0.2-2.7 t, the IRB 140's estimated from its geometry): "
     "{mm} mm from MuJoCo where ODE and DART stay within 5 mm; cause not found (measured 2026-11-27)"
 )
 DISAGREE: dict[tuple[str, str], str] = {
-    **{("KUKA KR 16-2", engine): _KR16 for engine in ("pybullet", "ode", "dart", "drake")},
     ("ABB IRB 140", "pybullet"): _HEAVY_PYBULLET.format(mm=108),
     ("KUKA KR 210 L150", "pybullet"): _HEAVY_PYBULLET.format(mm=151),
     ("SO-101", "dart"): (
