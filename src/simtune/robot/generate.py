@@ -83,7 +83,8 @@ def servo_gains(robot: RobotDescription) -> tuple[float, ...]:
     the gain is raised as well where the joint's damping or Coulomb friction would hold its speed below the
     command (:data:`DAMPING_MULTIPLE`, :data:`FRICTION_SLIP`, up to :data:`FASTEST_COMMAND`'s force limit): the
     other engines' hard motors hold the commanded speed against both, and a servo they slow lags them by
-    centimetres.  For the MICO the gain stays 50.
+    centimetres.  Where joints clip together at force limits simtune made up, a gain is lowered below the band
+    in which their coupled clipped forces chatter (:func:`_without_chatter`).  For the MICO the gain stays 50.
 
     Args:
         robot: the robot.
