@@ -330,6 +330,45 @@ class RobotDescription:
                 inertias[i] += float(axis @ about @ axis)
         return inertias
 
+    def mass_matrix(self, q: np.ndarray | None = None) -> np.ndarray:
+        """The driven joints' joint-space mass matrix [kg m^2, kg for prismatic rows] (held joints fixed, no motor
+        rotor): its diagonal is :meth:`joint_inertias`, its off-diagonal terms how one joint's force accelerates
+        another (a shoulder and elbow that pitch together).
+
+        Args:
+            q: the driven joints' positions [rad or m]; default the zero pose.
+
+        Returns:
+            An (n, n) symmetric matrix, n the number of driven joints.
+        """
+        q = np.zeros(self.n_joints) if q is None else np.asarray(q, dtype=float)
+        frames = {link.name: self.forward_kinematics(q, link.name) for link in self.links}
+        n = self.n_joints
+        moved: dict[str, list[tuple[int, np.ndarray, np.ndarray, bool]]] = {}  # link -> (joint, axis, origin, slides)
+        for i, name in enumerate(self.arm_joints):
+            joint = self.joint_by_name[name]
+            origin, turn = frames[joint.child]
+            axis = turn @ np.asarray(joint.axis, dtype=float)
+            below = {joint.child}
+            for other in self.joints:  # parents before children
+                if other.parent in below:
+                    below.add(other.child)
+            axis = axis / np.linalg.norm(axis)
+            for link_name in below:
+                moved.setdefault(link_name, []).append((i, axis, origin, joint.kind == "prismatic"))
+        matrix = np.zeros((n, n))
+        for link_name, joints in moved.items():
+            link = self.link_by_name[link_name]
+            pos, rot = frames[link_name]
+            com = pos + rot @ np.asarray(link.com, dtype=float)
+            linear, angular = np.zeros((3, n)), np.zeros((3, n))  # the link's Jacobian at its centre of mass
+            for i, axis, origin, slides in joints:
+                linear[:, i] = axis if slides else np.cross(axis, com - origin)
+                angular[:, i] = 0.0 if slides else axis
+            world_inertia = rot @ link.inertia_matrix() @ rot.T
+            matrix += link.mass * linear.T @ linear + angular.T @ world_inertia @ angular
+        return matrix
+
     # --- statics: gravity torques (the calibration model's elastic deflection) ----------------
     def gravity(self, masses: dict[str, float] | None = None) -> GravityModel:
         """The gravity torques about the driven joints as a function of their positions, with the

@@ -45,6 +45,13 @@ FRICTION_SLIP = 0.01
 #: force limit over this, since a servo force MuJoCo clips at a larger gain stalls the joint (measured: the xArm7's
 #: shoulder, 50 N m, did not move at a gain of 120 and a 2 ms step).
 FASTEST_COMMAND = 0.7
+#: A clipped servo force acts undamped for a whole step.  Where the speed it gives its joint in one step (every driven
+#: joint's force clipped at once, through the coupled mass matrix) exceeds this multiple of force limit over gain, the
+#: next step's force clips the other way, and the servo chatters between its limits at every step: measured on the
+#: KUKA KR 16-2, whose shoulder and elbow pitch together (mass matrix 11.9, 5.5, 2.7 kg m^2), the elbow ran at three
+#: times its command, the shoulder at 1.5 times, each step's speed alternating, and MuJoCo's wrist 7 mm (100 mm at
+#: worst) off the hard motors of the other engines.
+CHATTER_BAND = 2.0
 
 
 def _largest_inertias(robot: RobotDescription) -> np.ndarray:
@@ -76,7 +83,8 @@ def servo_gains(robot: RobotDescription) -> tuple[float, ...]:
     the gain is raised as well where the joint's damping or Coulomb friction would hold its speed below the
     command (:data:`DAMPING_MULTIPLE`, :data:`FRICTION_SLIP`, up to :data:`FASTEST_COMMAND`'s force limit): the
     other engines' hard motors hold the commanded speed against both, and a servo they slow lags them by
-    centimetres.  For the MICO the gain stays 50.
+    centimetres.  Where joints clip together at force limits simtune made up, a gain is lowered below the band
+    in which their coupled clipped forces chatter (:func:`_without_chatter`).  For the MICO the gain stays 50.
 
     Args:
         robot: the robot.
@@ -97,7 +105,34 @@ def servo_gains(robot: RobotDescription) -> tuple[float, ...]:
         if clipped and effort * GENERIC_TIMESTEP > SPIN_LIMIT * inertia:
             gain = effort / LARGEST_COMMAND_STEP
         gains.append(gain)
-    return tuple(gains)
+    return _without_chatter(robot, gains)
+
+
+def _without_chatter(robot: RobotDescription, gains: list[float]) -> tuple[float, ...]:
+    """``gains`` lowered where a clipped servo would chatter (:data:`CHATTER_BAND`).  The joints whose servo clips at
+    the largest command step accelerate one another through the mass matrix (armature on its diagonal); the others'
+    servos, unclipped, hold them (the implicit integrator damps them), so the speed one step of clipped forces gives
+    a clipped joint is the time step times the inverse of the clipped joints' block against their force limits, signs
+    the worst.  A robot none of whose servos clip (the MICO) keeps its gains.  Only a force limit simtune made up
+    (the description gives none: :meth:`RobotDescription.generic_effort`) lowers a gain: the worst signs overstate
+    what a described arm meets (the xArm7's first and third joints, in line at the zero pose, would get a gain of 6
+    where, measured, its servos never chattered), and the arms with their own limits keep their measured agreement."""
+    efforts = np.array([robot.generic_effort(i) for i in range(robot.n_joints)])
+    # a gain SPIN_LIMIT's rule set to force limit over command step does not clip (rounding aside)
+    clipped = [i for i, gain in enumerate(gains) if gain * LARGEST_COMMAND_STEP > efforts[i] * (1 + 1e-9)]
+    if len(clipped) < 2:  # one joint alone: SPIN_LIMIT's rule covers it
+        return tuple(gains)
+    armature = np.array([robot.joint_by_name[name].armature for name in robot.arm_joints])
+    home = None if robot.mjcf is None else _home_pose(robot.mjcf, robot.arm_joints)
+    # the pose the arm starts from: an MJCF's home keyframe, else the zero pose
+    matrix = robot.mass_matrix(None if home is None else np.asarray(home))
+    block = (matrix + np.diag(armature))[np.ix_(clipped, clipped)]
+    jump = GENERIC_TIMESTEP * np.abs(np.linalg.pinv(block)) @ efforts[clipped]
+    out = list(gains)
+    for index, speed in zip(clipped, jump):
+        if speed > 0 and robot.joint_by_name[robot.arm_joints[index]].effort is None:
+            out[index] = min(out[index], CHATTER_BAND * efforts[index] / speed)
+    return tuple(out)
 
 
 #: Below this fraction of its command a servo's speed is held back (by damping) enough to warn of.

@@ -47,3 +47,39 @@ def dynamics_changes(group: str, values: dict[str, float]) -> dict[str, float]:
         for kind, keyword in {**CONTACT_KEYWORDS, **BODY_DAMPING_KEYWORDS}.items()
         if f"{kind}_{group}" in values
     }
+
+
+#: Bullet's own velocity damping of every multibody link (``btMultiBody``'s ``m_linearDamping`` and
+#: ``m_angularDamping``), the generic value of the ``linear_damping_*`` and ``angular_damping_*`` kinds.
+BULLET_LINK_DAMPING = 0.04
+
+
+def link_damping_torques(robot, speed: float) -> list[float]:
+    """Per driven joint, the torque [N m] Bullet's own link damping (:data:`BULLET_LINK_DAMPING`) opposes it with
+    while it alone turns at ``speed`` [rad/s]: ``btMultiBody`` damps each link's centre-of-mass velocity v by
+    ``k m v (1 + |v|)`` and its angular velocity w by ``k I w (1 + |w|)``, k the damping, in proportion to the link's
+    mass and inertia and above what a joint's force limit holds on a heavy arm.  No other engine damps a link."""
+    import numpy as np
+
+    k, q = BULLET_LINK_DAMPING, np.zeros(robot.n_joints)
+    frames = {link.name: robot.forward_kinematics(q, link.name) for link in robot.links}
+    torques = []
+    for name in robot.arm_joints:
+        joint = robot.joint_by_name[name]
+        origin, turn = frames[joint.child]
+        axis = turn @ np.asarray(joint.axis, dtype=float)
+        axis /= np.linalg.norm(axis)
+        below = {joint.child}
+        for other in robot.joints:  # parents before children
+            if other.parent in below:
+                below.add(other.child)
+        torque = 0.0
+        for link_name in below:
+            link = robot.link_by_name[link_name]
+            pos, rot = frames[link_name]
+            lever = np.linalg.norm(np.cross(axis, pos + rot @ np.asarray(link.com, dtype=float) - origin))
+            v = speed * lever
+            torque += k * link.mass * v * (1 + v) * lever
+            torque += k * float(axis @ rot @ link.inertia_matrix() @ rot.T @ axis) * speed * (1 + speed)
+        torques.append(torque if joint.kind != "prismatic" else 0.0)
+    return torques
