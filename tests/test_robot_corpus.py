@@ -269,7 +269,7 @@ def test_the_example_reach_keeps_the_gripper_tip_off_the_floor():
     """The SO-101's reach turned every joint 20 deg with its tracked link 7.7 cm up but its fingertip frame 1.2 cm
     under the floor: the gripper pressed on the floor from 0.6 s to 4 s, and DART resolved that contact 9 mm from
     MuJoCo.  The turn is halved until the tip too keeps clear."""
-    from simtune.project_init import CLEARANCE_M, reach_poses
+    from simtune.tasks.init_project import CLEARANCE_M, reach_poses
 
     robot = loaded_corpus_robot("SO-101")
     _, target = reach_poses(robot)
@@ -281,8 +281,8 @@ def test_the_example_reach_keeps_the_gripper_tip_off_the_floor():
 def test_check_warns_of_bullets_link_damping_on_the_heaviest_arms():
     """The cause of the two pairs left in DISAGREE, as ``simtune check`` names it: Bullet's own link damping, over
     10 % of joint_1's force limit on the IRB 140 and the KR 210, under 4 % on every other corpus arm."""
+    from simtune.check.project import _bullet_damping_findings
     from simtune.engines.pybullet.mapping import link_damping_torques
-    from simtune.project_check import _bullet_damping_findings
     from simtune.robot import MICO
     from simtune.robot.generate import FASTEST_COMMAND
 

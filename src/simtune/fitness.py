@@ -40,7 +40,6 @@ from simtune.tasks import TaskSpec
 PENALTY = 10.0
 
 
-
 @dataclass(frozen=True)
 class FitnessWeights:
     """How much each part of the fitness counts (the parts the recordings lack count nothing)."""
