@@ -1,6 +1,7 @@
 """Every optimiser behind one interface: improves on generic, deterministic per seed, resumable; compare."""
 
 import json
+import re
 import subprocess
 import sys
 
@@ -150,6 +151,16 @@ def test_refine_improves_on_the_search_and_replays_from_the_store(tmp_path):
     replay = resume_run(tmp_path / "r", show_progress=False)
     assert replay.new_evaluations == 0 and replay.fitness == refined.fitness
     np.testing.assert_array_equal(replay.x, refined.x)
+
+
+def test_every_optimizer_is_described_in_the_help():
+    """The command line does not import simtune.optimize (a second of SciPy and Optuna): its one description of the
+    optimisers, the --optimizer help of tune, transfer and compare, names each one of the registry."""
+    from simtune.cli.options import OPTIMIZER_HELP
+
+    for name in OPTIMIZERS:
+        described = re.search(rf"\b{re.escape(name)}:", OPTIMIZER_HELP)
+        assert described, f"describe {name!r} in src/simtune/cli/options.py: OPTIMIZER_HELP"
 
 
 def test_unknown_optimizer_is_a_one_line_config_error(tmp_path):

@@ -15,7 +15,7 @@ from simtune.engines import ENGINES, engine_class
 from simtune.engines.controller import JointController, controller_parameters
 from simtune.errors import ConfigError
 from simtune.params import SPACES, validate_params
-from simtune.params.kinds import BY_NAME, DRIVE_KINDS, KINDS, lacking
+from simtune.params.kinds import ALL_ENGINES, BY_NAME, DRIVE_KINDS, KINDS, lacking
 from simtune.robot import MICO
 from simtune.tasks import get_task
 
@@ -33,6 +33,17 @@ def test_every_name_of_every_space_comes_from_one_kind():
         *BY_NAME["kp_joint"].names(6),
         "command_delay",
     }
+
+
+def test_the_table_knows_every_engine_of_the_registry():
+    """The kinds table sits below the engines and cannot read their registry: it names them itself.  An engine
+    registered without it would have no parameter of its own (Engine.supported takes it for an export's replay)."""
+    for engine in ENGINES:
+        assert engine in ALL_ENGINES, (
+            f"add {engine!r} to ALL_ENGINES and to the engines of each kind it has (the material kinds' _groups, a "
+            "drive-train kind's but=) in src/simtune/params/kinds.py"
+        )
+    assert not ALL_ENGINES - set(ENGINES), f"not registered: {sorted(ALL_ENGINES - set(ENGINES))}"
 
 
 @pytest.mark.parametrize("engine", sorted(ENGINES))

@@ -323,10 +323,6 @@ def _check_engines(project: Project, engines: tuple[str, ...]) -> list[Finding]:
     return findings
 
 
-#: The engines whose velocity servo is a hard motor (a velocity constraint up to the force limit), not a gain.
-HARD_MOTOR_ENGINES = ("pybullet", "ode", "dart")
-
-
 def _servo_findings(robot, loaded: list[str]) -> list[Finding]:
     """A warning per hard-motor engine that loads ``robot`` where a joint's damping or friction holds MuJoCo's
     servo below its command (:func:`simtune.robot.generate.servo_shortfalls`): their motion differs."""
@@ -342,7 +338,7 @@ def _servo_findings(robot, loaded: list[str]) -> list[Finding]:
             "docs/robots.md, 'The engines agree'",
         )
         for name in loaded
-        if name in HARD_MOTOR_ENGINES
+        if name in ENGINES and ENGINES[name].hard_motor  # a velocity constraint up to the force limit, not a gain
     ]
 
 

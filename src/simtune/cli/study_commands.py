@@ -57,7 +57,7 @@ TargetOpt = Annotated[
 )
 def compare(
     optimizers: Annotated[
-        str, typer.Option(help="Optimisers to compare, comma-separated: de, cmaes, bo, random.")
+        str, typer.Option(help="Optimisers to compare, comma-separated: any that `simtune tune --optimizer` takes.")
     ] = "de,cmaes,bo,random",
     budget_evals: Annotated[int, typer.Option("--budget-evals", min=1, help="Evaluations each run may use.")] = 300,
     seeds: Annotated[int, typer.Option(min=1, help="Runs per optimiser (seeds 0..N-1); medians are over them.")] = 3,

@@ -30,27 +30,34 @@ class EngineEntry(NamedTuple):
     exporter: str
     #: ``module:class`` that drives an export's files alone (the round trip); None where nothing can
     replay: str | None
+    #: whether its velocity servo is a hard motor (a velocity constraint up to the force limit), not a gain:
+    #: ``simtune check`` warns where such an engine and MuJoCo may disagree on a robot
+    hard_motor: bool = False
 
     def engine_class(self) -> type[Engine]:
         """The engine class (installed or not: its ``version()`` says)."""
         return getattr(importlib.import_module(self.module), self.cls)
 
 
-def _entry(folder: str, cls: str, install: str, replay: str | None, exports_as: str | None = None) -> EngineEntry:
+def _entry(
+    folder: str, cls: str, install: str, replay: str | None, exports_as: str | None = None, hard_motor: bool = False
+) -> EngineEntry:
     """The entry of the engine in ``simtune/engines/<folder>/``: engine class ``cls`` in its ``engine.py``, replay
     class ``replay`` in its ``replay.py``; ``exports_as``: the folder of the engine whose exporter writes its files
-    (an engine on the same model), default its own."""
+    (an engine on the same model), default its own; ``hard_motor``: :attr:`EngineEntry.hard_motor`."""
     package = f"simtune.engines.{folder}"
     exporter = f"simtune.engines.{exports_as or folder}.export:write"
-    return EngineEntry(f"{package}.engine", cls, install, exporter, replay and f"{package}.replay:{replay}")
+    return EngineEntry(f"{package}.engine", cls, install, exporter, replay and f"{package}.replay:{replay}", hard_motor)
 
 
 ENGINES: dict[str, EngineEntry] = {
     "mujoco": _entry("mujoco", "MujocoEngine", "pip install mujoco", "MujocoFiles"),
-    "pybullet": _entry("pybullet", "PybulletEngine", "pip install 'simtune[pybullet]'", "PybulletFiles"),
+    "pybullet": _entry(
+        "pybullet", "PybulletEngine", "pip install 'simtune[pybullet]'", "PybulletFiles", hard_motor=True
+    ),
     # ODE has no model file format: its export is a sidecar that no program of simtune's drives
-    "ode": _entry("ode", "OdeEngine", "apt-get install libode8; pip install 'simtune[ode]'", None),
-    "dart": _entry("dart", "DartEngine", "pip install 'simtune[dart]'", "DartFiles"),
+    "ode": _entry("ode", "OdeEngine", "apt-get install libode8; pip install 'simtune[ode]'", None, hard_motor=True),
+    "dart": _entry("dart", "DartEngine", "pip install 'simtune[dart]'", "DartFiles", hard_motor=True),
     "drake": _entry("drake", "DrakeEngine", "pip install 'simtune[drake]'", "DrakeFiles"),
     # a whole population as one batch of MuJoCo Warp worlds, on a CUDA GPU when there is one (else the CPU);
     # the same parameters mapped onto the same MuJoCo model: a MuJoCo Warp run exports as MJCF

@@ -39,16 +39,6 @@ OPTIMIZERS: dict[str, Callable[..., TuneResult]] = {
     "auto": global_local_tune,
 }
 
-#: One line per optimiser, for --help and `simtune compare`.
-DESCRIPTIONS = {
-    "de": "differential evolution as in the paper (SciPy best1bin, population 1 x D)",
-    "cmaes": "CMA-ES with restarts (cmaes package), a generation = its population",
-    "bo": "Bayesian optimisation, Optuna TPE, batches of `workers` trials, D trials = a generation",
-    "random": "uniform random search, batches of D points",
-    "auto": "global then local: rounds of a short differential evolution and bounded least squares on the residuals",
-}
-
-
 #: The package an optimiser needs beyond simtune's core dependencies.
 REQUIRES = {"cmaes": "cmaes", "bo": "optuna"}
 
@@ -70,7 +60,6 @@ def get_optimizer(name: str) -> Callable[..., TuneResult]:
 
 
 __all__ = [
-    "DESCRIPTIONS",
     "OPTIMIZERS",
     "Evaluator",
     "TuneResult",
