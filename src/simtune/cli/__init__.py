@@ -5,7 +5,7 @@ print one line (``error: ...``) and exit with status 2; warnings about data
 that was still usable print ``warning: ...`` and the command goes on.
 
 Each command is a thin call into :mod:`simtune.api`, in one module per family (run, data, study, grid,
-information, export commands); the options several share are declared once in :mod:`simtune.cli.options`.
+information, export and report commands); the options several share are declared once in :mod:`simtune.cli.options`.
 """
 
 from __future__ import annotations
@@ -17,9 +17,16 @@ import warnings
 import typer
 from rich.markup import escape
 
-from simtune.cli import data_commands, export_command, grid_command, info_commands, run_commands, study_commands
+from simtune.cli import (
+    data_commands,
+    export_command,
+    grid_command,
+    info_commands,
+    report_command,
+    run_commands,
+    study_commands,
+)
 from simtune.cli.output import err, show_warning
-from simtune.cli.report_command import report
 from simtune.errors import SimtuneError
 
 app = typer.Typer(
@@ -50,6 +57,8 @@ COMMANDS = (
     study_commands.compare,
     study_commands.transfer,
     study_commands.sensitivity,
+    export_command.export,
+    report_command.report,
 )
 
 #: the exception class of the Click that Typer runs on (Typer may bundle its own copy)
@@ -78,8 +87,6 @@ def _interruptible(command):
 
 for _command in COMMANDS:
     app.command()(_interruptible(_command))
-app.command("export")(_interruptible(export_command.export_command))
-app.command()(_interruptible(report))  # defined beside the report package it drives
 
 
 def _usage_error(exc) -> int:

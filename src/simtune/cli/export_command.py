@@ -39,7 +39,7 @@ DrOpt = Annotated[
 ForceOpt = Annotated[bool, typer.Option("--force", help="Replace a previous export in a non-empty --out folder.")]
 
 
-def export_command(
+def export(
     run_dirs: RunDirsArg,
     out_dir: ExportOutOpt,
     engine: ExportEngineOpt = None,
