@@ -296,7 +296,7 @@ def paper_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table
         sizes = sorted({r.population_size for r in g.runs})
         exact = sum(r.paper_exact for r in g.runs)
         search = "paper-exact" if exact == len(g.runs) else "simtune" if exact == 0 else f"{exact} paper-exact"
-        optimizer = str(g.runs[0].config.get("optimizer", "de"))
+        optimizer = g.runs[0].config.optimizer
         rows.append(
             [
                 experiment_label(g.tasks),
@@ -802,7 +802,7 @@ def compute_table(groups: list[Group]) -> Table:
         evals = [r.evaluations for r in g.runs]
         walls = [r.elapsed_s for r in g.runs]
         gens = [len(r.generations) for r in g.runs]
-        workers = sorted({int(r.config.get("workers", 1)) for r in g.runs})
+        workers = sorted({r.config.workers for r in g.runs})
         rows.append(
             [
                 g.engine,
