@@ -25,7 +25,7 @@ from simtune.objective import recordings_folder
 from simtune.params import validate_params
 from simtune.run_plan import RunConfig
 from simtune.runs import BEST_PARAMS_FILE, read_run_record
-from simtune.store import RunRecord
+from simtune.store import RunView
 from simtune.store.lock import LOCK_FILE, RunBusy, check_free, describe_holder
 from simtune.tasks import TaskSpec
 from simtune.tasks.spec import common_robot
@@ -35,12 +35,11 @@ class ExportWarning(UserWarning):
     """Something about a run that does not stop its export but that its user should know."""
 
 
-@dataclass
-class TunedRun:
+@dataclass(eq=False)
+class TunedRun(RunView[RunConfig]):
     """What export needs from one finished run folder: a view of its record (:func:`simtune.runs.read_run_record`)
     with the tuned values of its ``best_params.json`` and the recordings it was tuned on."""
 
-    record: RunRecord[RunConfig]
     params: dict[str, float]  # the tuned values (best_params.json); the rest keep the engine's generic ones
     best: dict  # best_params.json as written by the run
     data_files: dict[str, list[dict]]  # task -> [{file, bytes, sha256}] of the recordings it was tuned on
@@ -49,14 +48,6 @@ class TunedRun:
     @property
     def path(self) -> Path:
         return self.record.path.resolve()
-
-    @property
-    def config(self) -> RunConfig:
-        return self.record.settings
-
-    @property
-    def engine(self) -> str:
-        return self.record.engine
 
     @property
     def tasks(self) -> list[TaskSpec]:

@@ -24,16 +24,15 @@ from simtune.errors import SimtuneError
 from simtune.optimize.pipeline import global_population_size, random_start
 from simtune.run_plan import RunConfig
 from simtune.runs import read_run_record
-from simtune.store import STORE_FILE, RunRecord, RunStore
+from simtune.store import STORE_FILE, RunRecord, RunStore, RunView
 from simtune.tasks import TaskSpec, get_task
 
 
 @dataclass(eq=False)
-class ReportedRun:
+class ReportedRun(RunView[RunConfig]):
     """The report's view of one finished run's record (:func:`simtune.runs.read_run_record`), checked by
     :func:`reported_run`: what the tables, figures and sections read of it."""
 
-    record: RunRecord[RunConfig]
     label: str  # the folder, as shown in the report
     #: the run's tasks, from ``project``, with the targets the run ran (resolved once, by :func:`reported_run`)
     task_specs: list[TaskSpec]
@@ -47,14 +46,6 @@ class ReportedRun:
         return self.record.path
 
     @property
-    def config(self) -> RunConfig:
-        return self.record.settings
-
-    @property
-    def engine(self) -> str:
-        return self.record.engine
-
-    @property
     def tasks(self) -> str:
         """The tasks as configured: "cube" or "single,cube"."""
         return self.record.tasks
@@ -62,15 +53,6 @@ class ReportedRun:
     @property
     def space(self) -> str:
         return self.record.space
-
-    @property
-    def data(self) -> str | None:
-        """The run's data folder; None: each task's own recordings folder (its project's)."""
-        return self.config.data
-
-    @property
-    def seed(self) -> int:
-        return self.config.seed
 
     @property
     def task_names(self) -> list[str]:
@@ -105,85 +87,14 @@ class ReportedRun:
         return self.record.best_evaluation["score"]
 
     @property
-    def generations(self) -> list[dict]:
-        return self.record.generations
-
-    @property
-    def initial_fitness(self) -> list[float]:
-        """The fitness of each generation-0 evaluation."""
-        return self.record.initial_fitness
-
-    @property
-    def evaluations(self) -> int:
-        return self.record.evaluations
-
-    @property
-    def elapsed_s(self) -> float:
-        return self.record.elapsed_s
-
-    @property
     def message(self) -> str:
         return str(self.record.message or "")
-
-    @property
-    def versions(self) -> dict:
-        return self.record.versions
-
-    @property
-    def outcomes(self) -> dict:
-        """Unstable and pruned evaluations (store.count_outcomes())."""
-        return self.record.outcomes
-
-    @property
-    def de_settings(self) -> dict | None:
-        """SciPy's settings of a differential-evolution run (None: another optimiser)."""
-        return self.record.de_settings
-
-    @property
-    def converged(self) -> bool:
-        """Whether the search met its convergence criterion."""
-        return self.record.converged
-
-    @property
-    def stop_reason(self) -> str | None:
-        """Why the search stopped (None: a run stored before it was kept)."""
-        return self.record.stop_reason
-
-    @property
-    def inactive(self) -> dict:
-        """Parameters of the run's space that change no rollout of its tasks, and why."""
-        return self.record.inactive
-
-    @property
-    def uncertainty(self) -> dict | None:
-        """The Gauss-Newton uncertainty at the best point (`simtune uncertainty`), if computed."""
-        return self.record.uncertainty
-
-    @property
-    def reference(self) -> str:
-        """What the run was scored against: ``aligned`` or ``mean`` (a run stored before the choice: the mean)."""
-        return self.config.reference
-
-    @property
-    def repeats(self) -> str:
-        """Which of each task's repeats the run was scored against: ``all``, ``even`` or ``odd``."""
-        return self.config.repeats
-
-    @property
-    def keep_repeats(self) -> bool:
-        """Whether the run kept every repeat (``--keep-repeats``) where the repeat check would leave a far one out."""
-        return self.config.keep_repeats
-
-    @property
-    def paper_exact(self) -> bool:
-        """Whether the run searched exactly as the seed paper ran SciPy (``simtune tune --paper-exact``)."""
-        return self.config.paper_exact
 
     @property
     def stopped_by_time_cap(self) -> bool:
         """Whether the run's wall-time budget (``--max-seconds``) ended its search."""
         cap = self.config.max_seconds
-        return cap is not None and self.elapsed_s >= float(cap)
+        return cap is not None and self.record.elapsed_s >= float(cap)
 
     @property
     def population_size(self) -> int:
@@ -191,7 +102,7 @@ class ReportedRun:
         optimiser: its first batch of evaluations."""
         if self.config.optimizer == "auto":
             return global_population_size(len(self.parameters))
-        return len(self.initial_fitness)
+        return len(self.record.initial_fitness)
 
     @property
     def best_fitness(self) -> float:
@@ -245,7 +156,7 @@ class Group:
 
     @property
     def best_run(self) -> ReportedRun:
-        return min(self.runs, key=lambda r: (r.best_fitness, r.seed))
+        return min(self.runs, key=lambda r: (r.best_fitness, r.config.seed))
 
     @property
     def searched(self) -> list[str]:
@@ -260,7 +171,7 @@ class Group:
         """Parameters that change no rollout of the group's tasks in some repeat, and why."""
         found: dict[str, str] = {}
         for run in self.runs:
-            found.update({n: why for n, why in run.inactive.items() if n not in found})
+            found.update({n: why for n, why in run.record.inactive.items() if n not in found})
         return found
 
     @property
@@ -395,17 +306,18 @@ def group_runs(runs: list[ReportedRun]) -> tuple[list[Group], list[Skipped]]:
     by_key: dict[tuple[str, str, str], list[ReportedRun]] = defaultdict(list)
     duplicates: list[Skipped] = []
     for run in runs:
-        same = [r for r in by_key[run.group_key] if r.seed == run.seed]
+        seed = run.config.seed
+        same = [r for r in by_key[run.group_key] if r.config.seed == seed]
         if same:
             duplicates.append(
                 Skipped(
                     run.path,
                     run.label,
-                    f"same engine, tasks, space and seed {run.seed} as {same[0].label}: not a new repeat, left out",
+                    f"same engine, tasks, space and seed {seed} as {same[0].label}: not a new repeat, left out",
                 )
             )
             continue
         by_key[run.group_key].append(run)
-    groups = [Group(*key, runs=sorted(rs, key=lambda r: r.seed)) for key, rs in by_key.items()]
+    groups = [Group(*key, runs=sorted(rs, key=lambda r: r.config.seed)) for key, rs in by_key.items()]
     groups.sort(key=lambda g: (g.tasks, g.space, g.engine))
     return groups, duplicates

@@ -194,6 +194,22 @@ class RunRecord(Generic[ConfigT]):
         return dict(zip(self.searched, (float(v) for v in self.best_evaluation["x"]), strict=True))
 
 
+@dataclass(eq=False)
+class RunView(Generic[ConfigT]):
+    """What a reader's view of one record (export's TunedRun, the report's ReportedRun) reads of it alike."""
+
+    record: RunRecord[ConfigT]
+
+    @property
+    def config(self) -> ConfigT:
+        """The run's checked configuration."""
+        return self.record.settings
+
+    @property
+    def engine(self) -> str:
+        return self.record.engine
+
+
 def read_record(run_dir: Path | str, check: Callable[[object, str], ConfigT]) -> RunRecord[ConfigT]:
     """The run in ``run_dir`` as its store holds it, read without writing anything.
 
