@@ -35,7 +35,7 @@ def test_the_readers_are_views_of_one_checked_record():
     assert isinstance(reported, ReportedRun)
     assert result.x == record.best_params == reported.best_params
     assert result.fitness == reported.best_fitness and result.generic_fitness == reported.generic_fitness
-    assert (result.reference, result.repeats) == (reported.reference, reported.repeats) == ("mean", "all")
+    assert (result.reference, result.repeats) == (reported.config.reference, reported.config.repeats) == ("mean", "all")
     assert reported.config == record.settings and reported.task("cube") == record.task_specs[0]
 
 
