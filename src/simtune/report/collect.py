@@ -51,10 +51,6 @@ class ReportedRun(RunView[RunConfig]):
         return self.record.tasks
 
     @property
-    def space(self) -> str:
-        return self.record.space
-
-    @property
     def task_names(self) -> list[str]:
         return [t.name for t in self.task_specs]
 

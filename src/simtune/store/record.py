@@ -209,6 +209,10 @@ class RunView(Generic[ConfigT]):
     def engine(self) -> str:
         return self.record.engine
 
+    @property
+    def space(self) -> str:
+        return self.record.space
+
 
 def read_record(run_dir: Path | str, check: Callable[[object, str], ConfigT]) -> RunRecord[ConfigT]:
     """The run in ``run_dir`` as its store holds it, read without writing anything.
