@@ -20,8 +20,7 @@ from pathlib import Path
 from common import RESULTS_DIR, Transcript, add_data_option, make_parser, start_or_resume, today
 
 from simtune.project import BUNDLED_DIR
-from simtune.runs import RunConfig
-from simtune.store import read_record
+from simtune.runs import RunConfig, read_run_record
 
 #: the bundled task file's phase-2 line, as written there
 PHASE_2 = "targets_deg = [0, -60, 65, 90, 0, 0]"
@@ -45,11 +44,9 @@ def variant_project(folder: Path, data: Path, joint3_deg: float) -> Path:
 def best_score(config: RunConfig, run_dir: Path) -> dict:
     """The best score (a Score dict) of ``config`` run in ``run_dir``: a finished run there is read, not run again
     (a replay under a time budget could stop elsewhere); an unfinished one is resumed."""
-    if not (run_dir / "run.sqlite").exists() or read_record(run_dir).status != "finished":
+    if not (run_dir / "run.sqlite").exists() or read_run_record(run_dir).status != "finished":
         start_or_resume(config, run_dir)
-    best = read_record(run_dir).best
-    assert best is not None, f"{run_dir}: no evaluations"
-    return best["score"]
+    return read_run_record(run_dir).best_evaluation["score"]
 
 
 def main() -> int:

@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import json
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 from common import QRG2019_DATA, make_parser
 
 from simtune.alignment import delay_parameter, estimate_delay
-from simtune.run_plan import RunConfig, plan_run
-from simtune.store import read_record
+from simtune.run_plan import plan_run
+from simtune.runs import read_run_record
 
 
 def main() -> int:
@@ -28,14 +29,13 @@ def main() -> int:
     parser.add_argument("run", type=Path, help="a finished run tuned on some of the repeats")
     parser.add_argument("--data", type=Path, default=QRG2019_DATA, help="the recordings' root")
     args = parser.parse_args()
-    record = read_record(args.run)
-    stored = dict(record.config)
+    stored = read_run_record(args.run).settings
     best = json.loads((args.run / "best_params.json").read_text())
     best = best.get("params", best)
-    tuned_on = stored.get("repeats", "all")
-    print(f"{args.run}: tuned on the {tuned_on} repeats of {stored['tasks']} ({stored['space']}, {stored['engine']})")
+    print(f"{args.run}: tuned on the {stored.repeats} repeats of {stored.tasks} ({stored.space}, {stored.engine})")
     for repeats in ("even", "odd"):
-        config = RunConfig.from_stored({**stored, "data": str(args.data), "repeats": repeats}, str(args.run))
+        config = replace(stored, data=str(args.data), repeats=repeats)
+        config.check(str(args.run))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             objective = plan_run(config).objective()
@@ -45,7 +45,7 @@ def main() -> int:
             params[delay_parameter(task.name)] = estimate_delay(objective, task, params).delay_s
         aligned = objective.score(params)
         parts = ", ".join(f"{t.task} {t.fitness:.5f}" for t in aligned.tasks)
-        seen = "fitted" if repeats == tuned_on else "held out"
+        seen = "fitted" if repeats == stored.repeats else "held out"
         print(f"{repeats} ({seen}): as tuned {as_tuned:.5f}; each task's clock aligned {aligned.fitness:.5f} ({parts})")
     return 0
 

@@ -49,7 +49,7 @@ from simtune.engines import engine_class
 from simtune.engines.controller import JointController
 from simtune.fitness import marker_positions
 from simtune.objective import Objective, load_references
-from simtune.store import read_record
+from simtune.runs import read_run_record
 
 #: the main axis of each joint origin of the MICO's chain that a length error would change (joint, axis)
 CHAIN_LENGTHS = (
@@ -98,7 +98,7 @@ def main() -> int:
     args = parser.parse_args()
     best, task = load_best(args.run)
     params = dict(best["params"])
-    reference = args.reference or read_record(args.run).config.get("reference", "mean")  # type: ignore[union-attr]
+    reference = args.reference or read_run_record(args.run).settings.reference
     ref = load_references(args.data, [task], reference=reference)[task.name]
     assert ref.wrist_mean is not None, "a wrist-tracking task"
     objective = Objective(best["engine"], [task], {task.name: ref})

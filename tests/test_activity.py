@@ -17,6 +17,7 @@ from simtune.report.dr import dr_ranges
 from simtune.report.tables import importance_table
 from simtune.run_plan import plan_run
 from simtune.runs import RunConfig
+from simtune.store import RunRecord
 from simtune.tasks import get_task
 
 PROBED = [
@@ -131,29 +132,35 @@ def test_params_command_shows_an_active_column_with_reasons():
 
 def _record(seed: int, values: dict[str, float], inactive: dict[str, str]) -> ReportedRun:
     names = list(values)
-    return ReportedRun(
+    record = RunRecord(
         path=REFERENCE_DIR,
-        label=f"run{seed}",
-        engine="mujoco",
-        tasks="cube",
-        task_names=["cube"],
-        space="shared",
-        data="",
-        seed=seed,
-        config={},
+        version=3,
+        status="finished",
+        message="",
+        config=RunConfig("mujoco", "cube", "shared", "", seed=seed),
+        command=[],
+        versions={},
+        fingerprint=None,
         parameters=names,
         bounds=[(0.0, 1.0)] * len(names),
+        inactive=inactive,
         generic={"fitness": 1.0},
-        best_x=list(values.values()),
-        best_score={"fitness": 0.5},
+        best={"x": list(values.values()), "score": {"fitness": 0.5}},
+        de_settings=None,
+        converged=False,
+        stop_reason=None,
+        verdict=None,
+        uncertainty=None,
+        evaluations=1,
+        outcomes={},
         generations=[],
         initial_fitness=[],
-        evaluations=1,
+        initial_population=[],
+        rescored_from=None,
         elapsed_s=1.0,
-        message="",
-        random_start=[[0.1] * len(names), [0.9] * len(names)],
-        inactive=inactive,
+        finished_at=None,
     )
+    return ReportedRun(record, f"run{seed}", [get_task("cube")], random_start=[[0.1] * len(names), [0.9] * len(names)])
 
 
 def test_report_and_ranges_never_pool_an_inactive_parameter():

@@ -126,12 +126,12 @@ def test_rounds_converge_when_the_last_rounds_together_gain_less_than_the_tolera
 def test_auto_without_a_budget_stops_when_converged_and_says_so(tmp_path):
     """No budget but the default generations: the rounds stop on their own, long before them; the stop reason is
     in the result, the store and the record."""
-    from simtune.store import read_record
+    from simtune.runs import read_run_record
 
     result = start_run(config(only=["command_delay"], max_evaluations=None), tmp_path / "run", show_progress=False)
     assert result.stop_reason == "converged" and result.message.startswith("converged")
     assert result.converged and result.generations < 1000
-    record = read_record(tmp_path / "run")
+    record = read_run_record(tmp_path / "run")
     assert record.stop_reason == "converged" and record.converged
     # the verdict after it: the reference's floor (3 noisy repeats) and the delay, far from its generic 0 s
     verdict = record.verdict

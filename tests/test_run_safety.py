@@ -424,14 +424,14 @@ def test_report_and_export_refuse_a_store_with_a_damaged_page_as_resume_does(fin
 
 def test_resuming_a_finished_run_keeps_its_wall_time(finished_run, tmp_path):
     """A finished run resumed replays its search from the store: no tuning time, the same stored wall time."""
-    from simtune.store import read_record
+    from simtune.runs import read_run_record
 
     run_dir = copy_run(finished_run, tmp_path / "run")
-    before = read_record(run_dir).elapsed_s
+    before = read_run_record(run_dir).elapsed_s
     for _ in range(2):
         again = resume_run(run_dir, show_progress=False)
         assert again.new_evaluations == 0 and again.wall_s == before
-    assert read_record(run_dir).elapsed_s == before
+    assert read_run_record(run_dir).elapsed_s == before
 
 
 def test_resume_names_an_unknown_key_of_the_stored_configuration(finished_run, tmp_path):

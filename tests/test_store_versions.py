@@ -23,8 +23,8 @@ from simtune.fitness import PENALTY, Score, TaskScore, pruned_message
 from simtune.reference import REFERENCE_DIR
 from simtune.reference.make import make as make_reference
 from simtune.report.collect import load_run
-from simtune.runs import BEST_PARAMS_FILE, RunConfig, resume_run, start_run
-from simtune.store import STORE_FILE, RunStore, read_record, vector_key
+from simtune.runs import BEST_PARAMS_FILE, RunConfig, read_run_record, resume_run, start_run
+from simtune.store import STORE_FILE, RunStore, vector_key
 from simtune.studies.compare import curve_from_store
 
 
@@ -358,7 +358,7 @@ def as_made_by_this_simtune(run_dir: Path) -> None:
 
 @pytest.mark.parametrize("version", [1, 2, 3])
 def test_each_fixture_store_reads_as_the_same_record(version):
-    record = read_record(FIXTURES / f"v{version}")
+    record = read_run_record(FIXTURES / f"v{version}")
     assert record.version == version and record.status == "finished"
     assert (record.engine, record.tasks, record.space, record.optimizer) == ("mujoco", "cube", "extended", "de")
     assert record.parameters == ["max_velocity_joint_2", "command_delay"] and record.active == [True, True]
@@ -368,7 +368,7 @@ def test_each_fixture_store_reads_as_the_same_record(version):
     best = json.loads((FIXTURES / f"v{version}" / BEST_PARAMS_FILE).read_text())
     assert record.best is not None and record.best["score"]["fitness"] == best["fitness"]
     assert dict(zip(record.parameters, record.best["x"])) == best["params"]
-    reference = read_record(FIXTURES / "v3")
+    reference = read_run_record(FIXTURES / "v3")
     for name in ("best", "generic", "initial_population", "initial_fitness", "outcomes", "inactive", "uncertainty"):
         assert getattr(record, name) == getattr(reference, name), name
 
@@ -391,10 +391,12 @@ def test_each_fixture_store_reports_exports_and_resumes(version, tmp_path, publi
     resumable = fixture_run(version, tmp_path / "resumed", published_reference, running=True, max_generations=3)
     resumed = runner.invoke(app, ["resume", str(resumable), "-q", "--json"])
     assert resumed.exit_code == 0, resumed.output
-    record = read_record(resumable)
+    record = read_run_record(resumable)
     assert record.version == version and record.status == "finished"
     assert record.evaluations == 20 and [g["generation"] for g in record.generations] == [1, 2, 3]
-    assert record.best is not None and record.best["score"]["fitness"] <= read_record(run_dir).best["score"]["fitness"]
+    assert (
+        record.best is not None and record.best["score"]["fitness"] <= read_run_record(run_dir).best["score"]["fitness"]
+    )
 
 
 def test_a_fixture_store_runs_its_tasks_with_the_published_targets(published_reference, tmp_path):
@@ -404,9 +406,11 @@ def test_a_fixture_store_runs_its_tasks_with_the_published_targets(published_ref
     from simtune.runs import fingerprint_differences, run_fingerprint
 
     run_dir = fixture_run(3, tmp_path, published_reference)
-    record = read_record(run_dir)
-    config = RunConfig.from_stored(record.config, "fixture")
-    assert config.targets == "published" and "targets" not in record.config
+    record = read_run_record(run_dir)
+    config = record.settings
+    stored = RunStore.open_read_only(run_dir)
+    assert config.targets == "published" and "targets" not in stored.get("config")
+    stored.close()
     plan = plan_run(config)
     assert plan.tasks[0].phases[1].targets_deg[2] == 65.0
     assert record.fingerprint is not None and fingerprint_differences(record.fingerprint, run_fingerprint(plan)) == []

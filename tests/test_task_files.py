@@ -205,7 +205,7 @@ def test_a_run_stored_before_task_files_resumes_without_changes():
     from simtune.runs import fingerprint_differences, task_fingerprint
 
     tasks = {n: PYTHON_FINGERPRINTS[n] for n in ("single", "cube", "seed-3")}
-    # such a run stores no targets: it ran the published ones (run_plan.stored_targets)
+    # such a run stores no targets: it ran the published ones (RunConfig.from_stored)
     now = {n: task_fingerprint(bundled_project().task(n).as_published()) for n in tasks}
     assert fingerprint_differences({"data": {}, "tasks": tasks}, {"data": {}, "tasks": now, "engine": "x"}) == []
     changed = dict(now, cube=PYTHON_FINGERPRINTS["double"])

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 import os
-import sqlite3
 import time
 from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass, field, fields
@@ -48,8 +47,7 @@ from simtune.project import load_project as _load_project
 from simtune.reference import REFERENCE_DIR, run_demo
 from simtune.run_config import COMPARE_DEFAULTS, COMPARE_SETS, TRANSFER_DEFAULTS
 from simtune.run_plan import RunConfig, new_run_config
-from simtune.runs import resume_run, run_uncertainty, start_run
-from simtune.store import STORE_FILE, read_record
+from simtune.runs import read_run_record, resume_run, run_uncertainty, start_run
 from simtune.studies.compare import run_compare
 from simtune.studies.sensitivity import evaluation_count, run_sensitivity
 from simtune.studies.synth import SynthResult, load_truth, make_synthetic
@@ -942,32 +940,29 @@ def _listed(value: str | Collection[str], name: str = "optimizers") -> list[str]
 
 
 def read_run(run_dir: Path | str) -> Result:
-    """The best parameters of the run in ``run_dir`` (finished or not) as a :class:`Result`."""
+    """The best parameters of the run in ``run_dir`` (finished or not) as a :class:`Result`.
+
+    Args:
+        run_dir: a run folder (``simtune tune --out``).
+
+    Returns:
+        The run's best evaluation: its parameters, fitness and parts, the generic fitness, the evaluations and wall
+        time of all its sessions, the reference it was scored against and why its search stopped.
+    """
     run_dir = _path("run_dir", run_dir)
-    if not (run_dir / STORE_FILE).is_file():
-        raise SimtuneError(f"{run_dir} is not a run folder (no {STORE_FILE})")
-    try:
-        return _read_run(run_dir)
-    except sqlite3.DatabaseError as exc:
-        raise SimtuneError(f"{run_dir / STORE_FILE}: cannot read the run store ({exc}): is it damaged?") from None
-
-
-def _read_run(run_dir: Path) -> Result:
-    record = read_record(run_dir)
-    best, generic = record.best, record.generic
-    if record.config is None or best is None or generic is None:  # a run stores its generic score as it starts
-        raise SimtuneError(f"{run_dir}: the run has no evaluation yet")
+    record = read_run_record(run_dir)
+    config = record.settings
     return Result.from_score(
         record.engine,
-        dict(zip(record.parameters or [], (float(v) for v in best["x"]), strict=True)),
-        Score.from_dict(best["score"]),
-        generic,
+        record.best_params,
+        Score.from_dict(record.best_evaluation["score"]),
+        record.generic_score,
         evaluations=record.evaluations,
         run_dir=run_dir,
         message=str(record.message if record.message is not None else (record.status or "")),
         wall_s=record.elapsed_s,
-        reference=str(record.config.get("reference", "mean")),  # a run stored before the choice: the mean
-        repeats=str(record.config.get("repeats", "all")),  # stored only when not all
+        reference=config.reference,
+        repeats=config.repeats,
         stop_reason=record.stop_reason,
     )
 

@@ -163,7 +163,8 @@ class RunConfig:
                     f"{where}: unknown key {key!r} in the stored configuration (written by another simtune version?)"
                 )
         # a run from before these settings ran DE without a time-out, searched every parameter, with one shared
-        # command delay, and scored against the plain mean of the repeats, on the targets as published
+        # command delay, and scored against the plain mean of the repeats, on the targets as published (before the
+        # task files corrected them)
         values = {
             "optimizer": "de",
             "eval_timeout": None,
@@ -254,9 +255,3 @@ class RunConfig:
                 raise ConfigError(f"{at}--paper-exact runs the published targets: drop --targets {self.targets}")
             if self.residuals != "plain":
                 raise ConfigError(f"{at}--paper-exact fits the plain residuals: drop residuals={self.residuals!r}")
-
-
-def stored_targets(config: dict) -> str:
-    """The targets (``task`` or ``published``) of a run from its stored configuration: a run stored without them
-    ran the published ones (before the task files corrected them, and every paper-exact run)."""
-    return str(config.get("targets", "published"))

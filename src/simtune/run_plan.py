@@ -28,7 +28,6 @@ from simtune.run_config import (  # noqa: F401 (run_plan is its public home too:
     RESIDUALS,
     RunConfig,
     default_space,
-    stored_targets,
 )
 from simtune.tasks import TaskSpec, parse_tasks
 from simtune.tasks.spec import common_robot

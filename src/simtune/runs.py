@@ -53,7 +53,7 @@ from simtune.optimize.evaluator import timed_out
 from simtune.optimize.progress import TuneProgress
 from simtune.params.space import is_supported
 from simtune.run_plan import RunConfig, RunPlan, plan_run
-from simtune.store import STORE_FILE, RunStore, check_store_file
+from simtune.store import STORE_FILE, RunRecord, RunStore, check_store_file, read_record
 from simtune.store.lock import LOCK_FILE, check_free, run_lock
 from simtune.tasks import TaskSpec
 from simtune.tasks.spec import FINGERPRINT
@@ -212,6 +212,23 @@ def has_run(run_dir: Path) -> bool:
         return store.get("config") is not None
     finally:
         store.close()
+
+
+def read_run_record(run_dir: Path | str) -> RunRecord[RunConfig]:
+    """The run in ``run_dir`` read once (:func:`simtune.store.read_record`), its configuration checked by
+    :meth:`RunConfig.from_stored`: the record the API, export and the report are views of.
+
+    A folder that is missing, holds no store, or holds one SQLite cannot read is one line naming it.
+    """
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise SimtuneError(f"{run_dir}: no such run folder")
+    if not (run_dir / STORE_FILE).is_file():
+        raise SimtuneError(f"{run_dir} is not a run folder: its store {STORE_FILE} is missing")
+    try:
+        return read_record(run_dir, RunConfig.from_stored)
+    except sqlite3.Error as exc:
+        raise SimtuneError(f"{run_dir / STORE_FILE}: corrupt run store, cannot read it ({exc})") from None
 
 
 def discard_run(run_dir: Path) -> None:

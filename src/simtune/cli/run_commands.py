@@ -134,11 +134,10 @@ def _tasks_to_align(align_clock: bool | None, params_file: Path | None, task: st
 
 def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
     """What ``tune`` and ``resume`` print: the tuned fitness against the generic one, and where the run is."""
-    from simtune.runs import BEST_PARAMS_FILE
-    from simtune.store import read_record
+    from simtune.runs import BEST_PARAMS_FILE, read_run_record
 
-    record = read_record(run_dir)
-    store_generic = record.generic or {}
+    record = read_run_record(run_dir)
+    store_generic = record.generic_score
     searched, inactive = record.parameters or [], record.inactive
 
     payload = {
@@ -254,13 +253,12 @@ def resume(
     """
     from simtune import api
     from simtune.activity import announcing
-    from simtune.runs import RunConfig
-    from simtune.store import STORE_FILE, read_record
+    from simtune.runs import read_run_record
 
     with announcing(not quiet and not as_json and sys.stderr.isatty()):
         result = api.resume(run_dir, show_progress=not quiet and not as_json, rescore=rescore)
-    record = read_record(run_dir)
-    config = RunConfig.from_stored(record.config, str(run_dir / STORE_FILE))
+    record = read_run_record(run_dir)
+    config = record.settings
     rescored = record.rescored_from
     if rescore and rescored and not as_json:
         changed = "; ".join(rescored["changes"]) or "nothing changed"

@@ -193,11 +193,11 @@ def _samples(run: TunedRun) -> dict[str, int]:
     """How many 20 Hz samples each task's recordings span (what the fitness compared); {} without the data."""
     from simtune.objective import load_references
 
-    data = run.config["data"]
+    data = run.config.data
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the run warned about its recordings already
-            keep = bool(run.config.get("keep_repeats", False))  # the repeats the run was scored against
+            keep = run.config.keep_repeats  # the repeats the run was scored against
             refs = load_references(None if data is None else Path(data), run.tasks, keep_repeats=keep)
     except SimtuneError as exc:
         missing = data is not None and not Path(data).is_dir()
@@ -211,11 +211,11 @@ def _samples(run: TunedRun) -> dict[str, int]:
 
 def _dr_ranges(runs: list[TunedRun]) -> dict:
     """engine -> parameter -> range (the report's dr_ranges) over ``runs``, and the tasks behind each engine."""
-    from simtune.report.collect import ReportedRun, group_runs, load_run
+    from simtune.report.collect import ReportedRun, group_runs, reported_run
     from simtune.report.dr import dr_ranges
     from simtune.report.simulate import nominal_values
 
-    records = [r for r in (load_run(run.path) for run in runs) if isinstance(r, ReportedRun)]
+    records = [r for r in (reported_run(run.record, str(run.path)) for run in runs) if isinstance(r, ReportedRun)]
     groups, _ = group_runs(records)
     specs: dict[str, dict[str, TaskSpec]] = {}
     for run in runs:

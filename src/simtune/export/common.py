@@ -43,9 +43,9 @@ def provenance(run: TunedRun, engine: str, when: dt.datetime) -> dict:
         "simtune_version": simtune.__version__,
         "versions_of_run": run.versions,
         "tasks": run.task_names,
-        "space": run.config.get("space"),
-        "seed": run.config.get("seed"),
-        "optimizer": run.config.get("optimizer", "de"),
+        "space": run.config.space,
+        "seed": run.config.seed,
+        "optimizer": run.config.optimizer,
         "evaluations": run.evaluations,
         "run_finished": (
             dt.datetime.fromtimestamp(run.finished_at, dt.UTC).isoformat(timespec="seconds")
@@ -57,7 +57,7 @@ def provenance(run: TunedRun, engine: str, when: dt.datetime) -> dict:
         "wrist_error": best.get("wrist_error"),
         "object_error": best.get("object_error"),
         "generic_fitness": best.get("generic_fitness"),
-        "data": str(run.config.get("data")),
+        "data": str(run.config.data),
         "data_note": run.data_note,
         "data_files": run.data_files,
         "tuned_parameters": run.params,

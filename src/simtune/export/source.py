@@ -13,7 +13,6 @@ end of its last session rather than a killed session leaving an older file.
 from __future__ import annotations
 
 import json
-import sqlite3
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,11 +23,11 @@ from simtune.engines import engine_class
 from simtune.errors import SimtuneError
 from simtune.objective import recordings_folder
 from simtune.params import validate_params
-from simtune.run_plan import stored_targets
-from simtune.runs import BEST_PARAMS_FILE
-from simtune.store import STORE_FILE, RunRecord, read_record
+from simtune.run_plan import RunConfig
+from simtune.runs import BEST_PARAMS_FILE, read_run_record
+from simtune.store import RunView
 from simtune.store.lock import LOCK_FILE, RunBusy, check_free, describe_holder
-from simtune.tasks import TaskSpec, parse_tasks
+from simtune.tasks import TaskSpec
 from simtune.tasks.spec import common_robot
 
 
@@ -36,50 +35,69 @@ class ExportWarning(UserWarning):
     """Something about a run that does not stop its export but that its user should know."""
 
 
-@dataclass
-class TunedRun:
-    """What export needs from one finished run folder."""
+@dataclass(eq=False)
+class TunedRun(RunView[RunConfig]):
+    """What export needs from one finished run folder: a view of its record (:func:`simtune.runs.read_run_record`)
+    with the tuned values of its ``best_params.json`` and the recordings it was tuned on."""
 
-    path: Path
-    config: dict
-    engine: str
-    tasks: list[TaskSpec]
     params: dict[str, float]  # the tuned values (best_params.json); the rest keep the engine's generic ones
     best: dict  # best_params.json as written by the run
-    versions: dict[str, str]  # as stored by the run
-    command: list[str]
-    finished_at: float | None  # time of the run's last stored evaluation (seconds since the epoch)
-    evaluations: int
     data_files: dict[str, list[dict]]  # task -> [{file, bytes, sha256}] of the recordings it was tuned on
     data_note: str  # where the fingerprint comes from, or why it is missing
+
+    @property
+    def path(self) -> Path:
+        return self.record.path.resolve()
+
+    @property
+    def tasks(self) -> list[TaskSpec]:
+        """The run's tasks as it ran them (its project's, with its targets)."""
+        return self.record.task_specs
 
     @property
     def task_names(self) -> list[str]:
         return [t.name for t in self.tasks]
 
+    @property
+    def versions(self) -> dict[str, str]:
+        """The versions of simtune, the engine and the libraries that made the run, as it stored them."""
+        return {str(k): str(v) for k, v in self.record.versions.items()}
+
+    @property
+    def command(self) -> list[str]:
+        return [str(c) for c in self.record.command]
+
+    @property
+    def finished_at(self) -> float | None:
+        """When the run's last stored evaluation finished (seconds since the epoch)."""
+        return self.record.finished_at
+
+    @property
+    def evaluations(self) -> int:
+        return int(self.record.evaluations)
+
 
 def read_run(run_dir: Path | str) -> TunedRun:
     """The finished run in ``run_dir``, checked; a one-line SimtuneError if it cannot be exported."""
     run_dir = Path(run_dir)
-    record = _read_record(run_dir)
-    config, versions = record.config, record.versions
-    if not isinstance(config, dict) or not all(k in config for k in ("engine", "tasks", "space", "data", "seed")):
-        raise SimtuneError(f"{run_dir / STORE_FILE}: no run configuration (not written by `simtune tune`?)")
-    if record.status != "finished":
-        _refuse_unfinished(run_dir, record.status)
+    record = read_run_record(run_dir)
+    engine = record.engine  # a store never set up has no configuration: refused here
+    unfinished = record.unfinished()
+    if unfinished is not None:
+        _refuse_unfinished(run_dir, unfinished)
     best_file = run_dir / BEST_PARAMS_FILE
     best = _read_best(best_file, run_dir)
+    versions = record.versions
     made_by = versions.get("simtune")
     if made_by != simtune.__version__:
         raise SimtuneError(
             f"{run_dir} was tuned by simtune {made_by}, this is simtune {simtune.__version__}: "
             f"its engine mapping may differ, export it with simtune {made_by}"
         )
-    engine = record.engine
     if best.get("engine", engine) != engine:
         raise SimtuneError(f"{best_file}: engine {best.get('engine')!r} differs from the run's {engine!r}")
     cls = engine_class(engine)
-    tasks = parse_tasks(record.tasks, config.get("project"), stored_targets(config))
+    tasks = record.task_specs
     robot = common_robot(tasks)
     params = validate_params(best["params"], cls.supported(robot), engine, where=str(best_file), robot=robot)
     installed = cls.version()
@@ -90,39 +108,11 @@ def read_run(run_dir: Path | str) -> TunedRun:
             ExportWarning,
             stacklevel=2,
         )
-    stored_fingerprint = record.data_fingerprint  # written by runs.run_fingerprint
-    data_files, note = _data_files(config["data"], tasks, stored_fingerprint, run_dir)
-    return TunedRun(
-        path=run_dir.resolve(),
-        config=config,
-        engine=engine,
-        tasks=tasks,
-        params=params,
-        best=best,
-        versions={str(k): str(v) for k, v in versions.items()},
-        command=[str(c) for c in record.command],
-        finished_at=record.finished_at,
-        evaluations=int(record.evaluations),
-        data_files=data_files,
-        data_note=note,
-    )
+    data_files, note = _data_files(record.settings.data, tasks, record.data_fingerprint, run_dir)
+    return TunedRun(record, params, best, data_files, note)
 
 
-def _read_record(run_dir: Path) -> RunRecord:
-    """The run's record; a folder that is no run, or a store that cannot be read, is one line naming it."""
-    if not run_dir.is_dir():
-        raise SimtuneError(f"{run_dir}: no such run folder")
-    if not (run_dir / STORE_FILE).is_file():
-        raise SimtuneError(f"{run_dir} is not a run folder: its store {STORE_FILE} is missing")
-    try:
-        return read_record(run_dir)
-    except sqlite3.Error as exc:
-        raise SimtuneError(f"{run_dir / STORE_FILE}: cannot read the run store ({exc})") from None
-    except SimtuneError as exc:
-        raise SimtuneError(f"{run_dir / STORE_FILE}: {exc}") from None
-
-
-def _refuse_unfinished(run_dir: Path, status) -> None:
+def _refuse_unfinished(run_dir: Path, unfinished: str) -> None:
     """Why a run that has not finished cannot be exported: it is being tuned now, or it stopped before its end."""
     try:
         check_free(run_dir)
@@ -131,9 +121,7 @@ def _refuse_unfinished(run_dir: Path, status) -> None:
             f"{run_dir} is being tuned right now by {describe_holder(run_dir / LOCK_FILE)}: "
             "export it when it has finished"
         ) from None
-    raise SimtuneError(
-        f"{run_dir} is an unfinished run (status {status!r}): `simtune resume {run_dir}` finishes it, then export"
-    )
+    raise SimtuneError(f"{unfinished}, then export")
 
 
 def _read_best(best_file: Path, run_dir: Path) -> dict:

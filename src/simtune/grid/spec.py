@@ -70,8 +70,7 @@ class GridSpec:
 def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
     """Run or resume one optimisation; returns its summary.  Safe to run again after a crash."""
     from simtune.run_plan import new_run_config
-    from simtune.runs import has_run, resume_run, start_run
-    from simtune.store import read_record
+    from simtune.runs import has_run, read_run_record, resume_run, start_run
     from simtune.store.lock import run_lock
 
     path = Path(run_dir)
@@ -102,7 +101,7 @@ def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
             result = resume_run(path, show_progress=False)
         else:  # new, or died before the run was set up: start_run clears such a store
             result = start_run(config, path, show_progress=False)
-    generic = read_record(path).generic or {}  # stored as the run started
+    generic = read_run_record(path).generic_score  # stored as the run started
     return dict(
         fitness=result.score.fitness,
         generic_fitness=generic["fitness"],

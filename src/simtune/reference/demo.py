@@ -10,8 +10,7 @@ from rich.console import Console
 from simtune.common.console import text_table
 from simtune.reference import REFERENCE_DIR
 from simtune.run_plan import new_run_config
-from simtune.runs import discard_run, has_run, start_run
-from simtune.store import read_record
+from simtune.runs import discard_run, has_run, read_run_record, start_run
 from simtune.store.lock import run_lock
 
 #: What the demo tunes: the parameters the reference recording hides, in the extended space's ranges.
@@ -52,7 +51,7 @@ def run_demo(out_dir: Path, workers: int = 2, max_seconds: float = 120.0, consol
         eval_timeout=None,
     )
     result = start_run(config, out_dir)
-    generic = read_record(out_dir).generic or {}
+    generic = read_run_record(out_dir).generic_score
     table = text_table("generic vs tuned", ("", "fitness", "wrist error [m]", "object error [m]"))
     table.add_row(
         "generic MuJoCo", f"{generic['fitness']:.4f}", f"{generic['wrist_error']:.4f}", f"{generic['object_error']:.4f}"

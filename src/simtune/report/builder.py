@@ -206,7 +206,7 @@ def _floors(groups: list[Group], references: References, warn: Warn) -> list[Rep
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RecordingWarning)  # said when the runs were tuned
                 aligned = references.get(
-                    run.data, run.task(name), "aligned", references.selection(run), run.keep_repeats
+                    run.config.data, run.task(name), "aligned", references.selection(run), run.config.keep_repeats
                 )
         except SimtuneError as exc:
             warn(f"task {name}: no floor: its recordings are unavailable ({exc})")
@@ -242,7 +242,11 @@ def _score_published(folder: Path, groups: list[Group], references: References, 
         run = next(r for g in groups if item.task in g.task_names for r in g.runs)
         try:
             reference = references.get(
-                run.data, run.task(item.task), references.kind(run), references.selection(run), run.keep_repeats
+                run.config.data,
+                run.task(item.task),
+                references.kind(run),
+                references.selection(run),
+                run.config.keep_repeats,
             )
         except SimtuneError as exc:
             warn(f"{item.path}: not scored: recordings of {item.task!r} unavailable ({exc})")
@@ -296,7 +300,7 @@ def _resimulate(groups: list[Group], references: References, warn: Warn, progres
             progress.step()
         stored, run = g.best_run.best_fitness, g.best_run
         # re-scored against another reference or other repeats than its own, the fitness differs by design
-        own = references.kind(run) == run.reference and references.selection(run) == run.repeats
+        own = references.kind(run) == run.config.reference and references.selection(run) == run.config.repeats
         if own and abs(sim.tuned_fitness - stored) > 1e-6 * max(1.0, abs(stored)):
             warn(
                 f"{g.best_run.label}: re-simulating its best parameters gives fitness {sim.tuned_fitness:.6f}, "
@@ -332,7 +336,7 @@ def _probe_contacts(groups: list[Group], warn: Warn, progress: _Progress) -> lis
 def _meta(data: ReportData) -> list[str]:
     """The lines under the report's title: version, date, inputs, and what the runs cover."""
     published = f"; published simulations: {data.published_folder}" if data.published_folder is not None else ""
-    exact = [r for r in data.runs if r.paper_exact]
+    exact = [r for r in data.runs if r.config.paper_exact]
     search = (
         f"Search: {len(exact)} of {len(data.runs)} runs searched exactly as the paper ran SciPy (--paper-exact: "
         "immediate updating, SciPy's polish, one worker, no pruning, the paper's whole parameter list); "

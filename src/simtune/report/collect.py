@@ -2,8 +2,8 @@
 
 A *run dir* holds ``run.sqlite`` (made by ``simtune tune``); a *grid dir* is
 any folder with run dirs somewhere below it.  Each run is read through
-:func:`simtune.store.read_record` (read-only), so a report never changes a run,
-not even a broken one; :class:`ReportedRun` is the report's checked view of it.  A run that is not
+:func:`simtune.runs.read_run_record` (read-only), so a report never changes a run,
+not even a broken one; :class:`ReportedRun` is the report's checked view of its record.  A run that is not
 finished, or whose store cannot be read, is returned as a :class:`Skipped`
 entry naming the folder and the reason: the report warns about it and leaves
 it out, it never merges it silently.
@@ -15,92 +15,90 @@ import json
 import sqlite3
 from collections import defaultdict
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
 from simtune.errors import SimtuneError
 from simtune.optimize.pipeline import global_population_size, random_start
-from simtune.run_plan import stored_targets
-from simtune.store import STORE_FILE, RunRecord, RunStore, read_record
-from simtune.tasks import TaskSpec, get_task, parse_tasks
+from simtune.run_plan import RunConfig
+from simtune.runs import read_run_record
+from simtune.store import STORE_FILE, RunRecord, RunStore, RunView
+from simtune.tasks import TaskSpec, get_task
 
 
-@dataclass
-class ReportedRun:
-    """Everything the report needs from one finished run, as plain data."""
+@dataclass(eq=False)
+class ReportedRun(RunView[RunConfig]):
+    """The report's view of one finished run's record (:func:`simtune.runs.read_run_record`), checked by
+    :func:`reported_run`: what the tables, figures and sections read of it."""
 
-    path: Path
     label: str  # the folder, as shown in the report
-    engine: str
-    tasks: str  # as configured: "cube" or "single,cube"
-    task_names: list[str]
-    space: str
-    data: str | None  # None: each task's own recordings folder (its project's)
-    seed: int
-    config: dict
-    parameters: list[str]
-    bounds: list[tuple[float, float]]
-    generic: dict  # Score.to_dict() of the engine's generic parameters
-    best_x: list[float]
-    best_score: dict  # Score.to_dict() of the best evaluation
-    generations: list[dict]  # store.generations()
-    initial_fitness: list[float]  # fitness of each generation-0 evaluation
-    evaluations: int
-    elapsed_s: float
-    message: str
-    versions: dict = field(default_factory=dict)
-    outcomes: dict = field(default_factory=dict)  # store.count_outcomes(): unstable and pruned evaluations
+    #: the run's tasks, from ``project``, with the targets the run ran (resolved once, by :func:`reported_run`)
+    task_specs: list[TaskSpec]
+    project: str | None = None  # the project (file or folder) of its tasks; None: the bundled MICO project
     #: the parameter sets the run drew at random over its box before any search step (:func:`untuned_sample`)
     random_start: list[list[float]] = field(default_factory=list)
     random_start_fitness: list[float] = field(default_factory=list)  # of those of them it scored
-    de_settings: dict | None = None  # SciPy's settings of a differential-evolution run (None: other optimiser)
-    converged: bool = False  # the search met its convergence criterion (store meta search_converged)
-    stop_reason: str | None = None  # why the search stopped (store meta search_stop_reason; None: not kept then)
-    project: str | None = None  # the project (file or folder) of its tasks; None: the bundled MICO project
-    #: parameters of the run's space that change no rollout of its tasks, and why (store meta inactive_parameters)
-    inactive: dict = field(default_factory=dict)
-    #: the Gauss-Newton uncertainty at the best point (store meta uncertainty; `simtune uncertainty`), if computed
-    uncertainty: dict | None = None
+
+    @property
+    def path(self) -> Path:
+        return self.record.path
+
+    @property
+    def tasks(self) -> str:
+        """The tasks as configured: "cube" or "single,cube"."""
+        return self.record.tasks
+
+    @property
+    def task_names(self) -> list[str]:
+        return [t.name for t in self.task_specs]
 
     def task(self, name: str) -> TaskSpec:
         """The definition of the run's task ``name``, from the run's project, with the targets the run ran."""
-        return get_task(name, self.project, stored_targets(self.config))
+        found = next((t for t in self.task_specs if t.name == name), None)
+        return get_task(name, self.project, self.config.targets) if found is None else found
+
+    @cached_property
+    def parameters(self) -> list[str]:
+        """The searched parameters, in the order of a vector."""
+        return self.record.searched
+
+    @cached_property
+    def bounds(self) -> list[tuple[float, float]]:
+        return [(float(lo), float(hi)) for lo, hi in self.record.bounds or []]
 
     @property
-    def reference(self) -> str:
-        """What the run was scored against: ``aligned`` or ``mean`` (a run stored before the choice: the mean)."""
-        return str(self.config.get("reference", "mean"))
+    def generic(self) -> dict:
+        """Score.to_dict() of the engine's generic parameters."""
+        return self.record.generic_score
+
+    @cached_property
+    def best_x(self) -> list[float]:
+        return [float(v) for v in self.record.best_evaluation["x"]]
 
     @property
-    def repeats(self) -> str:
-        """Which of each task's repeats the run was scored against: ``all``, ``even`` or ``odd`` (stored only when
-        not all)."""
-        return str(self.config.get("repeats", "all"))
+    def best_score(self) -> dict:
+        """Score.to_dict() of the best evaluation."""
+        return self.record.best_evaluation["score"]
 
     @property
-    def keep_repeats(self) -> bool:
-        """Whether the run kept every repeat (``--keep-repeats``) where the repeat check would leave a far one out."""
-        return bool(self.config.get("keep_repeats", False))
-
-    @property
-    def paper_exact(self) -> bool:
-        """Whether the run searched exactly as the seed paper ran SciPy (``simtune tune --paper-exact``)."""
-        return bool(self.config.get("paper_exact", False))
+    def message(self) -> str:
+        return str(self.record.message or "")
 
     @property
     def stopped_by_time_cap(self) -> bool:
         """Whether the run's wall-time budget (``--max-seconds``) ended its search."""
-        cap = self.config.get("max_seconds")
-        return cap is not None and self.elapsed_s >= float(cap)
+        cap = self.config.max_seconds
+        return cap is not None and self.record.elapsed_s >= float(cap)
 
     @property
     def population_size(self) -> int:
         """Members of the differential evolution's population (``auto``: of its global phases); any other
         optimiser: its first batch of evaluations."""
-        if self.config.get("optimizer") == "auto":
+        if self.config.optimizer == "auto":
             return global_population_size(len(self.parameters))
-        return len(self.initial_fitness)
+        return len(self.record.initial_fitness)
 
     @property
     def best_fitness(self) -> float:
@@ -108,7 +106,7 @@ class ReportedRun:
 
     @property
     def best_params(self) -> dict[str, float]:
-        return dict(zip(self.parameters, (float(v) for v in self.best_x)))
+        return dict(zip(self.parameters, self.best_x))
 
     @property
     def generic_fitness(self) -> float:
@@ -154,7 +152,7 @@ class Group:
 
     @property
     def best_run(self) -> ReportedRun:
-        return min(self.runs, key=lambda r: (r.best_fitness, r.seed))
+        return min(self.runs, key=lambda r: (r.best_fitness, r.config.seed))
 
     @property
     def searched(self) -> list[str]:
@@ -169,7 +167,7 @@ class Group:
         """Parameters that change no rollout of the group's tasks in some repeat, and why."""
         found: dict[str, str] = {}
         for run in self.runs:
-            found.update({n: why for n, why in run.inactive.items() if n not in found})
+            found.update({n: why for n, why in run.record.inactive.items() if n not in found})
         return found
 
     @property
@@ -215,77 +213,40 @@ def find_run_dirs(paths: list[Path]) -> list[Path]:
     return found
 
 
-def _require(key: str, value):
-    if value is None:
-        raise SimtuneError(f"store has no {key!r} (not written by `simtune tune`?)")
-    return value
-
-
 def load_run(run_dir: Path, label: str | None = None, project: str | None = None) -> ReportedRun | Skipped:
     """A finished run as a :class:`ReportedRun`, or a :class:`Skipped` saying why it cannot be used.
 
     ``project``: read its tasks from this project folder instead of the one the run names (moved since).
     """
     run_dir = Path(run_dir)
+    try:
+        record = read_run_record(run_dir)
+    except SimtuneError as exc:
+        return Skipped(run_dir, label or str(run_dir), f"unusable run store: {exc}")
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+        return Skipped(run_dir, label or str(run_dir), f"unusable run store: {type(exc).__name__}: {exc}")
+    return reported_run(record, label, project)
+
+
+def reported_run(
+    record: RunRecord[RunConfig], label: str | None = None, project: str | None = None
+) -> ReportedRun | Skipped:
+    """The report's view of ``record``, its values checked, or a :class:`Skipped` saying why it cannot be used.
+
+    ``label``: the run as the report names it (default: its folder); ``project``: as :func:`load_run`'s.
+    """
+    run_dir = record.path
     label = label or str(run_dir)
     try:
-        stored = read_record(run_dir)
-        config = _require("config", stored.config)
-        if not isinstance(config, dict):
-            raise SimtuneError("stored config is not a mapping")
-        missing = [k for k in ("engine", "tasks", "space", "data", "seed") if k not in config]
-        if missing:
-            raise SimtuneError(f"stored config lacks {', '.join(missing)}")
-        if stored.status != "finished":
-            return Skipped(
-                run_dir,
-                label,
-                f"incomplete run (status {stored.status!r}, not 'finished'): `simtune resume {run_dir}` finishes it",
-            )
-        parameters = list(_require("parameters", stored.parameters))
-        bounds = [(float(lo), float(hi)) for lo, hi in _require("bounds", stored.bounds)]
-        if len(bounds) != len(parameters):
-            raise SimtuneError(f"{len(parameters)} parameter names but {len(bounds)} bounds")
-        generic = _require("generic", stored.generic)
-        best = stored.best
-        if best is None:
-            raise SimtuneError("no evaluations in the store")
-        if len(best["x"]) != len(parameters):
-            raise SimtuneError(f"best vector has {len(best['x'])} values for {len(parameters)} parameters")
-        project = project or config.get("project")
-        task_names = [t.name for t in parse_tasks(str(config["tasks"]), project)]
-        random_members, random_fitness = untuned_sample(stored)
-        return ReportedRun(
-            path=run_dir,
-            label=label,
-            engine=stored.engine,
-            tasks=stored.tasks,
-            task_names=task_names,
-            space=stored.space,
-            data=None if config["data"] is None else str(config["data"]),
-            project=project,
-            seed=int(config["seed"]),
-            config=config,
-            parameters=parameters,
-            bounds=bounds,
-            generic=generic,
-            best_x=[float(v) for v in best["x"]],
-            best_score=best["score"],
-            generations=stored.generations,
-            initial_fitness=stored.initial_fitness,
-            evaluations=stored.evaluations,
-            elapsed_s=stored.elapsed_s,
-            message=str(stored.message or ""),
-            versions=stored.versions,
-            outcomes=stored.outcomes,
-            random_start=random_members,
-            random_start_fitness=random_fitness,
-            de_settings=stored.de_settings,
-            converged=stored.converged,
-            stop_reason=stored.stop_reason,
-            inactive=stored.inactive,
-            uncertainty=stored.uncertainty,
-        )
+        config = record.settings
+        unfinished = record.unfinished()
+        if unfinished is not None:
+            return Skipped(run_dir, label, unfinished)
+        record.check_result()
+        project = project or config.project
+        tasks = record.resolve_tasks(project)
+        random_members, random_fitness = untuned_sample(record)
+        return ReportedRun(record, label, tasks, project, random_members, random_fitness)
     except sqlite3.Error as exc:
         return Skipped(run_dir, label, f"corrupt run store ({exc})")
     except SimtuneError as exc:
@@ -300,7 +261,7 @@ def load_run(run_dir: Path, label: str | None = None, project: str | None = None
 MATCH_TOLERANCE = 1e-5
 
 
-def untuned_sample(stored: RunRecord) -> tuple[list[list[float]], list[float]]:
+def untuned_sample(stored: RunRecord[RunConfig]) -> tuple[list[list[float]], list[float]]:
     """The parameter sets ``stored`` drew at random over its whole box before any search step, and the fitness of
     those it scored: the report's untuned baseline (the spread test of Table 4, the untuned sample of Table 5).
 
@@ -319,7 +280,7 @@ def untuned_sample(stored: RunRecord) -> tuple[list[list[float]], list[float]]:
     bounds = np.array(stored.bounds, dtype=float).reshape(-1, 2)
     lows, highs = bounds[:, 0], bounds[:, 1]
     widths = np.where(highs > lows, highs - lows, 1.0)  # a fixed parameter: compared as it is
-    unit = random_start(len(bounds), int((stored.config or {})["seed"]))
+    unit = random_start(len(bounds), stored.settings.seed)
     drawn = np.clip(lows + unit * (highs - lows), lows, highs)  # as the search mapped them (BatchSearch.from_unit)
     store = RunStore.open_read_only(stored.path)
     try:
@@ -341,17 +302,18 @@ def group_runs(runs: list[ReportedRun]) -> tuple[list[Group], list[Skipped]]:
     by_key: dict[tuple[str, str, str], list[ReportedRun]] = defaultdict(list)
     duplicates: list[Skipped] = []
     for run in runs:
-        same = [r for r in by_key[run.group_key] if r.seed == run.seed]
+        seed = run.config.seed
+        same = [r for r in by_key[run.group_key] if r.config.seed == seed]
         if same:
             duplicates.append(
                 Skipped(
                     run.path,
                     run.label,
-                    f"same engine, tasks, space and seed {run.seed} as {same[0].label}: not a new repeat, left out",
+                    f"same engine, tasks, space and seed {seed} as {same[0].label}: not a new repeat, left out",
                 )
             )
             continue
         by_key[run.group_key].append(run)
-    groups = [Group(*key, runs=sorted(rs, key=lambda r: r.seed)) for key, rs in by_key.items()]
+    groups = [Group(*key, runs=sorted(rs, key=lambda r: r.config.seed)) for key, rs in by_key.items()]
     groups.sort(key=lambda g: (g.tasks, g.space, g.engine))
     return groups, duplicates

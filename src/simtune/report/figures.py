@@ -96,11 +96,11 @@ Curve = tuple[np.ndarray, np.ndarray]  # x values, best fitness so far
 def run_curve(run, axis: str) -> Curve:
     """Best fitness so far against ``axis`` for one run (generation 0 = best of the initial population)."""
     xs, ys = [], []
-    if run.initial_fitness and axis != "time":  # the initial population's wall time is not stored on its own
-        xs.append(0 if axis == "generation" else len(run.initial_fitness))
-        ys.append(min(run.initial_fitness))
+    if run.record.initial_fitness and axis != "time":  # the initial population's wall time is not stored on its own
+        xs.append(0 if axis == "generation" else len(run.record.initial_fitness))
+        ys.append(min(run.record.initial_fitness))
     key = {"generation": "generation", "evaluations": "evaluations", "time": "elapsed_s"}[axis]
-    for g in run.generations:
+    for g in run.record.generations:
         xs.append(g[key])
         ys.append(g["best_fitness"])
     return np.asarray(xs, dtype=float), np.minimum.accumulate(np.asarray(ys, dtype=float)) if ys else np.array([])
@@ -439,7 +439,7 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
     suptitle(
         fig,
         f"{g.engine} on {task} (space {g.space}): fitness untuned {traj.untuned_score.fitness:.4f}, "
-        f"tuned {traj.tuned_score.fitness:.4f} (best repeat: seed {sim.run.seed})",
+        f"tuned {traj.tuned_score.fitness:.4f} (best repeat: seed {sim.run.config.seed})",
     )
     return fig
 

@@ -81,7 +81,7 @@ def moved_parameters_table(groups: list[Group], nominal: dict[str, dict[str, flo
     rows = []
     for g in groups:
         best = g.best_run
-        intervals = interval_texts(best.uncertainty)
+        intervals = interval_texts(best.record.uncertainty)
         generic_values = nominal.get(g.engine, {})
         entries: list[tuple[float, list]] = []
         for name, value, (low, high) in zip(best.parameters, best.best_x, best.bounds):

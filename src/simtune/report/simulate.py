@@ -51,11 +51,11 @@ class References:
 
     def kind(self, run: ReportedRun) -> str:
         """The reference ``run`` is re-scored against."""
-        return self.reference or run.reference
+        return self.reference or run.config.reference
 
     def selection(self, run: ReportedRun) -> str:
         """The repeats ``run`` is re-scored against: all, even or odd."""
-        return self.repeats or run.repeats
+        return self.repeats or run.config.repeats
 
     def label(self, run: ReportedRun) -> str:
         """The reference ``run`` is re-scored against, as the report names it (``aligned``, ``mean of the even
@@ -65,7 +65,7 @@ class References:
 
     def for_run(self, run: ReportedRun) -> dict[str, TaskData]:
         return {
-            t: self.get(run.data, run.task(t), self.kind(run), self.selection(run), run.keep_repeats)
+            t: self.get(run.config.data, run.task(t), self.kind(run), self.selection(run), run.config.keep_repeats)
             for t in run.task_names
         }
 

@@ -58,7 +58,7 @@ def generic_entries(groups: list[Group]) -> tuple[list[GenericEntry], list[str]]
                 entry = GenericEntry(
                     run.engine,
                     "simtune",
-                    run.versions.get(run.engine, ""),
+                    run.record.versions.get(run.engine, ""),
                     task,
                     float(part["fitness"]),
                     _f(part.get("wrist_error")),
@@ -147,11 +147,11 @@ def best_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table:
     keys = sorted({(g.tasks, g.space) for g in groups})
     for tasks, space in keys:
         runs = [r for g in groups if (g.tasks, g.space) == (tasks, space) for r in g.runs]
-        best = min(runs, key=lambda r: (r.best_fitness, r.engine, r.seed))
+        best = min(runs, key=lambda r: (r.best_fitness, r.engine, r.config.seed))
         names = best.task_names
         ours = experiment_generic(entries, names, "simtune")
         every = experiment_generic(entries, names, None)
-        row = [tasks, space, best.best_fitness, best.engine, best.seed, best.label]
+        row = [tasks, space, best.best_fitness, best.engine, best.config.seed, best.label]
         for pool in (ours, every):
             if pool:
                 engine, g = min(pool.items(), key=lambda kv: kv[1])
@@ -196,7 +196,7 @@ def tuned_by_group_table(groups: list[Group]) -> Table:
                 g.tasks,
                 g.space,
                 len(g.runs),
-                " ".join(str(r.seed) for r in g.runs),
+                " ".join(str(r.config.seed) for r in g.runs),
                 len(g.searched),
                 generic,
                 lo,
@@ -294,9 +294,9 @@ def paper_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table
         generic = experiment_generic(entries, g.task_names, None)
         best_generic = min(generic.values()) if generic else None
         sizes = sorted({r.population_size for r in g.runs})
-        exact = sum(r.paper_exact for r in g.runs)
+        exact = sum(r.config.paper_exact for r in g.runs)
         search = "paper-exact" if exact == len(g.runs) else "simtune" if exact == 0 else f"{exact} paper-exact"
-        optimizer = str(g.runs[0].config.get("optimizer", "de"))
+        optimizer = g.runs[0].config.optimizer
         rows.append(
             [
                 experiment_label(g.tasks),
@@ -309,7 +309,7 @@ def paper_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table
                 len(g.runs),
                 mean,
                 std,
-                float(np.mean([len(r.generations) for r in g.runs])),
+                float(np.mean([len(r.record.generations) for r in g.runs])),
                 sum(r.stopped_by_time_cap for r in g.runs),
                 f"{optimizer}, {search}",
             ]
@@ -348,13 +348,13 @@ def summary_counts_table(groups: list[Group]) -> Table:
     )
     runs = [r for g in groups for r in g.runs]
     capped = sum(r.stopped_by_time_cap for r in runs)
-    converged = sum(r.converged for r in runs)
+    converged = sum(r.record.converged for r in runs)
     rows = [
         ["individual better than shared (best repeat)", best_wins, len(compared)],
         ["individual better than shared (mean over repeats)", mean_wins, len(compared)],
         ["runs stopped by the time cap (--max-seconds)", capped, len(runs)],
         ["runs that met the convergence criterion", converged, len(runs)],
-        ["runs searched as the paper did (--paper-exact)", sum(r.paper_exact for r in runs), len(runs)],
+        ["runs searched as the paper did (--paper-exact)", sum(r.config.paper_exact for r in runs), len(runs)],
     ]
     return Table(
         "summary_counts",
@@ -442,7 +442,7 @@ def _importance_rows(g: Group) -> list[list]:
     from scipy.stats import false_discovery_control
 
     best = g.best_run.best_params
-    intervals = interval_texts(g.best_run.uncertainty)
+    intervals = interval_texts(g.best_run.record.uncertainty)
     entries = _spread_entries(g)
     tested = [i for i, e in enumerate(entries) if e[5] is not None]
     q: dict[int, float] = {}
@@ -799,10 +799,10 @@ def compute_table(groups: list[Group]) -> Table:
     ]
     rows = []
     for g in groups:
-        evals = [r.evaluations for r in g.runs]
-        walls = [r.elapsed_s for r in g.runs]
-        gens = [len(r.generations) for r in g.runs]
-        workers = sorted({int(r.config.get("workers", 1)) for r in g.runs})
+        evals = [r.record.evaluations for r in g.runs]
+        walls = [r.record.elapsed_s for r in g.runs]
+        gens = [len(r.record.generations) for r in g.runs]
+        workers = sorted({r.config.workers for r in g.runs})
         rows.append(
             [
                 g.engine,
@@ -816,8 +816,8 @@ def compute_table(groups: list[Group]) -> Table:
                 float(sum(walls)),
                 sum(evals) / sum(walls) if sum(walls) > 0 else None,
                 " ".join(map(str, workers)),
-                sum(r.outcomes.get("unstable", 0) for r in g.runs),
-                sum(r.outcomes.get("pruned", 0) for r in g.runs),
+                sum(r.record.outcomes.get("unstable", 0) for r in g.runs),
+                sum(r.record.outcomes.get("pruned", 0) for r in g.runs),
             ]
         )
     return Table(
@@ -923,16 +923,16 @@ def runs_table(runs: list[ReportedRun]) -> Table:
             r.engine,
             r.tasks,
             r.space,
-            r.seed,
+            r.config.seed,
             len(r.parameters),
             r.generic_fitness,
             r.best_fitness,
             _f(r.best_score.get("wrist_error")),
             _f(r.best_score.get("object_error")),
-            len(r.generations),
-            r.evaluations,
-            r.elapsed_s,
-            r.stop_reason or "",
+            len(r.record.generations),
+            r.record.evaluations,
+            r.record.elapsed_s,
+            r.record.stop_reason or "",
             r.message,
         ]
         for r in runs

@@ -29,7 +29,7 @@ with the same seed and takes every evaluation it already has from here instead o
 """
 
 from simtune.store.codec import Codec, vector_key
-from simtune.store.record import RunRecord, read_record
+from simtune.store.record import RunRecord, RunView, read_record
 from simtune.store.runstore import (
     _SCHEMA,
     MIN_FREE_BYTES,
@@ -49,6 +49,7 @@ __all__ = [
     "Codec",
     "RunRecord",
     "RunStore",
+    "RunView",
     "check_store_file",
     "read_record",
     "vector_key",

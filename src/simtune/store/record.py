@@ -1,22 +1,53 @@
 """A run as its store holds it: :class:`RunRecord`, read by :func:`read_record` (the one reader of a run).
 
-The API (:func:`simtune.api.read_run`), export (:func:`simtune.export.source.read_run`) and the report
-(:func:`simtune.report.collect.load_run`) each check what they need of it, with their own messages; none of them
-opens the store.
+The API (:func:`simtune.api.read_run`), export (:class:`simtune.export.source.TunedRun`) and the report
+(:class:`simtune.report.collect.ReportedRun`) are views of one record, read through
+:func:`simtune.runs.read_run_record`; the checks they share (a configuration, a finished search, an evaluation,
+parameter names and bounds that agree) are the record's, so each is written once.  None of them opens the store.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
+from typing import Generic, Protocol, TypeVar
 
-from simtune.store.runstore import RunStore
+from simtune.errors import SimtuneError
+from simtune.store.runstore import STORE_FILE, RunStore
+from simtune.tasks import TaskSpec, parse_tasks
+
+
+class StoredConfig(Protocol):
+    """What the record itself reads of a run's checked configuration (:class:`simtune.run_plan.RunConfig` is one).
+
+    The check of a stored configuration (``RunConfig.from_stored``) needs the optimisers' registry and the fitness
+    weights, which sit above the store (docs/architecture.md's layers); so :func:`read_record` is handed the check by
+    its caller and the record is generic in what the check returns.  Readers thus get a typed configuration, never
+    the stored dict to read by key, and the store imports nothing above it."""
+
+    @property
+    def engine(self) -> str: ...
+    @property
+    def tasks(self) -> str: ...
+    @property
+    def space(self) -> str: ...
+    @property
+    def optimizer(self) -> str: ...
+    @property
+    def project(self) -> str | None: ...
+    @property
+    def targets(self) -> str: ...
+
+
+ConfigT = TypeVar("ConfigT", bound=StoredConfig)
 
 
 @dataclass(frozen=True)
-class RunRecord:
+class RunRecord(Generic[ConfigT]):
     """One run (finished or not) as its store holds it, read once.  Values the store may lack are None: a store
-    not written by ``simtune tune`` lacks them, and each reader says so in its own words."""
+    not written by ``simtune tune`` lacks them; the checks below say so in one line each."""
 
     path: Path
     #: the store's schema version
@@ -24,8 +55,9 @@ class RunRecord:
     status: str | None
     #: the last session's message (None: the store has none)
     message: str | None
-    #: the run's configuration as stored (``RunConfig.record()``): engine, tasks, space, data, seed, optimiser, ...
-    config: dict | None
+    #: the run's configuration as stored (``RunConfig.record()``), checked by the ``check`` :func:`read_record` was
+    #: handed; None: the store has none (a run never set up); :attr:`settings` says so
+    config: ConfigT | None
     #: the command line that made the run
     command: list
     #: the versions of simtune, the engine and the libraries that made it
@@ -67,21 +99,44 @@ class RunRecord:
     finished_at: float | None
 
     @property
+    def store_file(self) -> Path:
+        return self.path / STORE_FILE
+
+    @property
+    def settings(self) -> ConfigT:
+        """The run's checked configuration; a one-line error for a store that holds none."""
+        if self.config is None:
+            raise SimtuneError(f"{self.store_file}: store has no 'config' (the run was never set up by `simtune tune`)")
+        return self.config
+
+    @property
     def engine(self) -> str:
-        return str(self._setting("engine"))
+        return self.settings.engine
 
     @property
     def tasks(self) -> str:
         """The tasks as configured: "cube" or "single,cube"."""
-        return str(self._setting("tasks"))
+        return self.settings.tasks
 
     @property
     def space(self) -> str:
-        return str(self._setting("space"))
+        return self.settings.space
 
     @property
     def optimizer(self) -> str:
-        return str((self.config or {}).get("optimizer", "de"))
+        return self.settings.optimizer
+
+    @cached_property
+    def task_specs(self) -> list[TaskSpec]:
+        """The run's tasks as it ran them: from its project, with its targets.  Resolved on first use (a reader of
+        the run's numbers alone never reads its project), then kept."""
+        return self.resolve_tasks()
+
+    def resolve_tasks(self, project: str | None = None) -> list[TaskSpec]:
+        """The run's tasks, with its targets, from ``project`` where given (its project moved since), else from the
+        run's own project."""
+        config = self.settings
+        return parse_tasks(config.tasks, project or config.project, config.targets)
 
     @property
     def data_fingerprint(self) -> dict | None:
@@ -93,18 +148,81 @@ class RunRecord:
         """For each searched parameter, whether it can change a rollout of the run's tasks."""
         return [name not in self.inactive for name in self.parameters or []]
 
-    def _setting(self, key: str):
-        if not isinstance(self.config, dict) or key not in self.config:
-            raise KeyError(f"the stored configuration has no {key!r}")
-        return self.config[key]
+    def unfinished(self) -> str | None:
+        """Why the run cannot be read as finished (its status, and how to finish it); None for a finished run."""
+        if self.status == "finished":
+            return None
+        return f"{self.path} is an unfinished run (status {self.status!r}): `simtune resume {self.path}` finishes it"
+
+    @property
+    def searched(self) -> list[str]:
+        """The searched parameters, checked against their bounds: a one-line error for a store lacking either."""
+        parameters, bounds = self.parameters, self.bounds
+        if parameters is None or bounds is None:
+            raise SimtuneError(f"{self.store_file}: store has no {'parameters' if parameters is None else 'bounds'!r}")
+        if len(bounds) != len(parameters):
+            raise SimtuneError(f"{self.store_file}: {len(parameters)} parameter names but {len(bounds)} bounds")
+        return list(parameters)
+
+    @property
+    def best_evaluation(self) -> dict:
+        """The best evaluation (its exact vector ``x`` and ``score``): a one-line error for a store without one or
+        whose vector does not fit its parameters."""
+        names = self.searched
+        if self.best is None:
+            raise SimtuneError(f"{self.store_file}: the run has no evaluation yet")
+        if len(self.best["x"]) != len(names):
+            raise SimtuneError(
+                f"{self.store_file}: the best vector has {len(self.best['x'])} values for {len(names)} parameters"
+            )
+        return self.best
+
+    @property
+    def generic_score(self) -> dict:
+        """Score.to_dict() of the engine's generic parameters (stored as the run starts)."""
+        if self.generic is None:
+            raise SimtuneError(f"{self.store_file}: store has no 'generic' score (not written by `simtune tune`?)")
+        return self.generic
+
+    def check_result(self) -> tuple[dict, dict]:
+        """The best evaluation and the generic score, checked: what a reader of the run's result needs."""
+        return self.best_evaluation, self.generic_score
+
+    @property
+    def best_params(self) -> dict[str, float]:
+        """The best evaluation's parameter values, by name (the parameters not searched keep generic values)."""
+        return dict(zip(self.searched, (float(v) for v in self.best_evaluation["x"]), strict=True))
 
 
-def read_record(run_dir: Path | str) -> RunRecord:
+@dataclass(eq=False)
+class RunView(Generic[ConfigT]):
+    """What a reader's view of one record (export's TunedRun, the report's ReportedRun) reads of it alike."""
+
+    record: RunRecord[ConfigT]
+
+    @property
+    def config(self) -> ConfigT:
+        """The run's checked configuration."""
+        return self.record.settings
+
+    @property
+    def engine(self) -> str:
+        return self.record.engine
+
+    @property
+    def space(self) -> str:
+        return self.record.space
+
+
+def read_record(run_dir: Path | str, check: Callable[[object, str], ConfigT]) -> RunRecord[ConfigT]:
     """The run in ``run_dir`` as its store holds it, read without writing anything.
+
+    ``check`` turns the stored configuration into a checked one (``RunConfig.from_stored``: the stored value and
+    where it comes from, for its errors); see :class:`StoredConfig` for why the caller hands it over.
 
     Raises :class:`~simtune.errors.SimtuneError` for a folder without a store, a store of an unknown version or
     one whose pages SQLite's quick check finds damaged, :class:`sqlite3.Error` for one it cannot open and
-    :class:`ValueError` for unreadable meta values.
+    :class:`ValueError` for unreadable meta values; ``check``'s error for a configuration it refuses.
     """
     store = RunStore.open_read_only(Path(run_dir))
     try:
@@ -115,7 +233,7 @@ def read_record(run_dir: Path | str) -> RunRecord:
             version=store.version,
             status=store.get("status"),
             message=store.get("message"),
-            config=store.get("config"),
+            config=None if (stored := store.get("config")) is None else check(stored, str(store.path)),
             command=store.get("command") or [],
             versions=store.get("versions") or {},
             fingerprint=store.get("fingerprint"),

@@ -283,10 +283,41 @@ def bundled_project() -> Project:
     return load_project(BUNDLED_DIR)
 
 
+#: A user's projects read in this process: the project file's resolved path -> the project and the state of the
+#: files it was read from (:func:`_files_state`).  A run's readers name its project by its file many times over
+#: (each task of each run of a report), and reading it means reading its robot, so it is read once; a file edited
+#: since is read again.
+_READ: dict[Path, tuple[Project, tuple]] = {}
+
+
+def _files_state(project: Project) -> tuple:
+    """Each file ``project`` was read from (its project file, task files and robot file) with its modification time
+    and size: what tells a project edited since it was read.  A file gone: None in its place."""
+    robot = project.robot.description
+    sources = [] if robot is None else [s for s in (robot.source, robot.mjcf) if s and s != "bundled"]
+    state: list[tuple[Path, int | None, int | None]] = []
+    for file in (project.file, *project.task_files.values(), *map(Path, sources)):
+        try:
+            stat = file.stat()
+            state.append((file, stat.st_mtime_ns, stat.st_size))
+        except OSError:
+            state.append((file, None, None))
+    return tuple(state)
+
+
 def get_project(project: Project | Path | str | None) -> Project:
-    """``project`` loaded: a Project as it is, a folder or file loaded, None the bundled MICO project."""
+    """``project`` loaded: a Project as it is, a folder or file loaded (once per process while its files stay as they
+    were), None the bundled MICO project."""
     if project is None:
         return bundled_project()
     if isinstance(project, Project):
         return project
-    return load_project(project)
+    file = find_project_file(Path(project))
+    key = file.resolve()
+    cached = _READ.get(key)
+    # the same spelling as well: a project read through another path names its files by that path
+    if cached is not None and cached[0].file == file and _files_state(cached[0]) == cached[1]:
+        return cached[0]
+    loaded = load_project(project)
+    _READ[key] = (loaded, _files_state(loaded))
+    return loaded
