@@ -86,3 +86,15 @@ def test_stored_configurations_keep_what_a_missing_key_meant():
 def test_no_prune_switches_pruning_off():
     prune = _params("tune")["prune"]
     assert prune.secondary_opts == ["--no-prune"] and prune.default is True  # type: ignore[attr-defined]
+
+
+def test_every_public_function_of_the_api_documents_its_args_and_returns():
+    import inspect
+
+    for name, function in inspect.getmembers(api, inspect.isfunction):
+        if name.startswith("_") or function.__module__ != api.__name__:
+            continue
+        doc = inspect.getdoc(function) or ""
+        assert "Returns:" in doc, name
+        if [p for p in inspect.signature(function).parameters]:
+            assert "Args:" in doc, name
