@@ -48,6 +48,7 @@ import numpy as np
 
 import simtune
 from simtune.controller import CONTROL_PERIOD
+from simtune.data.cache import CACHE_ENV, cache_dir  # noqa: F401  (CACHE_ENV: named here by callers and tests)
 from simtune.engines import engine_class, make_engine
 from simtune.engines.base import Rollout
 from simtune.fitness import marker_positions
@@ -68,8 +69,6 @@ PROBE_VERSION = 2
 PROBE_SEED = 0
 #: How far out along each hand axis the probe watches a point [m] (turns of the hand about the wrist).
 HAND_ARM_M = 0.1
-#: The environment variable that moves the cache (default ``$XDG_CACHE_HOME/simtune`` or ``~/.cache/simtune``).
-CACHE_ENV = "SIMTUNE_CACHE_DIR"
 
 
 def measured_reason(change: float, points: int = PROBE_POINTS) -> str:
@@ -257,14 +256,6 @@ def _tracks(params: list[dict[str, float]]) -> list[np.ndarray | None]:
             raise rollout
         found[i] = visible_track(rollout, params[i]) if rollout.stable else None
     return found
-
-
-def cache_dir() -> Path:
-    """Where probe results are cached: ``$SIMTUNE_CACHE_DIR``, else the user's cache folder."""
-    if os.environ.get(CACHE_ENV):
-        return Path(os.environ[CACHE_ENV])
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "simtune"
 
 
 def cache_key(engine: str, task: TaskSpec, space: ParameterSpace, points: int) -> str:

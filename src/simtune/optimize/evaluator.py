@@ -462,10 +462,18 @@ class Evaluator:
             return
         if self.before_simulating is not None:
             self.before_simulating(len(jobs))
-        start = time.perf_counter()
+        start, count = time.perf_counter(), len(jobs)
+        if not self.simulated_jobs and len(jobs) > 1:
+            # the session's first batch (auto: the opening's start point with its whole Jacobian, D + 1 rollouts
+            # in lockstep) would store its first evaluation only when all of them end: its first member goes
+            # alone, so that the start's fitness is stored, and shown, a rollout after the set-up.  A member's
+            # result does not depend on its batch (engines/mujoco/batch.py), so the search is the same.
+            first = next(iter(jobs))
+            yield from self._run(work, {first: jobs[first]})
+            jobs = {i: job for i, job in jobs.items() if i != first}
         yield from self._run(work, jobs)
         self.simulated_seconds += time.perf_counter() - start
-        self.simulated_jobs += len(jobs)
+        self.simulated_jobs += count
 
     def _run_batch(self, work: Callable, jobs: dict[int, tuple]) -> Iterator[tuple[int, object, Score, float]]:
         """:meth:`_run` in this process: the jobs as one batch of the objective (on ``workers`` threads with
