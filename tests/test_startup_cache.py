@@ -139,3 +139,12 @@ def test_the_first_batch_stores_its_first_member_before_the_rest_and_scores_each
         np.testing.assert_array_equal(r, want_r)
         assert s == want_s
     store.close()
+
+
+@pytest.mark.parametrize("text", ["arm", 'say "hi"', "it's", "both ' and \"", "a<b>&c", "tab\there\nline\r", ""])
+def test_the_model_generators_quoting_is_the_standard_librarys(text):
+    from xml.sax.saxutils import quoteattr as standard
+
+    from simtune.robot.generate import quoteattr
+
+    assert quoteattr(text) == standard(text)

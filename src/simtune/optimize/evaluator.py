@@ -46,10 +46,10 @@ import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, wait
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.linalg  # noqa: F401  (loads SciPy's own BLAS, so that threadpool_limits holds it too)
-from pebble import ProcessExpired, ProcessPool
 from threadpoolctl import threadpool_limits
 
 from simtune.controller import CONTROL_PERIOD
@@ -58,6 +58,9 @@ from simtune.errors import SimtuneError
 from simtune.fitness import PENALTY, Score, TaskScore
 from simtune.objective import Objective
 from simtune.spawn_guard import adopt_environment, check_main_guarded, sigint_blocked, worker_context
+
+if TYPE_CHECKING:
+    from pebble import ProcessPool
 from simtune.store import RunStore
 
 
@@ -327,6 +330,8 @@ class Evaluator:
     def __enter__(self) -> Evaluator:
         self._blas_limit = threadpool_limits(1, user_api="blas")  # lifted on exit (see the module's text)
         if self.workers > 1 and not self.threads:
+            from pebble import ProcessPool  # here: pebble imports asyncio, dear to a start that needs no pool
+
             check_main_guarded(f"{self.workers} workers")
             # worker_context: forked from a clean fork server, or spawned - no worker shares an engine with this process
             self._pool = ProcessPool(
@@ -376,6 +381,8 @@ class Evaluator:
         if pool is None:
             yield from self._run_batch(work, jobs)
             return
+        from pebble import ProcessExpired  # with the pool (see __enter__)
+
         indices = list(jobs)
         if self.chunked:
             units = [

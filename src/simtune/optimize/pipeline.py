@@ -43,7 +43,8 @@ local phase), so ``simtune resume`` replays it, taking every finished evaluation
 goes on where the killed session stopped: no finished evaluation is lost or simulated twice.  The point
 a local phase starts from was scored without residuals; it is simulated once more for them.  The
 opening's delay search (a dozen rollouts in the coordinating process, not stored: they are not
-evaluations of the search) is deterministic and is run again by a resumed run.
+evaluations of the search) is deterministic: a resumed run, like any later start on the same recordings,
+reads it from the start-up cache (:func:`simtune.alignment.cached_delay`) or runs it again.
 """
 
 from __future__ import annotations
