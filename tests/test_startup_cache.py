@@ -148,3 +148,17 @@ def test_the_model_generators_quoting_is_the_standard_librarys(text):
     from simtune.robot.generate import quoteattr
 
     assert quoteattr(text) == standard(text)
+
+
+def test_the_least_recently_used_entries_beyond_the_limit_are_removed(empty_cache, monkeypatch):
+    import os
+
+    monkeypatch.setattr(cache, "MAX_ENTRIES", 3)
+    for k in range(3):
+        cached("test", k, lambda k=k: k)
+        second = (k + 1) * 10**9
+        os.utime(empty_cache / "test" / f"{content_key(k)}.pickle", ns=(second, second))  # written a second apart
+    assert cached("test", 0, lambda: pytest.fail("read, not computed")) == 0  # used now: the most recent
+    cached("test", 3, lambda: 3)
+    assert len(list((empty_cache / "test").iterdir())) == 3
+    assert cached("test", 1, lambda: "computed again") == "computed again"  # 1 was the least recently used

@@ -38,6 +38,9 @@ import numpy as np
 CACHE_ENV = "SIMTUNE_CACHE_DIR"
 #: Changes whenever an entry's layout changes, so that no entry of an older layout is read.
 LAYOUT = 1
+#: Entries kept of each kind: writing one removes the least recently used beyond this many, so that the entries of
+#: older code and older recordings do not pile up (a ``cube`` reference is a quarter of a megabyte).
+MAX_ENTRIES = 32
 
 T = TypeVar("T")
 
@@ -112,6 +115,9 @@ def cached(kind: str, what: Any, compute: Callable[[], T]) -> T:
     if entry is None:
         entry = _computed(compute)
         _write(path, entry)
+        _prune(path.parent)
+    else:
+        _used(path)
     value, said = entry
     for warned in said:
         warned.again()
@@ -158,3 +164,21 @@ def _write(path: Path, entry: tuple[Any, list[_Warned]]) -> None:
             raise
     except (OSError, pickle.PicklingError, TypeError, AttributeError):
         pass  # a cache that cannot be written only costs the next start the same work again
+
+
+def _used(path: Path) -> None:
+    """Mark an entry as read now: :func:`_prune` removes the least recently used first."""
+    try:
+        os.utime(path)
+    except OSError:
+        pass
+
+
+def _prune(folder: Path) -> None:
+    """Remove the least recently used entries of ``folder`` beyond :data:`MAX_ENTRIES`."""
+    try:
+        entries = sorted(folder.glob("*.pickle"), key=lambda p: p.stat().st_mtime_ns)
+        for old in entries[: max(0, len(entries) - MAX_ENTRIES)]:
+            old.unlink(missing_ok=True)
+    except OSError:
+        pass  # another process pruned or wrote meanwhile: the next write prunes again
