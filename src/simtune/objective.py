@@ -91,7 +91,8 @@ def cached_recordings(folder: Path, task: str, options: dict) -> TaskData:
         files = folders_fingerprint({task: folder})[task]
     except OSError:
         return load_task_data(folder, task, **options)
-    what = {"folder": str(folder.resolve()), "files": files, "task": task, "options": options}
+    # the folder as given and as resolved: the result names its files by the path given
+    what = {"folder": [str(folder), str(folder.resolve())], "files": files, "task": task, "options": options}
     return cached("references", what, lambda: load_task_data(folder, task, **options))
 
 

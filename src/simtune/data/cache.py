@@ -7,8 +7,9 @@ inactive-parameter probe caches in) and reads it back on the next start.
 
 The key (:func:`content_key`) is a SHA-256 of what the result depends on, as the caller states it (the
 recordings' bytes, the task and its robot by content, the engine's version ...), and of simtune's own source
-code (:func:`code_digest`): any edit to simtune makes every entry a miss, so a stale entry can never stand in for
-a result the code would now compute differently.  The cost of a miss is the computation it would have run anyway.
+code and the versions of Python, NumPy and SciPy (:func:`code_digest`): any edit to simtune, or another NumPy,
+makes every entry a miss, so a stale entry can never stand in for a result the code would now compute
+differently.  The cost of a miss is the computation it would have run anyway.
 
 The warnings the computation raised (a repeat left out, a late clock) are kept with the entry and raised again
 on every read, from where they were raised first: a cached start says what an uncached one says.
@@ -25,6 +26,7 @@ import hashlib
 import json
 import os
 import pickle
+import platform
 import tempfile
 import warnings
 from collections.abc import Callable
@@ -55,9 +57,12 @@ def cache_dir() -> Path:
 
 @functools.cache
 def code_digest() -> str:
-    """SHA-256 of every Python source file of the simtune package (names and bytes), read once per process."""
+    """SHA-256 of every Python source file of the simtune package (names and bytes) and of the versions of Python,
+    NumPy and SciPy it runs on (their arithmetic makes the references and the scores), read once per process."""
+    import scipy  # the package alone: its modules are imported where they are used
+
     root = Path(__file__).resolve().parents[1]
-    digest = hashlib.sha256()
+    digest = hashlib.sha256(f"{platform.python_version()} {np.__version__} {scipy.__version__}".encode())
     for path in sorted(root.rglob("*.py")):
         digest.update(path.relative_to(root).as_posix().encode() + b"\0")
         digest.update(path.read_bytes())

@@ -381,8 +381,6 @@ class Evaluator:
         if pool is None:
             yield from self._run_batch(work, jobs)
             return
-        from pebble import ProcessExpired  # with the pool (see __enter__)
-
         indices = list(jobs)
         if self.chunked:
             units = [
@@ -428,19 +426,7 @@ class Evaluator:
                         else:
                             yield i, payload, Score.from_dict(score_or_error), wall_s
                     continue
-                wall_s, payload = time.perf_counter() - began, None
-                try:
-                    payload, score_dict, wall_s = future.result()
-                    score = Score.from_dict(score_dict)
-                except ProcessExpired as exc:
-                    score = self._failed(f"worker process died (exit code {exc.exitcode}); worker replaced")
-                except CancelledError:
-                    score = self._failed("evaluation cancelled; worker replaced")
-                except SimtuneError:
-                    raise
-                except Exception as exc:
-                    score = self._failed(f"{type(exc).__name__}: {exc}")
-                yield unit[0], payload, score, wall_s
+                yield unit[0], *self._single_result(future, time.perf_counter() - began)
             if self.eval_timeout is None:
                 continue
             for future in [f for f in still if f.running()]:
@@ -453,6 +439,23 @@ class Evaluator:
                         continue
                     reason = f"{TIMEOUT_REASON}{self.eval_timeout:g} s; worker replaced"
                     yield unit[0], None, self._failed(reason), time.perf_counter() - began
+
+    def _single_result(self, future: Future, waited_s: float) -> tuple[object, Score, float]:
+        """``(payload, score, wall_s)`` of a worker's one evaluation; a dead worker, a cancelled or a failed
+        evaluation gives a failed score (``wall_s``: ``waited_s``) and no payload, a SimtuneError stops the run."""
+        from pebble import ProcessExpired  # with the pool (see __enter__)
+
+        try:
+            payload, score_dict, wall_s = future.result()
+            return payload, Score.from_dict(score_dict), wall_s
+        except ProcessExpired as exc:
+            return None, self._failed(f"worker process died (exit code {exc.exitcode}); worker replaced"), waited_s
+        except CancelledError:
+            return None, self._failed("evaluation cancelled; worker replaced"), waited_s
+        except SimtuneError:
+            raise
+        except Exception as exc:
+            return None, self._failed(f"{type(exc).__name__}: {exc}"), waited_s
 
     def _costs(self, vectors: list[np.ndarray]) -> list[float]:
         """Each member's physics steps per control period, relative (its time step, where the space tunes it):
