@@ -96,5 +96,5 @@ def test_every_public_function_of_the_api_documents_its_args_and_returns():
             continue
         doc = inspect.getdoc(function) or ""
         assert "Returns:" in doc, name
-        if [p for p in inspect.signature(function).parameters]:
+        if inspect.signature(function).parameters:
             assert "Args:" in doc, name

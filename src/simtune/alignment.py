@@ -19,9 +19,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from simtune.data.cache import cached
 from simtune.data.onset import motion_onset
 from simtune.fitness import marker_positions
-from simtune.objective import Objective
+from simtune.objective import Objective, simulation_content
 from simtune.params import find_parameter
 from simtune.tasks import TaskSpec
 
@@ -99,6 +100,15 @@ def estimate_delay(objective: Objective, task: TaskSpec, params: dict[str, float
     finally:
         one.close()
     return DelayEstimate(task.name, recorded, simulated, first, delay, unaligned, best, rollouts)
+
+
+def cached_delay(objective: Objective, task: TaskSpec, params: dict[str, float]) -> DelayEstimate:
+    """:func:`estimate_delay`, read from the start-up cache (:mod:`simtune.data.cache`) where the same search ran
+    before: a dozen rollouts at every start of ``auto``.  The key is the engine and its version, the task and its
+    robot by content, its reference by value and ``params``: what the search's rollouts and scores depend on."""
+    what = simulation_content(objective.engine, [task], objective.references)
+    what["params"] = dict(sorted(params.items()))
+    return cached("delay", what, lambda: estimate_delay(objective, task, params))
 
 
 def aligned(params: dict[str, float], estimates: list[DelayEstimate]) -> dict[str, float]:

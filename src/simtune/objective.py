@@ -15,7 +15,10 @@ from typing import TypeVar
 
 import numpy as np
 
+from simtune.activity import task_content
 from simtune.data import TaskData, load_task_data
+from simtune.data.cache import cached, value_digest
+from simtune.data.fingerprint import folders_fingerprint
 from simtune.data.sanity import JointRange
 from simtune.engines import Engine, engine_class, make_engine
 from simtune.engines.base import MarkerBudget, Rollout
@@ -54,9 +57,7 @@ def load_task_recordings(
     track the object: joint logs alone are a one-line error.
     """
     ranges = joint_ranges(task)
-    data = load_task_data(
-        folder,
-        task.name,
+    options = dict(
         wrist_body=task.wrist_body,
         object_body=task.object.mocap_body if task.object is not None else None,
         duration_s=task.duration,
@@ -70,6 +71,7 @@ def load_task_recordings(
         repeats=repeats,
         keep_repeats=keep_repeats,
     )
+    data = cached_recordings(Path(folder), task.name, options)
     if task.start_from_recordings and task.object is not None and data.object_start_mean is None:
         raise RecordingError(
             f"task {task.name!r}: start_from_recordings = true starts the object where the recordings track it, "
@@ -77,6 +79,40 @@ def load_task_recordings(
             "set start_from_recordings = false in its task file, or record the object"
         )
     return data
+
+
+def cached_recordings(folder: Path, task: str, options: dict) -> TaskData:
+    """``load_task_data(folder, task, **options)``, read from the start-up cache (:mod:`simtune.data.cache`) where the
+    same recordings were loaded with the same options before: reading, screening and aligning ``cube``'s 23 repeats
+    costs a second.  The key is the recordings' bytes (:func:`~simtune.data.fingerprint.folders_fingerprint`), the
+    folder (the result names its files) and the options; a folder that cannot be fingerprinted is loaded as it is,
+    so that the loader's own error says what is wrong with it."""
+    try:
+        files = folders_fingerprint({task: folder})[task]
+    except OSError:
+        return load_task_data(folder, task, **options)
+    # the folder as given and as resolved: the result names its files by the path given
+    what = {"folder": [str(folder), str(folder.resolve())], "files": files, "task": task, "options": options}
+    return cached("references", what, lambda: load_task_data(folder, task, **options))
+
+
+def simulation_content(engine: str, tasks: Sequence[TaskSpec], references: dict[str, TaskData]) -> dict:
+    """What a simulation of ``tasks`` against ``references`` depends on besides its parameters and simtune's code,
+    for a start-up cache's key (:mod:`simtune.data.cache`): the engine and its version, each task and its robot by
+    content (:func:`simtune.activity.task_content`), each task's reference by value."""
+    return {
+        "engine": f"{engine} {engine_class(engine).version()}",
+        "tasks": [task_content(t) for t in tasks],
+        "references": [value_digest(references[t.name]) for t in tasks],
+    }
+
+
+def generic_score(objective: Objective) -> Score:
+    """``objective.score({})``, the engine's generic parameters, read from the start-up cache where the same
+    engine, tasks, references and weights were scored before."""
+    what = simulation_content(objective.engine, objective.tasks, objective.references)
+    what["weights"] = objective.weights.as_dict()
+    return cached("generic", what, lambda: objective.score({}))
 
 
 def joint_ranges(task: TaskSpec) -> dict[str, JointRange]:

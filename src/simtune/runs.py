@@ -47,7 +47,7 @@ from simtune.activity import announce, robot_content
 from simtune.common.spawn_guard import check_main_guarded, start_worker_server
 from simtune.data.fingerprint import fingerprint_changes, folders_fingerprint
 from simtune.errors import RunInterrupted, SimtuneError
-from simtune.objective import Objective, recordings_folder
+from simtune.objective import Objective, generic_score, recordings_folder
 from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squares_refine
 from simtune.optimize.evaluator import timed_out
 from simtune.optimize.progress import TuneProgress
@@ -310,7 +310,7 @@ def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> T
     announce(f"reading and aligning the recordings of {config.tasks} ({config.reference} reference) ...")
     objective = plan.objective()  # checks engine, tasks, space and data before any folder is made
     announce(f"scoring {config.engine}'s generic parameters, then tuning {len(objective.vector_space())} parameter(s)")
-    generic = objective.score({})
+    generic = generic_score(objective)
     _make_folder(run_dir)
     with run_lock(run_dir):
         _check_vacant(run_dir, locked=True)  # again: another process may have started a run meanwhile
@@ -422,7 +422,7 @@ def _rescore(run_dir: Path, store: RunStore, plan: RunPlan, changes: list[str], 
     # the new data must load before the old run is moved aside
     objective = plan.objective(store.get("inactive_parameters"))
     _check_parameters(run_dir, objective, store, plan.config)
-    generic = objective.score({})
+    generic = generic_score(objective)
     store.close()
     kept = _supersede(run_dir)
     population = None if checkpoint is None else np.atleast_2d(checkpoint["population"])

@@ -46,10 +46,10 @@ import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, wait
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.linalg  # noqa: F401  (loads SciPy's own BLAS, so that threadpool_limits holds it too)
-from pebble import ProcessExpired, ProcessPool
 from threadpoolctl import threadpool_limits
 
 from simtune.common.spawn_guard import adopt_environment, check_main_guarded, sigint_blocked, worker_context
@@ -58,6 +58,9 @@ from simtune.engines.controller import CONTROL_PERIOD
 from simtune.errors import SimtuneError
 from simtune.fitness import PENALTY, Score, TaskScore
 from simtune.objective import Objective
+
+if TYPE_CHECKING:
+    from pebble import ProcessPool
 from simtune.store import RunStore
 
 
@@ -327,6 +330,8 @@ class Evaluator:
     def __enter__(self) -> Evaluator:
         self._blas_limit = threadpool_limits(1, user_api="blas")  # lifted on exit (see the module's text)
         if self.workers > 1 and not self.threads:
+            from pebble import ProcessPool  # here: pebble imports asyncio, dear to a start that needs no pool
+
             check_main_guarded(f"{self.workers} workers")
             # worker_context: forked from a clean fork server, or spawned - no worker shares an engine with this process
             self._pool = ProcessPool(
@@ -421,19 +426,7 @@ class Evaluator:
                         else:
                             yield i, payload, Score.from_dict(score_or_error), wall_s
                     continue
-                wall_s, payload = time.perf_counter() - began, None
-                try:
-                    payload, score_dict, wall_s = future.result()
-                    score = Score.from_dict(score_dict)
-                except ProcessExpired as exc:
-                    score = self._failed(f"worker process died (exit code {exc.exitcode}); worker replaced")
-                except CancelledError:
-                    score = self._failed("evaluation cancelled; worker replaced")
-                except SimtuneError:
-                    raise
-                except Exception as exc:
-                    score = self._failed(f"{type(exc).__name__}: {exc}")
-                yield unit[0], payload, score, wall_s
+                yield unit[0], *self._single_result(future, time.perf_counter() - began)
             if self.eval_timeout is None:
                 continue
             for future in [f for f in still if f.running()]:
@@ -446,6 +439,23 @@ class Evaluator:
                         continue
                     reason = f"{TIMEOUT_REASON}{self.eval_timeout:g} s; worker replaced"
                     yield unit[0], None, self._failed(reason), time.perf_counter() - began
+
+    def _single_result(self, future: Future, waited_s: float) -> tuple[object, Score, float]:
+        """``(payload, score, wall_s)`` of a worker's one evaluation; a dead worker, a cancelled or a failed
+        evaluation gives a failed score (``wall_s``: ``waited_s``) and no payload, a SimtuneError stops the run."""
+        from pebble import ProcessExpired  # with the pool (see __enter__)
+
+        try:
+            payload, score_dict, wall_s = future.result()
+            return payload, Score.from_dict(score_dict), wall_s
+        except ProcessExpired as exc:
+            return None, self._failed(f"worker process died (exit code {exc.exitcode}); worker replaced"), waited_s
+        except CancelledError:
+            return None, self._failed("evaluation cancelled; worker replaced"), waited_s
+        except SimtuneError:
+            raise
+        except Exception as exc:
+            return None, self._failed(f"{type(exc).__name__}: {exc}"), waited_s
 
     def _costs(self, vectors: list[np.ndarray]) -> list[float]:
         """Each member's physics steps per control period, relative (its time step, where the space tunes it):
@@ -462,10 +472,18 @@ class Evaluator:
             return
         if self.before_simulating is not None:
             self.before_simulating(len(jobs))
-        start = time.perf_counter()
+        start, count = time.perf_counter(), len(jobs)
+        if not self.simulated_jobs and len(jobs) > 1:
+            # the session's first batch (auto: the opening's start point with its whole Jacobian, D + 1 rollouts
+            # in lockstep) would store its first evaluation only when all of them end: its first member goes
+            # alone, so that the start's fitness is stored, and shown, a rollout after the set-up.  A member's
+            # result does not depend on its batch (engines/mujoco/batch.py), so the search is the same.
+            first = next(iter(jobs))
+            yield from self._run(work, {first: jobs[first]})
+            jobs = {i: job for i, job in jobs.items() if i != first}
         yield from self._run(work, jobs)
         self.simulated_seconds += time.perf_counter() - start
-        self.simulated_jobs += len(jobs)
+        self.simulated_jobs += count
 
     def _run_batch(self, work: Callable, jobs: dict[int, tuple]) -> Iterator[tuple[int, object, Score, float]]:
         """:meth:`_run` in this process: the jobs as one batch of the objective (on ``workers`` threads with

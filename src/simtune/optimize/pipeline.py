@@ -43,16 +43,16 @@ local phase), so ``simtune resume`` replays it, taking every finished evaluation
 goes on where the killed session stopped: no finished evaluation is lost or simulated twice.  The point
 a local phase starts from was scored without residuals; it is simulated once more for them.  The
 opening's delay search (a dozen rollouts in the coordinating process, not stored: they are not
-evaluations of the search) is deterministic and is run again by a resumed run.
+evaluations of the search) is deterministic: a resumed run, like any later start on the same recordings,
+reads it from the start-up cache (:func:`simtune.alignment.cached_delay`) or runs it again.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import differential_evolution
-from scipy.stats import qmc
 
-from simtune.alignment import delay_parameter, estimate_delay
+from simtune.alignment import cached_delay, delay_parameter
 from simtune.objective import Objective, generic_values
 from simtune.optimize.base import BatchSearch, BudgetSpent
 from simtune.optimize.de import DE_SETTINGS, POPSIZE
@@ -174,7 +174,7 @@ def aligned_generic_start(objective: Objective) -> np.ndarray:
     for task in objective.tasks:
         name = delay_parameter(task.name) if delay_parameter(task.name) in space.names else "command_delay"
         if name in space.names:
-            values[name] = estimate_delay(objective, task, values).delay_s
+            values[name] = cached_delay(objective, task, values).delay_s
     return space.vector_within_bounds(values)
 
 
@@ -212,6 +212,8 @@ def _opening_draw(dim: int, seed: int) -> tuple[np.random.Generator, np.ndarray,
     stays random (rows 1 to it are drawn around the opening's best point)."""
     size = global_population_size(dim)
     rng = np.random.default_rng(seed)
+    from scipy.stats import qmc  # here, not above: scipy.stats takes half a second to import, after the opening
+
     unit = qmc.LatinHypercube(d=dim, rng=rng).random(size)
     return rng, unit, 1 + int(NEAR_SHARE * size)
 

@@ -15,7 +15,6 @@ import re
 import tempfile
 from pathlib import Path
 from typing import Protocol
-from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
@@ -23,6 +22,20 @@ from simtune.common.geometry import matrix_quat_wxyz, rpy_matrix
 from simtune.robot.description import Box, Cylinder, Joint, Link, Mesh, RobotDescription, Sphere
 from simtune.robot.meshes import convex_hull_file
 from simtune.robot.mjcf import home_pose as mjcf_home_pose
+
+
+def quoteattr(text: str) -> str:
+    """An XML attribute value, escaped and quoted as ``xml.sax.saxutils.quoteattr`` does it, character for character
+    (``tests/test_startup_cache.py`` compares them): that module imports ``urllib.request``, and with it ``http``,
+    ``email`` and ``ssl``, a tenth of a second of every start of simtune."""
+    text = text.replace("&", "&amp;").replace(">", "&gt;").replace("<", "&lt;")
+    text = text.replace("\n", "&#10;").replace("\r", "&#13;").replace("\t", "&#9;")
+    if '"' not in text:
+        return f'"{text}"'
+    if "'" not in text:
+        return f"'{text}'"
+    return '"' + text.replace('"', "&quot;") + '"'
+
 
 #: Gain of MuJoCo's joint velocity servos [N m s/rad].
 SERVO_KV = 50.0
