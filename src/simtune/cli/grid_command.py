@@ -6,20 +6,17 @@ from __future__ import annotations
 import os
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
 from simtune.cli.options import (
-    DataOpt,
-    KeepInactiveOpt,
-    ReferenceOpt,
     RepeatSetOpt,
-    max_generations_option,
     max_seconds_option,
     out_option,
 )
-from simtune.cli.output import err, only_names, out, split
+from simtune.cli.output import err, out, split
+from simtune.cli.run_options import run_options
 from simtune.common.console import text_table
 
 ExperimentsOpt = Annotated[
@@ -57,12 +54,12 @@ PlanOpt = Annotated[bool, typer.Option("--plan", help="Print the grid's size and
 ClusterCoresOpt = Annotated[int, typer.Option(min=1, help="With --plan: cores of the cluster to estimate for.")]
 
 
+@run_options("data", "max_generations", "only", "keep_inactive", "reference")
 def grid(
     engines: Annotated[str, typer.Option(help="Engines, comma-separated.")] = "mujoco,pybullet",
     tasks: ExperimentsOpt = "single,cube",
     spaces: Annotated[str, typer.Option(help="Parameter spaces, comma-separated.")] = "shared,individual",
     repeats: RepeatsOpt = 10,
-    data: DataOpt = None,
     out_dir: GridOutOpt = Path("runs/grid"),
     executor: ExecutorOpt = "local",
     scheduler: SchedulerOpt = None,
@@ -71,13 +68,10 @@ def grid(
     max_seconds_per_run: Annotated[
         float | None, max_seconds_option("Wall-time limit of each optimisation [s].")
     ] = None,
-    max_generations: Annotated[int, max_generations_option("Generation limit of each optimisation.")] = 1000,
-    only: Annotated[str | None, typer.Option(help="Tune only these parameters (comma-separated).")] = None,
-    keep_inactive: KeepInactiveOpt = False,
-    reference: ReferenceOpt = None,
     repeat_set: RepeatSetOpt = None,
     plan: PlanOpt = False,
     cluster_cores: ClusterCoresOpt = 100,
+    **settings: Any,
 ) -> None:
     """Run an experiment grid (engines x tasks x spaces x repeats), resumably, locally or on Dask.
 
@@ -92,16 +86,12 @@ def grid(
         split(tasks),
         split(spaces),
         repeats=repeats,
-        data=data,
         max_seconds_per_run=max_seconds_per_run,
-        max_generations=max_generations,
-        only=only_names(only),
-        keep_inactive=keep_inactive,
-        reference=reference,
         repeat_set=repeat_set,
+        **settings,  # the run settings a grid's units share (data, generations, only, inactive, reference)
     )
     if plan:
-        _print_plan(spec, max_generations, cluster_cores)
+        _print_plan(spec, settings["max_generations"], cluster_cores)
         return
     _run(spec, out_dir, executor=executor, workers=workers, scheduler=scheduler, index_url=index_url)
 
