@@ -34,8 +34,8 @@ def test_every_run_setting_is_a_tune_option_with_runconfigs_default():
 def test_the_studies_take_runconfigs_defaults_but_their_declared_own():
     for command, own in (("transfer", TRANSFER_DEFAULTS), ("compare", COMPARE_DEFAULTS), ("grid", {})):
         for name, param in _params(command).items():
-            # grid's --repeats counts seeds (its --repeat-set is the run setting): a name of its own
-            if name in setting_options() and (command, name) != ("grid", "repeats"):
+            # grid's --tasks lists experiments and its --repeats counts seeds (--repeat-set is the run setting)
+            if name in setting_options() and (command, name) not in (("grid", "tasks"), ("grid", "repeats")):
                 assert param.default == own.get(name, cli_default(name)), (command, name)
 
 
