@@ -32,10 +32,15 @@ def test_every_run_setting_is_a_tune_option_with_runconfigs_default():
 
 
 def test_the_studies_take_runconfigs_defaults_but_their_declared_own():
-    for command, own in (("transfer", TRANSFER_DEFAULTS), ("compare", COMPARE_DEFAULTS), ("grid", {})):
+    # grid's own --tasks (experiments), --repeats (seeds) and --workers (optimisations at once) are not run settings
+    grid = ("data", "max_generations", "only", "keep_inactive", "reference")
+    for command, own, names in (
+        ("transfer", TRANSFER_DEFAULTS, setting_options()),
+        ("compare", COMPARE_DEFAULTS, setting_options()),
+        ("grid", {}, grid),
+    ):
         for name, param in _params(command).items():
-            # grid's --tasks lists experiments and its --repeats counts seeds (--repeat-set is the run setting)
-            if name in setting_options() and (command, name) not in (("grid", "tasks"), ("grid", "repeats")):
+            if name in names:
                 assert param.default == own.get(name, cli_default(name)), (command, name)
 
 
