@@ -9,9 +9,11 @@ and ``tune --only command_delay`` in MuJoCo and PyBullet (each against recording
 engine's forward kinematics of the tracked link against the description's own at 3 random poses.
 
     python benchmarks/robot_corpus.py [--robots "SO-101,UR5"] [--tune-seconds 60] [--tune-evaluations 30]
-        [--results benchmarks/results]
+        [--results benchmarks/results] [--robosuite]
 
-Writes ``robot-corpus-<date>.md`` (the table) and ``.json`` to --results; prints the table.
+Writes ``robot-corpus-<date>.md`` (the table) and ``.json`` to --results; prints the table.  ``--robosuite``
+walks robosuite's seven MJCF arms instead (``robot_corpus.ROBOSUITE``: robosuite is in no extra, so they are not
+in the corpus), to ``robot-corpus-robosuite-<date>.md`` and ``.json``.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ from common import add_results_option, make_parser, today, write_json_result, wr
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
-from robot_corpus import AGREE_M, CORPUS, DELAY_TOLERANCE_S, ENGINES, TRUE_DELAY_S, TUNED_IN, walk
+from robot_corpus import AGREE_M, CORPUS, DELAY_TOLERANCE_S, ENGINES, ROBOSUITE, TRUE_DELAY_S, TUNED_IN, walk
 
 GENERIC = tuple(e for e in ENGINES if e != "mujoco")
 
@@ -84,9 +86,13 @@ def main() -> None:
     parser.add_argument("--robots", default="", help="robot names joined by commas (default: the whole corpus)")
     parser.add_argument("--tune-seconds", type=float, default=60.0)
     parser.add_argument("--tune-evaluations", type=int, default=0, help="evaluations per delay search (0: no cap)")
+    parser.add_argument(
+        "--robosuite", action="store_true", help="walk robosuite's seven MJCF arms instead (not in the corpus)"
+    )
     add_results_option(parser)
     args = parser.parse_args()
-    chosen = [r for r in CORPUS if not args.robots or r.name in args.robots.split(",")]
+    arms = ROBOSUITE if args.robosuite else CORPUS
+    chosen = [r for r in arms if not args.robots or r.name in args.robots.split(",")]
     rows = []
     load = os.getloadavg()
     start_all = time.perf_counter()
@@ -102,6 +108,7 @@ def main() -> None:
         print(f"{robot.name}: {row['wall_s']:.0f} s {json.dumps(row, default=str)}", flush=True)
     text = table(rows)
     budget = f" --tune-evaluations {args.tune_evaluations}" if args.tune_evaluations else ""
+    budget += " --robosuite" if args.robosuite else ""
     header = (
         f"Robot corpus, {today()}: `python benchmarks/robot_corpus.py --tune-seconds {args.tune_seconds:g}{budget}`"
         f" on {os.cpu_count()} cores, load average {load[0]:.1f} at the start and {os.getloadavg()[0]:.1f} at the "
@@ -110,8 +117,9 @@ def main() -> None:
         "tuned for the delay columns.  'to MuJoCo': the mean distance between the engine's tracked link and "
         f"MuJoCo's over the generic example reach (agreement: within {1000 * AGREE_M:g} mm).\n\n"
     )
-    write_result(args.results, "robot-corpus", "md", header + text + "\n")
-    write_json_result(args.results, "robot-corpus", rows, indent=1, newline=False)
+    name = "robot-corpus-robosuite" if args.robosuite else "robot-corpus"
+    write_result(args.results, name, "md", header + text + "\n")
+    write_json_result(args.results, name, rows, indent=1, newline=False)
     print(header + text)
 
 

