@@ -227,8 +227,9 @@ def test_the_report_rescores_against_each_runs_repeats_or_those_asked_for() -> N
 
     from simtune.report.simulate import References
 
-    even_run = SimpleNamespace(reference="aligned", repeats="even")
-    old_run = SimpleNamespace(reference="mean", repeats="all")  # the defaults of a run stored before the choices
+    even_run = SimpleNamespace(config=SimpleNamespace(reference="aligned", repeats="even"))
+    # the defaults of a run stored before the choices
+    old_run = SimpleNamespace(config=SimpleNamespace(reference="mean", repeats="all"))
     own, odd = References(), References(None, "odd")
     assert (own.selection(even_run), own.label(even_run)) == ("even", "aligned of the even repeats")
     assert (own.selection(old_run), own.label(old_run)) == ("all", "mean")

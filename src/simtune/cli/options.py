@@ -234,9 +234,20 @@ KeepInactiveOpt = Annotated[
         "`simtune params --task T`) in the search: the paper's full D. --paper-exact implies it.",
     ),
 ]
+def parameter_names(text: str | None) -> str | None:
+    """--only's text: None, or one naming at least one parameter (an --only that names none is an error, never the
+    whole space)."""
+    if text is not None and not [name for name in text.split(",") if name.strip()]:
+        raise typer.BadParameter(f"no parameter named in {text!r}: name one or more, e.g. --only command_delay")
+    return text
+
+
 OnlyOpt = Annotated[
     str | None,
-    typer.Option(help="Only these parameters of the space (comma-separated); the rest keep their generic values."),
+    typer.Option(
+        help="Only these parameters of the space (comma-separated); the rest keep their generic values.",
+        callback=parameter_names,
+    ),
 ]
 WorkersOpt = Annotated[
     int,
