@@ -234,6 +234,8 @@ KeepInactiveOpt = Annotated[
         "`simtune params --task T`) in the search: the paper's full D. --paper-exact implies it.",
     ),
 ]
+
+
 def parameter_names(text: str | None) -> str | None:
     """--only's text: None, or one naming at least one parameter (an --only that names none is an error, never the
     whole space)."""
