@@ -9,6 +9,7 @@ import pytest
 
 from simtune import activity
 from simtune.activity import Activity, active_space, inactive_parameters, measure_activity, task_activity
+from simtune.common.cache import CACHE_ENV
 from simtune.engines import engine_class
 from simtune.params import get_space
 from simtune.reference import REFERENCE_DIR
@@ -58,7 +59,7 @@ def test_probe_on_worker_processes_finds_what_one_process_finds(cube_probe):
 
 
 def test_probe_is_cached_per_engine_task_and_space(tmp_path, monkeypatch):
-    monkeypatch.setenv(activity.CACHE_ENV, str(tmp_path))
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
     monkeypatch.setattr(activity, "_MEMORY", {})
     space = get_space("extended", engine_class("mujoco").supported(), ["mass_cube_wood", "command_delay"])
     first = task_activity("mujoco", get_task("cube"), space)

@@ -9,6 +9,7 @@ import pytest
 
 from simtune import activity
 from simtune.activity import Activity, announcing, cache_key, robot_content, task_activity
+from simtune.common.cache import CACHE_ENV
 from simtune.engines import engine_class
 from simtune.params import get_space
 from simtune.project import BUNDLED_DIR, load_project
@@ -233,7 +234,7 @@ def fake_probe(calls: list):
 
 @pytest.fixture
 def empty_cache(tmp_path, monkeypatch) -> list:
-    monkeypatch.setenv(activity.CACHE_ENV, str(tmp_path / "cache"))
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
     monkeypatch.setattr(activity, "_MEMORY", {})
     calls: list = []
     monkeypatch.setattr(activity, "measure_activity", fake_probe(calls))

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from simtune import alignment
+from simtune.common.cache import CACHE_ENV
 from simtune.data import cache
 from simtune.data.cache import cached, content_key
 from simtune.engines import engine_class
@@ -23,7 +24,7 @@ from simtune.tasks import parse_tasks
 
 @pytest.fixture
 def empty_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path / "cache"))
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
     return tmp_path / "cache"
 
 

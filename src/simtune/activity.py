@@ -19,7 +19,7 @@ An inactive parameter's reason is the engine's own (``Engine.inactive_parameters
 it declared one; otherwise the measurement itself.  A parameter the engine declares
 inactive but that the probe sees moving stays active (the measurement decides).
 
-Results are cached per engine x task x space in a small JSON file (:func:`cache_dir`), keyed by
+Results are cached per engine x task x space in a small JSON file (:func:`simtune.common.cache.cache_root`), keyed by
 what the outcome depends on (:func:`cache_key`): simtune's and the engine's versions, the task as the
 engine runs it with its robot by content (mesh and MJCF files by their bytes, never by their paths),
 the space's names and bounds, and the probe's settings.  So a second checkout of a project, in
@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 import simtune
-from simtune.common.cache import CACHE_ENV, cache_root  # noqa: F401 (CACHE_ENV: tests move the cache)
+from simtune.common.cache import cache_root
 from simtune.common.spawn_guard import adopt_environment, check_main_guarded, worker_context
 from simtune.engines import engine_class, make_engine
 from simtune.engines.base import Rollout
@@ -256,11 +256,6 @@ def _tracks(params: list[dict[str, float]]) -> list[np.ndarray | None]:
             raise rollout
         found[i] = visible_track(rollout, params[i]) if rollout.stable else None
     return found
-
-
-def cache_dir() -> Path:
-    """The cache folder the probe's results are kept under (:func:`simtune.common.cache.cache_root`)."""
-    return cache_root()
 
 
 def cache_key(engine: str, task: TaskSpec, space: ParameterSpace, points: int) -> str:
@@ -518,7 +513,9 @@ def task_activity(
     Returns:
         Parameter name -> its :class:`Activity`, in the space's order.
     """
-    path = cache_dir() / "activity" / f"{engine}-{task.name}-{space.name}-{cache_key(engine, task, space, points)}.json"
+    path = (
+        cache_root() / "activity" / f"{engine}-{task.name}-{space.name}-{cache_key(engine, task, space, points)}.json"
+    )
     if use_cache and path in _MEMORY:
         return _MEMORY[path]
     if use_cache:

@@ -2,8 +2,8 @@
 
 A warm start of ``simtune tune`` read and aligned the same recordings, searched the same command delay and
 scored the same generic point as the run before it: seconds of work whose result is fixed by its inputs.
-:func:`cached` keeps such a result in a file under :func:`cache_dir` (``$SIMTUNE_CACHE_DIR``, the folder the
-inactive-parameter probe caches in) and reads it back on the next start.
+:func:`cached` keeps such a result in a file under :func:`simtune.common.cache.cache_root`
+(``$SIMTUNE_CACHE_DIR``, the folder the inactive-parameter probe caches in) and reads it back on the next start.
 
 The key (:func:`content_key`) is a SHA-256 of what the result depends on, as the caller states it (the
 recordings' bytes, the task and its robot by content, the engine's version ...), and of simtune's own source
@@ -36,7 +36,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from simtune.common.cache import CACHE_ENV, cache_root  # noqa: F401 (CACHE_ENV: named by callers and tests)
+from simtune.common.cache import cache_root
 
 #: Changes whenever an entry's layout changes, so that no entry of an older layout is read.
 LAYOUT = 1
@@ -45,12 +45,6 @@ LAYOUT = 1
 MAX_ENTRIES = 32
 
 T = TypeVar("T")
-
-
-def cache_dir() -> Path:
-    """Where simtune caches (:func:`simtune.common.cache.cache_root`: ``$SIMTUNE_CACHE_DIR``, else the user's cache
-    folder)."""
-    return cache_root()
 
 
 @functools.cache
@@ -113,7 +107,7 @@ def cached(kind: str, what: Any, compute: Callable[[], T]) -> T:
     Returns:
         The result, computed now or read back.
     """
-    path = cache_dir() / kind / f"{content_key(what)}.pickle"
+    path = cache_root() / kind / f"{content_key(what)}.pickle"
     entry = _read(path)
     if entry is None:
         entry = _computed(compute)
