@@ -300,6 +300,35 @@ class RobotDescription:
                     rot = rot @ r
         return pos, rot
 
+    def driven_axes(
+        self, q: np.ndarray | None = None
+    ) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], list[tuple[np.ndarray, np.ndarray, set[str]]]]:
+        """Every link's frame at a pose, and per driven joint its axis and where it stands, with the links it moves:
+        what the joint-space inertia, the mass matrix and a per-link damping torque each sum over.
+
+        Args:
+            q: the driven joints' positions [rad or m]; default the zero pose.
+
+        Returns:
+            ``(frames, axes)``: link name -> its (position, rotation) in the world; per driven joint ``(axis,
+            origin, below)``, its unit axis and its child frame's origin in the world and the names of the links
+            below it (its child included).
+        """
+        q = np.zeros(self.n_joints) if q is None else np.asarray(q, dtype=float)
+        frames = {link.name: self.forward_kinematics(q, link.name) for link in self.links}
+        axes = []
+        for name in self.arm_joints:
+            joint = self.joint_by_name[name]
+            origin, turn = frames[joint.child]
+            axis = turn @ np.asarray(joint.axis, dtype=float)
+            axis /= np.linalg.norm(axis)
+            below = {joint.child}
+            for other in self.joints:  # parents before children
+                if other.parent in below:
+                    below.add(other.child)
+            axes.append((axis, origin, below))
+        return frames, axes
+
     def joint_inertias(self, q: np.ndarray | None = None) -> np.ndarray:
         """Per driven joint, the moment of inertia [kg m^2] about its axis of every link below it: what its servo
         accelerates (the arm's reflected inertia, no motor rotor).
@@ -310,18 +339,9 @@ class RobotDescription:
         Returns:
             One inertia per driven joint.
         """
-        q = np.zeros(self.n_joints) if q is None else np.asarray(q, dtype=float)
-        frames = {link.name: self.forward_kinematics(q, link.name) for link in self.links}
+        frames, axes = self.driven_axes(q)
         inertias = np.zeros(self.n_joints)
-        for i, name in enumerate(self.arm_joints):
-            joint = self.joint_by_name[name]
-            origin, turn = frames[joint.child]
-            axis = turn @ np.asarray(joint.axis, dtype=float)
-            axis /= np.linalg.norm(axis)
-            below = {joint.child}
-            for other in self.joints:  # parents before children
-                if other.parent in below:
-                    below.add(other.child)
+        for i, (axis, origin, below) in enumerate(axes):
             for link_name in below:
                 link = self.link_by_name[link_name]
                 pos, rot = frames[link_name]
@@ -341,21 +361,13 @@ class RobotDescription:
         Returns:
             An (n, n) symmetric matrix, n the number of driven joints.
         """
-        q = np.zeros(self.n_joints) if q is None else np.asarray(q, dtype=float)
-        frames = {link.name: self.forward_kinematics(q, link.name) for link in self.links}
+        frames, axes = self.driven_axes(q)
         n = self.n_joints
         moved: dict[str, list[tuple[int, np.ndarray, np.ndarray, bool]]] = {}  # link -> (joint, axis, origin, slides)
-        for i, name in enumerate(self.arm_joints):
-            joint = self.joint_by_name[name]
-            origin, turn = frames[joint.child]
-            axis = turn @ np.asarray(joint.axis, dtype=float)
-            below = {joint.child}
-            for other in self.joints:  # parents before children
-                if other.parent in below:
-                    below.add(other.child)
-            axis = axis / np.linalg.norm(axis)
+        for i, (axis, origin, below) in enumerate(axes):
+            slides = self.joint_by_name[self.arm_joints[i]].kind == "prismatic"
             for link_name in below:
-                moved.setdefault(link_name, []).append((i, axis, origin, joint.kind == "prismatic"))
+                moved.setdefault(link_name, []).append((i, axis, origin, slides))
         matrix = np.zeros((n, n))
         for link_name, joints in moved.items():
             link = self.link_by_name[link_name]

@@ -61,18 +61,11 @@ def link_damping_torques(robot, speed: float) -> list[float]:
     mass and inertia and above what a joint's force limit holds on a heavy arm.  No other engine damps a link."""
     import numpy as np
 
-    k, q = BULLET_LINK_DAMPING, np.zeros(robot.n_joints)
-    frames = {link.name: robot.forward_kinematics(q, link.name) for link in robot.links}
+    k = BULLET_LINK_DAMPING
+    frames, axes = robot.driven_axes()
     torques = []
-    for name in robot.arm_joints:
+    for name, (axis, origin, below) in zip(robot.arm_joints, axes):
         joint = robot.joint_by_name[name]
-        origin, turn = frames[joint.child]
-        axis = turn @ np.asarray(joint.axis, dtype=float)
-        axis /= np.linalg.norm(axis)
-        below = {joint.child}
-        for other in robot.joints:  # parents before children
-            if other.parent in below:
-                below.add(other.child)
         torque = 0.0
         for link_name in below:
             link = robot.link_by_name[link_name]
