@@ -302,7 +302,7 @@ class RobotDescription:
 
     def driven_axes(
         self, q: np.ndarray | None = None
-    ) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], list[tuple[np.ndarray, np.ndarray, set[str]]]]:
+    ) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], list[tuple[np.ndarray, np.ndarray, list[str]]]]:
         """Every link's frame at a pose, and per driven joint its axis and where it stands, with the links it moves:
         what the joint-space inertia, the mass matrix and a per-link damping torque each sum over.
 
@@ -312,7 +312,7 @@ class RobotDescription:
         Returns:
             ``(frames, axes)``: link name -> its (position, rotation) in the world; per driven joint ``(axis,
             origin, below)``, its unit axis and its child frame's origin in the world and the names of the links
-            below it (its child included).
+            below it (its child first, parents before children).
         """
         q = np.zeros(self.n_joints) if q is None else np.asarray(q, dtype=float)
         frames = {link.name: self.forward_kinematics(q, link.name) for link in self.links}
@@ -322,10 +322,13 @@ class RobotDescription:
             origin, turn = frames[joint.child]
             axis = turn @ np.asarray(joint.axis, dtype=float)
             axis /= np.linalg.norm(axis)
-            below = {joint.child}
+            # a list in the joint table's order, not a set: the sums over it must not depend on the process's
+            # string hashing (a set's order did: the inertias, and the ranges and gains made from them, differed
+            # in their last digits from one process to the next)
+            below = [joint.child]
             for other in self.joints:  # parents before children
                 if other.parent in below:
-                    below.add(other.child)
+                    below.append(other.child)
             axes.append((axis, origin, below))
         return frames, axes
 
