@@ -21,7 +21,7 @@ import math
 import os
 import time
 from collections.abc import Callable, Collection, Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from datetime import date
 from pathlib import Path
 from typing import Any
@@ -46,6 +46,7 @@ from simtune.project import Project, get_project
 from simtune.project import load_project as _load_project
 from simtune.reference import REFERENCE_DIR, run_demo
 from simtune.run_config import COMPARE_DEFAULTS, COMPARE_SETS, TRANSFER_DEFAULTS
+from simtune.run_config import DEFAULTS as RUN_DEFAULTS
 from simtune.run_plan import RunConfig, new_run_config
 from simtune.runs import read_run_record, resume_run, run_uncertainty, start_run
 from simtune.studies.compare import run_compare
@@ -248,7 +249,7 @@ def _aligned(align_clock: object, specs) -> set[str]:
     known = [t.name for t in specs]
     for name in names:
         if name not in known:
-            raise ConfigError(f"align_clock: unknown task {name!r} (the tasks evaluated: {', '.join(known)})")
+            raise ConfigError(f"align_clock: unknown task {name!r} (the tasks evaluated: {', '.join(RUN_DEFAULTS)})")
     return set(names)
 
 
@@ -394,10 +395,9 @@ def run_config(
     Raises:
         ConfigError: an unknown setting, or a value of the wrong type or range (one line naming it).
     """
-    known = {f.name: f.default for f in fields(RunConfig)}
     for key in settings:
-        if key not in known or key in ("engine", "tasks", "project", "data", "weights"):
-            raise ConfigError(f"unknown run setting {key!r}; the settings are RunConfig's: {', '.join(known)}")
+        if key not in RUN_DEFAULTS or key in ("engine", "tasks", "project", "data", "weights"):
+            raise ConfigError(f"unknown run setting {key!r}; the settings are RunConfig's: {', '.join(RUN_DEFAULTS)}")
     given = _given(settings)
     proj = _project(project)
     config = new_run_config(
@@ -487,9 +487,8 @@ def _given(settings: Mapping[str, Any]) -> dict[str, Any]:
     """The run settings given: None stands for the default of a setting chosen by name (space, optimizer,
     reference, repeats, targets, residuals: the command line's "not given"); for a count or a switch it is a
     value, refused by the check."""
-    defaults = {f.name: f.default for f in fields(RunConfig)}
     return {
-        key: value for key, value in settings.items() if value is not None or not isinstance(defaults.get(key), str)
+        key: value for key, value in settings.items() if value is not None or not isinstance(RUN_DEFAULTS.get(key), str)
     }
 
 

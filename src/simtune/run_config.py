@@ -255,3 +255,7 @@ class RunConfig:
                 raise ConfigError(f"{at}--paper-exact runs the published targets: drop --targets {self.targets}")
             if self.residuals != "plain":
                 raise ConfigError(f"{at}--paper-exact fits the plain residuals: drop residuals={self.residuals!r}")
+
+
+#: every run setting's default, by name: a new run's (an empty string: resolved in ``__post_init__``)
+DEFAULTS: dict[str, object] = {f.name: f.default for f in fields(RunConfig)}

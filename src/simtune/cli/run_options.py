@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Callable, Mapping
-from dataclasses import MISSING, fields
 from typing import Annotated, Any, TypeVar
 
 import typer
@@ -41,7 +40,7 @@ from simtune.cli.options import (
     not_negative,
     refine_option,
 )
-from simtune.run_config import RunConfig
+from simtune.run_config import DEFAULTS
 
 #: RunConfig's fields no command-line option sets: the API sets them (docs/api.md); a run made from the command
 #: line takes their defaults
@@ -139,11 +138,9 @@ def _run_settings(
 
 def cli_default(name: str) -> Any:
     """A run setting's default on the command line: RunConfig's, None where RunConfig resolves an empty value
-    (the option then shows no default: --paper-exact chooses it) or keeps a list or a path as text."""
-    default = {f.name: f.default for f in fields(RunConfig)}[name]
-    if default is MISSING or default == "":
-        return None
-    return default
+    (the option then shows no default: --paper-exact chooses it)."""
+    default = DEFAULTS[name]
+    return None if default == "" else default
 
 
 def setting_options() -> dict[str, inspect.Parameter]:
