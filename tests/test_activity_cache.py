@@ -2,7 +2,7 @@
 that is not cached says so in one line, a cached one says nothing."""
 
 import shutil
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import pytest
@@ -238,6 +238,7 @@ def empty_cache(tmp_path, monkeypatch) -> list:
     monkeypatch.setattr(activity, "_MEMORY", {})
     calls: list = []
     monkeypatch.setattr(activity, "measure_activity", fake_probe(calls))
+    monkeypatch.setattr(activity, "shipped_probes", dict)  # nothing shipped either: a probe runs
     return calls
 
 
@@ -293,3 +294,61 @@ def test_the_note_counts_only_the_parameters_the_engine_has():
     assert f"of {n} parameters" in note and f"up to {4 * (1 + 2 * n)} rollouts of 20 s" in note
     assert "workers" not in note and "cached" not in note
     assert "rollouts of 8 s" in activity.probe_note("mujoco", replace(task, duration=8.0), space, 3, 1, True)
+
+
+# The probes shipped with simtune (scripts/seed_probes.py): a fresh machine's first run of a bundled task reads them.
+
+#: the bundled tasks whose probes are shipped, for the default engine
+SHIPPED_TASKS = ("single", "cube", "double")
+
+
+def bundled_plan(task: str, space: str, targets: str = "task"):
+    from simtune.run_config import RunConfig
+    from simtune.run_plan import plan_run
+
+    plan = plan_run(RunConfig(tasks=task, space=space, targets=targets))
+    return plan.tasks[0], plan.full_space
+
+
+def test_every_bundled_task_and_space_ships_its_probe_for_the_default_engine():
+    from simtune.params.space import SPACES
+    from simtune.tasks import TARGETS
+
+    missing = []
+    for task_name in SHIPPED_TASKS:
+        for space_name in SPACES:
+            for targets in TARGETS:
+                task, space = bundled_plan(task_name, space_name, targets)
+                if activity.cache_name("mujoco", task, space) not in activity.shipped_probes():
+                    missing.append(f"{task_name}/{space_name}/{targets}")
+    assert not missing, (
+        f"no shipped probe under today's key for {', '.join(missing)}: a bundled task, the robot, a space or MuJoCo "
+        "changed; run `python scripts/seed_probes.py` and commit src/simtune/projects/probes.json.gz"
+    )
+
+
+def test_a_fresh_cache_reads_the_shipped_probe_and_runs_none(tmp_path, monkeypatch):
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
+    monkeypatch.setattr(activity, "_MEMORY", {})
+
+    def no_probe(*args, **kwargs):
+        raise AssertionError("a shipped probe was measured again")
+
+    monkeypatch.setattr(activity, "measure_activity", no_probe)
+    task, space = bundled_plan("cube", "calibrated")
+    found = task_activity("mujoco", task, space)
+    shipped = activity.shipped_probes()[activity.cache_name("mujoco", task, space)]
+    assert list(found) == space.names
+    assert {name: found[name].active for name in found} == {name: shipped[name]["active"] for name in found}
+    assert not found["mass_cube_wood"].active  # cube has no wood object: the engine's reason, as shipped
+    assert "wood" in found["mass_cube_wood"].reason
+
+
+@pytest.mark.parametrize("task_name", ["single", pytest.param("cube", marks=pytest.mark.slow)])
+def test_a_shipped_probe_is_what_the_probe_measures_today(task_name):
+    """Its key holds simtune's version, not its code: an engine change that moves a rollout without moving the key
+    shows here, as a shipped outcome that today's probe no longer gives (`single`: 2 s; `cube`: 30 s, slow tier)."""
+    task, space = bundled_plan(task_name, "calibrated")
+    measured = activity.measure_activity("mujoco", task, space)
+    shipped = activity.shipped_probes()[activity.cache_name("mujoco", task, space)]
+    assert {name: shipped[name] for name in space.names} == {name: asdict(a) for name, a in measured.items()}

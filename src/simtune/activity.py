@@ -23,9 +23,10 @@ Results are cached per engine x task x space in a small JSON file (:func:`simtun
 what the outcome depends on (:func:`cache_key`): simtune's and the engine's versions, the task as the
 engine runs it with its robot by content (mesh and MJCF files by their bytes, never by their paths),
 the space's names and bounds, and the probe's settings.  So a second checkout of a project, in
-another folder, reads the first one's results instead of probing again.  A probe that is not cached
-says so in one line on stderr where someone watches (:func:`announcing`): the first run on a fresh
-machine spends its first seconds on it.
+another folder, reads the first one's results instead of probing again.  The bundled project's probes ship
+with simtune (:data:`SHIPPED_PROBES`, under the same keys): a fresh machine's first run of a bundled task reads
+them.  A probe that is neither cached nor shipped says so in one line on stderr where someone watches
+(:func:`announcing`): the first run of an own robot on a fresh machine spends its first seconds on it.
 """
 
 from __future__ import annotations
@@ -490,6 +491,44 @@ def probe_note(engine: str, task: TaskSpec, space: ParameterSpace, points: int, 
 #: probes already read or measured by this process (a run reads them several times while it starts)
 _MEMORY: dict[Path, dict[str, Activity]] = {}
 
+#: The probes of the bundled projects' tasks, measured by ``scripts/seed_probes.py`` and shipped with simtune: a
+#: fresh machine's first run of a bundled task reads its outcome here instead of spending half a minute or more on
+#: it (issue 44, a cold start).  Entries are named like the cache's files, key included (:func:`cache_key`), so an
+#: entry is read only for the engine version, task, robot, space and probe it was measured with; a test re-measures
+#: one and checks that every bundled task and space of the default engine has one under today's key.
+SHIPPED_PROBES = Path(__file__).resolve().parent / "projects" / "probes.json.gz"
+
+
+@functools.cache
+def shipped_probes() -> dict[str, dict]:
+    """The shipped probe outcomes (:data:`SHIPPED_PROBES`): cache file name -> parameter name -> Activity's fields.
+
+    Returns:
+        The entries; empty where the file is missing or unreadable (a probe then runs, as without it).
+    """
+    import gzip
+
+    try:
+        entries = json.loads(gzip.decompress(SHIPPED_PROBES.read_bytes()))
+    except (OSError, ValueError, EOFError):
+        return {}
+    return entries if isinstance(entries, dict) else {}
+
+
+def cache_name(engine: str, task: TaskSpec, space: ParameterSpace, points: int = PROBE_POINTS) -> str:
+    """The file name of a probe's outcome in the cache (and of its entry in :data:`SHIPPED_PROBES`).
+
+    Args:
+        engine: the engine's registry name.
+        task: the task probed.
+        space: the parameters probed.
+        points: random base points besides the generic one.
+
+    Returns:
+        ``<engine>-<task>-<space>-<key>.json``, the key :func:`cache_key`'s.
+    """
+    return f"{engine}-{task.name}-{space.name}-{cache_key(engine, task, space, points)}.json"
+
 
 def task_activity(
     engine: str,
@@ -513,18 +552,17 @@ def task_activity(
     Returns:
         Parameter name -> its :class:`Activity`, in the space's order.
     """
-    path = (
-        cache_root() / "activity" / f"{engine}-{task.name}-{space.name}-{cache_key(engine, task, space, points)}.json"
-    )
+    path = cache_root() / "activity" / cache_name(engine, task, space, points)
     if use_cache and path in _MEMORY:
         return _MEMORY[path]
     if use_cache:
-        try:
-            stored = json.loads(path.read_text())
-            _MEMORY[path] = {name: Activity(**stored[name]) for name in space.names}
-            return _MEMORY[path]
-        except (OSError, ValueError, KeyError, TypeError):
-            pass  # not cached yet, or a damaged entry: measure again
+        for read in (lambda: json.loads(path.read_text()), lambda: shipped_probes()[path.name]):
+            try:
+                stored = read()
+                _MEMORY[path] = {name: Activity(**stored[name]) for name in space.names}
+                return _MEMORY[path]
+            except (OSError, ValueError, KeyError, TypeError):
+                pass  # not cached (or shipped) yet, or a damaged entry: measure again
     if _announces():
         print(probe_note(engine, task, space, points, workers, use_cache), file=sys.stderr, flush=True)
         found = _measured_with_a_bar(engine, task, space, points, workers)
