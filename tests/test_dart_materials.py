@@ -2,12 +2,14 @@
 line of its stderr (a mesh it cannot open, its notes on zero masses) passed on unchanged."""
 
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import engine_or_skip
 
+from simtune.common.spawn_guard import leave_robot_notes_to_parent
 from simtune.engines.dart.quiet import load_quietly, missing_materials
 from simtune.errors import RobotWarning
 from simtune.robot.urdf import load_urdf
@@ -95,3 +97,13 @@ def test_meshes_whose_materials_exist_are_loaded_as_they_are(tmp_path, recwarn):
     assert missing_materials(meshes) == {meshes[0]: "missing.mtl"}
     assert load_quietly(lambda: 7, meshes[1:]) == 7
     assert not recwarn.list
+
+
+def test_workers_leave_the_robot_notes_to_their_parent():
+    # a worker builds the robot's engine again: the parent has said the note (one line in a tune, not one a worker)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        leave_robot_notes_to_parent()
+        warnings.warn("DART could not find ...", RobotWarning, stacklevel=1)
+        warnings.warn("another kind", UserWarning, stacklevel=1)
+    assert [str(w.message) for w in said] == ["another kind"]
