@@ -107,3 +107,26 @@ def test_workers_leave_the_robot_notes_to_their_parent():
         warnings.warn("DART could not find ...", RobotWarning, stacklevel=1)
         warnings.warn("another kind", UserWarning, stacklevel=1)
     assert [str(w.message) for w in said] == ["another kind"]
+
+
+def test_loads_on_two_threads_leave_stderr_as_it_was(tmp_path, capfd):
+    import threading
+    import time
+
+    (tmp_path / "tetra.obj").write_text(TETRAHEDRON)
+    meshes = [str(tmp_path / "tetra.obj")]
+
+    def noisy():
+        os.write(2, f"Failed opening file '{tmp_path}/missing.mtl'\n".encode())
+        time.sleep(0.05)  # long enough for the other thread to start its own load meanwhile
+        os.write(2, b"kept\n")
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RobotWarning)
+        threads = [threading.Thread(target=load_quietly, args=(noisy, meshes)) for _ in range(2)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+    os.write(2, b"after\n")  # fd 2 is the test's again, not one load's temporary file
+    assert capfd.readouterr().err == "kept\nkept\nafter\n"

@@ -22,6 +22,7 @@ import os
 import re
 import sys
 import tempfile
+import threading
 import warnings
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -30,6 +31,10 @@ from typing import TypeVar
 from simtune.errors import RobotWarning
 
 T = TypeVar("T")
+
+#: File descriptor 2 is the process's, not a thread's: two loads capturing it at once would restore each
+#: other's temporary file, and stderr would stay lost
+_CAPTURING = threading.Lock()
 
 #: DART's two warnings on a file it cannot open: LocalResource's (a path) and CompositeResourceRetriever's (a URI)
 _NOT_OPENED = re.compile(rb"Failed opening file '([^']*)'|failed to retrieve the URI '([^']*)'")
@@ -112,24 +117,30 @@ def load_quietly(load: Callable[[], T], meshes: Iterable[str]) -> T:
     missing = missing_materials(meshes)
     if not missing:
         return load()
-    sys.stdout.flush()
-    sys.stderr.flush()  # Python's own buffered text goes out before the descriptor is swapped
-    saved = os.dup(2)
-    with tempfile.TemporaryFile() as capture:
-        os.dup2(capture.fileno(), 2)
-        try:
-            return load()
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            capture.seek(0)
-            left_out = _replay(capture.read(), frozenset(os.fsencode(mesh) for mesh in meshes))
-            if left_out:
-                mesh, name = next(iter(missing.items()))
-                warnings.warn(
-                    f"DART could not find the material (.mtl) files that {len(missing)} of the robot's meshes "
-                    f"name (e.g. {Path(mesh).name} names {name}): colours only, the simulation is unaffected "
-                    f"({left_out} lines of DART's warnings left out)",
-                    RobotWarning,
-                    stacklevel=3,
-                )
+    with _CAPTURING:
+        sys.stdout.flush()
+        sys.stderr.flush()  # Python's own buffered text goes out before the descriptor is swapped
+        saved = os.dup(2)
+        with tempfile.TemporaryFile() as capture:
+            os.dup2(capture.fileno(), 2)
+            try:
+                return load()
+            finally:
+                os.dup2(saved, 2)
+                os.close(saved)
+                capture.seek(0)
+                left_out = _replay(capture.read(), frozenset(os.fsencode(mesh) for mesh in meshes))
+                if left_out:
+                    _say(missing, left_out)
+
+
+def _say(missing: dict[str, str], left_out: int) -> None:
+    """The one warning for the ``left_out`` lines about the material files of the meshes in ``missing``."""
+    mesh, name = next(iter(missing.items()))
+    warnings.warn(
+        f"DART could not find the material (.mtl) files that {len(missing)} of the robot's meshes "
+        f"name (e.g. {Path(mesh).name} names {name}): colours only, the simulation is unaffected "
+        f"({left_out} lines of DART's warnings left out)",
+        RobotWarning,
+        stacklevel=4,
+    )
