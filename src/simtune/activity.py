@@ -49,7 +49,12 @@ import numpy as np
 
 import simtune
 from simtune.common.cache import cache_root
-from simtune.common.spawn_guard import adopt_environment, check_main_guarded, worker_context
+from simtune.common.spawn_guard import (
+    adopt_environment,
+    check_main_guarded,
+    leave_robot_notes_to_parent,
+    worker_context,
+)
 from simtune.engines import engine_class, make_engine
 from simtune.engines.base import Rollout
 from simtune.engines.controller import CONTROL_PERIOD
@@ -225,6 +230,7 @@ _SIM: list = []
 
 def _start_worker(engine: str, task: TaskSpec, samples: int, environ: dict[str, str]) -> None:
     adopt_environment(environ)
+    leave_robot_notes_to_parent()
     # Ctrl-C is the coordinating process's to handle (the run stops, saying how to resume); a worker would
     # only print a traceback
     signal.signal(signal.SIGINT, signal.SIG_IGN)

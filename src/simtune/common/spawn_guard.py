@@ -17,12 +17,13 @@ import multiprocessing
 import os
 import signal
 import sys
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from multiprocessing.context import BaseContext
 from pathlib import Path
 
-from simtune.errors import SimtuneError
+from simtune.errors import RobotWarning, SimtuneError
 
 
 def unguarded_call(source: str, line: int) -> bool:
@@ -119,6 +120,14 @@ def adopt_environment(environ: dict[str, str]) -> None:
     inherits it; a forked one would have the fork server's, as it was when the server started."""
     os.environ.clear()
     os.environ.update(environ)
+
+
+def leave_robot_notes_to_parent() -> None:
+    """In a worker: let the robot's notes (:class:`RobotWarning`, e.g. DART's missing material files) go unsaid.
+    Every worker builds the same robot in its engine again; the parent, which loaded it and built its engine
+    before asking for workers, has said each note once, and a worker would say it again in Python's two-line
+    format, once per worker."""
+    warnings.filterwarnings("ignore", category=RobotWarning)
 
 
 @contextmanager

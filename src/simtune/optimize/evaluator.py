@@ -52,7 +52,13 @@ import numpy as np
 import scipy.linalg  # noqa: F401  (loads SciPy's own BLAS, so that threadpool_limits holds it too)
 from threadpoolctl import threadpool_limits
 
-from simtune.common.spawn_guard import adopt_environment, check_main_guarded, sigint_blocked, worker_context
+from simtune.common.spawn_guard import (
+    adopt_environment,
+    check_main_guarded,
+    leave_robot_notes_to_parent,
+    sigint_blocked,
+    worker_context,
+)
 from simtune.engines import Engine, engine_class
 from simtune.engines.controller import CONTROL_PERIOD
 from simtune.errors import SimtuneError
@@ -237,6 +243,7 @@ _WORKER_OBJECTIVE: Objective | None = None
 def _init_worker(objective: Objective, environ: dict[str, str]) -> None:
     global _WORKER_OBJECTIVE
     adopt_environment(environ)
+    leave_robot_notes_to_parent()
     _WORKER_OBJECTIVE = objective
     threadpool_limits(1, user_api="blas")  # the worker's cores are the other workers' (see the module's text)
     # Ctrl-C reaches the whole process group: the coordinator stops the pool, workers must not print tracebacks

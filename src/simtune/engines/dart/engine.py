@@ -29,8 +29,10 @@ import numpy as np
 from simtune.common.geometry import rpy_matrix
 from simtune.engines._shapes import object_mass_properties
 from simtune.engines.base import Engine, unloaded_hard_motors
+from simtune.engines.dart.quiet import load_quietly
 from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot import MICO
+from simtune.robot.description import Mesh
 from simtune.robot.generate import robot_urdf_file
 from simtune.tasks.spec import TaskSpec
 
@@ -90,7 +92,10 @@ class DartEngine(Engine):
         options.mDefaultRootJointType = d.utils.DartLoaderRootJointType.FIXED
         loader.setOptions(options)
         robot = task.robot
-        self.robot = loader.parseSkeleton(robot_urdf_file(robot))
+        urdf = robot_urdf_file(robot)
+        # DART warns a hundred lines per mesh whose material file is missing (colours only): said in one line
+        meshes = [shape.path for link in robot.links for shape in link.shapes if isinstance(shape, Mesh)]
+        self.robot = load_quietly(lambda: loader.parseSkeleton(urdf), meshes)
         base_rot = rpy_matrix(robot.base_rpy) if robot.base_rpy != (0.0, 0.0, 0.0) else None
         self.robot.getRootJoint().setTransformFromParentBodyNode(_isometry(robot.base_position, base_rot))
         self._arm = [self.robot.getJoint(j) for j in robot.arm_joints]
