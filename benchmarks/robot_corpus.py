@@ -46,6 +46,35 @@ def _delay(row: dict, engine: str) -> str:
     return f"{value:.3f} {'yes' if abs(value - TRUE_DELAY_S) < DELAY_TOLERANCE_S else 'NO'}"
 
 
+def _interval(row: dict, engine: str) -> str:
+    """The delay's 95 % interval and whether it holds the truth ("unbounded" where the run could not pin it)."""
+    low, high = row.get("delay_interval", {}).get(engine, (None, None))
+    if engine not in row.get("delay_interval", {}):
+        return "-"
+    if low is None or high is None:
+        return "unbounded"
+    return f"{low:.4f}-{high:.4f} {'yes' if low <= TRUE_DELAY_S <= high else 'NO'}"
+
+
+def coverage(rows: list[dict]) -> str:
+    """How many of the delays' 95 % intervals hold the truth, per engine tuned and in all.
+
+    Args:
+        rows: one per robot (:func:`robot_corpus.walk`'s results).
+
+    Returns:
+        One line.
+    """
+    counts = {}
+    for engine in TUNED_IN:
+        intervals = [r["delay_interval"][engine] for r in rows if engine in r.get("delay_interval", {})]
+        held = sum(1 for low, high in intervals if low is not None and high is not None and low <= TRUE_DELAY_S <= high)
+        counts[engine] = (held, len(intervals))
+    held, total = sum(h for h, _ in counts.values()), sum(n for _, n in counts.values())
+    parts = ", ".join(f"{e} {h}/{n}" for e, (h, n) in counts.items())
+    return f"95 % intervals of the delay that hold the true {TRUE_DELAY_S:g} s: {parts}; {held}/{total} in all"
+
+
 def table(rows: list[dict]) -> str:
     """The markdown table of ``rows`` (:func:`robot_corpus.walk`'s results, with ``package`` and ``wall_s``).
 
@@ -60,6 +89,8 @@ def table(rows: list[dict]) -> str:
         + " | ".join(f"{e} to MuJoCo [mm]" for e in GENERIC)
         + " | "
         + " | ".join(f"delay {e} [s], within {DELAY_TOLERANCE_S:g}?" for e in TUNED_IN)
+        + " | "
+        + " | ".join(f"{e}'s 95 % interval [s], holds it?" for e in TUNED_IN)
         + " | FK worst [m] | wall [s] |"
     )
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
@@ -76,6 +107,8 @@ def table(rows: list[dict]) -> str:
             )
             + " | "
             + " | ".join(_delay(r, e) for e in TUNED_IN)
+            + " | "
+            + " | ".join(_interval(r, e) for e in TUNED_IN)
             + f" | {fk:.1e} | {r['wall_s']:.0f} |"
         )
     return "\n".join(lines)
@@ -106,7 +139,7 @@ def main() -> None:
         row["package"], row["wall_s"] = robot.package, time.perf_counter() - start
         rows.append(row)
         print(f"{robot.name}: {row['wall_s']:.0f} s {json.dumps(row, default=str)}", flush=True)
-    text = table(rows)
+    text = table(rows) + "\n\n" + coverage(rows)
     budget = f" --tune-evaluations {args.tune_evaluations}" if args.tune_evaluations else ""
     budget += " --robosuite" if args.robosuite else ""
     header = (

@@ -357,4 +357,9 @@ def walk(
         if result.returncode == 0:
             best = json.loads((run / "best_params.json").read_text())
             out["delay"][engine] = float(best.get("params", best)["command_delay"])
+            # its 95 % interval (issue 44: do the intervals hold the truth?): three rollouts for the one parameter
+            result = step(f"uncertainty {engine}", "uncertainty", run, "--json")
+            if result.returncode == 0:
+                (entry,) = (e for e in last_json(result)["parameters"] if e["name"] == "command_delay")
+                out.setdefault("delay_interval", {})[engine] = [entry["low"], entry["high"]]
     return out
