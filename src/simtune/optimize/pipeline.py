@@ -28,7 +28,25 @@ the best fitness by less than ``ROUND_RTOL`` of it - neither the local phases (e
 A local phase's own tolerance alone is not the test: on contact tasks the objective is not smooth at the
 finite-difference scale, and a phase creeps on by tiny gains until its step limit (measured: `cube`, three
 parameters, 75 rounds of 12 steps each, none stalled).  The opening's local phase counts as a round's best: global
-rounds that find nothing better than the opening end the run as well.  Budgets of the settings (time,
+rounds that find nothing better than the opening end the run as well.
+
+It also stops, as ``converged`` with a message that says so, once a local phase (the opening's or a round's) ends
+at the recordings' noise floor (:func:`at_noise_floor`): the sum of squares of the residuals where it ended, on its
+tolerance or on its step limit, is at most ``FLOOR_RATIO`` (1.1) times :func:`noise_floor_cost`, what a simulation
+of the true parameters is expected to score.  The reference is the mean of R repeats, so each residual of the truth
+is that mean's noise, of variance a repeat's own over R; the repeats' deviations from their mean
+(:meth:`~simtune.objective.Objective.repeat_deviations`, in the residuals' own units and weights) give it, summed
+over the residuals: sum of squares / (R (R - 1)).  With every signal weighed by its noise this is (1 mm)^2 / R for
+each marker axis, object axis and logged joint (the MICO's marker and six joints, five repeats: 1.8e-6): the
+fit's reduced chi-square is at most 1.1.  No basin can then lower the cost by more than a
+tenth, so a global round has nothing meaningful left to find.  The phase's step limit counts as its end here:
+measured on the synthetic MICO ``double`` (docs/vs-mujoco-sysid.md), the opening ends on its 12th step at 1.01 x the
+floor, its last steps gaining 0.4 % of it, and stops the run there (not two rounds later, at the same fitness).
+The rule needs a floor: only against the aligned reference (the plain mean's repeats scatter by their start
+jitter too) with two repeats or more of every task; without one the rounds' gains alone decide.  Real recordings
+sit far above it (qrg2019 ``single``: docs/tuning.md), so it is the synthetic problems' rule.
+
+Budgets of the settings (time,
 evaluations, generations, target fitness) stay as caps, checked after every batch: a DE generation, a
 least-squares trial point or a Jacobian.  A generation of this optimiser is one such batch.
 
