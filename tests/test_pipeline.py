@@ -142,7 +142,7 @@ def test_the_noise_floor_is_what_the_mean_of_the_repeats_leaves_a_fit_of_the_tru
     assert not pipeline.at_noise_floor(np.full(4, np.nan), floor)
 
 
-def test_auto_stops_at_the_noise_floor_only_against_an_aligned_reference(tmp_path):
+def test_auto_stops_at_the_noise_floor_only_against_an_aligned_reference():
     """The bundled cube's three noisy repeats: against the plain mean there is no floor; against the aligned one
     the floor is the repeats' scatter over three, far below the generic point's residuals."""
     from simtune.run_plan import plan_run
@@ -155,6 +155,19 @@ def test_auto_stops_at_the_noise_floor_only_against_an_aligned_reference(tmp_pat
     generic = space.vector_within_bounds(pipeline.generic_values(objectives["aligned"], space.names))
     residuals = objectives["aligned"].residuals(space.to_dict(generic))
     assert not pipeline.at_noise_floor(residuals, floor)  # the generic cube: some 2e4 times its floor
+
+
+def test_auto_stops_in_the_opening_where_synthetic_recordings_are_fitted_to_their_noise(tmp_path):
+    """Synthetic `single` recordings (three repeats, 2 mm noise, no start jitter): the opening's least squares
+    fits the true delay to the noise, and the run stops there, without a global round."""
+    from simtune.studies.synth import make_synthetic
+
+    make_synthetic("mujoco", "single", tmp_path / "data", truth={"command_delay": 0.4}, repeats=3, jitter_s=0.0)
+    run = config(tasks="single", data=str(tmp_path / "data"), only=["command_delay"], max_evaluations=None)
+    result = start_run(run, tmp_path / "run", show_progress=False)
+    assert result.stop_reason == "converged" and result.converged
+    assert result.message.startswith("converged: at the recordings' noise floor") and "in the opening" in result.message
+    assert abs(result.params["command_delay"] - 0.4) < 0.005
 
 
 def test_auto_without_a_budget_stops_when_converged_and_says_so(tmp_path):
