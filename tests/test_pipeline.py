@@ -123,6 +123,53 @@ def test_rounds_converge_when_the_last_rounds_together_gain_less_than_the_tolera
     assert not pipeline.converged([float("inf")] * (patience + 1))  # nothing scored yet: no basin to judge
 
 
+def test_the_noise_floor_is_what_the_mean_of_the_repeats_leaves_a_fit_of_the_truth():
+    rng = np.random.default_rng(0)
+    noise, repeats, size = 0.5, 5, 20000
+    truth = np.zeros(size)
+    recorded = truth + rng.normal(0.0, noise, (repeats, size))
+    mean = recorded.mean(axis=0)
+    floor = pipeline.noise_floor_cost([recorded - mean])
+    assert floor == pytest.approx(size * noise**2 / repeats, rel=0.03)
+    # the truth's residuals against the mean sit at the floor; a fit a little off it does not
+    assert pipeline.at_noise_floor(truth - mean, floor)
+    assert not pipeline.at_noise_floor(truth + 0.2 * noise - mean, floor)
+    # two tasks: their floors add up; a task of one repeat, or repeats that agree exactly, leave no floor
+    assert pipeline.noise_floor_cost([recorded - mean] * 2) == pytest.approx(2 * floor)
+    assert pipeline.noise_floor_cost([recorded - mean, None]) is None
+    assert pipeline.noise_floor_cost([np.zeros((3, 4))]) is None
+    assert not pipeline.at_noise_floor(np.zeros(4), None)  # no floor: the old rule alone
+    assert not pipeline.at_noise_floor(np.full(4, np.nan), floor)
+
+
+def test_auto_stops_at_the_noise_floor_only_against_an_aligned_reference():
+    """The bundled cube's three noisy repeats: against the plain mean there is no floor; against the aligned one
+    the floor is the repeats' scatter over three, far below the generic point's residuals."""
+    from simtune.run_plan import plan_run
+
+    objectives = {reference: plan_run(config(reference=reference)).objective({}) for reference in ("mean", "aligned")}
+    assert pipeline.recordings_floor(objectives["mean"]) is None
+    floor = pipeline.recordings_floor(objectives["aligned"])
+    assert floor is not None and floor > 0
+    space = objectives["aligned"].vector_space()
+    generic = space.vector_within_bounds(pipeline.generic_values(objectives["aligned"], space.names))
+    residuals = objectives["aligned"].residuals(space.to_dict(generic))
+    assert not pipeline.at_noise_floor(residuals, floor)  # the generic cube: some 2e4 times its floor
+
+
+def test_auto_stops_in_the_opening_where_synthetic_recordings_are_fitted_to_their_noise(tmp_path):
+    """Synthetic `single` recordings (three repeats, 2 mm noise, no start jitter): the opening's least squares
+    fits the true delay to the noise, and the run stops there, without a global round."""
+    from simtune.studies.synth import make_synthetic
+
+    make_synthetic("mujoco", "single", tmp_path / "data", truth={"command_delay": 0.4}, repeats=3, jitter_s=0.0)
+    run = config(tasks="single", data=str(tmp_path / "data"), only=["command_delay"], max_evaluations=None)
+    result = start_run(run, tmp_path / "run", show_progress=False)
+    assert result.stop_reason == "converged" and result.converged
+    assert result.message.startswith("converged: at the recordings' noise floor") and "in the opening" in result.message
+    assert abs(result.params["command_delay"] - 0.4) < 0.005
+
+
 def test_auto_without_a_budget_stops_when_converged_and_says_so(tmp_path):
     """No budget but the default generations: the rounds stop on their own, long before them; the stop reason is
     in the result, the store and the record."""

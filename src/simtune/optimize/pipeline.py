@@ -28,7 +28,25 @@ the best fitness by less than ``ROUND_RTOL`` of it - neither the local phases (e
 A local phase's own tolerance alone is not the test: on contact tasks the objective is not smooth at the
 finite-difference scale, and a phase creeps on by tiny gains until its step limit (measured: `cube`, three
 parameters, 75 rounds of 12 steps each, none stalled).  The opening's local phase counts as a round's best: global
-rounds that find nothing better than the opening end the run as well.  Budgets of the settings (time,
+rounds that find nothing better than the opening end the run as well.
+
+It also stops, as ``converged`` with a message that says so, once a local phase (the opening's or a round's) ends
+at the recordings' noise floor (:func:`at_noise_floor`): the sum of squares of the residuals where it ended, on its
+tolerance or on its step limit, is at most ``FLOOR_RATIO`` (1.1) times :func:`noise_floor_cost`, what a simulation
+of the true parameters is expected to score.  The reference is the mean of R repeats, so each residual of the truth
+is that mean's noise, of variance a repeat's own over R; the repeats' deviations from their mean
+(:meth:`~simtune.objective.Objective.repeat_deviations`, in the residuals' own units and weights) give it, summed
+over the residuals: sum of squares / (R (R - 1)).  With every signal weighed by its noise this is (1 mm)^2 / R for
+each marker axis, object axis and logged joint (the MICO's marker and six joints, five repeats: 1.8e-6): the
+fit's reduced chi-square is at most 1.1.  No basin can then lower the cost by more than a
+tenth, so a global round has nothing meaningful left to find.  The phase's step limit counts as its end here:
+measured on the synthetic MICO ``double`` (docs/vs-mujoco-sysid.md), the opening ends on its 12th step at 1.01 x the
+floor, its last steps gaining 0.4 % of it, and stops the run there (not two rounds later, at the same fitness).
+The rule needs a floor: only against the aligned reference (the plain mean's repeats scatter by their start
+jitter too) with two repeats or more of every task; without one the rounds' gains alone decide.  Real recordings
+sit far above it (qrg2019 ``single``: docs/tuning.md), so it is the synthetic problems' rule.
+
+Budgets of the settings (time,
 evaluations, generations, target fitness) stay as caps, checked after every batch: a DE generation, a
 least-squares trial point or a Jacobian.  A generation of this optimiser is one such batch.
 
@@ -69,6 +87,9 @@ NEAR_SCALE = 0.02  # their spread (standard deviation), as a share of each param
 #: rounds whose gains together decide convergence, and the share of the best fitness they must gain to go on
 PATIENCE = 2
 ROUND_RTOL = 0.01
+#: a local phase that ends where its residuals' sum of squares is at most this many times the recordings' noise floor
+#: (:func:`noise_floor_cost`) ends the run: no basin can be better by more than this share of the repeats' scatter
+FLOOR_RATIO = 1.1
 
 
 def converged(best_after_round: list[float]) -> bool:
@@ -88,6 +109,60 @@ def converged(best_after_round: list[float]) -> bool:
     return before - now <= ROUND_RTOL * abs(before)
 
 
+def noise_floor_cost(deviations: list[np.ndarray | None]) -> float | None:
+    """The sum of squared residuals a simulation of the true parameters is expected to score against the mean of
+    the repeats: the recordings' noise floor, in the residuals' own units.
+
+    The reference is the mean of R repeats, so each of its residuals carries that mean's noise, whose variance is
+    a repeat's own (the rows' spread about their mean, unbiased: sum of squares over R - 1) over R.
+
+    Args:
+        deviations: per task, each repeat's deviation from the repeats' mean in the residuals' units (one row per
+            repeat: :meth:`~simtune.objective.Objective.repeat_deviations`), None for a task without two repeats.
+    Returns:
+        The expected sum of squares, summed over the tasks; None where a task has no floor (fewer than two
+        repeats) or the repeats agree exactly (nothing to compare a fit with).
+    """
+    if not deviations or any(d is None for d in deviations):
+        return None
+    total = 0.0
+    for rows in deviations:
+        assert rows is not None  # checked above: for mypy
+        count = len(rows)
+        total += float(np.sum(np.square(rows))) / (count * (count - 1))
+    return total if np.isfinite(total) and total > 0 else None
+
+
+def recordings_floor(objective: Objective) -> float | None:
+    """:func:`noise_floor_cost` of ``objective``'s recordings where every task is fitted to its aligned reference;
+    None against a plain mean (the repeats' start jitter then inflates their scatter beyond the noise, and a
+    floor from it would stop a fit well above the real one) or with one repeat.
+
+    Args:
+        objective: the run's objective (its references and residual weighting).
+    Returns:
+        The floor of the residuals' sum of squares, or None where the rule does not apply.
+    """
+    if any(reference.reference != "aligned" for reference in objective.references.values()):
+        return None
+    return noise_floor_cost(objective.repeat_deviations())
+
+
+def at_noise_floor(residuals: np.ndarray, floor: float | None) -> bool:
+    """Whether a local phase ended at the recordings' noise floor: the residuals where it ended (on its tolerance or
+    its step limit) have a sum of squares of at most ``FLOOR_RATIO`` times ``floor``, so that no point of any basin
+    can lower it by more than that share.
+
+    Args:
+        residuals: the residuals where the phase ended (the solver's best point).
+        floor: :func:`recordings_floor` of the run (None: no floor, the rule never fires).
+    Returns:
+        True when the search should stop as ``converged``.
+    """
+    cost = float(np.sum(np.square(residuals)))
+    return floor is not None and bool(np.isfinite(cost)) and cost <= FLOOR_RATIO * floor
+
+
 def global_local_tune(objective: Objective, store: RunStore, settings: TuneSettings) -> TuneResult:
     """Tune ``objective`` in rounds of differential evolution then least squares; every evaluation lands in
     ``store``."""
@@ -100,11 +175,14 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
     if population is not None and len(population) < 5:
         population = None  # SciPy's DE needs 5 members or more
     opening = population is None and settings.initial_population is None
+    floor = recordings_floor(objective)  # None: the rounds' gains alone decide
     with search:
         try:
             if opening:
-                _local_phase(search, aligned_generic_start(objective), refined, diagnose=True)
+                solution = _local_phase(search, aligned_generic_start(objective), refined, diagnose=True)
                 best_after_round.append(search.best_fitness)
+                if at_noise_floor(solution.fun, floor):
+                    return _converged(search, _floor_words(solution.fun, floor), rounds, opening)
                 assert search.best_x is not None, "the opening scored its start"
                 population = search.from_unit(opening_population(search.to_unit(search.best_x), settings.seed))
                 population[0] = search.best_x  # as scored, not through the unit cube and back
@@ -112,16 +190,13 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
                 population, last_energies, round_x = _global_phase(search, population, settings.seed + 1000 * rounds)
                 assert search.best_x is not None, "the global phase scored a batch"
                 start = search.best_x if search.best_x.tobytes() not in refined else round_x
-                _local_phase(search, start, refined)
+                solution = _local_phase(search, start, refined)
                 rounds += 1
                 best_after_round.append(search.best_fitness)
+                if at_noise_floor(solution.fun, floor):
+                    return _converged(search, _floor_words(solution.fun, floor), rounds, opening)
                 if converged(best_after_round):
-                    return search.result(
-                        f"converged: {PATIENCE} rounds gained less than {ROUND_RTOL:.0%} "
-                        f"({_progress(rounds, search.solver_steps, opening)})",
-                        converged=True,
-                        stop_reason="converged",
-                    )
+                    return _converged(search, f"{PATIENCE} rounds gained less than {ROUND_RTOL:.0%}", rounds, opening)
                 # the next global phase goes on from this one's population, with the run's best point in it
                 if not any(np.array_equal(member, search.best_x) for member in population):
                     population = population.copy()
@@ -132,6 +207,18 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
         return search.result(f"{search.stop_reason} ({_progress(rounds, search.solver_steps, opening)})")
 
 
+def _converged(search: BatchSearch, rule: str, rounds: int, opening: bool) -> TuneResult:
+    """The run's result where a convergence rule (``rule``, in words) ended it."""
+    message = f"converged: {rule} ({_progress(rounds, search.solver_steps, opening)})"
+    return search.result(message, converged=True, stop_reason="converged")
+
+
+def _floor_words(residuals: np.ndarray, floor: float | None) -> str:
+    """Which rule fired, in words: ``at the recordings' noise floor (residuals 1.03 x the floor)``."""
+    assert floor is not None, "the floor rule fired"
+    return f"at the recordings' noise floor (residuals {float(np.sum(np.square(residuals))) / floor:.2f} x the floor)"
+
+
 def _progress(rounds: int, steps: int, opening: bool) -> str:
     """Where the rounds stood, in words: ``2 full rounds after the opening, 31 least-squares steps``."""
     where = "in the opening" if opening and rounds == 0 else f"{rounds} full round{'s' * (rounds != 1)}"
@@ -140,8 +227,9 @@ def _progress(rounds: int, steps: int, opening: bool) -> str:
     return f"{where}, {steps} least-squares step{'s' * (steps != 1)}"
 
 
-def _local_phase(search: BatchSearch, start: np.ndarray, refined: set[bytes], diagnose: bool = False) -> None:
-    """One local phase from ``start`` (marked refined); ``search.solver_steps`` counts its steps.
+def _local_phase(search: BatchSearch, start: np.ndarray, refined: set[bytes], diagnose: bool = False):
+    """One local phase from ``start`` (marked refined); ``search.solver_steps`` counts its steps.  Returns SciPy's
+    result (``status`` 0: the phase ran out of steps; ``fun``: the residuals where it ended).
 
     ``diagnose``: warn about the start (a bound, parameters its first Jacobian cannot tell apart:
     :func:`~simtune.optimize.start_check.warn_about_start`) before the phase goes on - the opening's, so that
@@ -162,6 +250,7 @@ def _local_phase(search: BatchSearch, start: np.ndarray, refined: set[bytes], di
     )
     if solution.status != 0 and search.best_x is not None:
         refined.add(search.best_x.tobytes())
+    return solution
 
 
 def aligned_generic_start(objective: Objective) -> np.ndarray:

@@ -268,7 +268,7 @@ def untuned_sample(stored: RunRecord[RunConfig]) -> tuple[list[list[float]], lis
     - ``auto``: the latin-hypercube half of its first global phase, drawn again from the run's seed
       (:func:`simtune.optimize.pipeline.random_start`; its generation 0 is the opening's start and Jacobian, all
       within a few per cent of the generic point); the fitness of those found among its evaluations (a run that
-      reached its target in the opening scored none of them);
+      reached its target, or the noise floor, in the opening scored none of them);
     - a run that ``resume --rescore`` started from an earlier run's population: none (it started from that);
     - any other optimiser: its generation 0 (differential evolution: a latin hypercube; random search: uniform
       draws; CMA-ES: its first population, spread 0.3 of each range around the centre; Bayes: its first trials).
