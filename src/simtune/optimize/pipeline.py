@@ -179,7 +179,9 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
     with search:
         try:
             if opening:
-                solution = _local_phase(search, aligned_generic_start(objective), refined, diagnose=True)
+                solution = _local_phase(
+                    search, aligned_generic_start(objective, search.evaluator.workers), refined, diagnose=True
+                )
                 best_after_round.append(search.best_fitness)
                 if at_noise_floor(solution.fun, floor):
                     return _converged(search, _floor_words(solution.fun, floor), rounds, opening)
@@ -253,17 +255,23 @@ def _local_phase(search: BatchSearch, start: np.ndarray, refined: set[bytes], di
     return solution
 
 
-def aligned_generic_start(objective: Objective) -> np.ndarray:
+def aligned_generic_start(objective: Objective, threads: int = 1) -> np.ndarray:
     """The generic point of ``objective``'s space with each task's command delay aligned to its recordings.
 
     A parameter without a generic value (none of the engine's, the controller's or the task's) starts mid-range.
+
+    Args:
+        objective: the run's objective.
+        threads: how many threads the delay search's batches may use (the workers, idle while it runs).
+    Returns:
+        The point, as a vector of the objective's space.
     """
     space = objective.vector_space()
     values = generic_values(objective, space.names)
     for task in objective.tasks:
         name = delay_parameter(task.name) if delay_parameter(task.name) in space.names else "command_delay"
         if name in space.names:
-            values[name] = cached_delay(objective, task, values).delay_s
+            values[name] = cached_delay(objective, task, values, threads).delay_s
     return space.vector_within_bounds(values)
 
 
