@@ -9,7 +9,10 @@ an unseen task with that delay measures the clocks as much as the physics.
 onset of its repeats (:func:`simtune.data.onset.motion_onset`) minus the onset of the
 simulation with no delay gives a first estimate; a bounded 1-D search over the delay alone
 (SciPy's ``minimize_scalar``, within :data:`SEARCH_S` of it, the delay's range permitting)
-then minimises the task's fitness.  The result is the task's ``command_delay_<task>``.
+then minimises the task's fitness.  The result is the task's ``command_delay_<task>``.  The
+search itself is sequential (each point follows from the last); the rollouts that are not - the
+unaligned score and the onset probe, then the first estimate and the search's first point - go
+as two batches through the engine's batch path, bit for bit the rollouts one at a time.
 """
 
 from __future__ import annotations

@@ -60,9 +60,10 @@ round; least squares is deterministic given the residuals, which the store keeps
 local phase), so ``simtune resume`` replays it, taking every finished evaluation from the store, and
 goes on where the killed session stopped: no finished evaluation is lost or simulated twice.  The point
 a local phase starts from was scored without residuals; it is simulated once more for them.  The
-opening's delay search (a dozen rollouts in the coordinating process, not stored: they are not
-evaluations of the search) is deterministic: a resumed run, like any later start on the same recordings,
-reads it from the start-up cache (:func:`simtune.alignment.cached_delay`) or runs it again.
+opening's delay search (a dozen rollouts in the coordinating process, two pairs of them batched on the
+workers' threads, not stored: they are not evaluations of the search) is deterministic: a resumed run,
+like any later start on the same recordings, reads it from the start-up cache
+(:func:`simtune.alignment.cached_delay`) or runs it again.
 """
 
 from __future__ import annotations
