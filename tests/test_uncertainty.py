@@ -165,3 +165,11 @@ def test_the_run_stores_points_give_the_summary_a_scratch_store_gives(short_run,
     finally:
         store.close()
     assert read == anew
+
+
+def test_student_quantile_is_scipy_stats_own_to_the_last_digit():
+    # the intervals take Student's t from scipy.special (scipy.stats is slow to import): the very numbers
+    from scipy.special import stdtrit
+    from scipy.stats import t
+
+    assert all(float(stdtrit(df, 0.975)) == float(t.ppf(0.975, df)) for df in range(1, 60))
