@@ -1,6 +1,7 @@
 """Uncertainty at the optimum: Gauss-Newton intervals, identifiability, the command and what a run stores."""
 
 import json
+import shutil
 import subprocess
 import sys
 
@@ -136,3 +137,39 @@ def test_a_kinked_parameter_is_not_identifiable():
     result = analyse(space, np.array([1.0, 0.0]), jac)
     assert [e["identifiable"] for e in result["parameters"]] == [False, True]
     assert result["non_smooth"] == ["command_delay"]
+
+
+def test_the_run_stores_points_give_the_summary_a_scratch_store_gives(short_run, tmp_path):
+    # the best point, with residuals in the run's store (as a least-squares phase leaves it), is read there, not
+    # simulated again: the summary stays the one of all 2D + 1 rollouts simulated anew, to the last digit
+    # (rollouts are deterministic)
+    from simtune.optimize.evaluator import Evaluator
+    from simtune.run_plan import plan_run
+    from simtune.uncertainty import _stored, uncertainty
+
+    run = tmp_path / "run"
+    shutil.copytree(short_run, run)
+    store = RunStore(run)
+    try:
+        config = RunConfig.from_stored(store.get("config"), str(run / "run.sqlite"))
+        plan = plan_run(config)
+        inactive = store.get("inactive_parameters") or {}
+        objective = plan.objective(inactive)
+        best = np.asarray(store.best_evaluation()["x"])
+        assert _stored(store, [best])[0] is None  # differential evolution keeps no residuals
+        anew = uncertainty(objective, best, plan.full_space, inactive, known=store)
+        with Evaluator(objective, store, prune=False) as evaluator:
+            evaluator.residuals([best])
+        assert _stored(store, [best])[0] is not None
+        read = uncertainty(objective, best, plan.full_space, inactive, known=store)
+    finally:
+        store.close()
+    assert read == anew
+
+
+def test_student_quantile_is_scipy_stats_own_to_the_last_digit():
+    # the intervals take Student's t from scipy.special (scipy.stats is slow to import): the very numbers
+    from scipy.special import stdtrit
+    from scipy.stats import t
+
+    assert all(float(stdtrit(df, 0.975)) == float(t.ppf(0.975, df)) for df in range(1, 60))

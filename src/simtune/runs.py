@@ -580,7 +580,7 @@ def _uncertainty_or_reason(objective: Objective, plan: RunPlan, store: RunStore,
             }
     try:
         inactive = store.get("inactive_parameters") or {}
-        return uncertainty(objective, result.x, plan.full_space, inactive, plan.config.workers)
+        return uncertainty(objective, result.x, plan.full_space, inactive, plan.config.workers, known=store)
     except (SimtuneError, ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
         return {"error": f"{type(exc).__name__}: {exc}", "parameters": []}
 
@@ -606,7 +606,12 @@ def run_uncertainty(run_dir: Path, workers: int = 1) -> dict:
             if best is None:
                 raise SimtuneError(f"{run_dir}: no evaluations in the run")
             summary = uncertainty(
-                objective, np.asarray(best["x"]), plan.full_space, store.get("inactive_parameters") or {}, workers
+                objective,
+                np.asarray(best["x"]),
+                plan.full_space,
+                store.get("inactive_parameters") or {},
+                workers,
+                known=store,
             )
             store.set(uncertainty=summary)
             return summary
