@@ -68,7 +68,7 @@ def test_the_delay_of_a_recording_is_found_with_the_physics_fixed(cube_objective
     assert estimate.fitness == pytest.approx(objective.score({**physics, "command_delay": estimate.delay_s}).fitness)
 
 
-@pytest.mark.parametrize("physics", ["truth", "generic"])
+@pytest.mark.parametrize("physics", ["truth", pytest.param("generic", marks=pytest.mark.slow)])
 def test_the_batched_delay_search_is_the_sequential_one_to_the_last_digit(cube_objective, physics):
     # the unaligned score with the probe, and the first estimate with the search's first point, go as batches
     # (on 2 threads): the same delay, fitness and rollout count as SciPy's search scoring one rollout at a time

@@ -361,6 +361,7 @@ def test_a_replay_that_takes_another_path_replaces_the_later_checkpoints(tmp_pat
 
 
 # --- Ctrl-C ------------------------------------------------------------------------------------------------
+@pytest.mark.slow  # a kill test: a run on two workers is sent SIGINT (about 5 s each)
 @pytest.mark.parametrize("command", ["tune", "resume"])
 def test_ctrl_c_exits_130_saying_how_to_resume(command, tmp_path):
     out = tmp_path / "run"

@@ -53,6 +53,7 @@ def test_same_seed_same_result_with_one_or_two_workers(tmp_path):
     np.testing.assert_array_equal(one.x, two.x)
 
 
+@pytest.mark.slow  # two runs and a resume (8 s); the kill -9 test below is its end-to-end form
 def test_resume_after_a_crash_redoes_nothing_and_ends_where_an_uninterrupted_run_ends(tmp_path):
     """The fast form of the kill -9 test below: the store is cut back to what a crash in the last
     generation leaves (evaluations are committed one by one, the checkpoint once per generation)."""
