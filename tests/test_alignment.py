@@ -68,35 +68,6 @@ def test_the_delay_of_a_recording_is_found_with_the_physics_fixed(cube_objective
     assert estimate.fitness == pytest.approx(objective.score({**physics, "command_delay": estimate.delay_s}).fitness)
 
 
-@pytest.mark.parametrize("physics", ["truth", pytest.param("generic", marks=pytest.mark.slow)])
-def test_the_batched_delay_search_is_the_sequential_one_to_the_last_digit(cube_objective, physics):
-    # the unaligned score with the probe, and the first estimate with the search's first point, go as batches
-    # (on 2 threads): the same delay, fitness and rollout count as SciPy's search scoring one rollout at a time
-    from scipy.optimize import minimize_scalar
-
-    from simtune.alignment import SEARCH_S, TOLERANCE_S
-    from simtune.objective import generic_values
-
-    task, objective = cube_objective
-    values = TRUTH if physics == "truth" else generic_values(objective, list(TRUTH))
-    values = {k: v for k, v in values.items() if k != "command_delay"}
-    estimate = estimate_delay(objective, task, values, threads=2)
-    first = estimate.onset_delay_s
-    asked = []
-
-    def fitness(delay: float) -> float:
-        asked.append(delay)
-        return objective.score({**values, "command_delay_cube": float(delay)}).fitness
-
-    low, high = max(0.0, first - SEARCH_S), min(3.0, first + SEARCH_S)
-    result = minimize_scalar(fitness, bounds=(low, high), method="bounded", options={"xatol": TOLERANCE_S})
-    at_first = fitness(first)
-    delay, best = (first, at_first) if at_first <= result.fun else (float(result.x), float(result.fun))
-    assert (estimate.delay_s, estimate.fitness) == (delay, best)
-    assert estimate.fitness_unaligned == objective.score(values).fitness
-    assert estimate.rollouts == 2 + len(asked)  # the search's first point was the one scored ahead
-
-
 @pytest.mark.slow  # 9 s
 def test_evaluate_aligns_a_clock_when_asked_and_says_so(tmp_path):
     physics = {k: v for k, v in TRUTH.items() if k != "command_delay"}

@@ -100,7 +100,7 @@ def test_the_opening_delay_and_the_generic_score_are_simulated_once(empty_cache,
     objective = Objective("mujoco", specs, load_references(REFERENCE_DIR, specs), space)
     searched = []
 
-    def estimate(objective, task, params, threads=1):
+    def estimate(objective, task, params):
         searched.append(dict(params))
         return alignment.DelayEstimate(task.name, 1.0, 0.5, 0.5, 0.5 + len(searched) / 7, 0.2, 0.1, 13)
 

@@ -306,27 +306,6 @@ class Objective:
                     going_on.append(i)
             members = sorted(going_on)
 
-    def scored_rollouts(self, params: Sequence[dict[str, float]], threads: int = 1) -> list[tuple[Score, dict]]:
-        """Each member's score (as :meth:`score` gives it) and its rollouts (as :meth:`rollouts`), the batch run
-        through each task's :meth:`~simtune.engines.Engine.rollout_batch`: bit for bit the members one at a time.
-
-        Args:
-            params: the members' parameter dicts.
-            threads: how many threads the engine may use.
-        Returns:
-            ``(score, task name -> rollout)`` per member, in order; a member's simulation error is raised.
-        """
-        parts: list[list[TaskScore]] = [[] for _ in params]
-        rollouts: list[dict] = [{} for _ in params]
-        for task in self.tasks:
-            n = len(self.references[task.name].times)
-            for j, rollout in self._engine(task).rollout_batch(list(params), n, None, threads):
-                if isinstance(rollout, Exception):
-                    raise rollout
-                rollouts[j][task.name] = rollout
-                parts[j].append(self._score(task, rollout, params[j]))
-        return [(Score.combine(p), r) for p, r in zip(parts, rollouts)]
-
     def _score(self, task: TaskSpec, rollout, params: dict[str, float]) -> TaskScore:
         return score_rollout(
             rollout, self.references[task.name], params, weights=self.weights, joint_names=rollout_joint_names(task)

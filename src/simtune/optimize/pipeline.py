@@ -60,10 +60,9 @@ round; least squares is deterministic given the residuals, which the store keeps
 local phase), so ``simtune resume`` replays it, taking every finished evaluation from the store, and
 goes on where the killed session stopped: no finished evaluation is lost or simulated twice.  The point
 a local phase starts from was scored without residuals; it is simulated once more for them.  The
-opening's delay search (a dozen rollouts in the coordinating process, two pairs of them batched on the
-workers' threads, not stored: they are not evaluations of the search) is deterministic: a resumed run,
-like any later start on the same recordings, reads it from the start-up cache
-(:func:`simtune.alignment.cached_delay`) or runs it again.
+opening's delay search (a dozen rollouts in the coordinating process, not stored: they are not
+evaluations of the search) is deterministic: a resumed run, like any later start on the same recordings,
+reads it from the start-up cache (:func:`simtune.alignment.cached_delay`) or runs it again.
 """
 
 from __future__ import annotations
@@ -180,9 +179,7 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
     with search:
         try:
             if opening:
-                solution = _local_phase(
-                    search, aligned_generic_start(objective, search.evaluator.workers), refined, diagnose=True
-                )
+                solution = _local_phase(search, aligned_generic_start(objective), refined, diagnose=True)
                 best_after_round.append(search.best_fitness)
                 if at_noise_floor(solution.fun, floor):
                     return _converged(search, _floor_words(solution.fun, floor), rounds, opening)
@@ -256,14 +253,13 @@ def _local_phase(search: BatchSearch, start: np.ndarray, refined: set[bytes], di
     return solution
 
 
-def aligned_generic_start(objective: Objective, threads: int = 1) -> np.ndarray:
+def aligned_generic_start(objective: Objective) -> np.ndarray:
     """The generic point of ``objective``'s space with each task's command delay aligned to its recordings.
 
     A parameter without a generic value (none of the engine's, the controller's or the task's) starts mid-range.
 
     Args:
         objective: the run's objective.
-        threads: how many threads the delay search's batches may use (the workers, idle while it runs).
     Returns:
         The point, as a vector of the objective's space.
     """
@@ -272,7 +268,7 @@ def aligned_generic_start(objective: Objective, threads: int = 1) -> np.ndarray:
     for task in objective.tasks:
         name = delay_parameter(task.name) if delay_parameter(task.name) in space.names else "command_delay"
         if name in space.names:
-            values[name] = cached_delay(objective, task, values, threads).delay_s
+            values[name] = cached_delay(objective, task, values).delay_s
     return space.vector_within_bounds(values)
 
 
