@@ -46,14 +46,20 @@ def _delay(row: dict, engine: str) -> str:
     return f"{value:.3f} {'yes' if abs(value - TRUE_DELAY_S) < DELAY_TOLERANCE_S else 'NO'}"
 
 
+def _holds(low: float | None, high: float | None) -> bool:
+    """Whether a bounded interval holds the true delay (an unbounded one, None, does not count)."""
+    return low is not None and high is not None and low <= TRUE_DELAY_S <= high
+
+
 def _interval(row: dict, engine: str) -> str:
     """The delay's 95 % interval and whether it holds the truth ("unbounded" where the run could not pin it)."""
-    low, high = row.get("delay_interval", {}).get(engine, (None, None))
-    if engine not in row.get("delay_interval", {}):
+    intervals = row.get("delay_interval", {})
+    if engine not in intervals:
         return "-"
+    low, high = intervals[engine]
     if low is None or high is None:
         return "unbounded"
-    return f"{low:.4f}-{high:.4f} {'yes' if low <= TRUE_DELAY_S <= high else 'NO'}"
+    return f"{low:.4f}-{high:.4f} {'yes' if _holds(low, high) else 'NO'}"
 
 
 def coverage(rows: list[dict]) -> str:
@@ -68,7 +74,7 @@ def coverage(rows: list[dict]) -> str:
     counts = {}
     for engine in TUNED_IN:
         intervals = [r["delay_interval"][engine] for r in rows if engine in r.get("delay_interval", {})]
-        held = sum(1 for low, high in intervals if low is not None and high is not None and low <= TRUE_DELAY_S <= high)
+        held = sum(1 for low, high in intervals if _holds(low, high))
         counts[engine] = (held, len(intervals))
     held, total = sum(h for h, _ in counts.values()), sum(n for _, n in counts.values())
     parts = ", ".join(f"{e} {h}/{n}" for e, (h, n) in counts.items())
