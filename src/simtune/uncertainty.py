@@ -81,8 +81,8 @@ def jacobian(
         x: the point (its space's vector).
         workers: processes for the rollouts.
         step: the finite-difference step, as a fraction of each parameter's range.
-        known: the run's own store: a point it holds bit for bit, stable and with its residuals (the best point,
-            and the solver's forward differences where they coincide) is read from it, not simulated again.
+        known: the run's own store: a point it holds bit for bit, stable and with its residuals (in practice the
+            best point; see the module's notes) is read from it, not simulated again.
     Returns:
         The :class:`Jacobian`.
     """
