@@ -57,7 +57,11 @@ def packaged_arm(package: str, inside: str, install: str) -> Path:
     return path
 
 
-ARM_PARAMS = [pytest.param(*p[1:], id=p[0]) for p in PACKAGED_ARMS]
+#: one robosuite arm stays in the default tier; the other six (5-8 s each) run in the slow one
+ARM_PARAMS = [
+    pytest.param(*p[1:], id=p[0], marks=pytest.mark.slow if p[1] == "robosuite" and p[0] != "kinova3-robosuite" else ())
+    for p in PACKAGED_ARMS
+]
 
 
 def cli(*args, cwd=None):

@@ -85,6 +85,7 @@ def test_sections_that_need_repeats_say_so_in_one_line_for_a_single_run(one_run)
     assert not (one_run / "report" / "tables" / "parameter_importance.csv").exists()
 
 
+@pytest.mark.slow  # a browser end to end: 11 s
 @pytest.mark.skipif(CHROMIUM is None or CHROMEDRIVER is None, reason=f"no Chromium here: {BROWSER_INSTALL}")
 def test_the_report_in_a_browser_loads_without_errors_and_its_first_screen_holds_the_headline(one_run):
     webdriver = pytest.importorskip("selenium.webdriver", reason=f"selenium missing: {BROWSER_INSTALL}")
