@@ -234,3 +234,21 @@ def test_a_round_that_goes_on_locally_runs_no_global_phase(tmp_path, monkeypatch
     start_run(config(), tmp_path / "both", show_progress=False)
     assert populations(tmp_path / "local") == 0 and populations(tmp_path / "both") == 1
     assert "least-squares steps" in local.message and local.fitness < local.history[0]
+
+
+def test_the_search_starts_a_joints_gain_at_the_tasks_kp():
+    """The opening starts at the generic point (docs/tuning.md): each joint's gain at the task's kp (it started at
+    the bottom of its range, 1 /s, before 2026-11-27), the clamp at the task's, delay and marker offset at 0."""
+    from simtune.objective import Objective, generic_values, load_references
+    from simtune.tasks import parse_tasks
+
+    tasks = parse_tasks("cube")
+    objective = Objective("mujoco", tasks, load_references(REFERENCE_DIR, tasks))
+    try:
+        names = ["kp_joint_2", "kp_joint_6", "max_velocity_joint_2", "marker_offset_x", "command_delay"]
+        generic = generic_values(objective, names)
+    finally:
+        objective.close()
+    assert generic["kp_joint_2"] == generic["kp_joint_6"] == tasks[0].kp
+    assert generic["max_velocity_joint_2"] == tasks[0].max_velocity_deg
+    assert generic["marker_offset_x"] == generic["command_delay"] == 0.0

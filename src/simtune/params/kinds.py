@@ -492,7 +492,8 @@ def lacking(engine: str) -> list[str]:
 
 
 def outside_generics(n_joints: int, max_velocity_deg: float, kp: float) -> dict[str, float]:
-    """The generic values of the controller's and the marker model's kinds (what an untuned run uses).
+    """The generic values of the controller's and the marker model's kinds (what an untuned run uses: the task's
+    clamp and gain, no delay, no marker offset).
 
     Args:
         n_joints: the robot's driven joints.
