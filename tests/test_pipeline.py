@@ -212,30 +212,6 @@ def test_a_batch_that_would_run_past_max_seconds_is_not_started(tmp_path):
     assert search.evaluator.simulated_jobs == 2  # the refused batch simulated nothing
 
 
-def test_a_round_goes_on_locally_only_while_the_last_local_phase_ran_out_of_steps_still_gaining():
-    rtol = pipeline.ROUND_RTOL
-    assert pipeline.goes_on_locally(0, 1.0, 1.0 - 2 * rtol)  # out of steps, still paying
-    assert not pipeline.goes_on_locally(0, 1.0, 1.0 - 0.5 * rtol)  # out of steps, hardly gaining: a global phase
-    assert not pipeline.goes_on_locally(2, 1.0, 0.5)  # stalled on its tolerance: a global phase looks further
-    assert not pipeline.goes_on_locally(0, float("inf"), 0.5)  # nothing scored before it
-
-
-@pytest.mark.slow  # two short runs: about 25 s
-def test_a_round_that_goes_on_locally_runs_no_global_phase(tmp_path, monkeypatch):
-    def populations(run_dir) -> int:  # a global phase keeps its latest population in the store
-        store = RunStore.open_read_only(run_dir)
-        held = store.db.execute("SELECT COUNT(*) FROM generations WHERE population IS NOT NULL").fetchone()[0]
-        store.close()
-        return held
-
-    monkeypatch.setattr(pipeline, "goes_on_locally", lambda *_: True)
-    local = start_run(config(), tmp_path / "local", show_progress=False)
-    monkeypatch.setattr(pipeline, "goes_on_locally", lambda *_: False)
-    start_run(config(), tmp_path / "both", show_progress=False)
-    assert populations(tmp_path / "local") == 0 and populations(tmp_path / "both") == 1
-    assert "least-squares steps" in local.message and local.fitness < local.history[0]
-
-
 def test_the_search_starts_a_joints_gain_at_the_tasks_kp():
     """The opening starts at the generic point (docs/tuning.md): each joint's gain at the task's kp (it started at
     the bottom of its range, 1 /s, before 2026-11-27), the clamp at the task's, delay and marker offset at 0."""

@@ -484,7 +484,8 @@ def generic_values(objective: Objective, names: list[str]) -> dict[str, float]:
     A name with neither is left out, and a search starts it mid-range: a task's own command delay (found from its
     recordings instead), and the encoders' offsets and compliance.  Their generic value is 0, but the compliance's
     0 is its lower bound, and a start there was measured worse on real ``cube`` (seed 0, no budget, 2 workers:
-    0.01155 against 0.00932 from mid-range, 2026-11-27), so the search keeps starting it mid-range.
+    0.01155 against 0.00932 from mid-range, 2026-11-27, both under a round rule since taken out), so the search
+    keeps starting it mid-range.
 
     Args:
         objective: the run's objective (its engine and tasks).

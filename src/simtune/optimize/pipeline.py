@@ -22,13 +22,6 @@ is often one basin away.  Then, in rounds:
    basin) or after ``LOCAL_NFEV`` solver steps.  A point already refined, or where a local phase stalled, is not
    refined again: the round's own best is then.
 
-A round goes without its global phase while the local search still pays (:func:`goes_on_locally`): when the last
-local phase (the opening's too) ran out of solver steps having lowered the best fitness by ``ROUND_RTOL`` or more,
-the next local phase goes on from where it ended.  Differential evolution is for a local search that has stopped
-paying; measured on real ``cube`` (``calibrated``, seed 0, 2 workers, before this rule), 10 of its 13 rounds' global
-phases found nothing better than the point the last local phase had reached, and the local phase after each went on
-from that same point: the global phases took 352 s of the run's 512.
-
 The run stops by itself once it has converged (:func:`converged`): the last ``PATIENCE`` rounds together lowered
 the best fitness by less than ``ROUND_RTOL`` of it - neither the local phases (each ends on SciPy's cost tolerance,
 ``STALL_FTOL``, or after ``LOCAL_NFEV`` steps) nor the global rounds that look for a better basin are finding one.
@@ -116,26 +109,6 @@ def converged(best_after_round: list[float]) -> bool:
     return before - now <= ROUND_RTOL * abs(before)
 
 
-def goes_on_locally(status: int, before: float, after: float) -> bool:
-    """Whether the next round goes on with least squares from where the last local phase ended, without a global
-    phase first: that phase ran out of solver steps (SciPy's ``status`` 0, not a tolerance) while still paying - it
-    lowered the best fitness by at least ``ROUND_RTOL`` of it, from ``before`` to ``after``.
-
-    The global phase is for a local search that has stopped paying; while one is still gaining, differential
-    evolution's generations mostly re-find its point (measured on real ``cube``: docs/tuning.md).
-
-    Args:
-        status: the last local phase's SciPy status.
-        before: the run's best fitness before that phase.
-        after: the run's best fitness after it.
-    Returns:
-        True when the next round is a local phase alone.
-    """
-    if status != 0 or not (np.isfinite(before) and np.isfinite(after)):
-        return False
-    return before - after >= ROUND_RTOL * abs(before)
-
-
 def noise_floor_cost(deviations: list[np.ndarray | None]) -> float | None:
     """The sum of squared residuals a simulation of the true parameters is expected to score against the mean of
     the repeats: the recordings' noise floor, in the residuals' own units.
@@ -202,46 +175,32 @@ def global_local_tune(objective: Objective, store: RunStore, settings: TuneSetti
     if population is not None and len(population) < 5:
         population = None  # SciPy's DE needs 5 members or more
     opening = population is None and settings.initial_population is None
-    last_energies: np.ndarray | None = None  # of the last global phase's population (None: none ran yet)
     floor = recordings_floor(objective)  # None: the rounds' gains alone decide
     with search:
         try:
-            local = None  # the last local phase, its status and the best fitness before it: whether to go on locally
             if opening:
-                before = search.best_fitness
                 solution = _local_phase(search, aligned_generic_start(objective), refined, diagnose=True)
                 best_after_round.append(search.best_fitness)
                 if at_noise_floor(solution.fun, floor):
                     return _converged(search, _floor_words(solution.fun, floor), rounds, opening)
-                local = (solution.status, before)
+                assert search.best_x is not None, "the opening scored its start"
+                population = search.from_unit(opening_population(search.to_unit(search.best_x), settings.seed))
+                population[0] = search.best_x  # as scored, not through the unit cube and back
             while True:
-                if local is not None and goes_on_locally(local[0], local[1], search.best_fitness):
-                    assert search.best_x is not None, "a local phase scored its start"
-                    start = search.best_x  # where the phase ran out of steps, still gaining: not marked refined
-                else:
-                    if population is None:  # the first global phase after the opening: around its best point
-                        assert search.best_x is not None, "the opening scored its start"
-                        population = search.from_unit(opening_population(search.to_unit(search.best_x), settings.seed))
-                        population[0] = search.best_x  # as scored, not through the unit cube and back
-                    seed = settings.seed + 1000 * rounds
-                    population, last_energies, round_x = _global_phase(search, population, seed)
-                    assert search.best_x is not None, "the global phase scored a batch"
-                    start = search.best_x if search.best_x.tobytes() not in refined else round_x
-                before = search.best_fitness
+                population, last_energies, round_x = _global_phase(search, population, settings.seed + 1000 * rounds)
+                assert search.best_x is not None, "the global phase scored a batch"
+                start = search.best_x if search.best_x.tobytes() not in refined else round_x
                 solution = _local_phase(search, start, refined)
                 rounds += 1
                 best_after_round.append(search.best_fitness)
-                local = (solution.status, before)
                 if at_noise_floor(solution.fun, floor):
                     return _converged(search, _floor_words(solution.fun, floor), rounds, opening)
                 if converged(best_after_round):
                     return _converged(search, f"{PATIENCE} rounds gained less than {ROUND_RTOL:.0%}", rounds, opening)
-                # the next global phase goes on from the last one's population, with the run's best point in it
-                if last_energies is not None:
-                    assert population is not None, "a global phase ran"
-                    if not any(np.array_equal(member, search.best_x) for member in population):
-                        population = population.copy()
-                        population[int(np.argmax(last_energies))] = search.best_x
+                # the next global phase goes on from this one's population, with the run's best point in it
+                if not any(np.array_equal(member, search.best_x) for member in population):
+                    population = population.copy()
+                    population[int(np.argmax(last_energies))] = search.best_x
         except BudgetSpent:
             pass
         assert search.stop_reason is not None, "the rounds end only when a budget says stop"
