@@ -57,10 +57,11 @@ def packaged_arm(package: str, inside: str, install: str) -> Path:
     return path
 
 
-#: one robosuite arm stays in the default tier; the other six (5-8 s each) run in the slow one
+#: the default tier keeps dm_control's Jaco (installed by the test extras) and one robosuite arm (where robosuite is
+#: installed by hand); the others (5-8 s each) run in the slow tier
+DEFAULT_TIER_ARMS = ("jaco-dm_control", "kinova3-robosuite")
 ARM_PARAMS = [
-    pytest.param(*p[1:], id=p[0], marks=pytest.mark.slow if p[1] == "robosuite" and p[0] != "kinova3-robosuite" else ())
-    for p in PACKAGED_ARMS
+    pytest.param(*p[1:], id=p[0], marks=() if p[0] in DEFAULT_TIER_ARMS else pytest.mark.slow) for p in PACKAGED_ARMS
 ]
 
 

@@ -57,6 +57,7 @@ def test_a_second_analysis_reuses_the_cached_evaluations(morris):
         run_sensitivity("mujoco", "cube", REFERENCE_DIR, "extended", out, samples=4, only=ONLY[:2])
 
 
+@pytest.mark.slow  # the command end to end: 6 s
 def test_sobol_command_prints_the_table(tmp_path):
     proc = simtune(
         "sensitivity",
