@@ -228,3 +228,8 @@ def test_the_search_starts_a_joints_gain_at_the_tasks_kp():
     assert generic["kp_joint_2"] == generic["kp_joint_6"] == tasks[0].kp
     assert generic["max_velocity_joint_2"] == tasks[0].max_velocity_deg
     assert generic["marker_offset_x"] == generic["command_delay"] == 0.0
+    # the report's and the exporters' generic values (the domain-randomisation ranges' nominal) say the same
+    from simtune.report.simulate import nominal_values
+
+    nominal = nominal_values("mujoco", tasks)
+    assert {name: nominal[name] for name in names} == generic

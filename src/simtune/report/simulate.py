@@ -13,6 +13,7 @@ from simtune.engines.controller import JointController
 from simtune.errors import SimtuneError
 from simtune.fitness import TaskScore, marker_positions, rollout_joint_names, score_rollout
 from simtune.objective import Objective, load_references, recordings_folder
+from simtune.params.kinds import outside_generics
 from simtune.report.collect import Group, ReportedRun
 from simtune.tasks import TaskSpec
 
@@ -128,7 +129,8 @@ def simulate_group(group: Group, references: References) -> GroupSimulation:
 
 
 def nominal_values(engine: str, tasks: list[TaskSpec]) -> dict[str, float]:
-    """Generic value of every parameter ``engine`` has on these tasks: its own defaults and the controller's."""
+    """Generic value of every parameter ``engine`` has on these tasks: its own defaults, and the controller's and the
+    marker's from the kinds table (:func:`simtune.params.kinds.outside_generics`: each joint's clamp and gain)."""
     values: dict[str, float] = {}
     for task in tasks:
         sim = make_engine(engine, task)
@@ -137,9 +139,6 @@ def nominal_values(engine: str, tasks: list[TaskSpec]) -> dict[str, float]:
                 values.setdefault(key, float(value))
         finally:
             sim.close()
-        for i in range(1, task.robot.n_joints + 1):
-            values.setdefault(f"max_velocity_joint_{i}", float(task.max_velocity_deg))
-    values.setdefault("command_delay", 0.0)
-    for axis in "xyz":
-        values.setdefault(f"marker_offset_{axis}", 0.0)
+        for key, value in outside_generics(task.robot.n_joints, task.max_velocity_deg, task.kp).items():
+            values.setdefault(key, value)
     return values
