@@ -85,3 +85,20 @@ def test_a_start_pose_far_from_the_recorded_wrist_is_warned_about(mocap_root):
     bent = dataclasses.replace(task, start_pose_deg=(0.0, 10.0, 0.0, 0.0, 0.0, 0.0))
     with pytest.warns(RecordingWarning, match=r"start pose check: the arm's link_6 starts \d+\.\d cm"):
         load_references(mocap_root, [bent])
+
+
+def test_the_start_pose_check_reads_the_wrist_before_it_moves_not_the_whole_first_second():
+    # a schedule that starts at once (a synthetic recording, a short command delay): the wrist rests for 0.4 s,
+    # then moves 10 cm within the first second; the mean of that second would lie centimetres off the start
+    from simtune.data.task import REST_S, TaskData
+
+    times = np.arange(60) / 20.0
+    wrist = np.tile([0.2, 0.0, 0.9], (60, 1))
+    wrist[8:, 0] += np.minimum(0.2 * (times[8:] - 0.4) / 0.5, 0.2)
+    data = TaskData("reach", 20.0, times, wrist, wrist[None], None, None, [])
+    assert 0.4 <= data.wrist_rest_end < 0.5
+    np.testing.assert_allclose(data.wrist_start_mean, [0.2, 0.0, 0.9])
+    resting = dataclasses.replace(data, wrist_mean=np.tile([0.2, 0.0, 0.9], (60, 1)))
+    assert resting.wrist_rest_end == REST_S  # an arm at rest all second long: the whole second, as before
+    moving = dataclasses.replace(data, wrist_mean=wrist + times[:, None] * [0.3, 0.0, 0.0])
+    np.testing.assert_allclose(moving.wrist_start_mean, [0.2, 0.0, 0.9])  # moving from the first sample

@@ -149,7 +149,7 @@ def load_references(
     topic of ROS 2 joint logs.
 
     The arm's start pose is checked against the recordings: where the tracked link's origin at the
-    start pose lies more than :data:`START_WARN_M` from the mean recorded wrist of the first second,
+    start pose lies more than :data:`START_WARN_M` from the mean recorded wrist at rest at the start,
     a RecordingWarning says by how much (a wrong start pose, frame or body; the marker offset can
     absorb a few centimetres at most).
     """
@@ -169,7 +169,7 @@ def load_references(
         if gap is not None and gap > START_WARN_M:
             warnings.warn(
                 f"task {task.name!r}: start pose check: the arm's {task.tracked_link} starts {gap * 100:.1f} cm "
-                f"from the recorded wrist of the first second in {folder} (more than {START_WARN_M * 100:g} cm): "
+                f"from the recorded wrist at rest at the start in {folder} (more than {START_WARN_M * 100:g} cm): "
                 "check the task's start_pose_deg and the recordings' frame",
                 RecordingWarning,
                 stacklevel=2,
@@ -184,7 +184,7 @@ START_WARN_M = 0.03
 
 def start_pose_gap(task: TaskSpec, reference: TaskData) -> float | None:
     """Distance [m] between the tracked link's origin at the task's start pose and the mean recorded
-    wrist position of the first second; None when the recordings track no wrist."""
+    wrist position at rest at the start (:attr:`TaskData.wrist_start_mean`); None when the recordings track no wrist."""
     recorded = reference.wrist_start_mean
     if recorded is None:
         return None

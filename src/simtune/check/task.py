@@ -43,7 +43,6 @@ from simtune.data import TaskData, load_recording
 from simtune.data.clock import outlying_shifts
 from simtune.data.onset import motion_onset
 from simtune.data.orientation import RecordedRotations
-from simtune.data.task import REST_S
 from simtune.engines import engine_class, make_engine
 from simtune.errors import SimtuneError
 from simtune.fitness import NOISE_UNIT_M, marker_positions, reference_floor, repeat_floor
@@ -442,7 +441,7 @@ def marker_offset(entries: list[dict], frames: list, turns: list) -> np.ndarray 
 
 
 def _rests(task: TaskSpec, reference: TaskData, rollout, marker: np.ndarray, delay: float) -> tuple[list, dict, dict]:
-    """The rest poses (:func:`rest_poses`) and the start pose (the first recorded second against the simulated
+    """The rest poses (:func:`rest_poses`) and the start pose (the recorded rest at the start against the simulated
     arm's first sample), their orientation where the recordings give it, and targets proposed for those far off."""
     from scipy.spatial.transform import Rotation
 
@@ -458,7 +457,7 @@ def _rests(task: TaskSpec, reference: TaskData, rollout, marker: np.ndarray, del
             "stretch": "start pose",
             "simulated_m": [float(v) for v in marker[0]],
             "simulated_window_s": [0.0, 0.0],
-            "recorded_window_s": [0.0, REST_S],
+            "recorded_window_s": [0.0, reference.wrist_rest_end],
         }
     entries = rows + ([] if start is None else [start])
     orientation, recorded = _recorded_frames(task, reference)

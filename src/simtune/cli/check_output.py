@@ -132,7 +132,7 @@ def _print_start_pose(start: dict) -> None:
     proposal = start["proposal"]
     turned = "" if start.get("orientation_deg") is None else f" and turned {start['orientation_deg']:.1f} deg"
     out.print(
-        f"  the first recorded second lies {1000 * start['distance_m']:.1f} mm{turned} from the start pose's: "
+        f"  the recorded rest at the start lies {1000 * start['distance_m']:.1f} mm{turned} from the start pose's: "
         f"proposed start_pose_deg {' '.join(f'{v:g}' for v in proposal['targets_deg'])} "
         f"({moved_joints(proposal) or 'no joint change helps'}; {_residuals(proposal)})",
         highlight=False,

@@ -17,6 +17,7 @@ from simtune.data.fingerprint import task_files
 from simtune.data.formats import recording_kinds
 from simtune.data.lerobot import LeRobotReading
 from simtune.data.loaders import load_recordings
+from simtune.data.onset import motion_onset
 from simtune.data.recording import Recording
 from simtune.data.rosbag import UnindexedBag
 from simtune.data.sanity import (
@@ -47,8 +48,8 @@ def check_repeats(value: object, where: str = "repeats") -> str:
     )
 
 
-#: The first seconds of a recording, before the arm moves (every task holds its start pose at least
-#: this long): what the object's and the wrist's start positions are averaged over.
+#: The first seconds of a recording, before the arm moves: what the object's start position is averaged over, and
+#: the wrist's where it does not move sooner (:attr:`TaskData.wrist_rest_end`).
 REST_S = 1.0
 
 
@@ -96,11 +97,27 @@ class TaskData:
         return None if self.object_rest is None else self.object_rest.mean(axis=0)
 
     @property
-    def wrist_start_mean(self) -> np.ndarray | None:
-        """The mean recorded wrist position over the first :data:`REST_S` seconds, (3,) [m], or None."""
+    def wrist_rest_end(self) -> float | None:
+        """When the recorded wrist's rest at the start ends [s]: :data:`REST_S`, or its motion onset
+        (:func:`~simtune.data.onset.motion_onset`) where it moves sooner; None without a wrist.
+
+        A task whose schedule starts at once (a synthetic recording, a log with a short delay) moves the arm
+        within the first second: its mean would lie centimetres from the start pose it was commanded from."""
         if self.wrist_mean is None:
             return None
-        return self.wrist_mean[self.times < REST_S].mean(axis=0)
+        onset = motion_onset(self.times, self.wrist_mean)
+        return REST_S if onset is None else min(REST_S, onset)
+
+    @property
+    def wrist_start_mean(self) -> np.ndarray | None:
+        """The mean recorded wrist position while it rests at the start (:attr:`wrist_rest_end`), (3,) [m], or
+        None; the first sample alone where the wrist moves at once."""
+        end = self.wrist_rest_end
+        if self.wrist_mean is None or end is None:
+            return None
+        resting = self.times < end
+        resting[0] = True
+        return self.wrist_mean[resting].mean(axis=0)
 
     @property
     def object_final_mean(self) -> np.ndarray | None:
