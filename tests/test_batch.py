@@ -61,11 +61,18 @@ def test_threads_and_chunked_worker_processes_store_what_one_process_stores(tmp_
     obj = objective()
     xs = vectors(obj, 6, seed=1)
     rows = {}
-    for name, workers, threads in (("one", 1, False), ("threads", 2, True), ("processes", 2, False)):
+    # "switched": worker processes asked for after threads (threads_first_s 0: the pool starts after the first
+    # batch's first member, alone on threads); "threads first": a budget of threads the batches never spend
+    modes = (("one", 1, False, None), ("threads", 2, True, None), ("processes", 2, False, None))
+    modes += (("switched", 2, False, 0.0), ("threads first", 2, False, 1e9))
+    for name, workers, threads, threads_first_s in modes:
         store = RunStore(tmp_path / name, create=True)
-        with Evaluator(objective(), store, workers, threads=threads) as evaluator:
+        with Evaluator(objective(), store, workers, threads=threads, threads_first_s=threads_first_s) as evaluator:
             assert evaluator.chunked == (name == "processes")  # each worker runs its chunk through the batch path
+            assert evaluator.threads == (name in ("threads", "switched", "threads first"))
             fitness = evaluator.evaluate(xs)
+            assert (evaluator._pool is not None) == (name in ("processes", "switched"))
+            assert evaluator.chunked == (name in ("processes", "switched"))
             evaluator.parent_energies = fitness * 0.5  # every trial pruned against a better parent
             evaluator.evaluate(xs + 1e-9)
             residuals = evaluator.residuals(xs[:3] - 1e-9)
@@ -74,7 +81,7 @@ def test_threads_and_chunked_worker_processes_store_what_one_process_stores(tmp_
             [(r.tolist(), s) for r, s in residuals],
         )
         store.close()
-    assert rows["one"] == rows["threads"] == rows["processes"]
+    assert rows["one"] == rows["threads"] == rows["processes"] == rows["switched"] == rows["threads first"]
     assert sum(pruned for _, _, pruned, _ in rows["one"][0]) == 6
 
 

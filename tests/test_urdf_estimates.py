@@ -370,3 +370,41 @@ def test_public_support_package_in_a_description_folder_loads_with_name_equals_d
     robot = loaded(urdf, package_path=[f"abb_irb140_support={folder}"])
     assert robot.n_joints == 6 and robot.placeholder_masses == ()
     assert set(robot.estimated_masses) >= set(robot.driven_links)
+
+
+# --------------------------------------------------------------------------- the start-up cache
+
+
+def test_a_urdf_is_read_once_until_it_or_a_mesh_it_names_changes(tmp_path, monkeypatch):
+    """load_robot reads a URDF back from the start-up cache (no yourdfpy, no walk of the file) while the file, the
+    options and every mesh it names are unchanged; a changed mesh is read anew, and the load's warnings come back
+    with every read."""
+    from simtune.robot import load, urdf
+
+    monkeypatch.setenv("SIMTUNE_CACHE_DIR", str(tmp_path / "cache"))
+    reads = []
+    monkeypatch.setattr(urdf, "load_urdf", lambda *a, **k: reads.append(1) or load_urdf(*a, **k))
+    (tmp_path / "meshes").mkdir()
+    trimesh.creation.box(extents=(0.04, 0.04, 0.2)).export(tmp_path / "meshes" / "upper.stl")
+    mesh = geometry("collision", '<mesh filename="meshes/upper.stl"/>')
+    text = arm({"base": geometry("collision", BOX), "upper": mesh}).replace(
+        '<link name="upper">', '<link name="upper" drake:x="1">'
+    )
+    path = write(tmp_path, text)  # an undeclared prefix (as some UR descriptions have): read, with a warning
+
+    def mass() -> float:
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            robot = load.load_robot(path)
+        assert any("namespace prefix drake used without a declaration" in str(w.message) for w in said)
+        assert any("masses estimated from geometry" in note for note in robot.choices)
+        return robot.link_by_name["upper"].mass
+
+    first = mass()
+    assert first == pytest.approx(DEFAULT_DENSITY * 0.04 * 0.04 * 0.2, rel=1e-6)
+    assert mass() == first and reads == [1]  # read back
+    assert load.load_robot(path, density=1000.0).link_by_name["upper"].mass != first and len(reads) == 2
+    trimesh.creation.box(extents=(0.04, 0.04, 0.4)).export(tmp_path / "meshes" / "upper.stl")
+    assert mass() == pytest.approx(2 * first, rel=1e-6) and len(reads) == 3  # the mesh changed
+    path.write_text(path.read_text().replace('name="kin"', 'name="kin2"'))
+    assert load.load_robot(path).name != "kin" and len(reads) == 4  # the file changed

@@ -49,7 +49,7 @@ from simtune.data.fingerprint import fingerprint_changes, folders_fingerprint
 from simtune.errors import RunInterrupted, SimtuneError
 from simtune.objective import Objective, generic_score, recordings_folder
 from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squares_refine
-from simtune.optimize.evaluator import timed_out
+from simtune.optimize.evaluator import THREADS_FIRST_S, timed_out
 from simtune.optimize.progress import TuneProgress
 from simtune.params.space import is_supported
 from simtune.run_plan import RunConfig, RunPlan, plan_run
@@ -503,6 +503,7 @@ def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bo
             on_generation=progress.generation,
             initial_population=None if initial is None else np.array(initial, dtype=float),
             threads=config.threads,
+            threads_first_s=None if config.threads else THREADS_FIRST_S,
         )
         result = tune(objective, store, settings)
         if searched is None:

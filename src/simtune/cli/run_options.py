@@ -62,8 +62,9 @@ ThreadsOpt = Annotated[
     typer.Option(
         "--threads",
         help="Evaluate on --workers threads of this process instead of worker processes (MuJoCo; the same "
-        "results; no --eval-timeout and no crash isolation).  On 2 cores processes are faster: "
-        "benchmarks/batch_threads.py.",
+        "results; no --eval-timeout and no crash isolation).  Without it MuJoCo runs on threads for its first "
+        "2 s of simulation, then on worker processes, which are faster on large batches "
+        "(benchmarks/batch_threads.py).",
     ),
 ]
 MaxSecondsOpt = Annotated[

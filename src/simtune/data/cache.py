@@ -96,19 +96,23 @@ class _Warned:
         warnings.warn_explicit(self.message, self.category, self.filename, self.lineno)
 
 
-def cached(kind: str, what: Any, compute: Callable[[], T]) -> T:
+def cached(kind: str, what: Any, compute: Callable[[], T], valid: Callable[[T], bool] | None = None) -> T:
     """``compute()``, or what it returned before for the same ``what`` (see the module's notes).
 
     Args:
         kind: the cache's sub-folder (``references``, ``delay`` ...).
         what: everything the result depends on besides simtune's code, as plain values.
         compute: makes the result; its warnings are kept and raised again on every read.
+        valid: whether a value read back still holds (files it points to that the key cannot cover); one that
+            does not is computed again and replaced.
 
     Returns:
         The result, computed now or read back.
     """
     path = cache_root() / kind / f"{content_key(what)}.pickle"
     entry = _read(path)
+    if entry is not None and valid is not None and not valid(entry[0]):
+        entry = None
     if entry is None:
         entry = _computed(compute)
         _write(path, entry)

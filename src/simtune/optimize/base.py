@@ -74,6 +74,7 @@ class BatchSearch:
             settings.eval_timeout,
             prune=prune and settings.prune,
             threads=settings.threads,
+            threads_first_s=settings.threads_first_s,
         )
         self.evaluator.generation = first_generation
         self.first_generation = first_generation

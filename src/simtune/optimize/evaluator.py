@@ -99,6 +99,9 @@ class TuneSettings:
     #: evaluate each batch in this process on ``workers`` threads (the engine's batch path) instead of processes;
     #: None: where that is the faster (:func:`batch_on_threads`)
     threads: bool | None = None
+    #: with worker processes (``threads`` False), this many seconds of simulation on threads first, where the
+    #: engine has the threaded batch path (:attr:`Evaluator.threads_first_s`); None: processes from the start
+    threads_first_s: float | None = None
 
 
 @dataclass
@@ -171,6 +174,11 @@ class RunningClock:
 #: 2 processes 103.6 evaluations/s, 2 threads 60.3, one process 58.9), and ``simtune tune`` asks for them.
 THREADED_ENGINES = frozenset({"mujoco"})
 THREADS_WIN_UP_TO = 2
+#: Seconds of simulation a tuning run that asks for worker processes spends on threads first
+#: (:meth:`Evaluator._need_pool`): about what starting the pool costs over what threads lose to processes per second
+#: (0.7 s / 0.4): a search that ends sooner never starts a pool.  Measured on the synthetic Panda `reach` (2 workers,
+#: 29 rollouts): 1.6 s of search with the pool from the start, 0.8 s without one.
+THREADS_FIRST_S = 2.0
 
 
 def batch_on_threads(engine: str, workers: int, threads: bool | None, eval_timeout: float | None) -> bool:
@@ -306,11 +314,23 @@ class Evaluator:
         eval_timeout: float | None = None,
         prune: bool = True,
         threads: bool | None = None,
+        threads_first_s: float | None = None,
     ):
         self.objective = objective
         self.store = store
         self.workers = max(1, int(workers))
         self.threads = batch_on_threads(objective.engine, self.workers, threads, eval_timeout)
+        #: worker processes asked for, but this many seconds of simulation on threads first (:meth:`_need_pool`)
+        self.threads_first_s = (
+            threads_first_s
+            if threads_first_s is not None
+            and self.workers > 1
+            and not self.threads
+            and objective.engine in THREADED_ENGINES
+            else None
+        )
+        if self.threads_first_s is not None:
+            self.threads = True
         self.on_evaluation = on_evaluation
         self.eval_timeout = eval_timeout
         self.generation = 0
@@ -336,18 +356,40 @@ class Evaluator:
 
     def __enter__(self) -> Evaluator:
         self._blas_limit = threadpool_limits(1, user_api="blas")  # lifted on exit (see the module's text)
-        if self.workers > 1 and not self.threads:
-            from pebble import ProcessPool  # here: pebble imports asyncio, dear to a start that needs no pool
-
-            check_main_guarded(f"{self.workers} workers")
-            # worker_context: forked from a clean fork server, or spawned - no worker shares an engine with this process
-            self._pool = ProcessPool(
-                self.workers,
-                initializer=_init_worker,
-                initargs=(self.objective, dict(os.environ)),
-                context=worker_context(),
-            )
+        if self.threads_first_s is not None:
+            check_main_guarded(f"{self.workers} workers")  # now, not when the pool starts seconds later
+        elif self.workers > 1 and not self.threads:
+            self._start_pool()
         return self
+
+    def _start_pool(self) -> None:
+        from pebble import ProcessPool  # here: pebble imports asyncio, dear to a start that needs no pool
+
+        check_main_guarded(f"{self.workers} workers")
+        # worker_context: forked from a clean fork server, or spawned - no worker shares an engine with this process
+        self._pool = ProcessPool(
+            self.workers,
+            initializer=_init_worker,
+            initargs=(self.objective, dict(os.environ)),
+            context=worker_context(),
+        )
+        self.threads = False
+        self.chunked = has_batch_path(self.objective.engine)
+
+    def _need_pool(self, count: int, pace: float | None = None) -> bool:
+        """Whether the worker processes start before a batch of ``count`` rollouts: where they were asked for with
+        :attr:`threads_first_s`, once the session's simulation on threads, with this batch at its pace so far,
+        would run past that many seconds (``pace``: seconds a rollout, else this session's so far).
+
+        Starting the pool costs about 0.7 s (a fork server, each worker building its engines); once started,
+        processes run large batches about 1.7 times as fast as threads (see :data:`THREADED_ENGINES`).  A search
+        that ends within a few seconds (least squares on a handful of parameters) never pays for them; a longer
+        one pays about as much as the threads lost before the switch (:data:`THREADS_FIRST_S`)."""
+        if self.threads_first_s is None or self._pool is not None:
+            return False
+        if pace is None:
+            pace = self.simulated_seconds / self.simulated_jobs if self.simulated_jobs else 0.0
+        return self.simulated_seconds + count * pace > self.threads_first_s
 
     def __exit__(self, *exc) -> None:
         if self._pool is not None:
@@ -480,6 +522,8 @@ class Evaluator:
         if self.before_simulating is not None:
             self.before_simulating(len(jobs))
         start, count = time.perf_counter(), len(jobs)
+        if self.simulated_jobs and self._need_pool(len(jobs)):
+            self._start_pool()
         if not self.simulated_jobs and len(jobs) > 1:
             # the session's first batch (auto: the opening's start point with its whole Jacobian, D + 1 rollouts
             # in lockstep) would store its first evaluation only when all of them end: its first member goes
@@ -488,6 +532,9 @@ class Evaluator:
             first = next(iter(jobs))
             yield from self._run(work, {first: jobs[first]})
             jobs = {i: job for i, job in jobs.items() if i != first}
+            # its time, shared out over the workers' threads, is the first pace to judge the rest of the batch by
+            if self._need_pool(len(jobs), (time.perf_counter() - start) / self.workers):
+                self._start_pool()
         yield from self._run(work, jobs)
         self.simulated_seconds += time.perf_counter() - start
         self.simulated_jobs += count

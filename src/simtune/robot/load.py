@@ -6,12 +6,15 @@ through :func:`load_robot`, so that a file starts a project exactly as the proje
 
 from __future__ import annotations
 
+import hashlib
+import os
+import re
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from simtune.errors import RobotError
-from simtune.robot.description import RobotDescription, Vec3
+from simtune.robot.description import Mesh, RobotDescription, Vec3
 
 #: The robot file formats: the root element that names each.
 ROOT_ELEMENTS = {"robot": "urdf", "mujoco": "mjcf"}
@@ -104,18 +107,58 @@ def load_robot(
             base_position=base_position,
             base_rpy=base_rpy,
         )
-    from simtune.robot.urdf import load_urdf
+    options = {
+        "arm_joints": None if arm_joints is None else list(arm_joints),
+        "tracked_link": tracked_link,
+        "base_position": tuple(base_position),
+        "base_rpy": tuple(base_rpy),
+        "held": dict(held or {}),
+        "gripper_links": None if gripper_links is None else list(gripper_links),
+        "name": name,
+        "package_path": [str(entry) for entry in package_path],
+        "density": density,
+        "total_mass": total_mass,
+    }
+    return _cached_urdf(path, options)
 
-    return load_urdf(
-        path,
-        arm_joints=arm_joints,
-        tracked_link=tracked_link,
-        base_position=base_position,
-        base_rpy=base_rpy,
-        held=held,
-        gripper_links=gripper_links,
-        name=name,
-        package_path=package_path,
-        density=density,
-        total_mass=total_mass,
-    )
+
+#: a ``<mesh filename="...">`` of a URDF (either quote), for the files a description depends on
+_MESH_FILENAME = re.compile(rb"""<mesh\b[^>]*?\bfilename\s*=\s*["']([^"']*)["']""")
+
+
+def _cached_urdf(path: Path, options: dict) -> RobotDescription:
+    """:func:`~simtune.robot.urdf.load_urdf`'s description of ``path``, read back from the start-up cache
+    (:func:`simtune.data.cache.cached`) when neither the file, nor ``options``, nor a mesh it names has changed.
+
+    Reading a URDF imports yourdfpy and trimesh (about 0.6 s) and walks the file (0.1 s a read): most of a warm
+    ``simtune tune``'s start on an own robot.  The key holds the file's bytes, the options, the package
+    variables and, for every mesh file the URDF names, the file it resolves to now with its size and
+    modification time; an entry is used only while the meshes it points to (converted ones in the mesh cache)
+    still exist.  The load's warnings are raised again on every read."""
+    from simtune.data.cache import cached
+    from simtune.robot.urdf import load_urdf, resolve_mesh
+
+    try:
+        text = path.read_bytes()
+    except OSError:
+        return load_urdf(path, **options)  # the reader names what is wrong with the file
+    # by pattern, not by parsing: a file the strict parse refuses (undeclared prefixes) is read all the same
+    meshes = sorted({m.decode(errors="replace") for m in _MESH_FILENAME.findall(text)} - {""})
+    resolved = {}
+    for filename in meshes:
+        found = resolve_mesh(filename, path, options["package_path"])
+        stat = None if found is None else found.stat()
+        resolved[filename] = None if stat is None else (str(found), stat.st_size, stat.st_mtime_ns)
+    what = {
+        "urdf": str(path),
+        "bytes": hashlib.sha256(text).hexdigest(),
+        "options": options,
+        "meshes": resolved,
+        "environment": {v: os.environ.get(v, "") for v in ("SIMTUNE_PACKAGE_PATH", "ROS_PACKAGE_PATH")},
+    }
+    return cached("robots", what, lambda: load_urdf(path, **options), valid=_meshes_exist)
+
+
+def _meshes_exist(robot: RobotDescription) -> bool:
+    """Whether every mesh file ``robot`` points to is still there (a converted mesh lives in a cache)."""
+    return all(Path(s.path).is_file() for link in robot.links for s in link.shapes if isinstance(s, Mesh))
