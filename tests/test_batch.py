@@ -5,6 +5,7 @@ import pytest
 
 from simtune.engines import engine_class
 from simtune.objective import Objective, load_references
+from simtune.optimize import evaluator as evaluator_module
 from simtune.optimize.evaluator import Evaluator, batch_on_threads, chunks, has_batch_path
 from simtune.params import get_space
 from simtune.reference import REFERENCE_DIR
@@ -57,12 +58,14 @@ def test_a_batch_scores_each_member_as_alone(threads, two_task_data):
     fresh.close()
 
 
-def test_threads_and_chunked_worker_processes_store_what_one_process_stores(tmp_path):
+def test_threads_and_chunked_worker_processes_store_what_one_process_stores(tmp_path, monkeypatch):
+    monkeypatch.setattr(evaluator_module, "POOL_BATCH", 2)
     obj = objective()
     xs = vectors(obj, 6, seed=1)
     rows = {}
     # "switched": worker processes asked for after threads (threads_first_s 0: the pool starts after the first
-    # batch's first member, alone on threads); "threads first": a budget of threads the batches never spend
+    # batch's first member, alone on threads, before the rest: 5 members, POOL_BATCH 2 a worker here); "threads
+    # first": a budget of threads the batches never spend
     modes = (("one", 1, False, None), ("threads", 2, True, None), ("processes", 2, False, None))
     modes += (("switched", 2, False, 0.0), ("threads first", 2, False, 1e9))
     for name, workers, threads, threads_first_s in modes:
@@ -128,3 +131,17 @@ def test_worker_processes_get_chunks_where_the_engine_has_a_batch_path():
     assert chunks([2.0, 1.0], 5) == [[0], [1]]
     parts = chunks(list(np.random.default_rng(0).random(13) * 50 + 1), 2)
     assert sorted(i for part in parts for i in part) == list(range(13)) and all(p == sorted(p) for p in parts)
+
+
+def test_small_batches_stay_on_threads_past_the_threads_budget(tmp_path):
+    """Worker processes pay for their start on large batches only: a search of batches smaller than POOL_BATCH
+    rollouts a worker (a Jacobian of a few parameters) never starts them, however long it runs."""
+    store = RunStore(tmp_path / "run", create=True)
+    obj = objective()
+    with Evaluator(obj, store, 2, threads=False, threads_first_s=0.0) as evaluator:
+        evaluator.evaluate(vectors(obj, 3, seed=4))
+        evaluator.residuals(vectors(obj, 2, seed=5))
+        assert evaluator._pool is None and evaluator.threads and evaluator.simulated_seconds > 0
+        assert not evaluator._need_pool(evaluator_module.POOL_BATCH * 2 - 1)
+        assert evaluator._need_pool(evaluator_module.POOL_BATCH * 2)
+    store.close()

@@ -62,8 +62,8 @@ ThreadsOpt = Annotated[
     typer.Option(
         "--threads",
         help="Evaluate on --workers threads of this process instead of worker processes (MuJoCo; the same "
-        "results; no --eval-timeout and no crash isolation).  Without it MuJoCo runs on threads for its first "
-        "2 s of simulation, then on worker processes, which are faster on large batches "
+        "results; no --eval-timeout and no crash isolation).  Without it MuJoCo runs on threads until a large "
+        "batch would take its simulation past 2 s, then on worker processes, which are faster on large batches "
         "(benchmarks/batch_threads.py).",
     ),
 ]

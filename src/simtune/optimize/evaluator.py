@@ -179,6 +179,11 @@ THREADS_WIN_UP_TO = 2
 #: (0.7 s / 0.4): a search that ends sooner never starts a pool.  Measured on the synthetic Panda `reach` (2 workers,
 #: 29 rollouts): 1.6 s of search with the pool from the start, 0.8 s without one.
 THREADS_FIRST_S = 2.0
+#: Rollouts a worker in a batch before worker processes pay for their start (:meth:`Evaluator._need_pool`): the real
+#: `single`'s batches (5 parameters: Jacobians of 5, trial points with 1) ran as fast on 2 threads as on 2 processes
+#: (2026-11-27: search 2.2-2.8 s against 3.0-5.7 s with the pool's start); `cube`'s 41-point Jacobians run faster
+#: on processes (a 14-member batch: 103.6 against 60.3 evaluations/s).
+POOL_BATCH = 4
 
 
 def batch_on_threads(engine: str, workers: int, threads: bool | None, eval_timeout: float | None) -> bool:
@@ -378,14 +383,16 @@ class Evaluator:
 
     def _need_pool(self, count: int, pace: float | None = None) -> bool:
         """Whether the worker processes start before a batch of ``count`` rollouts: where they were asked for with
-        :attr:`threads_first_s`, once the session's simulation on threads, with this batch at its pace so far,
-        would run past that many seconds (``pace``: seconds a rollout, else this session's so far).
+        :attr:`threads_first_s`, before a large batch (:data:`POOL_BATCH` rollouts a worker or more) once the
+        session's simulation on threads, with this batch at its pace so far, would run past that many seconds
+        (``pace``: seconds a rollout, else this session's so far).
 
         Starting the pool costs about 0.7 s (a fork server, each worker building its engines); once started,
-        processes run large batches about 1.7 times as fast as threads (see :data:`THREADED_ENGINES`).  A search
-        that ends within a few seconds (least squares on a handful of parameters) never pays for them; a longer
-        one pays about as much as the threads lost before the switch (:data:`THREADS_FIRST_S`)."""
-        if self.threads_first_s is None or self._pool is not None:
+        processes run large batches about 1.7 times as fast as threads (see :data:`THREADED_ENGINES`), and small
+        ones (a Jacobian of a handful of parameters) no faster.  A search of small batches, or one that ends within
+        a few seconds, never pays for them; a longer one pays about as much as the threads lost before the switch
+        (:data:`THREADS_FIRST_S`)."""
+        if self.threads_first_s is None or self._pool is not None or count < POOL_BATCH * self.workers:
             return False
         if pace is None:
             pace = self.simulated_seconds / self.simulated_jobs if self.simulated_jobs else 0.0
