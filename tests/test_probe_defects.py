@@ -6,6 +6,7 @@ gives the right answer or one line naming what is wrong (``error: ...``, exit st
 
 import contextlib
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -505,3 +506,20 @@ def test_a_data_root_that_is_a_file_is_not_called_missing(tmp_path, capsys):
     code, err = cli("evaluate", "--task", "cube", "--data", str(root / "simtune.toml"), capsys=capsys)
     one_line(code, err, "is a file, not a folder")
     assert "does not exist" not in err
+
+
+def test_a_radians_log_whose_arm_overshoots_its_commands_is_not_called_degrees():
+    """Read as degrees any log of small numbers fits the task's range; a log in radians whose arm overshoots what
+    it was commanded (beyond the check's margin, as a synthetic arm with hidden servo gains did) is radians, since
+    read as degrees it would barely move; a log in degrees that strays as far is still refused."""
+    from simtune.data.sanity import JointRange, check_joint_units
+
+    times = np.arange(200) / 20.0
+    commanded = JointRange(0.0, math.radians(-30), math.radians(35), -2.9, 2.9)  # joint 5's in the drive problem
+    angles = math.radians(35) * np.sin(times / 2.0)
+    angles[100:140] = -math.radians(50.2)  # 20.2 deg past the -30 deg target
+    log = Recording(Path("drive0001.csv"), times, joints={"joint_5": angles})
+    check_joint_units(log, {"joint_5": commanded}, "drive/drive0001.csv")  # read right: no error
+    in_degrees = Recording(Path("drive0001.csv"), times, joints={"joint_5": np.degrees(angles)})
+    with pytest.raises(RecordingError, match="units check: joint 'joint_5'.*it is in degrees"):
+        check_joint_units(in_degrees, {"joint_5": commanded}, "drive/drive0001.csv")

@@ -213,9 +213,10 @@ def check_joint_units(rec: Recording, ranges: Mapping[str, JointRange], display:
     """Units check of a joint log: a log in degrees that stays within two turns passes the readers as radians.
 
     Joints whose unit nobody declared: where their angles read as radians stray beyond the joints' limits, the
-    task's start pose or what it commands, and read as degrees fit (:data:`DEGREES_FIT_SHARE`), the log is in
-    degrees: an error naming the file, the joint and the key that declares the unit.  Joints whose CSV column
-    declares its unit (``joint_2 [deg]``) are checked in that unit (:func:`declared_units_problem`).
+    task's start pose or what it commands, and read as degrees fit (:data:`DEGREES_FIT_SHARE`) and move as
+    commanded (:func:`_moves_as_commanded`), the log is in degrees: an error naming the file, the joint and the
+    key that declares the unit.  Joints whose CSV column declares its unit (``joint_2 [deg]``) are checked in that
+    unit (:func:`declared_units_problem`).
 
     Args:
         rec: the joint log, its angles in radians (``rec.joint_units``: the joints whose unit its file declares).
@@ -252,9 +253,11 @@ def _check_undeclared_units(rec: Recording, ranges: Mapping[str, JointRange], di
     stray, frame, what = as_rad[joint]
     if stray <= 0:
         return
-    as_deg = max(ranges[j].stray(np.radians(rec.joints[j]))[0] for j in names)
-    if as_deg > DEGREES_FIT_SHARE * stray:
+    as_deg = {j: np.radians(rec.joints[j]) for j in names}
+    if max(ranges[j].stray(as_deg[j])[0] for j in names) > DEGREES_FIT_SHARE * stray:
         return
+    if _moves_as_commanded(as_deg, ranges) is False:
+        return  # read as degrees the arm would barely move where it was told to: radians, past its commands
     value = float(rec.joints[joint][frame])
     raise RecordingError(
         f"{display} {rec.where(frame)}: units check: joint {joint!r} reads {value:.4g} rad, {what}; read as degrees "
@@ -390,6 +393,20 @@ def _small_motion(
         f"the task's start pose and targets: it looks like {UNIT_WORDS[other]}"
     )
     return UnitsProblem(joint, frame, text, other)
+
+
+def _moves_as_commanded(angles: Mapping[str, np.ndarray], ranges: Mapping[str, JointRange]) -> bool | None:
+    """Whether ``angles`` [rad] move some joint the task commands over :data:`MIN_COMMANDED_SPAN_RAD` or more by
+    :data:`SMALL_MOTION_SHARE` of its span, as an arm that follows its commands does; None where no joint is
+    commanded that far (nothing to tell by).
+
+    What keeps a log in radians whose arm overshoots its commands from being called degrees: read as degrees any
+    log of small numbers fits the task's range, but moves 57 times too little.  A synthetic Panda with hidden servo
+    gains (Drake, 2026-11-27) took joint 5 20.1 deg past its targets, beyond the check's margin."""
+    judged = [j for j in angles if ranges[j].high - ranges[j].low >= MIN_COMMANDED_SPAN_RAD]
+    if not judged:
+        return None
+    return any(float(np.ptp(angles[j])) >= SMALL_MOTION_SHARE * (ranges[j].high - ranges[j].low) for j in judged)
 
 
 def schedule_units_problem(
