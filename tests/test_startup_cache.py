@@ -163,3 +163,17 @@ def test_the_least_recently_used_entries_beyond_the_limit_are_removed(empty_cach
     cached("test", 3, lambda: 3)
     assert len(list((empty_cache / "test").iterdir())) == 3
     assert cached("test", 1, lambda: "computed again") == "computed again"  # 1 was the least recently used
+
+
+def test_a_warning_that_names_the_computations_caller_names_the_caller_of_cached(empty_cache):
+    """A computation's warning raised with ``stacklevel=2`` (naming whoever called it) would name the cache's own
+    module, a line of no use to the user: it names the line that called ``cached`` instead, computed or read."""
+
+    def compute():
+        warnings.warn("the clock of repeat 3 is late", RecordingWarning, stacklevel=2)
+        return 1
+
+    for _ in range(2):
+        with pytest.warns(RecordingWarning) as said:
+            cached("test", "warned", compute)
+        assert [w.filename for w in said] == [__file__]

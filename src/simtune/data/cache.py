@@ -27,6 +27,7 @@ import json
 import os
 import pickle
 import platform
+import sys
 import tempfile
 import warnings
 from collections.abc import Callable
@@ -114,7 +115,8 @@ def cached(kind: str, what: Any, compute: Callable[[], T], valid: Callable[[T], 
     if entry is not None and valid is not None and not valid(entry[0]):
         entry = None
     if entry is None:
-        entry = _computed(compute)
+        caller = sys._getframe(1)
+        entry = _computed(compute, (caller.f_code.co_filename, caller.f_lineno))
         _write(path, entry)
         _prune(path.parent)
     else:
@@ -125,20 +127,29 @@ def cached(kind: str, what: Any, compute: Callable[[], T], valid: Callable[[T], 
     return value
 
 
-def _computed(compute: Callable[[], T]) -> tuple[T, list[_Warned]]:
+def _computed(compute: Callable[[], T], caller: tuple[str, int]) -> tuple[T, list[_Warned]]:
     """``compute()`` and the warnings it raised.  Every one is recorded, whatever the filters say now, and raised
     again later through them: the entry must hold one that a filter hides in this process (a warning shown once)
-    for the next process.  A computation that fails raises its warnings, then its error, as it would uncached."""
+    for the next process.  A computation that fails raises its warnings, then its error, as it would uncached.
+
+    A warning whose ``stacklevel`` names the computation's caller would name this module (the frame that calls
+    ``compute``): it names ``caller`` (the file and line that called :func:`cached`) instead."""
     caught: list[warnings.WarningMessage] = []
+
+    def said(w: warnings.WarningMessage) -> _Warned:
+        here = Path(w.filename).resolve() == Path(__file__).resolve()
+        filename, lineno = caller if here else (w.filename, w.lineno)
+        return _Warned(w.category, str(w.message), filename, lineno)
+
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             value = compute()
     except BaseException:
         for w in caught:
-            _Warned(w.category, str(w.message), w.filename, w.lineno).again()
+            said(w).again()
         raise
-    return value, [_Warned(w.category, str(w.message), w.filename, w.lineno) for w in caught]
+    return value, [said(w) for w in caught]
 
 
 def _read(path: Path) -> tuple[Any, list[_Warned]] | None:
