@@ -800,10 +800,10 @@ def problems(args, work: Path) -> list[Problem]:
                 },
                 project=project,
                 notes=[
-                    "No link masses on the Panda: `simtune synth --project P --truth T` checks a truth's link masses "
-                    "against the bundled MICO's ranges (load_truth is called without the project's robot, in "
-                    "cli.py and api.py), so a Panda truth with its own masses is refused; the damping of three "
-                    "joints and the delay instead.",
+                    "No link masses on the Panda: when this problem was first measured (2026-11-25) `simtune synth "
+                    "--project P --truth T` checked a truth's link masses against the bundled MICO's ranges and "
+                    "refused the Panda's (fixed 2026-11-26); the problem keeps the damping of three joints and the "
+                    "delay, so that its rows compare across measurements.",
                     NOT_EXPRESSED,
                 ],
             )
