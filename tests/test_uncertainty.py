@@ -173,3 +173,62 @@ def test_student_quantile_is_scipy_stats_own_to_the_last_digit():
     from scipy.stats import t
 
     assert all(float(stdtrit(df, 0.975)) == float(t.ppf(0.975, df)) for df in range(1, 60))
+
+
+def test_a_column_kinked_at_the_step_is_differenced_again_over_the_wider_one():
+    """A residual with stick-slip jumps at the scale of the step (a sawtooth of period 2 x STEP on a trend): forward
+    and backward differences disagree at STEP, agree at WIDE_STEP, where the central difference is the trend."""
+    from simtune.fitness import Score, TaskScore
+    from simtune.uncertainty import STEP, WIDE_STEP, _central
+
+    trend = np.array([1.0, -2.0, 0.5])
+
+    def r(u: float) -> np.ndarray:
+        saw = 0.02 * (((u / (2 * STEP)) % 1.0) - 0.5)  # jumps of 0.02 every 2 STEP, flat in between
+        return trend * u + saw
+
+    ok = Score(0.1, 0.1, None, [TaskScore("t", 0.1, 0.1, None, True, "")])
+    u0 = np.array([0.5 + 0.3 * STEP])
+    for step, kinked in ((STEP, True), (WIDE_STEP, False)):
+        pairs = [(r(u0[0] + step), ok), (r(u0[0] - step), ok)]
+        columns, kinks, stable = _central(pairs, r(u0[0]), u0, [0], step)
+        assert kinks == [kinked] and stable
+    np.testing.assert_allclose(columns[0], trend, rtol=1e-9)  # the wide step's column: the trend itself
+
+
+def test_a_held_delay_carries_the_clock_origin_into_every_parameter():
+    """With no command delay searched, an error of the aligned clock's origin moves the other parameters: each one's
+    variance gains (its pull by the clock's column x its range)^2 x the origin's variance."""
+    from simtune.uncertainty import RepeatSpread
+
+    space = get_space("extended", only=["marker_offset_x", "marker_offset_y"])
+    width = np.array([p.high - p.low for p in space.parameters])
+    rng = np.random.default_rng(5)
+    m = 300
+    J = rng.normal(size=(m, 2))
+    r = rng.normal(scale=1e-3, size=m)
+    x = np.array([0.0, 0.01])
+    plain = analyse(space, x, Jacobian(r, J, True), spread=RepeatSpread([None], [m], {}))
+    column, variance = 3.0 * J[:, 0], 1e-4  # the clock moves the residuals as 3 units of the first parameter
+    held = analyse(space, x, Jacobian(r, J, True), spread=RepeatSpread([None], [m], {}, [(column, variance)]))
+    before = [(e["high"] - e["low"]) / (2 * Z95) for e in plain["parameters"]]
+    after = [(e["high"] - e["low"]) / (2 * Z95) for e in held["parameters"]]
+    assert after[0] == pytest.approx(np.sqrt(before[0] ** 2 + (3.0 * width[0]) ** 2 * variance))
+    assert after[1] == pytest.approx(before[1])
+
+
+def test_the_clock_column_is_the_references_velocity_in_residual_units():
+    """A wrist recorded moving at 0.1 m/s along x: a reference read later by dt moves every residual of x by
+    0.1 dt / sqrt(samples) (the wrist part's units), the held first sample by half of it, y and z not at all."""
+    from simtune.data.task import TaskData
+    from simtune.objective import Objective
+    from simtune.tasks import get_task
+
+    times = np.arange(60) / 20.0
+    wrist = np.zeros((60, 3))
+    wrist[:, 0] = 0.2 + 0.1 * times
+    data = TaskData("single", 20.0, times, wrist, wrist[None], None, None, [])
+    (column,) = Objective("mujoco", [get_task("single")], {"single": data}).clock_columns()
+    per_sample = column.reshape(60, 3)
+    np.testing.assert_allclose(per_sample[1:-1, 0], 0.1 / np.sqrt(60), rtol=1e-9)
+    assert per_sample[0, 0] == pytest.approx(0.05 / np.sqrt(60)) and not per_sample[:, 1:].any()

@@ -354,20 +354,42 @@ class Objective:
             if len(counts) != 1 or min(counts) < 2:
                 found.append(None)
                 continue
-            noise = None if self.noise is None else self.noise[task.name]
-            rows = [
-                task_residuals(
-                    _repeat_as_rollout(reference, k),
-                    reference,
-                    {},
-                    weights=self.weights,
-                    joint_names=reference.joint_names,
-                    noise=noise,
+            found.append(
+                np.stack(
+                    [self._recorded_residuals(task, _repeat_as_rollout(reference, k)) for k in range(counts.pop())]
                 )
-                for k in range(counts.pop())
-            ]
-            found.append(np.stack(rows))
+            )
         return found
+
+    def _recorded_residuals(self, task: TaskSpec, recorded: Rollout) -> np.ndarray:
+        """The residuals of ``task`` for a rollout made of its recordings (no marker offset: their own wrist)."""
+        reference = self.references[task.name]
+        noise = None if self.noise is None else self.noise[task.name]
+        return task_residuals(
+            recorded, reference, {}, weights=self.weights, joint_names=reference.joint_names, noise=noise
+        )
+
+    def clock_columns(self) -> list[np.ndarray]:
+        """Per task, how its residuals change per second that its reference's clock runs late: a simulation as the
+        reference itself, scored against the reference read a moment earlier and later (central differences of half
+        a sample), in the residuals' own units and order, zero outside the task's rows.
+
+        What an error of the aligned reference's clock origin does to the fit where no command delay can take it up
+        (:func:`simtune.uncertainty.repeat_spread`).
+
+        Returns:
+            One array of :attr:`residual_size` per task, in the tasks' order.
+        """
+        columns, start = [], 0
+        for task, count in zip(self.tasks, self.residual_counts()):
+            reference = self.references[task.name]
+            half = 0.5 / reference.rate
+            ends = [self._recorded_residuals(task, _reference_read_at(reference, shift)) for shift in (half, -half)]
+            column = np.zeros(self.residual_size)
+            column[start : start + count] = (ends[0] - ends[1]) / (2 * half)
+            columns.append(column)
+            start += count
+        return columns
 
     def residuals_and_score(self, params: dict[str, float]) -> tuple[np.ndarray, Score]:
         """Residual vector of ``params`` for least squares, and its score, from the same rollouts.
@@ -530,6 +552,25 @@ def _pruning_monitor(
     # the summed marker error that proves the bound exceeded (with a margin far above rounding, so the
     # rescored lower bound is sure to exceed it too)
     return MarkerBudget(reference.wrist_mean, offset, ((bound - spent) * n * (1 + 1e-9) + 1e-12) / wrist_weight)
+
+
+def _reference_read_at(reference: TaskData, shift: float) -> Rollout:
+    """The mean of ``reference`` (its wrist track and joint angles, the object at its mean end) read ``shift``
+    seconds later on its own clock (linear between samples, its ends held), as a rollout would hold it."""
+    n = len(reference.times)
+    at = reference.times + shift
+
+    def read(track: np.ndarray | None, width: int) -> np.ndarray:
+        if track is None:
+            return np.zeros((n, width))
+        return np.stack([np.interp(at, reference.times, track[:, k]) for k in range(track.shape[1])], axis=1)
+
+    obj = None
+    if reference.object_final is not None:
+        obj = np.zeros((n, 3))
+        obj[-1] = reference.object_final_mean
+    joints = read(reference.joint_mean, len(reference.joint_names))
+    return Rollout(reference.times, read(reference.wrist_mean, 3), np.tile(np.eye(3), (n, 1, 1)), joints, obj)
 
 
 def _repeat_as_rollout(reference: TaskData, k: int) -> Rollout:

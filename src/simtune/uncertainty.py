@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +55,10 @@ Z95 = 1.959963984540054
 WINDOW = 5.0
 #: Forward and backward differences that differ by more than this share of the larger mark a kink.
 KINK = 0.5
+#: The step [share of the range] a kinked column is differenced again with: a Coulomb friction's stick-slip moves a
+#: joint by jumps at the scale of :data:`STEP` (docs/parameters.md), which a wider secant steps over; where forward and
+#: backward agree at this step the column is its central difference, else the parameter stays not identifiable.
+WIDE_STEP = 0.04
 #: Most correlated pairs listed.
 TOP_PAIRS = 5
 
@@ -69,6 +73,8 @@ class Jacobian:
     #: (D,) whether the forward and backward differences of a column disagree by more than :data:`KINK`
     #: (a kink or jump in the simulation, such as the time step's whole number of steps per control period)
     kinked: np.ndarray | None = None
+    #: (D,) whether a column was kinked at :data:`STEP` and is differenced at :data:`WIDE_STEP` instead
+    widened: np.ndarray | None = None
 
 
 def jacobian(
@@ -91,14 +97,40 @@ def jacobian(
     width = np.array([p.high - p.low for p in space.parameters])
     x = np.asarray(x, dtype=float)
     u = (x - low) / width
-    up = np.minimum(u + step, 1.0)
-    down = np.maximum(u - step, 0.0)
-    points = [x]
-    for i in range(len(x)):
-        for v in (up[i], down[i]):
+    everyone = list(range(len(x)))
+    done = _residuals_at(objective, [x, *_pairs(x, u, low, width, everyone, step)], workers, known)
+    r0, score0 = done[0]
+    columns, kinks, stable = _central(done[1:], r0, u, everyone, step)
+    kinked = np.array(kinks, dtype=bool)
+    stable = stable and score0.stable
+    widened = np.zeros(len(x), dtype=bool)
+    again = [i for i in everyone if kinked[i]]
+    if again:  # differenced again over a wider step, as one more batch
+        wide = _residuals_at(objective, _pairs(x, u, low, width, again, WIDE_STEP), workers, None)
+        wide_columns, wide_kinked, wide_stable = _central(wide, r0, u, again, WIDE_STEP)
+        stable = stable and wide_stable
+        for k, i in enumerate(again):
+            if not wide_kinked[k]:
+                columns[i], kinked[i], widened[i] = wide_columns[k], False, True
+    unit = np.stack(columns, axis=1) if columns else np.zeros((len(r0), 0))
+    return Jacobian(np.asarray(r0, dtype=float), unit, bool(stable), kinked, widened)
+
+
+def _pairs(x: np.ndarray, u: np.ndarray, low: np.ndarray, width: np.ndarray, which: list[int], step: float) -> list:
+    """The points ``step`` (share of each range) above and below ``x`` along each parameter of ``which``, in that
+    order, within the bounds (one-sided at a bound)."""
+    points = []
+    for i in which:
+        for v in (min(u[i] + step, 1.0), max(u[i] - step, 0.0)):
             p = x.copy()
             p[i] = low[i] + v * width[i]
             points.append(p)
+    return points
+
+
+def _residuals_at(objective: Objective, points: list, workers: int, known: RunStore | None) -> list:
+    """Each point's residuals and score: read from ``known`` where it holds them bit for bit, else simulated as one
+    batch (a scratch store)."""
     results = _stored(known, points)
     missing = [i for i, result in enumerate(results) if result is None]
     if missing:
@@ -112,22 +144,27 @@ def jacobian(
                 store.close()
     done = [result for result in results if result is not None]
     assert len(done) == len(points), "every point read or simulated"
-    r0, score0 = done[0]
-    columns = []
-    kinked = np.zeros(len(x), dtype=bool)
-    stable = score0.stable
-    for i in range(len(x)):
-        (r_up, s_up), (r_down, s_down) = done[1 + 2 * i], done[2 + 2 * i]
+    return done
+
+
+def _central(pairs: list, r0: np.ndarray, u: np.ndarray, which: list[int], step: float) -> tuple[list, list, bool]:
+    """Central-difference columns of the parameters ``which`` from their pairs of results (:func:`_pairs`' order),
+    whether each is kinked (forward and backward disagree by more than :data:`KINK`), and whether all were stable."""
+    columns, kinked, stable = [], [], True
+    for k, i in enumerate(which):
+        (r_up, s_up), (r_down, s_down) = pairs[2 * k], pairs[2 * k + 1]
         stable = stable and s_up.stable and s_down.stable
-        span = up[i] - down[i]
+        up, down = min(u[i] + step, 1.0), max(u[i] - step, 0.0)
+        span = up - down
         columns.append((r_up - r_down) / span if span > 0 else np.zeros_like(r0))
-        if up[i] > u[i] and down[i] < u[i]:
-            forward = (r_up - r0) / (up[i] - u[i])
-            backward = (r0 - r_down) / (u[i] - down[i])
+        kink = False
+        if up > u[i] and down < u[i]:
+            forward = (r_up - r0) / (up - u[i])
+            backward = (r0 - r_down) / (u[i] - down)
             scale = max(float(np.linalg.norm(forward)), float(np.linalg.norm(backward)))
-            kinked[i] = scale > 0 and float(np.linalg.norm(forward - backward)) > KINK * scale
-    unit = np.stack(columns, axis=1) if columns else np.zeros((len(r0), 0))
-    return Jacobian(np.asarray(r0, dtype=float), unit, bool(stable), kinked)
+            kink = scale > 0 and float(np.linalg.norm(forward - backward)) > KINK * scale
+        kinked.append(kink)
+    return columns, kinked, stable
 
 
 def _stored(store: RunStore | None, points: list[np.ndarray]) -> list[tuple[np.ndarray, Score] | None]:
@@ -208,12 +245,22 @@ class RepeatSpread:
     ``deviations``: per task, each repeat's deviation from the mean in residual units (rows; None for a task with
     one repeat): :meth:`~simtune.objective.Objective.repeat_deviations`.  ``counts``: the residuals of each task, in
     order.  ``clock``: parameter index -> the variance [s^2] of the aligned reference's clock origin (the median of
-    the repeats' shifts), for each command delay.
+    the repeats' shifts), for each command delay.  ``held_clock``: for each task whose clock origin no searched
+    delay takes up (the delay held), its :meth:`~simtune.objective.Objective.clock_columns` column and that
+    variance: an origin error then moves the other parameters.
     """
 
     deviations: list[np.ndarray | None]
     counts: list[int]
     clock: dict[int, float]
+    held_clock: list[tuple[np.ndarray, float]] = field(default_factory=list)
+
+
+def _solver(J: np.ndarray, keep: np.ndarray, s: np.ndarray, vt: np.ndarray) -> np.ndarray:
+    """The least-squares solution's linear map ``(J^T J)^+ J^T`` (D, m) over the kept directions: how a change of the
+    residuals moves the fitted parameters (unit coordinates)."""
+    v_kept = vt[: len(s)][keep].T
+    return (v_kept / s[keep] ** 2) @ v_kept.T @ J.T
 
 
 def repeat_covariance(J: np.ndarray, spread: RepeatSpread, keep: np.ndarray, s: np.ndarray, vt: np.ndarray):
@@ -226,8 +273,7 @@ def repeat_covariance(J: np.ndarray, spread: RepeatSpread, keep: np.ndarray, s: 
     Returns:
         ``(covariance (D, D), repeats)``; ``(None, 0)`` where no task has two repeats.
     """
-    v_kept = vt[: len(s)][keep].T
-    solve = (v_kept / s[keep] ** 2) @ v_kept.T @ J.T  # (D, m)
+    solve = _solver(J, keep, s, vt)  # (D, m)
     cov, start, fewest = np.zeros((J.shape[1], J.shape[1])), 0, 0
     for rows, count in zip(spread.deviations, spread.counts):
         if rows is not None:
@@ -260,6 +306,7 @@ def analyse(
     J, r = jac.unit, jac.residuals
     m, d = J.shape
     kinked = jac.kinked if jac.kinked is not None else np.zeros(d, dtype=bool)
+    widened = jac.widened if jac.widened is not None else np.zeros(d, dtype=bool)
     s, vt, keep, null_share = directions(J)
     rank = int(keep.sum())
     dof = max(m - rank, 1)
@@ -307,6 +354,7 @@ def analyse(
         "residual_variance": variance,
         "variance_inflation": inflation,
         "non_smooth": [n for n, k in zip(space.names, kinked) if k],
+        "widened": [n for n, w in zip(space.names, widened) if w],
         "stable": jac.stable,
         "correlated_pairs": [{"a": a, "b": b, "correlation": c} for a, b, c in pairs[:TOP_PAIRS]],
         "method": (
@@ -314,8 +362,10 @@ def analyse(
             f"per-sample residuals; pseudo-inverse over singular values above {RCOND:g} x the largest; "
             "covariance x the residuals' integrated autocorrelation time; each standard deviation at least what "
             "the scatter of the recordings' repeats gives the fitted mean (at Student's t for their count), and a "
-            "command delay's widened by the aligned clock's origin; 95 % = value +- "
-            f"{Z95:.2f} sd; a parameter whose forward and backward differences disagree is not identifiable"
+            "command delay's widened by the aligned clock's origin (every parameter's, where the delay is held); "
+            "95 % = value +- "
+            f"{Z95:.2f} sd; a parameter whose forward and backward differences disagree is differenced again at "
+            f"{WIDE_STEP:g} of its range (widened), and is not identifiable where they disagree there too"
         ),
     }
 
@@ -335,6 +385,10 @@ def _with_repeats(sds, J, spread: RepeatSpread, keep, s, vt, width) -> np.ndarra
         sds = np.maximum(sds, stretch * np.sqrt(np.maximum(np.diag(cov), 0.0)) * width)
     for i, clock_variance in spread.clock.items():
         sds[i] = math.sqrt(sds[i] ** 2 + clock_variance)
+    if spread.held_clock:
+        solve = _solver(J, keep, s, vt)
+        for column, clock_variance in spread.held_clock:
+            sds = np.sqrt(sds**2 + (solve @ column * width) ** 2 * clock_variance)
     return sds
 
 
@@ -404,17 +458,21 @@ def repeat_spread(objective: Objective, x_timestep: float | None = None) -> Repe
     step = x_timestep if x_timestep is not None else generic_values(objective, ["timestep"]).get("timestep")
     resolution = 0.0 if step is None else float(step) ** 2 / 12.0
     clock: dict[int, float] = {}
-    for task in objective.tasks:
+    held: list[tuple[int, float]] = []  # (task's index, its origin's variance) where no searched delay takes it up
+    for t, task in enumerate(objective.tasks):
         alignment = objective.references[task.name].alignment
         shifts = None if alignment is None else np.asarray(alignment.shifts, dtype=float)
         origin = 0.0
         if shifts is not None and len(shifts) >= 2:
             origin = (MEDIAN_EFFICIENCY * float(np.std(shifts, ddof=1))) ** 2 / len(shifts)
-        for name in (delay_parameter(task.name), "command_delay"):
-            if name in names:
-                i = names.index(name)
-                clock[i] = max(clock.get(i, 0.0), origin + resolution)
-    return RepeatSpread(objective.repeat_deviations(), counts, clock)
+        delays = [names.index(name) for name in (delay_parameter(task.name), "command_delay") if name in names]
+        for i in delays:
+            clock[i] = max(clock.get(i, 0.0), origin + resolution)
+        if not delays and origin > 0:
+            held.append((t, origin))
+    columns = objective.clock_columns() if held else []
+    held_clock = [(columns[t], origin) for t, origin in held]
+    return RepeatSpread(objective.repeat_deviations(), counts, clock, held_clock)
 
 
 #: a tuned value this far from its generic one (share of its range) is named in the verdict after a tune
