@@ -175,27 +175,6 @@ def test_student_quantile_is_scipy_stats_own_to_the_last_digit():
     assert all(float(stdtrit(df, 0.975)) == float(t.ppf(0.975, df)) for df in range(1, 60))
 
 
-def test_a_column_kinked_at_the_step_is_differenced_again_over_the_wider_one():
-    """A residual with stick-slip jumps at the scale of the step (a sawtooth of period 2 x STEP on a trend): forward
-    and backward differences disagree at STEP, agree at WIDE_STEP, where the central difference is the trend."""
-    from simtune.fitness import Score, TaskScore
-    from simtune.uncertainty import STEP, WIDE_STEP, _central
-
-    trend = np.array([1.0, -2.0, 0.5])
-
-    def r(u: float) -> np.ndarray:
-        saw = 0.02 * (((u / (2 * STEP)) % 1.0) - 0.5)  # jumps of 0.02 every 2 STEP, flat in between
-        return trend * u + saw
-
-    ok = Score(0.1, 0.1, None, [TaskScore("t", 0.1, 0.1, None, True, "")])
-    u0 = np.array([0.5 + 0.3 * STEP])
-    for step, kinked in ((STEP, True), (WIDE_STEP, False)):
-        pairs = [(r(u0[0] + step), ok), (r(u0[0] - step), ok)]
-        columns, kinks, stable = _central(pairs, r(u0[0]), u0, [0], step)
-        assert kinks == [kinked] and stable
-    np.testing.assert_allclose(columns[0], trend, rtol=1e-9)  # the wide step's column: the trend itself
-
-
 def test_a_held_delay_carries_the_clock_origin_into_every_parameter():
     """With no command delay searched, an error of the aligned clock's origin moves the other parameters: each one's
     variance gains (its pull by the clock's column x its range)^2 x the origin's variance."""

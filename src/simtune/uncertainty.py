@@ -55,10 +55,6 @@ Z95 = 1.959963984540054
 WINDOW = 5.0
 #: Forward and backward differences that differ by more than this share of the larger mark a kink.
 KINK = 0.5
-#: The step [share of the range] a kinked column is differenced again with: a Coulomb friction's stick-slip moves a
-#: joint by jumps at the scale of :data:`STEP` (docs/parameters.md), which a wider secant steps over; where forward and
-#: backward agree at this step the column is its central difference, else the parameter stays not identifiable.
-WIDE_STEP = 0.04
 #: Most correlated pairs listed.
 TOP_PAIRS = 5
 
@@ -73,8 +69,6 @@ class Jacobian:
     #: (D,) whether the forward and backward differences of a column disagree by more than :data:`KINK`
     #: (a kink or jump in the simulation, such as the time step's whole number of steps per control period)
     kinked: np.ndarray | None = None
-    #: (D,) whether a column was kinked at :data:`STEP` and is differenced at :data:`WIDE_STEP` instead
-    widened: np.ndarray | None = None
 
 
 def jacobian(
@@ -97,40 +91,14 @@ def jacobian(
     width = np.array([p.high - p.low for p in space.parameters])
     x = np.asarray(x, dtype=float)
     u = (x - low) / width
-    everyone = list(range(len(x)))
-    done = _residuals_at(objective, [x, *_pairs(x, u, low, width, everyone, step)], workers, known)
-    r0, score0 = done[0]
-    columns, kinks, stable = _central(done[1:], r0, u, everyone, step)
-    kinked = np.array(kinks, dtype=bool)
-    stable = stable and score0.stable
-    widened = np.zeros(len(x), dtype=bool)
-    again = [i for i in everyone if kinked[i]]
-    if again:  # differenced again over a wider step, as one more batch
-        wide = _residuals_at(objective, _pairs(x, u, low, width, again, WIDE_STEP), workers, None)
-        wide_columns, wide_kinked, wide_stable = _central(wide, r0, u, again, WIDE_STEP)
-        stable = stable and wide_stable
-        for k, i in enumerate(again):
-            if not wide_kinked[k]:
-                columns[i], kinked[i], widened[i] = wide_columns[k], False, True
-    unit = np.stack(columns, axis=1) if columns else np.zeros((len(r0), 0))
-    return Jacobian(np.asarray(r0, dtype=float), unit, bool(stable), kinked, widened)
-
-
-def _pairs(x: np.ndarray, u: np.ndarray, low: np.ndarray, width: np.ndarray, which: list[int], step: float) -> list:
-    """The points ``step`` (share of each range) above and below ``x`` along each parameter of ``which``, in that
-    order, within the bounds (one-sided at a bound)."""
-    points = []
-    for i in which:
-        for v in (min(u[i] + step, 1.0), max(u[i] - step, 0.0)):
+    up = np.minimum(u + step, 1.0)
+    down = np.maximum(u - step, 0.0)
+    points = [x]
+    for i in range(len(x)):
+        for v in (up[i], down[i]):
             p = x.copy()
             p[i] = low[i] + v * width[i]
             points.append(p)
-    return points
-
-
-def _residuals_at(objective: Objective, points: list, workers: int, known: RunStore | None) -> list:
-    """Each point's residuals and score: read from ``known`` where it holds them bit for bit, else simulated as one
-    batch (a scratch store)."""
     results = _stored(known, points)
     missing = [i for i, result in enumerate(results) if result is None]
     if missing:
@@ -144,27 +112,22 @@ def _residuals_at(objective: Objective, points: list, workers: int, known: RunSt
                 store.close()
     done = [result for result in results if result is not None]
     assert len(done) == len(points), "every point read or simulated"
-    return done
-
-
-def _central(pairs: list, r0: np.ndarray, u: np.ndarray, which: list[int], step: float) -> tuple[list, list, bool]:
-    """Central-difference columns of the parameters ``which`` from their pairs of results (:func:`_pairs`' order),
-    whether each is kinked (forward and backward disagree by more than :data:`KINK`), and whether all were stable."""
-    columns, kinked, stable = [], [], True
-    for k, i in enumerate(which):
-        (r_up, s_up), (r_down, s_down) = pairs[2 * k], pairs[2 * k + 1]
+    r0, score0 = done[0]
+    columns = []
+    kinked = np.zeros(len(x), dtype=bool)
+    stable = score0.stable
+    for i in range(len(x)):
+        (r_up, s_up), (r_down, s_down) = done[1 + 2 * i], done[2 + 2 * i]
         stable = stable and s_up.stable and s_down.stable
-        up, down = min(u[i] + step, 1.0), max(u[i] - step, 0.0)
-        span = up - down
+        span = up[i] - down[i]
         columns.append((r_up - r_down) / span if span > 0 else np.zeros_like(r0))
-        kink = False
-        if up > u[i] and down < u[i]:
-            forward = (r_up - r0) / (up - u[i])
-            backward = (r0 - r_down) / (u[i] - down)
+        if up[i] > u[i] and down[i] < u[i]:
+            forward = (r_up - r0) / (up[i] - u[i])
+            backward = (r0 - r_down) / (u[i] - down[i])
             scale = max(float(np.linalg.norm(forward)), float(np.linalg.norm(backward)))
-            kink = scale > 0 and float(np.linalg.norm(forward - backward)) > KINK * scale
-        kinked.append(kink)
-    return columns, kinked, stable
+            kinked[i] = scale > 0 and float(np.linalg.norm(forward - backward)) > KINK * scale
+    unit = np.stack(columns, axis=1) if columns else np.zeros((len(r0), 0))
+    return Jacobian(np.asarray(r0, dtype=float), unit, bool(stable), kinked)
 
 
 def _stored(store: RunStore | None, points: list[np.ndarray]) -> list[tuple[np.ndarray, Score] | None]:
@@ -306,7 +269,6 @@ def analyse(
     J, r = jac.unit, jac.residuals
     m, d = J.shape
     kinked = jac.kinked if jac.kinked is not None else np.zeros(d, dtype=bool)
-    widened = jac.widened if jac.widened is not None else np.zeros(d, dtype=bool)
     s, vt, keep, null_share = directions(J)
     rank = int(keep.sum())
     dof = max(m - rank, 1)
@@ -354,7 +316,6 @@ def analyse(
         "residual_variance": variance,
         "variance_inflation": inflation,
         "non_smooth": [n for n, k in zip(space.names, kinked) if k],
-        "widened": [n for n, w in zip(space.names, widened) if w],
         "stable": jac.stable,
         "correlated_pairs": [{"a": a, "b": b, "correlation": c} for a, b, c in pairs[:TOP_PAIRS]],
         "method": (
@@ -364,8 +325,7 @@ def analyse(
             "the scatter of the recordings' repeats gives the fitted mean (at Student's t for their count), and a "
             "command delay's widened by the aligned clock's origin (every parameter's, where the delay is held); "
             "95 % = value +- "
-            f"{Z95:.2f} sd; a parameter whose forward and backward differences disagree is differenced again at "
-            f"{WIDE_STEP:g} of its range (widened), and is not identifiable where they disagree there too"
+            f"{Z95:.2f} sd; a parameter whose forward and backward differences disagree is not identifiable"
         ),
     }
 

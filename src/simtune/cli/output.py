@@ -108,8 +108,7 @@ def _unbounded_groups(entries: list[dict], non_smooth: set[str]) -> list[tuple[s
             [e for e in loose if not e["active"]],
         ),
         (
-            "make the motion jump rather than slope here (forward and backward differences disagree, over 1 % and "
-            "4 % of their range)",
+            "make the motion jump rather than slope here (forward and backward differences disagree)",
             [e for e in loose if e["active"] and e["name"] in non_smooth],
         ),
         (
@@ -175,9 +174,6 @@ def print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
                 _say(f"{name} = {value}, 95 % {interval}, +-{tightness}", 4)
     else:
         _say(f"identified: none of the {searched} searched parameters (why: below)")
-    widened = summary.get("widened") or []
-    if widened:
-        _say(f"differenced over 4 % of their range, where the motion jumps at 1 %: {', '.join(widened)}")
     _say(_rank_in_words(summary))
     groups = _unbounded_groups(entries, set(summary.get("non_smooth") or ()))
     if groups:
