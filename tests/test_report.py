@@ -406,6 +406,7 @@ def test_command_line(grid, tmp_path):
     assert isinstance(result.exception, SimtuneError)
 
 
+@pytest.mark.slow  # end to end, 11 s: a run and its report (the default tier reports fixtures' runs)
 def test_report_of_one_short_run(tmp_path):
     run = tmp_path / "run"
     config = RunConfig(
