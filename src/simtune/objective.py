@@ -557,30 +557,42 @@ def _pruning_monitor(
 def _reference_read_at(reference: TaskData, shift: float) -> Rollout:
     """The mean of ``reference`` (its wrist track and joint angles, the object at its mean end) read ``shift``
     seconds later on its own clock (linear between samples, its ends held), as a rollout would hold it."""
-    n = len(reference.times)
     at = reference.times + shift
 
-    def read(track: np.ndarray | None, width: int) -> np.ndarray:
+    def read(track: np.ndarray | None) -> np.ndarray | None:
         if track is None:
-            return np.zeros((n, width))
+            return None
         return np.stack([np.interp(at, reference.times, track[:, k]) for k in range(track.shape[1])], axis=1)
 
-    obj = None
-    if reference.object_final is not None:
-        obj = np.zeros((n, 3))
-        obj[-1] = reference.object_final_mean
-    joints = read(reference.joint_mean, len(reference.joint_names))
-    return Rollout(reference.times, read(reference.wrist_mean, 3), np.tile(np.eye(3), (n, 1, 1)), joints, obj)
+    end = None if reference.object_final is None else reference.object_final_mean
+    return _recorded_rollout(reference, read(reference.wrist_mean), read(reference.joint_mean), end)
 
 
 def _repeat_as_rollout(reference: TaskData, k: int) -> Rollout:
     """Repeat ``k`` of ``reference`` as a rollout would hold it (its wrist track, joint angles and, at its last
     sample, the object where that repeat left it): what :func:`~simtune.fitness.residuals` compares with the mean."""
+    return _recorded_rollout(
+        reference,
+        None if reference.wrist_repeats is None else reference.wrist_repeats[k],
+        None if reference.joint_repeats is None else reference.joint_repeats[k],
+        None if reference.object_final is None else reference.object_final[k],
+    )
+
+
+def _recorded_rollout(
+    reference: TaskData, wrist: np.ndarray | None, joints: np.ndarray | None, object_end: np.ndarray | None
+) -> Rollout:
+    """A rollout on ``reference``'s clock holding recorded values: the wrist track (n, 3), the joint angles (n, J)
+    (zeros where not recorded) and the object at ``object_end`` at the last sample (None: no object)."""
     n = len(reference.times)
-    wrist = reference.wrist_repeats[k] if reference.wrist_repeats is not None else np.zeros((n, 3))
-    joints = reference.joint_repeats[k] if reference.joint_repeats is not None else np.zeros((n, 0))
     obj = None
-    if reference.object_final is not None:
+    if object_end is not None:
         obj = np.zeros((n, 3))
-        obj[-1] = reference.object_final[k]
-    return Rollout(reference.times, wrist, np.tile(np.eye(3), (n, 1, 1)), joints, obj)
+        obj[-1] = object_end
+    return Rollout(
+        reference.times,
+        np.zeros((n, 3)) if wrist is None else wrist,
+        np.tile(np.eye(3), (n, 1, 1)),
+        np.zeros((n, 0)) if joints is None else joints,
+        obj,
+    )

@@ -374,15 +374,14 @@ def _small_motion(
     other_stray: float,
 ) -> UnitsProblem | None:
     """The third rule of :func:`declared_units_problem`: a log that moves far too little in its declared unit."""
-    spans = {j: ranges[j].high - ranges[j].low for j in declared}
-    judged = [j for j in declared if spans[j] >= MIN_COMMANDED_SPAN_RAD]
-    if not judged or other_stray > 0:
+    share = _motion_shares(declared, ranges)
+    if not share or other_stray > 0:
         return None
-    share = {j: float(np.ptp(declared[j])) / spans[j] for j in judged}
-    other_share = max(float(np.ptp(alternative[j])) / spans[j] for j in judged)
+    other_share = max(_motion_shares(alternative, ranges).values())
     if max(share.values()) >= SMALL_MOTION_SHARE or other_share < OTHER_MOTION_SHARE:
         return None
-    joint = max(judged, key=lambda j: spans[j])
+    spans = {j: ranges[j].high - ranges[j].low for j in share}
+    joint = max(share, key=lambda j: spans[j])
     frame = int(np.argmax(np.abs(declared[joint] - declared[joint][0])))
     other = _other(unit)
     moved = float(np.ptp(np.asarray(values[joint], dtype=float)))
@@ -395,6 +394,13 @@ def _small_motion(
     return UnitsProblem(joint, frame, text, other)
 
 
+def _motion_shares(angles: Mapping[str, np.ndarray], ranges: Mapping[str, JointRange]) -> dict[str, float]:
+    """How far ``angles`` [rad] move each joint the task commands over :data:`MIN_COMMANDED_SPAN_RAD` or more, as a
+    share of that span (the joints commanded less tell nothing), in ``angles``' order."""
+    spans = {j: ranges[j].high - ranges[j].low for j in angles}
+    return {j: float(np.ptp(angles[j])) / spans[j] for j in angles if spans[j] >= MIN_COMMANDED_SPAN_RAD}
+
+
 def _moves_as_commanded(angles: Mapping[str, np.ndarray], ranges: Mapping[str, JointRange]) -> bool | None:
     """Whether ``angles`` [rad] move some joint the task commands over :data:`MIN_COMMANDED_SPAN_RAD` or more by
     :data:`SMALL_MOTION_SHARE` of its span, as an arm that follows its commands does; None where no joint is
@@ -403,10 +409,8 @@ def _moves_as_commanded(angles: Mapping[str, np.ndarray], ranges: Mapping[str, J
     What keeps a log in radians whose arm overshoots its commands from being called degrees: read as degrees any
     log of small numbers fits the task's range, but moves 57 times too little.  A synthetic Panda with hidden servo
     gains (Drake, 2026-11-27) took joint 5 20.1 deg past its targets, beyond the check's margin."""
-    judged = [j for j in angles if ranges[j].high - ranges[j].low >= MIN_COMMANDED_SPAN_RAD]
-    if not judged:
-        return None
-    return any(float(np.ptp(angles[j])) >= SMALL_MOTION_SHARE * (ranges[j].high - ranges[j].low) for j in judged)
+    shares = _motion_shares(angles, ranges)
+    return max(shares.values()) >= SMALL_MOTION_SHARE if shares else None
 
 
 def schedule_units_problem(

@@ -529,7 +529,7 @@ class Evaluator:
         if self.before_simulating is not None:
             self.before_simulating(len(jobs))
         start, count = time.perf_counter(), len(jobs)
-        if self.simulated_jobs and self._need_pool(len(jobs)):
+        if self._need_pool(len(jobs)):
             self._start_pool()
         if not self.simulated_jobs and len(jobs) > 1:
             # the session's first batch (auto: the opening's start point with its whole Jacobian, D + 1 rollouts
