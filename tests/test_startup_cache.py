@@ -46,6 +46,26 @@ def test_a_result_is_computed_once_and_its_warnings_are_raised_on_every_read(emp
     assert calls == [1, 1]
 
 
+def test_a_read_back_warning_is_shown_once_per_process_under_the_default_filter(empty_cache):
+    """An API user's loop of evaluations reads the same entries again and again: under Python's default action their
+    warning is shown once, as the same warning raised in place would be, and every time where a filter says always."""
+
+    def compute():
+        warnings.warn("the clock of repeat 3 is late", RecordingWarning, stacklevel=1)
+        return 1
+
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("default")
+        for _ in range(3):
+            cached("test", "shown once", compute)
+    assert [str(w.message) for w in said] == ["the clock of repeat 3 is late"]
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        for _ in range(3):
+            cached("test", "shown once", compute)
+    assert len(said) == 3
+
+
 def test_an_edit_of_simtunes_code_or_a_damaged_entry_is_a_miss(empty_cache, monkeypatch):
     calls = []
 

@@ -94,7 +94,14 @@ class _Warned:
     lineno: int
 
     def again(self) -> None:
-        warnings.warn_explicit(self.message, self.category, self.filename, self.lineno)
+        # with the registry of the file it names, as a warning raised there has: the "default" action then shows
+        # it once per location in a process, not on every read (an API user's loop of evaluations)
+        registry = _REGISTRIES.setdefault(self.filename, {})
+        warnings.warn_explicit(self.message, self.category, self.filename, self.lineno, registry=registry)
+
+
+#: the warning registries of the files cached warnings name (file -> what :func:`warnings.warn_explicit` records)
+_REGISTRIES: dict[str, dict] = {}
 
 
 def cached(kind: str, what: Any, compute: Callable[[], T], valid: Callable[[T], bool] | None = None) -> T:

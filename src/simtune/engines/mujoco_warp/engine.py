@@ -74,7 +74,7 @@ def _kernels():
     def control(
         targets: wp.array3d(dtype=wp.float64),  # type: ignore[valid-type]
         sample: int,
-        kp: wp.float64,
+        kp: wp.array2d(dtype=wp.float64),  # type: ignore[valid-type]
         v_max: wp.array2d(dtype=wp.float64),  # type: ignore[valid-type]
         arm_qpos: wp.array(dtype=int),  # type: ignore[valid-type]
         qpos: wp.array2d(dtype=float),  # type: ignore[valid-type]
@@ -83,7 +83,7 @@ def _kernels():
         # in 64 bits, as JointController computes it: the command is the one the step-by-step protocol sends
         world, joint = wp.tid()
         limit = v_max[world, joint]
-        velocity = (targets[world, sample, joint] - wp.float64(qpos[world, arm_qpos[joint]])) * kp
+        velocity = (targets[world, sample, joint] - wp.float64(qpos[world, arm_qpos[joint]])) * kp[world, joint]
         ctrl[world, joint] = wp.float32(wp.min(wp.max(velocity, -limit), limit))
 
     @wp.kernel
@@ -196,10 +196,13 @@ def time_step_groups(timesteps: dict[int, float], overhead: float = CPU_STEP_OVE
 class MujocoWarpEngine(Engine):
     name = "mujoco-warp"
     reads_mjcf = True
-    #: MuJoCo's kinds less those the batch cannot hold yet (simtune.params.kinds: the armature and joint friction,
-    #: whose MJWarp fields are not known to be per world; the encoder model and the per-joint gains, which the
-    #: batched controller kernel does not have)
+    #: MuJoCo's kinds less the encoder model's (simtune.params.kinds), which the batched controller kernel does not
+    #: have; the armature and joint friction become MJWarp's per-world ``dof_armature`` / ``dof_frictionloss`` like
+    #: any field a parameter changes, each joint's gain a row of the control kernel's gains
     engine_parameters = kinds_of_engine("mujoco-warp", 6)
+    #: the engine whose code maps a member's parameters onto its world (the drive-train kinds through its
+    #: ``set_armature`` / ``set_joint_friction``): each world's model is that engine's, reset with them
+    host_class = MujocoEngine
 
     @classmethod
     def version(cls) -> str:
@@ -219,7 +222,7 @@ class MujocoWarpEngine(Engine):
     def __init__(self, task: TaskSpec):
         super().__init__(task)
         #: the host model: the MuJoCo engine's scene, onto which each member's parameters are mapped
-        self.host = MujocoEngine(task)
+        self.host = self.host_class(task)
         m = self.host.model
         robot = task.robot
         self._arm_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot.arm_joints], dtype=np.int32)
@@ -341,7 +344,7 @@ class MujocoWarpEngine(Engine):
             wrist_now = wp.zeros(n, dtype=wp.vec3)
             rot_now = wp.zeros(n, dtype=wp.mat33)
             object_now = wp.zeros(n, dtype=wp.vec3)
-            kp = wp.float64(self.task.kp)
+            kp = wp.array(np.stack([c.kp for c in controllers]), dtype=wp.float64)  # each joint's own gain
 
             def poses(segment: int, substep: int) -> None:
                 wp.launch(
