@@ -72,11 +72,10 @@ def cli(*args, cwd=None):
 
 
 def installed_engines() -> list[str]:
-    """The engines of this machine that build robots on the CPU (mujoco-warp runs MuJoCo's model: not listed)."""
+    """The engines of this machine, in the order `simtune check` loads the robot in them (mujoco-warp where its package
+    is installed: it builds MuJoCo's model, on Warp's CPU device without a GPU)."""
     found = []
     for name in ENGINES:
-        if name == "mujoco-warp":
-            continue
         try:
             engine_class(name)
         except EngineUnavailable:
