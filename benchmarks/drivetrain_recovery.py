@@ -16,12 +16,14 @@ Everything goes through the command line, as a user would run it:
    jitter, 10 repeats.
 3. ``simtune tune --only <the truth's parameters> --max-seconds S`` (optimizer auto) in the same engine;
    the 95 % intervals are the run's Gauss-Newton uncertainty (``simtune uncertainty`` where the run left it
-   out for its time budget).
+   out for its time budget), or with ``--bootstrap N`` ``simtune uncertainty --bootstrap N``'s (refits against
+   N draws of the repeats where the simulation is not smooth).
 4. Per parameter: truth, estimate, error as % of its range, the 95 % interval, and whether it holds the
    truth.  Done-when: every error within 5 % and the truth inside at least 80 % of the intervals.
 
     python benchmarks/drivetrain_recovery.py [--robots so101,panda] [--engines mujoco,pybullet,ode,dart,drake]
-        [--max-seconds 150] [--delay-s 0.4] [--jitter-s 0.05] [--out DIR] [--results benchmarks/results]
+        [--max-seconds 150] [--delay-s 0.4] [--jitter-s 0.05] [--bootstrap 30] [--out DIR]
+        [--results benchmarks/results]
 
 ``--delay-s 0`` holds the command delay at 0 (the truth's) instead of tuning it with the drive train.
 
@@ -150,8 +152,9 @@ def truth(bounds: dict[str, tuple[float, float]]) -> dict[str, float]:
     return out
 
 
-def intervals(run: Path) -> dict[str, dict]:
-    """The run's 95 % intervals by parameter (computed by ``simtune uncertainty`` where the run left them out)."""
+def intervals(run: Path, bootstrap: int = 0) -> dict[str, dict]:
+    """The run's 95 % intervals by parameter (computed by ``simtune uncertainty`` where the run left them out, or
+    with ``bootstrap`` draws of the repeats)."""
     from simtune.store import RunStore
 
     store = RunStore(run)
@@ -159,13 +162,19 @@ def intervals(run: Path) -> dict[str, dict]:
         stored = store.get("uncertainty") or {}
     finally:
         store.close()
-    if not stored.get("parameters"):
-        stored = last_json(simtune("uncertainty", run, "--json", "--workers", 2))
+    if not stored.get("parameters") or bootstrap:
+        stored = last_json(simtune("uncertainty", run, "--json", "--workers", 2, "--bootstrap", bootstrap))
     return {e["name"]: e for e in stored.get("parameters", [])}
 
 
 def recover(
-    project: Path, work: Path, engine: str, max_seconds: float, jitter_s: float = JITTER_S, delay_s: float = DELAY_S
+    project: Path,
+    work: Path,
+    engine: str,
+    max_seconds: float,
+    jitter_s: float = JITTER_S,
+    delay_s: float = DELAY_S,
+    bootstrap: int = 0,
 ) -> dict:
     """Synthesise the truth in ``engine``, tune it back, and compare per parameter (the command delay tuned with
     the drive train unless ``delay_s`` is 0: then it is held at 0, the truth's)."""
@@ -189,7 +198,7 @@ def recover(
     wall = time.monotonic() - started
     best = json.loads((run / "best_params.json").read_text())
     values = best.get("params", best)
-    found = intervals(run)
+    found = intervals(run, bootstrap)
     rows = []
     for name, value in true.items():
         lo, hi = bounds[name]
@@ -247,6 +256,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="working folder (default: a temporary one)")
     parser.add_argument("--jitter-s", type=float, default=JITTER_S, help="synth's start jitter [s]")
     parser.add_argument("--delay-s", type=float, default=DELAY_S, help="the true command delay [s]; 0: held, not tuned")
+    parser.add_argument("--bootstrap", type=int, default=0, help="draws of the repeats for the intervals (0: none)")
     add_results_option(parser)
     args = parser.parse_args()
     results: dict = {}
@@ -259,7 +269,7 @@ def main() -> None:
             project = make_project(folder, robot)
             for engine in args.engines.split(","):
                 started = time.monotonic()
-                result = recover(project, folder, engine, args.max_seconds, args.jitter_s, args.delay_s)
+                result = recover(project, folder, engine, args.max_seconds, args.jitter_s, args.delay_s, args.bootstrap)
                 result["total_s"] = round(time.monotonic() - started, 1)
                 results.setdefault(robot, []).append(result)
                 lines += [*table(robot, result), ""]
@@ -268,7 +278,8 @@ def main() -> None:
         f"Drive-train recovery: synthetic `drive` recordings (csv: marker and joint angles; {NOISE_MM:g} mm, "
         f"{JOINT_NOISE_DEG:g} deg, +-{args.jitter_s:g} s start jitter, {REPEATS} repeats), each engine tuned on its "
         f"own with --max-seconds {args.max_seconds:g}, optimizer auto; true command delay {args.delay_s:g} s "
-        f"({'tuned with the drive train' if args.delay_s > 0 else 'held'})\n"
+        f"({'tuned with the drive train' if args.delay_s > 0 else 'held'}); intervals "
+        f"{f'with {args.bootstrap} bootstrap draws' if args.bootstrap else 'Gauss-Newton'}\n"
     )
     write_result(args.results, "drivetrain-recovery", "md", header + "\n" + "\n".join(lines))
     write_json_result(args.results, "drivetrain-recovery", results)

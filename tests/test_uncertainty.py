@@ -112,6 +112,28 @@ def test_a_finished_run_stores_its_uncertainty_and_keeps_its_evaluations(short_r
     store.close()
 
 
+@pytest.mark.slow
+def test_the_bootstrap_refits_a_run_and_stores_what_it_says(short_run, tmp_path):
+    """`simtune uncertainty RUN --bootstrap N` (end to end, on a copy of a run): N refits, the same contract per
+    parameter, the summary stored in the run, its evaluations untouched."""
+    run = tmp_path / "run"
+    shutil.copytree(short_run, run)
+    evaluations = RunStore(run).count_evaluations()
+    proc = subprocess.run(
+        [sys.executable, "-m", "simtune.cli", "uncertainty", str(run), "--bootstrap", "3", "--workers", "2", "--json"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr
+    printed = json.loads(proc.stdout)
+    assert printed["bootstrap_draws"] == 3 and [set(e) for e in printed["parameters"]] == [CONTRACT] * 4
+    store = RunStore(run)
+    assert store.get("uncertainty") == printed
+    assert store.count_evaluations() == evaluations
+    store.close()
+
+
 def test_uncertainty_of_a_folder_without_a_run_is_one_clear_line(tmp_path):
     proc = subprocess.run(
         [sys.executable, "-m", "simtune.cli", "uncertainty", str(tmp_path)], capture_output=True, text=True, timeout=60
@@ -137,6 +159,74 @@ def test_a_kinked_parameter_is_not_identifiable():
     result = analyse(space, np.array([1.0, 0.0]), jac)
     assert [e["identifiable"] for e in result["parameters"]] == [False, True]
     assert result["non_smooth"] == ["command_delay"]
+
+
+def test_bootstrap_refits_give_a_kinked_parameter_its_interval_and_widen_a_smooth_one():
+    """The refits' scatter is a kinked parameter's standard deviation (Gauss-Newton has none there) and the least a
+    smooth one's; one that scatters over more than its range stays unbounded."""
+    space = get_space("extended", only=["command_delay", "marker_offset_x", "marker_offset_y"])
+    width = np.array([p.high - p.low for p in space.parameters])
+    rng = np.random.default_rng(4)
+    J = rng.normal(size=(100, 3))
+    jac = Jacobian(rng.normal(scale=1e-3, size=100), J, True, np.array([True, False, False]))
+    x = np.array([1.0, 0.0, 0.0])
+    plain = {e["name"]: e for e in analyse(space, x, jac)["parameters"]}
+    wide_sd = 0.3 * width[2]  # 2 x 1.96 x 0.3 ranges: wider than the range
+    refits = x + rng.normal(size=(40, 3)) * np.array([0.01 * width[0], 0.02 * width[1], wide_sd])
+    result = analyse(space, x, jac, refits=refits)
+    entries = {e["name"]: e for e in result["parameters"]}
+    drawn = np.std(refits, axis=0, ddof=1)
+    assert plain["command_delay"]["identifiable"] is False
+    assert entries["command_delay"]["identifiable"] is True
+    assert entries["command_delay"]["high"] == pytest.approx(x[0] + Z95 * drawn[0])
+    gauss_newton = (plain["marker_offset_x"]["high"] - x[1]) / Z95
+    assert drawn[1] > gauss_newton  # the draws scatter more than Gauss-Newton allows: theirs
+    assert entries["marker_offset_x"]["high"] == pytest.approx(x[1] + Z95 * drawn[1])
+    assert entries["marker_offset_y"]["identifiable"] is False
+    assert result["bootstrap_draws"] == 40 and "bootstrap draws" in result["method"]
+
+
+def test_a_draw_of_repeats_is_the_reference_those_repeats_build_on_their_own_median_clock():
+    """Every repeat drawn once is the reference itself; a draw's mean is its repeats' mean, read on the clock its
+    own median shift puts it on (the aligned reference's origin)."""
+    from simtune.data.clock import ClockAlignment
+    from simtune.data.task import TaskData
+
+    times = np.arange(101) / 20.0
+    ramp = np.stack([times, 2 * times, np.zeros_like(times)], axis=1)
+    wrists = np.stack([ramp + k for k in range(5)])  # repeat k: the ramp plus k metres
+    shifts = np.array([-0.1, -0.05, 0.0, 0.05, 0.1])
+    data = TaskData(
+        task="t",
+        rate=20.0,
+        times=times,
+        wrist_mean=wrists.mean(axis=0),
+        wrist_repeats=wrists,
+        object_final=np.arange(15.0).reshape(5, 3),
+        object_start=None,
+        sources=[f"r{k}" for k in range(5)],
+        reference="aligned",
+        alignment=ClockAlignment([1.0] * 5, shifts, 3),
+    )
+    same = data.resampled(np.arange(5))
+    np.testing.assert_array_equal(same.wrist_mean, data.wrist_mean)
+    np.testing.assert_array_equal(same.object_final_mean, data.object_final_mean)
+    draw = data.resampled(np.array([3, 4, 4, 3, 4]))  # median shift 0.1 s: read 0.1 s later
+    expected = ramp + (3 + 4 + 4 + 3 + 4) / 5
+    later = np.stack([np.interp(times + 0.1, times, expected[:, a]) for a in range(3)], axis=1)
+    np.testing.assert_allclose(draw.wrist_mean, later)
+    np.testing.assert_allclose(draw.object_final_mean, np.arange(15.0).reshape(5, 3)[[3, 4, 4, 3, 4]].mean(axis=0))
+    assert np.median(draw.alignment.shifts) == pytest.approx(0.0)
+    assert draw.sources == ["r3", "r4", "r4", "r3", "r4"]
+
+
+def test_a_bad_bootstrap_count_is_refused_in_one_line(short_run):
+    from simtune import api
+    from simtune.errors import ConfigError
+
+    for bad in (-1, 2.5, True, 10**6):
+        with pytest.raises(ConfigError, match="bootstrap"):
+            api.uncertainty(short_run, bootstrap=bad)
 
 
 def test_the_run_stores_points_give_the_summary_a_scratch_store_gives(short_run, tmp_path):

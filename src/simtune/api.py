@@ -30,7 +30,7 @@ from simtune.alignment import DelayEstimate, aligned, estimate_delay
 from simtune.check.project import check_project
 from simtune.check.task import check as run_check
 from simtune.check.task import moved_joints
-from simtune.common.limits import MAX_SEED, MAX_WORKERS
+from simtune.common.limits import MAX_BOOTSTRAP, MAX_SEED, MAX_WORKERS
 from simtune.data.clock import DEFAULT_REFERENCE, check_reference, default_reference
 from simtune.data.task import DEFAULT_REPEATS, check_repeats
 from simtune.engines import engine_class
@@ -470,17 +470,21 @@ def resume(run_dir: Path | str, *, rescore: bool = False, show_progress: bool = 
     return resume_run(_path("run_dir", run_dir), show_progress=show_progress, rescore=rescore)
 
 
-def uncertainty(run_dir: Path | str, workers: int = 1) -> dict:
+def uncertainty(run_dir: Path | str, workers: int = 1, bootstrap: int = 0) -> dict:
     """How well the recordings pin each parameter at a finished run's best point (``simtune uncertainty``).
 
     Args:
         run_dir: a finished run folder.
-        workers: processes for the Jacobian's rollouts.
+        workers: processes for the Jacobian's rollouts (threads for the bootstrap's).
+        bootstrap: draws of the recordings' repeats to refit the best point against (0: Gauss-Newton alone): intervals
+            where the simulation is not smooth, and never narrower than the draws' scatter elsewhere.
 
     Returns:
         The summary stored in the run: rank, condition number, a 95 % interval per parameter, correlated pairs.
     """
-    return run_uncertainty(_path("run_dir", run_dir), _workers(workers))
+    if isinstance(bootstrap, bool) or not isinstance(bootstrap, int) or not 0 <= bootstrap <= MAX_BOOTSTRAP:
+        raise ConfigError(f"bootstrap: a whole number of draws from 0 to {MAX_BOOTSTRAP}, got {bootstrap!r}")
+    return run_uncertainty(_path("run_dir", run_dir), _workers(workers), bootstrap)
 
 
 def _given(settings: Mapping[str, Any]) -> dict[str, Any]:

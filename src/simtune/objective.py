@@ -8,6 +8,7 @@ evaluations instead of rebuilding.
 
 from __future__ import annotations
 
+import copy
 import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -243,6 +244,20 @@ class Objective:
         state = dict(self.__dict__)
         state["_engines"] = {}  # engine handles stay in the process that made them
         return state
+
+    def with_references(self, references: dict[str, TaskData]) -> Objective:
+        """This objective against other references of its tasks (a bootstrap draw of their repeats:
+        :meth:`TaskData.resampled`), each signal still weighed by this objective's noise, with engines of its own.
+
+        Args:
+            references: task name -> reference, for every task.
+        Returns:
+            The new objective (close it when done).
+        """
+        other = copy.copy(self)
+        other.references = dict(references)
+        other._engines = {}
+        return other
 
     def _engine(self, task: TaskSpec) -> Engine:
         if task.name not in self._engines:

@@ -586,8 +586,9 @@ def _uncertainty_or_reason(objective: Objective, plan: RunPlan, store: RunStore,
         return {"error": f"{type(exc).__name__}: {exc}", "parameters": []}
 
 
-def run_uncertainty(run_dir: Path, workers: int = 1) -> dict:
-    """Compute (again) the uncertainty at a finished run's best point and store it in the run (store meta)."""
+def run_uncertainty(run_dir: Path, workers: int = 1, bootstrap: int = 0) -> dict:
+    """Compute (again) the uncertainty at a finished run's best point and store it in the run (store meta), with
+    ``bootstrap`` draws of the repeats to refit against (:func:`simtune.uncertainty.bootstrap_refits`)."""
     run_dir = Path(run_dir)
     path = _run_to_write(run_dir, "uncertainty")
     with run_lock(run_dir):
@@ -613,6 +614,7 @@ def run_uncertainty(run_dir: Path, workers: int = 1) -> dict:
                 store.get("inactive_parameters") or {},
                 workers,
                 known=store,
+                bootstrap=bootstrap,
             )
             store.set(uncertainty=summary)
             return summary

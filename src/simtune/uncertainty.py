@@ -40,6 +40,7 @@ import numpy as np
 from simtune.fitness import Score
 from simtune.objective import Objective, generic_values
 from simtune.optimize.evaluator import Evaluator
+from simtune.optimize.pipeline import LOCAL_NFEV, STALL_FTOL
 from simtune.params import ParameterSpace
 from simtune.store import RunStore
 
@@ -256,6 +257,7 @@ def analyse(
     inactive: dict[str, str] | None = None,
     variance: float | None = None,
     spread: RepeatSpread | None = None,
+    refits: np.ndarray | None = None,
 ) -> dict:
     """The uncertainty summary of the searched parameters (``space``, values ``x``) from ``jac``.
 
@@ -263,6 +265,9 @@ def analyse(
     default the residuals' own at the point.  ``inflation``: the residuals' correlation time.  ``spread``: the
     repeats' scatter (:class:`RepeatSpread`): each parameter's standard deviation is then the larger of Gauss-Newton's
     and the repeats' (at Student's t for their count), and a command delay's adds the aligned clock's origin.
+    ``refits``: the point refitted against bootstrap draws of the repeats (:func:`bootstrap_refits`, (draws, D)):
+    their standard deviation is a parameter's where the simulation is not smooth in it (no Gauss-Newton there), and
+    its least elsewhere.
     """
     inactive = inactive or {}
     width = np.array([p.high - p.low for p in space.parameters])
@@ -281,11 +286,16 @@ def analyse(
     sds = np.sqrt(np.maximum(np.diag(cov), 0.0))
     if spread is not None:
         sds = _with_repeats(sds, J, spread, keep, s, vt, width)
+    smooth = ~kinked
+    if refits is not None:
+        drawn = np.std(refits, axis=0, ddof=1) if len(refits) > 1 else np.full(d, np.inf)
+        sds = np.where(kinked, drawn, np.maximum(sds, drawn))
+        smooth = np.ones(d, dtype=bool)
     entries = []
     for i, p in enumerate(space.parameters):
         sd = float(sds[i])
         active = p.name not in inactive
-        identifiable = bool(active and not kinked[i] and null_share[i] < NULL_SHARE and 2 * Z95 * sd <= width[i])
+        identifiable = bool(active and smooth[i] and null_share[i] < NULL_SHARE and 2 * Z95 * sd <= width[i])
         entries.append(
             {
                 "name": p.name,
@@ -326,8 +336,86 @@ def analyse(
             "command delay's widened by the aligned clock's origin (every parameter's, where the delay is held); "
             "95 % = value +- "
             f"{Z95:.2f} sd; a parameter whose forward and backward differences disagree is not identifiable"
+            + ("" if refits is None else _BOOTSTRAP_WORDS.format(draws=len(refits), steps=LOCAL_NFEV))
         ),
+        "bootstrap_draws": 0 if refits is None else len(refits),
     }
+
+
+_BOOTSTRAP_WORDS = (
+    " - unless the best point's refits against {draws} bootstrap draws of the recordings' repeats (each task's "
+    "repeats drawn with replacement, its aligned clock on the draw's median shift; at most {steps} least-squares "
+    "steps each) give it a standard deviation: then that one where the differences disagree, and at least it elsewhere"
+)
+
+
+def bootstrap_refits(objective: Objective, x: np.ndarray, draws: int, workers: int = 1, seed: int = 0) -> np.ndarray:
+    """The point ``x`` refitted against ``draws`` bootstrap draws of the recordings' repeats: what the fit would give
+    with other repeats of the same arm, including the aligned clock the draw puts its repeats on.
+
+    Gauss-Newton's intervals need a simulation smooth in the parameter; Coulomb friction's stick-slip and the time
+    step's whole number of steps are not, and the repeats' clock origin moves the fit nonlinearly.  Each draw takes
+    every task's repeats with replacement (:meth:`~simtune.data.TaskData.resampled`) and refits from ``x`` with
+    SciPy's bounded least squares in the unit cube on the same residuals as the tuning run's local phase (forward
+    differences of :data:`STEP` of each range, at most the phase's steps, ending on its cost tolerance), in this
+    process, each batch on ``workers`` threads (MuJoCo's batch path; other engines one rollout after another).
+
+    Args:
+        objective: the run's objective.
+        x: the point (its space's vector), in practice the run's best.
+        draws: how many draws.
+        workers: threads for a batch's rollouts.
+        seed: of the draws.
+    Returns:
+        The refitted points, (draws, D).
+    """
+    rng = np.random.default_rng(seed)
+    space = objective.vector_space()
+    low = np.array([p.low for p in space.parameters])
+    width = np.array([p.high - p.low for p in space.parameters])
+    refits = []
+    for _ in range(draws):
+        references = {
+            name: ref.resampled(rng.integers(0, len(ref.sources), len(ref.sources)))
+            for name, ref in objective.references.items()
+        }
+        draw = objective.with_references(references)
+        try:
+            refits.append(low + _refit(draw, (np.asarray(x, dtype=float) - low) / width, workers) * width)
+        finally:
+            draw.close()
+    return np.array(refits)
+
+
+def _refit(objective: Objective, start: np.ndarray, workers: int) -> np.ndarray:
+    """SciPy's bounded least squares of ``objective``'s residuals from ``start`` in the unit cube; where it ends."""
+    from scipy.optimize import least_squares
+
+    space = objective.vector_space()
+    low = np.array([p.low for p in space.parameters])
+    width = np.array([p.high - p.low for p in space.parameters])
+    seen: dict[bytes, np.ndarray] = {}
+
+    def batch(points: list[np.ndarray]) -> list[np.ndarray]:
+        out = [objective.penalty_residuals() for _ in points]  # a rollout that fails scores as one that blew up
+        params = [space.to_dict(low + u * width) for u in points]
+        for i, result in objective.residuals_batch(params, threads=workers):
+            if not isinstance(result, Exception):
+                out[i] = result[0]
+        return out
+
+    def fun(u: np.ndarray) -> np.ndarray:
+        if u.tobytes() not in seen:
+            seen[u.tobytes()] = batch([u])[0]
+        return seen[u.tobytes()]
+
+    def jac(u: np.ndarray) -> np.ndarray:
+        at = fun(u)
+        steps = np.where(u + STEP <= 1.0, STEP, -STEP)  # backwards at the upper bound
+        moved = [u + np.eye(len(u))[k] * steps[k] for k in range(len(u))]
+        return np.stack([(r - at) / steps[k] for k, r in enumerate(batch(moved))], axis=1)
+
+    return least_squares(fun, start, jac=jac, bounds=(0.0, 1.0), max_nfev=LOCAL_NFEV, ftol=STALL_FTOL).x
 
 
 def _with_repeats(sds, J, spread: RepeatSpread, keep, s, vt, width) -> np.ndarray:
@@ -359,18 +447,21 @@ def uncertainty(
     inactive: dict[str, str],
     workers: int = 1,
     known: RunStore | None = None,
+    bootstrap: int = 0,
 ) -> dict:
     """The full summary: one entry per parameter of ``full`` (the run's whole space, searched or not).
 
     ``known``: the run's store, whose stored points the central differences read instead of simulating them
-    (:func:`jacobian`): the same numbers, fewer rollouts.
+    (:func:`jacobian`): the same numbers, fewer rollouts.  ``bootstrap``: draws of the repeats to refit against
+    (:func:`bootstrap_refits`; 0: none).
     """
     space = objective.vector_space()
     jac = jacobian(objective, x, workers, known=known)
     inflation = correlation_time(wrist_tracks(jac.residuals, objective))
     values = space.to_dict(np.asarray(x, dtype=float))
     spread = repeat_spread(objective, values.get("timestep"))
-    result = analyse(space, np.asarray(x, dtype=float), jac, inflation, inactive, spread=spread)
+    refits = bootstrap_refits(objective, x, bootstrap, workers) if bootstrap > 0 else None
+    result = analyse(space, np.asarray(x, dtype=float), jac, inflation, inactive, spread=spread, refits=refits)
     searched = {e["name"]: e for e in result["parameters"]}
     left_out = [n for n in full.names if n not in searched]
     generic = generic_values(objective, left_out) if left_out else {}

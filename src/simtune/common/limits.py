@@ -6,3 +6,7 @@ MAX_SEED = 2**32 - 1
 #: worker processes (or threads) one command may start: far above any machine simtune runs on (each worker holds
 #: its engines), low enough that a mistyped count is refused rather than forking until the machine stalls
 MAX_WORKERS = 256
+
+#: bootstrap draws of `simtune uncertainty --bootstrap`: each refits the run's best point (a few seconds to minutes),
+#: so a mistyped count is refused rather than running for days
+MAX_BOOTSTRAP = 1000

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Collection, Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import NoReturn
 
@@ -135,6 +135,53 @@ class TaskData:
     def duration(self) -> float:
         """Length of the common time axis in seconds (last sample time)."""
         return float(self.times[-1])
+
+    def resampled(self, indices: np.ndarray) -> TaskData:
+        """The reference that the repeats ``indices`` (a repeat may come twice: a bootstrap draw) would build: their
+        tracks, object positions and means.  An aligned reference's clock is the median of its repeats' shifts
+        (:mod:`simtune.data.clock`), so a draw's tracks are read on its own median: ``m`` seconds later, with ``m``
+        the draw's median shift less this reference's (ends held, as the loader holds them).
+
+        Args:
+            indices: positions of repeats in this reference's order (``sources``).
+        Returns:
+            The draw's reference; the loader's other choices (``reference``, ``repeats``, ``left_out`` ...) as here.
+        """
+        idx = np.asarray(indices, dtype=int)
+        later, alignment = 0.0, self.alignment
+        if alignment is not None:
+            shifts = np.asarray(alignment.shifts, dtype=float)
+            later = float(np.median(shifts[idx]) - np.median(shifts))
+            onsets = [alignment.onsets[i] for i in idx]
+            alignment = replace(alignment, onsets=onsets, shifts=shifts[idx] - later)
+
+        def tracks(repeats: np.ndarray | None) -> np.ndarray | None:
+            if repeats is None:
+                return None
+            drawn = repeats[idx]
+            if later == 0.0:
+                return drawn
+            at = self.times + later
+            return np.stack(
+                [np.stack([np.interp(at, self.times, r[:, k]) for k in range(r.shape[1])], 1) for r in drawn]
+            )
+
+        def each(values: np.ndarray | None) -> np.ndarray | None:
+            return None if values is None else values[idx]
+
+        wrists, angles = tracks(self.wrist_repeats), tracks(self.joint_repeats)
+        return replace(
+            self,
+            wrist_mean=None if wrists is None else wrists.mean(axis=0),
+            wrist_repeats=wrists,
+            joint_mean=None if angles is None else angles.mean(axis=0),
+            joint_repeats=angles,
+            object_final=each(self.object_final),
+            object_start=each(self.object_start),
+            object_rest=each(self.object_rest),
+            sources=[self.sources[i] for i in idx],
+            alignment=alignment,
+        )
 
 
 def resample(time: np.ndarray, values: np.ndarray, rate: float, n: int) -> np.ndarray:
