@@ -187,6 +187,17 @@ def test_uncertainty_shows_every_full_name_and_says_what_it_means(monkeypatch, s
         assert "simtune uncertainty runs/x" in words
     else:
         assert "timestep = 0.01" in words  # every parameter with its value
+    assert "`simtune uncertainty runs/x --bootstrap 30` gives the non-smooth ones intervals from refits" in words
+
+
+def test_uncertainty_with_bootstrap_draws_says_so_and_groups_no_parameter_as_non_smooth(monkeypatch) -> None:
+    console = Console(width=80, record=True)
+    monkeypatch.setattr(output, "out", console)
+    output.print_uncertainty(_summary() | {"bootstrap_draws": 30}, short=False, run_dir=Path("runs/x"))
+    words = " ".join(console.export_text().split())
+    assert words.startswith("uncertainty at the best point (Gauss-Newton and 30 bootstrap draws of the repeats, 95 %")
+    assert "make the motion jump" not in words and "--bootstrap" not in words
+    assert "33 trade off against other parameters" in words  # the 2 kinked ones too wide even for the draws
 
 
 def test_uncertainty_error_is_one_line(monkeypatch) -> None:

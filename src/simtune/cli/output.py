@@ -155,7 +155,9 @@ def print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
     entries = summary["parameters"]
     identified = [e for e in entries if e["identifiable"]]
     searched = summary["searched"]
-    _say("uncertainty at the best point (Gauss-Newton, 95 % intervals):", 0)
+    draws = int(summary.get("bootstrap_draws") or 0)
+    method = f"Gauss-Newton and {draws} bootstrap draws of the repeats" if draws else "Gauss-Newton"
+    _say(f"uncertainty at the best point ({method}, 95 % intervals):", 0)
     if identified:
         _say(f"identified: {len(identified)} of the {searched} searched parameters")
         table = text_table("", ("parameter", "value", "95 % interval", "+- (of value)"))
@@ -175,7 +177,9 @@ def print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
     else:
         _say(f"identified: none of the {searched} searched parameters (why: below)")
     _say(_rank_in_words(summary))
-    groups = _unbounded_groups(entries, set(summary.get("non_smooth") or ()))
+    # with draws, a non-smooth parameter has the draws' interval: one still unbounded is too wide
+    non_smooth = set() if draws else set(summary.get("non_smooth") or ())
+    groups = _unbounded_groups(entries, non_smooth)
     if groups:
         _say(f"not identified ({sum(len(m) for _, m in groups)}, intervals unbounded), by reason:")
     for why, members in groups:
@@ -190,6 +194,8 @@ def print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
     if pairs:
         listed = ", ".join(f"{p['a']} ~ {p['b']} ({p['correlation']:+.2f})" for p in pairs[:3])
         _say(f"most correlated (one can partly make up for the other): {listed}")
+    if any(e["active"] and not e["identifiable"] and e["name"] in non_smooth for e in entries):
+        _say(f"`simtune uncertainty {run_dir} --bootstrap 30` gives the non-smooth ones intervals from refits", 0)
     if short:
         _say(f"`simtune uncertainty {run_dir}` recomputes it with every value (--json for scripts)")
 
