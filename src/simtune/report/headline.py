@@ -109,6 +109,7 @@ def moved_parameters_table(groups: list[Group], nominal: dict[str, dict[str, flo
         rows,
         note="Generic: the engine's own value (or the task's, the controller's). Moved: |tuned - generic| as a share "
         "of the parameter's tuning range. 95 % interval: the Gauss-Newton interval at the best point "
-        "(`simtune uncertainty RUN`); 'unbounded' where the recordings cannot pin the parameter there, '-' where "
+        "(`simtune uncertainty RUN`; with `--bootstrap N`, refits against N draws of the repeats too); "
+        "'unbounded' where the recordings cannot pin the parameter there, '-' where "
         "it was not computed.",
     )

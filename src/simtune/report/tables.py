@@ -490,7 +490,8 @@ def importance_table(groups: list[Group]) -> Table:
         "global phase), pooled over repeats: p = chance of a spread this small if tuning had not narrowed it."
         " q: Benjamini-Hochberg adjusted over the parameters of the row's engine, tasks and space; "
         f"significant: q < {SIGNIFICANCE:g}. Best repeat: the tuned value of the best repeat; its 95 % "
-        "interval is the Gauss-Newton interval at that point (`simtune uncertainty`; 'unbounded' where the "
+        "interval is the Gauss-Newton interval at that point (`simtune uncertainty`, with `--bootstrap N` refits "
+        "against N draws of the repeats too; 'unbounded' where the "
         "recordings cannot pin the parameter, '-' where not computed). Active: whether the parameter changes "
         "any rollout of the tasks (measured before the search); an inactive one is listed with the reason and"
         " never ranked.",
