@@ -220,6 +220,29 @@ def test_a_draw_of_repeats_is_the_reference_those_repeats_build_on_their_own_med
     assert draw.sources == ["r3", "r4", "r4", "r3", "r4"]
 
 
+def test_refits_that_never_move_a_kinked_parameter_leave_it_unbounded():
+    space = get_space("extended", only=["command_delay", "marker_offset_x"])
+    rng = np.random.default_rng(5)
+    jac = Jacobian(rng.normal(scale=1e-3, size=100), rng.normal(size=(100, 2)), True, np.array([True, False]))
+    refits = np.tile([1.0, 0.0], (10, 1))  # stuck where they started
+    entries = analyse(space, np.array([1.0, 0.0]), jac, refits=refits)["parameters"]
+    assert [e["identifiable"] for e in entries] == [False, True]
+
+
+def test_the_bootstrap_needs_two_repeats_of_every_task():
+    from simtune.errors import ConfigError
+    from simtune.objective import Objective, load_references
+    from simtune.tasks import get_task
+    from simtune.uncertainty import bootstrap_refits
+
+    task = get_task("cube")
+    reference = load_references(REFERENCE_DIR, [task], reference="aligned")["cube"]
+    space = get_space("extended", only=["command_delay"])
+    objective = Objective("mujoco", [task], {"cube": reference.resampled(np.array([0]))}, space)
+    with pytest.raises(ConfigError, match="task 'cube' has 1"):
+        bootstrap_refits(objective, np.array([1.0]), 3)
+
+
 def test_a_bad_bootstrap_count_is_refused_in_one_line(short_run):
     from simtune import api
     from simtune.errors import ConfigError

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from simtune.errors import ConfigError
 from simtune.fitness import Score
 from simtune.objective import Objective, generic_values
 from simtune.optimize.evaluator import Evaluator
@@ -289,7 +290,8 @@ def analyse(
     smooth = ~kinked
     if refits is not None:
         drawn = np.std(refits, axis=0, ddof=1) if len(refits) > 1 else np.full(d, np.inf)
-        sds = np.where(kinked, drawn, np.maximum(sds, drawn))
+        drawn[drawn == 0.0] = np.inf  # refits that never moved it say the fit is stuck there, not that it is exact
+        sds = np.where(kinked, drawn, np.maximum(sds, np.where(np.isinf(drawn), 0.0, drawn)))
         smooth = np.ones(d, dtype=bool)
     entries = []
     for i, p in enumerate(space.parameters):
@@ -369,10 +371,17 @@ def bootstrap_refits(objective: Objective, x: np.ndarray, draws: int, workers: i
     Returns:
         The refitted points, (draws, D).
     """
+    few = {name: len(ref.sources) for name, ref in objective.references.items() if len(ref.sources) < 2}
+    if few:
+        name, count = next(iter(few.items()))
+        raise ConfigError(
+            f"--bootstrap draws the recordings' repeats: task {name!r} has {count} (it needs two or more)"
+        )
     rng = np.random.default_rng(seed)
     space = objective.vector_space()
     low = np.array([p.low for p in space.parameters])
     width = np.array([p.high - p.low for p in space.parameters])
+    start = np.clip((np.asarray(x, dtype=float) - low) / width, 0.0, 1.0)
     refits = []
     for _ in range(draws):
         references = {
@@ -381,7 +390,7 @@ def bootstrap_refits(objective: Objective, x: np.ndarray, draws: int, workers: i
         }
         draw = objective.with_references(references)
         try:
-            refits.append(low + _refit(draw, (np.asarray(x, dtype=float) - low) / width, workers) * width)
+            refits.append(low + _refit(draw, start, workers) * width)
         finally:
             draw.close()
     return np.array(refits)
@@ -456,11 +465,11 @@ def uncertainty(
     (:func:`bootstrap_refits`; 0: none).
     """
     space = objective.vector_space()
+    refits = bootstrap_refits(objective, x, bootstrap, workers) if bootstrap > 0 else None  # first: it checks repeats
     jac = jacobian(objective, x, workers, known=known)
     inflation = correlation_time(wrist_tracks(jac.residuals, objective))
     values = space.to_dict(np.asarray(x, dtype=float))
     spread = repeat_spread(objective, values.get("timestep"))
-    refits = bootstrap_refits(objective, x, bootstrap, workers) if bootstrap > 0 else None
     result = analyse(space, np.asarray(x, dtype=float), jac, inflation, inactive, spread=spread, refits=refits)
     searched = {e["name"]: e for e in result["parameters"]}
     left_out = [n for n in full.names if n not in searched]
