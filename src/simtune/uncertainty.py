@@ -32,11 +32,13 @@ from __future__ import annotations
 
 import math
 import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from simtune.activity import announce
 from simtune.errors import ConfigError
 from simtune.fitness import Score
 from simtune.objective import Objective, generic_values
@@ -383,7 +385,11 @@ def bootstrap_refits(objective: Objective, x: np.ndarray, draws: int, workers: i
     width = np.array([p.high - p.low for p in space.parameters])
     start = np.clip((np.asarray(x, dtype=float) - low) / width, 0.0, 1.0)
     refits = []
-    for _ in range(draws):
+    began = time.perf_counter()
+    for k in range(draws):
+        elapsed = time.perf_counter() - began
+        ahead = f", about {elapsed / k * (draws - k):.0f} s to go" if k else ""
+        announce(f"bootstrap: refitting the best point against draw {k + 1} of {draws} of the repeats{ahead}")
         references = {
             name: ref.resampled(rng.integers(0, len(ref.sources), len(ref.sources)))
             for name, ref in objective.references.items()

@@ -243,8 +243,10 @@ def uncertainty(
     With --json: one object with a list `parameters` (name, value, low, high, active, identifiable).
     """
     from simtune import api
+    from simtune.activity import announcing
 
-    summary = api.uncertainty(run_dir, workers, bootstrap)
+    with announcing(not as_json and sys.stderr.isatty()):
+        summary = api.uncertainty(run_dir, workers, bootstrap)
     if as_json:
         print_json(summary)
         return
