@@ -68,9 +68,9 @@ def test_a_batch_gives_the_mujoco_engines_wrist_trajectories(task_name):
 def test_the_batch_has_the_drive_train_kinds_and_not_the_encoder_model():
     """The armature, joint friction and per-joint gains are MuJoCo Warp's (per-world fields, the control kernel's
     gains); the encoder model, which the kernel does not have, is not offered (asked for, it is refused by name)."""
-    from simtune.engines import engine_class
+    from simtune.engines import ENGINES
 
-    names = engine_class("mujoco-warp").supported()
+    names = ENGINES["mujoco-warp"].engine_class().supported()  # its class even where its library is missing
     for kind in ("armature_joint", "friction_joint", "kp_joint"):
         assert {f"{kind}_{i}" for i in range(1, 7)} <= names
     assert not any(name.startswith(("joint_offset_", "compliance_joint_")) for name in names)

@@ -167,8 +167,8 @@ class Probe:
         return change
 
 
-# PyBullet's (11 s) in the slow tier too: MuJoCo's and ODE's keep the default tier under its 4 minutes
-@pytest.mark.parametrize("engine", every_engine(slow=COSTLY_ENGINES | {"pybullet"}))
+# PyBullet's (11 s) and ODE's (5 s) in the slow tier too: MuJoCo's keeps the default tier under its 4 minutes
+@pytest.mark.parametrize("engine", every_engine(slow=COSTLY_ENGINES | {"pybullet", "ode"}))
 def test_every_parameter_changes_a_rollout_where_it_can_act_or_is_declared_inactive(engine):
     """For each parameter of the engine's `calibrated` space (`extended` and calibration): going to a
     bound changes the rollout on a probe task where the engine does not declare it inactive, or the

@@ -167,6 +167,7 @@ def test_several_tasks_and_a_free_joint(tmp_path_factory, tmp_path, two_task_dat
     assert abs(total - best["fitness"]) <= 1e-6
 
 
+@pytest.mark.slow  # 5 s; the round trip of every engine's export stays in the default tier
 def test_provenance_in_every_file(tmp_path_factory, tmp_path):
     run_dir = tuned_run(tmp_path_factory, "pybullet")
     best = json.loads((run_dir / "best_params.json").read_text())

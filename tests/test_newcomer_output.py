@@ -207,6 +207,7 @@ def test_uncertainty_error_is_one_line(monkeypatch) -> None:
     assert console.export_text() == "  uncertainty not computed: no [best] point\n"
 
 
+@pytest.mark.slow  # 8 s: a tune with its progress line
 def test_the_progress_line_counts_what_the_summary_counts(tmp_path, monitor_progress):
     """The progress line's evaluations are the run store's (issue 48: a new folder's line said "301 evals (57 from
     store)" where the summary said 244): points the search asks for again are no new evaluations; a resumed run

@@ -91,6 +91,7 @@ def test_truth_defaults_overrides_and_validation(tmp_path):
         load_truth(path, "drake", None)
 
 
+@pytest.mark.slow  # 5 s of CLI runs; synth's functions are tested above in the default tier
 def test_synth_command_writes_data_and_refuses_to_mix_recordings(tmp_path):
     truth = tmp_path / "truth.json"
     truth.write_text(json.dumps({"params": {"command_delay": 1.9, "marker_offset_x": 0.01}}))

@@ -127,6 +127,7 @@ def test_repeated_kill_minus_9_then_resume_loses_and_repeats_nothing(tmp_path):
     assert store.get("status") == "finished"
 
 
+@pytest.mark.slow  # 5 s: two tunes through the CLI
 def test_a_folder_with_a_run_is_not_overwritten(tmp_path):
     start_run(config(max_generations=1), tmp_path / "r", show_progress=False)
     from simtune.errors import SimtuneError
