@@ -19,6 +19,7 @@ import numpy as np
 from simtune.activity import task_content
 from simtune.data import TaskData, load_task_data
 from simtune.data.cache import cached, value_digest
+from simtune.data.clock import read_later
 from simtune.data.fingerprint import folders_fingerprint
 from simtune.data.sanity import JointRange
 from simtune.engines import Engine, engine_class, make_engine
@@ -572,12 +573,9 @@ def _pruning_monitor(
 def _reference_read_at(reference: TaskData, shift: float) -> Rollout:
     """The mean of ``reference`` (its wrist track and joint angles, the object at its mean end) read ``shift``
     seconds later on its own clock (linear between samples, its ends held), as a rollout would hold it."""
-    at = reference.times + shift
 
     def read(track: np.ndarray | None) -> np.ndarray | None:
-        if track is None:
-            return None
-        return np.stack([np.interp(at, reference.times, track[:, k]) for k in range(track.shape[1])], axis=1)
+        return None if track is None else read_later(reference.times, track, shift)
 
     end = None if reference.object_final is None else reference.object_final_mean
     return _recorded_rollout(reference, read(reference.wrist_mean), read(reference.joint_mean), end)

@@ -44,6 +44,8 @@ from simtune.fitness import Score
 from simtune.objective import Objective, generic_values
 from simtune.optimize.evaluator import Evaluator
 from simtune.optimize.pipeline import LOCAL_NFEV, STALL_FTOL
+from simtune.optimize.refine import STEP as LOCAL_STEP
+from simtune.optimize.refine import jacobian_from, jacobian_points
 from simtune.params import ParameterSpace
 from simtune.store import RunStore
 
@@ -361,7 +363,7 @@ def bootstrap_refits(objective: Objective, x: np.ndarray, draws: int, workers: i
     step's whole number of steps are not, and the repeats' clock origin moves the fit nonlinearly.  Each draw takes
     every task's repeats with replacement (:meth:`~simtune.data.TaskData.resampled`) and refits from ``x`` with
     SciPy's bounded least squares in the unit cube on the same residuals as the tuning run's local phase (forward
-    differences of :data:`STEP` of each range, at most the phase's steps, ending on its cost tolerance), in this
+    differences of the phase's step, 1 % of each range, at most its steps, ending on its cost tolerance), in this
     process, each batch on ``workers`` threads (MuJoCo's batch path; other engines one rollout after another).
 
     Args:
@@ -396,19 +398,18 @@ def bootstrap_refits(objective: Objective, x: np.ndarray, draws: int, workers: i
         }
         draw = objective.with_references(references)
         try:
-            refits.append(low + _refit(draw, start, workers) * width)
+            refits.append(low + _refit(draw, start, low, width, workers) * width)
         finally:
             draw.close()
     return np.array(refits)
 
 
-def _refit(objective: Objective, start: np.ndarray, workers: int) -> np.ndarray:
-    """SciPy's bounded least squares of ``objective``'s residuals from ``start`` in the unit cube; where it ends."""
+def _refit(objective: Objective, start: np.ndarray, low: np.ndarray, width: np.ndarray, workers: int) -> np.ndarray:
+    """SciPy's bounded least squares of ``objective``'s residuals from ``start`` in the unit cube (each parameter
+    ``low + u x width``), with the local phase's forward differences; where it ends."""
     from scipy.optimize import least_squares
 
     space = objective.vector_space()
-    low = np.array([p.low for p in space.parameters])
-    width = np.array([p.high - p.low for p in space.parameters])
     seen: dict[bytes, np.ndarray] = {}
 
     def batch(points: list[np.ndarray]) -> list[np.ndarray]:
@@ -425,10 +426,8 @@ def _refit(objective: Objective, start: np.ndarray, workers: int) -> np.ndarray:
         return seen[u.tobytes()]
 
     def jac(u: np.ndarray) -> np.ndarray:
-        at = fun(u)
-        steps = np.where(u + STEP <= 1.0, STEP, -STEP)  # backwards at the upper bound
-        moved = [u + np.eye(len(u))[k] * steps[k] for k in range(len(u))]
-        return np.stack([(r - at) / steps[k] for k, r in enumerate(batch(moved))], axis=1)
+        points, steps = jacobian_points(u, LOCAL_STEP)
+        return jacobian_from(fun(u), batch(points), steps)
 
     return least_squares(fun, start, jac=jac, bounds=(0.0, 1.0), max_nfev=LOCAL_NFEV, ftol=STALL_FTOL).x
 

@@ -80,6 +80,20 @@ class ClockAlignment:
     steps: int
 
 
+def read_later(times: np.ndarray, track: np.ndarray, seconds: float) -> np.ndarray:
+    """``track`` (n, k), sampled at ``times``, read ``seconds`` later on its own clock: linear between samples, its
+    first and last samples held outside them.
+
+    Args:
+        times: the track's sample times [s].
+        track: the samples, one row per time.
+        seconds: how much later (negative: earlier).
+    Returns:
+        The track read there, (n, k).
+    """
+    return _on_grid(times, track, np.array([-seconds]), times)[0]
+
+
 def _on_grid(clock: np.ndarray, track: np.ndarray, shifts: np.ndarray, grid: np.ndarray) -> np.ndarray:
     """``track`` (m, k) on ``clock`` shifted by each of ``shifts`` (L,), sampled at ``grid`` (g,): (L, g, k).
     Outside the repeat its first and last samples are held."""

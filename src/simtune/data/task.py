@@ -12,7 +12,7 @@ from typing import NoReturn
 import numpy as np
 
 from simtune.data._table import display_name
-from simtune.data.clock import ClockAlignment, align_clocks, check_reference, spread, warn_outliers
+from simtune.data.clock import ClockAlignment, align_clocks, check_reference, read_later, spread, warn_outliers
 from simtune.data.fingerprint import task_files
 from simtune.data.formats import recording_kinds
 from simtune.data.lerobot import LeRobotReading
@@ -156,15 +156,9 @@ class TaskData:
             alignment = replace(alignment, onsets=onsets, shifts=shifts[idx] - later)
 
         def tracks(repeats: np.ndarray | None) -> np.ndarray | None:
-            if repeats is None:
-                return None
-            drawn = repeats[idx]
-            if later == 0.0:
-                return drawn
-            at = self.times + later
-            return np.stack(
-                [np.stack([np.interp(at, self.times, r[:, k]) for k in range(r.shape[1])], 1) for r in drawn]
-            )
+            if repeats is None or later == 0.0:
+                return None if repeats is None else repeats[idx]
+            return np.stack([read_later(self.times, r, later) for r in repeats[idx]])
 
         def each(values: np.ndarray | None) -> np.ndarray | None:
             return None if values is None else values[idx]
