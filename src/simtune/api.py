@@ -482,9 +482,8 @@ def uncertainty(run_dir: Path | str, workers: int = 1, bootstrap: int = 0) -> di
     Returns:
         The summary stored in the run: rank, condition number, a 95 % interval per parameter, correlated pairs.
     """
-    if isinstance(bootstrap, bool) or not isinstance(bootstrap, int) or not 0 <= bootstrap <= MAX_BOOTSTRAP:
-        raise ConfigError(f"bootstrap: a whole number of draws from 0 to {MAX_BOOTSTRAP}, got {bootstrap!r}")
-    return run_uncertainty(_path("run_dir", run_dir), _workers(workers), bootstrap)
+    draws = _count("bootstrap", bootstrap, 0, MAX_BOOTSTRAP)
+    return run_uncertainty(_path("run_dir", run_dir), _workers(workers), draws)
 
 
 def _given(settings: Mapping[str, Any]) -> dict[str, Any]:
