@@ -110,3 +110,25 @@ def test_workers_fork_from_the_server_with_the_environment_of_the_moment_they_we
         x = evaluator.objective.vector_space().vector_within_bounds({})
         assert np.isfinite(evaluator.evaluate(np.array([x, x + 1e-9]))).all()
     store.close()
+
+
+@pytest.mark.slow  # a kill test: the fork server sent SIGINT while it imports (about 3 s)
+def test_a_ctrl_c_during_the_fork_servers_imports_leaves_no_traceback_and_no_dead_server():
+    """The server does not keep the blocked SIGINT it was started with (an interpreter started anew): a Ctrl-C in its
+    first second used to print a KeyboardInterrupt traceback beside the coordinator's one line."""
+    script = textwrap.dedent(
+        """\
+        import os, signal, time
+        from multiprocessing import forkserver
+        from simtune.common.spawn_guard import start_worker_server
+        start_worker_server()
+        pid = forkserver._forkserver._forkserver_pid
+        time.sleep(0.1)
+        os.kill(pid, signal.SIGINT)
+        time.sleep(4)
+        print("alive" if os.waitpid(pid, os.WNOHANG) == (0, 0) else "dead")
+        """
+    )
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "alive" and "Traceback" not in proc.stderr, proc.stderr

@@ -84,8 +84,9 @@ def check_main_guarded(what: str) -> None:
 
 #: what the fork server imports once, before it forks any worker: what every worker imports to run an evaluation
 #: (the evaluator pulls in simtune's objective, fitness and engine registry, NumPy and SciPy; MuJoCo is the default
-#: engine).  Only imports: no engine is built in the server, so a forked worker holds no native handle of another.
-PRELOAD = ["simtune.optimize.evaluator", "simtune.activity", "simtune.engines.mujoco.engine"]
+#: engine), with Ctrl-C ignored meanwhile (:mod:`simtune.worker_preload`).  Only imports: no engine is built
+#: in the server, so a forked worker holds no native handle of another.
+PRELOAD = ["simtune.worker_preload"]
 
 
 def worker_context() -> BaseContext:
@@ -134,9 +135,10 @@ def leave_robot_notes_to_parent() -> None:
 def sigint_blocked() -> Iterator[None]:
     """Hold back Ctrl-C in this thread for a moment; a Ctrl-C meanwhile arrives when it ends.
 
-    Processes (worker processes, the fork server and so its workers) and the pool's threads, which start more
-    of them later, inherit the blocked signal from the thread that starts them, so a Ctrl-C while a worker is
-    still starting never reaches it: the coordinator alone handles Ctrl-C and stops the pool.
+    The pool's threads, which start worker processes later, inherit the blocked signal from the thread that starts
+    them, so a Ctrl-C while a worker is still starting never reaches it: the coordinator alone handles Ctrl-C and
+    stops the pool.  The fork server, an interpreter started anew, does not keep the mask (measured: an empty
+    ``SigBlk``): it ignores SIGINT during its imports instead (:mod:`simtune.worker_preload`).
     """
     if not hasattr(signal, "pthread_sigmask"):
         yield
