@@ -419,3 +419,32 @@ def test_a_fixture_store_runs_its_tasks_with_the_published_targets(published_ref
     assert fingerprint_differences(record.fingerprint, run_fingerprint(new)) == [
         "the definition of task 'cube' changed"
     ]
+
+
+def test_a_stored_run_keeps_the_parameters_it_was_made_with(published_reference, tmp_path):
+    """A space that has grown since a run was made (a kind added to ``extended``) is searched, for that run, over the
+    stored list: each name as this simtune defines it, in the stored order; a stored name this simtune no longer
+    has leaves the space as it is, for the caller to name the difference."""
+    from simtune.run_plan import plan_run
+
+    run_dir = fixture_run(3, tmp_path, published_reference, only=None)  # as if made before extended grew
+    plan = plan_run(read_run_record(run_dir).settings)
+    full = plan.full_space
+    stored = ["max_velocity_joint_2", "command_delay"]
+    assert len(full) > len(stored) and set(stored) < set(full.names)
+    kept = plan.stored_space(full, stored)
+    assert kept.names == stored and kept.name == full.name
+    assert list(kept.parameters) == [p for p in full.parameters if p.name in stored]
+    assert plan.stored_space(full, full.names) is full
+    assert plan.stored_space(full, [*stored, "no_such_parameter_1"]) is full
+
+
+@pytest.mark.slow
+def test_a_run_made_with_fewer_parameters_than_the_space_now_holds_resumes_with_its_own(published_reference, tmp_path):
+    """Resumed after its space grew, a run goes on over the parameters it was made with (the others at their generic
+    values, as it simulated them), replaying its two generations from the store."""
+    run_dir = fixture_run(3, tmp_path, published_reference, running=True, max_generations=3, only=None)
+    resumed = resume_run(run_dir, show_progress=False)
+    record = read_run_record(run_dir)
+    assert record.parameters == ["max_velocity_joint_2", "command_delay"] and record.status == "finished"
+    assert record.evaluations == 20 and resumed.new_evaluations == 5 and len(resumed.x) == 2

@@ -121,14 +121,25 @@ class RunPlan:
             )
         return active_space(self.full_space, inactive, named)
 
-    def objective(self, inactive: dict[str, str] | None = None) -> Objective:
+    def objective(self, inactive: dict[str, str] | None = None, stored: list[str] | None = None) -> Objective:
         """The run's objective over :meth:`search_space` (``inactive``: a stored run's, else measured).  Weights
         that weigh nothing the recordings hold are refused before the inactive parameters are measured: a
-        one-line refusal, not one after a probe of many rollouts."""
+        one-line refusal, not one after a probe of many rollouts.
+
+        Args:
+            inactive: the parameters left out as changing no rollout (a stored run's); None: measured.
+            stored: a stored run's parameter list: the run keeps the parameters it was made with
+                (:meth:`stored_space`).
+
+        Returns:
+            The objective (close it when done).
+        """
         weights = self.config.weights
         fitness_weights = FitnessWeights() if weights is None else FitnessWeights.from_mapping(weights, "weights")
         check_weights(self.tasks, self.references, fitness_weights)
         space = self.search_space(inactive)
+        if stored is not None:
+            space = self.stored_space(space, stored)
         return Objective(
             self.config.engine,
             self.tasks,
@@ -137,6 +148,27 @@ class RunPlan:
             fitness_weights,
             noise_weighted=self.config.residuals == "noise",
         )
+
+    def stored_space(self, space: ParameterSpace, stored: list[str]) -> ParameterSpace:
+        """The parameters a stored run was made with, as this simtune defines them.
+
+        A space grows when a kind is added to it (``extended`` gained the drive-train kinds): a run made before
+        goes on over its own list, the added parameters at the generic values it simulated them with.
+
+        Args:
+            space: the space this simtune would search for the run's configuration.
+            stored: the run's stored parameter list.
+
+        Returns:
+            ``space`` where the lists agree; else, where every stored name is still a parameter of the run's full
+            space, those parameters in the stored order; else ``space`` as it is (the caller names the difference).
+        """
+        if space.names == stored:
+            return space
+        by_name = {p.name: p for p in self.full_space.parameters}
+        if not all(name in by_name for name in stored):
+            return space
+        return ParameterSpace(space.name, tuple(by_name[name] for name in stored))
 
 
 def plan_run(config: RunConfig) -> RunPlan:

@@ -351,7 +351,7 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
                     f"`simtune resume {run_dir} --rescore` starts a new run from its last population on the data "
                     "as it is now"
                 )
-            objective = plan.objective(store.get("inactive_parameters"))
+            objective = plan.objective(store.get("inactive_parameters"), store.get("parameters"))
             _check_parameters(run_dir, objective, store, config)
             store.release_failures(timed_out)  # each evaluation that timed out gets one more try
             return _run_interruptible(objective, plan, store, show_progress)
@@ -420,7 +420,7 @@ def _rescore(run_dir: Path, store: RunStore, plan: RunPlan, changes: list[str], 
     started = time.perf_counter()
     checkpoint = store.last_checkpoint(up_to=store.get("search_generations"))
     # the new data must load before the old run is moved aside
-    objective = plan.objective(store.get("inactive_parameters"))
+    objective = plan.objective(store.get("inactive_parameters"), store.get("parameters"))
     _check_parameters(run_dir, objective, store, plan.config)
     generic = generic_score(objective)
     store.close()
@@ -602,7 +602,7 @@ def run_uncertainty(run_dir: Path, workers: int = 1, bootstrap: int = 0) -> dict
             check_data_found(run_dir, plan)
             if store.get("status") != "finished":
                 raise SimtuneError(f"{run_dir}: the run is not finished: `simtune resume {run_dir}` finishes it")
-            objective = plan.objective(store.get("inactive_parameters"))
+            objective = plan.objective(store.get("inactive_parameters"), store.get("parameters"))
             _check_parameters(run_dir, objective, store, config)
             best = store.best_evaluation()
             if best is None:
