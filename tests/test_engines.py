@@ -267,11 +267,8 @@ def test_max_torque_limits_the_motor(engine):
 
 def test_explosion_ends_rollout_with_a_flag_not_a_crash():
     sim = engine_class("mujoco")(get_task("cube"))
-    sim.reset({})
-    sim.model.opt.timestep = 0.05
-    sim.model.actuator_gainprm[:, 0] = 1e7  # a servo no integrator survives at this step
-    sim.model.actuator_biasprm[:, 2] = -1e7
-    roll = sim.rollout({"timestep": 0.05, **{f"max_torque_joint_{i}": 100 for i in range(1, 7)}}, 100)
+    stiff = {f"servo_gain_joint_{i}": 1e7 for i in range(1, 7)}  # a servo no integrator survives at this step
+    roll = sim.rollout({"timestep": 0.05, **stiff, **{f"max_torque_joint_{i}": 100 for i in range(1, 7)}}, 100)
     assert not roll.stable and "unstable" in roll.message
     assert np.all(np.isfinite(roll.wrist_pos))
 

@@ -30,6 +30,7 @@ from simtune.export import export_run, export_runs
 from simtune.export.replay import REPLAYS, replay_task
 from simtune.objective import load_references
 from simtune.reference import REFERENCE_DIR
+from simtune.robot import MICO
 from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
 from simtune.tasks import get_task
@@ -128,6 +129,25 @@ def test_round_trip_of_a_calibrated_run(tmp_path_factory, tmp_path, engine, monk
     cube = control["tasks"]["cube"]
     # the arm starts where its encoders read the start pose, not at it
     assert np.abs(np.subtract(cube["start_angles_deg"], cube["start_pose_deg"])).max() > 0.1
+
+
+@pytest.mark.slow
+def test_round_trip_of_a_drive_train_run(tmp_path_factory, tmp_path, monkeypatch):
+    """The MJCF carries the drive train the run simulated (armature, frictionloss, each servo's kv) and
+    controller.yaml each joint's gain: the files replay a run of the MICO's drivetrain space."""
+    import mujoco
+
+    round_trip(tmp_path_factory, tmp_path, "mujoco", monkeypatch, space="drivetrain")
+    best = json.loads((tuned_run(tmp_path_factory, "mujoco", space="drivetrain") / "best_params.json").read_text())
+    params = best["params"]
+    model = mujoco.MjModel.from_xml_path(str(tmp_path / "export" / "scene_cube.xml"))
+    for i, joint in enumerate(MICO.arm_joints, start=1):
+        dof, servo = model.jnt_dofadr[model.joint(joint).id], model.actuator(joint).id
+        assert model.dof_armature[dof] == pytest.approx(params[f"armature_joint_{i}"], rel=1e-12)
+        assert model.dof_frictionloss[dof] == pytest.approx(params[f"friction_joint_{i}"], rel=1e-12)
+        assert model.actuator_gainprm[servo, 0] == pytest.approx(params[f"servo_gain_joint_{i}"], rel=1e-12)
+    control = yaml.safe_load((tmp_path / "export" / "controller.yaml").read_text())
+    assert control["tasks"]["cube"]["kp_joint_per_s"] == [params[f"kp_joint_{i}"] for i in range(1, 7)]
 
 
 def test_mjcf_holds_the_tuned_values_and_loads(tmp_path_factory, tmp_path):

@@ -10,10 +10,15 @@ def test_space_sizes_match_the_paper():
     assert len(SPACES["individual"]) == 57
     assert len(SPACES["extended"]) == 61
     assert len(SPACES["calibrated"]) == 72  # extended + 6 encoder offsets + 5 compliances (joint 1 never loaded)
-    # the MICO's drive train (per joint the armature, Coulomb friction and controller gain) only in its own space,
-    # so that its other spaces and every number measured with them stay as they were
-    assert len(SPACES["drivetrain"]) == 72 + 3 * 6
-    assert {p.name for p in SPACES["drivetrain"][72:]} >= {"armature_joint_1", "friction_joint_6", "kp_joint_3"}
+    # the MICO's drive train (per joint the armature, Coulomb friction, controller gain and servo gain) only in its
+    # own space, so that its other spaces and every number measured with them stay as they were
+    assert len(SPACES["drivetrain"]) == 72 + 4 * 6
+    assert {p.name for p in SPACES["drivetrain"][72:]} >= {
+        "armature_joint_1",
+        "friction_joint_6",
+        "kp_joint_3",
+        "servo_gain_joint_2",
+    }
 
 
 def test_the_drive_train_is_in_extended_for_an_own_robot():
@@ -24,7 +29,7 @@ def test_the_drive_train_is_in_extended_for_an_own_robot():
 
     own = replace(MICO, name="my_arm")  # any robot but the bundled MICO
     names = [p.name for p in robot_spaces(own)["extended"]]
-    assert "armature_joint_1" in names and "kp_joint_6" in names
+    assert "armature_joint_1" in names and "kp_joint_6" in names and "servo_gain_joint_4" in names
     assert len(robot_spaces(own)["drivetrain"]) == len(robot_spaces(own)["calibrated"])
 
 

@@ -20,6 +20,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from simtune.robot.description import RobotDescription
+from simtune.robot.generate import servo_gains
 from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, SHAPES
 
 #: Every engine of the registry (``simtune engines``), by name.
@@ -298,6 +299,19 @@ KINDS: tuple[Kind, ...] = (
         mico_space="drivetrain",
     ),
     Kind(
+        "servo_gain_joint",
+        JOINT,
+        "N m s/rad",
+        "extended",
+        ENGINE,
+        "[0.1, 2] x the joint's generic gain",
+        "MuJoCo's velocity servo gain (the project's servo_gain, else one simtune sets per joint: docs/robots.md)",
+        "gain of joint {n}'s velocity servo (torque per rad/s of speed error: a servo's hidden velocity-loop gain)",
+        {"mujoco": ()},
+        apply="set_servo_gain",
+        mico_space="drivetrain",
+    ),
+    Kind(
         "joint_offset",
         JOINT,
         "deg",
@@ -341,6 +355,10 @@ ARMATURE_FLOOR, ARMATURE_FACTOR = 0.01, 2.0
 FRICTION_FRACTION = 0.2
 #: The range of the position controller's gain [1/s] (the seed tasks' kp is 10).
 KP_RANGE = (1.0, 40.0)
+#: A velocity servo's gain is tuned in [low, high] x its generic gain: a servo ten times softer (a hobby servo's
+#: firmware, a current-limited drive) to twice as stiff (above that a clipped servo force can spin a light link:
+#: simtune.robot.generate.servo_gains lowers the generic gain for the same reason)
+SERVO_GAIN_FACTORS = (0.1, 2.0)
 #: Range of the encoder zero offsets ``joint_offset_<n>`` [deg]: a mounting or homing error of a few degrees.
 JOINT_OFFSET_RANGE = 3.0
 #: The compliance range of each joint reaches this deflection [deg] under the largest gravity load the
@@ -392,6 +410,9 @@ def joint_bounds(kind: str, robot: RobotDescription, index: int) -> tuple[float,
         return 0.0, max(ARMATURE_FLOOR, inertia, 2.0 * joint.armature)
     if kind == "friction_joint":
         return 0.0, max(FRICTION_FRACTION * robot.generic_effort(index), 2.0 * joint.friction)
+    if kind == "servo_gain_joint":
+        gain = generic_joint_value(kind, robot, index, task_kp=0.0)
+        return SERVO_GAIN_FACTORS[0] * gain, SERVO_GAIN_FACTORS[1] * gain
     if kind == "compliance_joint":
         load = float(robot.gravity_load_bounds()[index])
         return (0.0, math.radians(FULL_LOAD_DEFLECTION_DEG) / load) if load > 0 else None
@@ -403,7 +424,7 @@ def generic_joint_value(kind: str, robot: RobotDescription, index: int, task_kp:
     engines have no value of their own: what a run that does not tune it simulates.
 
     Args:
-        kind: ``armature_joint``, ``friction_joint`` or ``kp_joint``.
+        kind: ``armature_joint``, ``friction_joint``, ``kp_joint`` or ``servo_gain_joint``.
         robot: the robot.
         index: the driven joint (0 = the first).
         task_kp: the task's controller gain [1/s].
@@ -415,6 +436,8 @@ def generic_joint_value(kind: str, robot: RobotDescription, index: int, task_kp:
         return float(robot.joint_by_name[robot.arm_joints[index]].friction)
     if kind == "kp_joint":
         return float(task_kp)
+    if kind == "servo_gain_joint":
+        return float(servo_gains(robot)[index])
     return float(robot.joint_by_name[robot.arm_joints[index]].armature)  # 0 but an MJCF file's own
 
 

@@ -4,7 +4,7 @@
 ``extended`` adds what the real recordings show the paper's set lacks: the
 delay between the start of the recording and the start of the commanded
 motion, where the motion-capture marker sits on the hand, and the drive train's
-armature, Coulomb joint friction and controller gain per joint.  ``calibrated``
+armature, Coulomb joint friction, controller gain and servo gain per joint.  ``calibrated``
 adds the arm's calibration errors: encoder zero offsets and the joints'
 elastic deflection under gravity (:mod:`simtune.engines.controller`).
 

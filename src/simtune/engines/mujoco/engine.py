@@ -9,6 +9,8 @@ Mapping (docs/parameters.md has the full table):
 - max torque -> the velocity servo's ``actuator_forcerange``;
 - joint damping -> ``dof_damping`` of the arm joints; armature -> ``dof_armature``; Coulomb joint
   friction -> ``dof_frictionloss`` (:meth:`MujocoEngine.set_armature`, :meth:`MujocoEngine.set_joint_friction`);
+  a joint's servo gain -> its velocity servo's ``kv`` (``actuator_gainprm`` and ``actuator_biasprm``:
+  :meth:`MujocoEngine.set_servo_gain`);
 - lateral / spinning / rolling friction -> the three ``geom_friction`` columns of
   the group's geoms (MuJoCo takes the larger of two touching geoms' values);
 - linear / angular damping of an object -> ``dof_damping`` of the translational /
@@ -56,6 +58,8 @@ _MODEL_ARRAYS = (
     "geom_friction",
     "dof_armature",
     "dof_frictionloss",
+    "actuator_gainprm",
+    "actuator_biasprm",
 )
 
 
@@ -124,6 +128,7 @@ class MujocoEngine(Engine):
         m = self.model
         self._arm_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot.arm_joints])
         self._arm_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in robot.arm_joints])
+        self._servos = np.array([m.actuator(j).id for j in robot.arm_joints])  # each named after its joint
         self._arm_links = robot.driven_links
         self._wrist = m.body(robot.tracked_link).id
         self._object = m.body(OBJECT_BODY).id if task.object is not None else None
@@ -170,13 +175,13 @@ class MujocoEngine(Engine):
 
     def drive_defaults(self) -> dict[str, float]:
         """The compiled model's armature and Coulomb friction (``dof_armature``, ``dof_frictionloss``) of the
-        driven joints: an MJCF file's own, else the description's."""
+        driven joints (an MJCF file's own, else the description's), and its velocity servos' gains."""
         p = self._pristine
         return {
             f"{kind}_{i}": float(p[field][dof])
             for kind, field in (("armature_joint", "dof_armature"), ("friction_joint", "dof_frictionloss"))
             for i, dof in enumerate(self._arm_dof, start=1)
-        }
+        } | {f"servo_gain_joint_{i}": float(p["actuator_gainprm"][a, 0]) for i, a in enumerate(self._servos, start=1)}
 
     def set_armature(self, values: np.ndarray) -> None:
         """``armature_joint_<n>`` [kg m^2] -> ``dof_armature`` of the driven joints."""
@@ -186,6 +191,13 @@ class MujocoEngine(Engine):
         """``friction_joint_<n>`` [N m] -> ``dof_frictionloss`` of the driven joints (MuJoCo's Coulomb joint
         friction, a soft constraint solved with the contacts)."""
         self.model.dof_frictionloss[self._arm_dof] = values
+
+    def set_servo_gain(self, values: np.ndarray) -> None:
+        """``servo_gain_joint_<n>`` [N m s/rad] -> the ``kv`` of the driven joints' velocity servos (MuJoCo's
+        velocity actuator: force = kv x (command - speed), its gain ``gainprm[0]`` = kv and bias ``biasprm[2]``
+        = -kv)."""
+        self.model.actuator_gainprm[self._servos, 0] = values
+        self.model.actuator_biasprm[self._servos, 2] = -values
 
     @property
     def timestep(self) -> float:

@@ -5,7 +5,7 @@ engine's compiled model after the tuned parameters were applied: body masses
 and inertias (scaled together, as the engine does), joint damping, armature and frictionloss, the three
 friction coefficients and the contact softness (``solref``/``solimp``, MuJoCo's
 defaults: simtune does not tune them) of every geom, the velocity servos' force
-ranges, and the time step.  Values are written with 17 significant digits, so
+ranges and gains, and the time step.  Values are written with 17 significant digits, so
 the file compiles to the very model the run simulated.
 
 MJCF gives a joint one damping value, but the engine damps an object's
@@ -82,6 +82,8 @@ def _write_values(root: ET.Element, model) -> None:
     for actuator in actuators if actuators is not None else []:
         a = model.actuator(actuator.get("name")).id
         actuator.set("forcerange", nums(model.actuator_forcerange[a]))
+        if actuator.tag == "velocity":  # servo_gain_joint_<n>: the gain the run simulated
+            actuator.set("kv", num(model.actuator_gainprm[a, 0]))
 
 
 def _write_joint(body: ET.Element, joint: ET.Element, model) -> None:
