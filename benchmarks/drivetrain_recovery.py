@@ -1,5 +1,5 @@
-"""Drive-train recovery: armature, Coulomb friction and servo gain of every driven joint, from synthetic
-recordings of the SO-101 and the Franka Panda of the robot corpus, in each engine that has the kinds.
+"""Drive-train recovery: armature, Coulomb friction, controller gain and servo gain of every driven joint, from
+synthetic recordings of the SO-101 and the Franka Panda of the robot corpus, in each engine that has the kinds.
 
 Everything goes through the command line, as a user would run it:
 
@@ -10,8 +10,9 @@ Everything goes through the command line, as a user would run it:
    too small for the reflected inertia to show against 0.05 deg of encoder noise; ``drive``'s steps start
    and stop at up to ``MAX_VELOCITY_DEG`` (the robot's own speed class), where the servo's force limit
    makes each joint's acceleration its torque over its inertia (armature included).
-2. Per engine: the truth (``truth()``: each joint's armature, Coulomb friction and ``kp`` at chosen
-   shares of their ranges; only the kinds that engine has) is synthesised by that engine: ``simtune synth
+2. Per engine: the truth (``truth()``: each joint's armature and Coulomb friction at chosen shares of their
+   ranges, its ``kp``, and its servo gain at a fraction of the drive task's generic one; only the kinds that engine
+   has) is synthesised by that engine: ``simtune synth
    --format csv`` (markers and joint angles), 2 mm marker noise, 0.05 deg encoder noise, +-0.05 s start
    jitter, 10 repeats.
 3. ``simtune tune --only <the truth's parameters> --max-seconds S`` (optimizer auto) in the same engine;
@@ -22,7 +23,7 @@ Everything goes through the command line, as a user would run it:
    truth.  Done-when: every error within 5 % and the truth inside at least 80 % of the intervals.
 
     python benchmarks/drivetrain_recovery.py [--robots so101,panda] [--engines mujoco,pybullet,ode,dart,drake]
-        [--max-seconds 150] [--delay-s 0.4] [--jitter-s 0.05] [--bootstrap 30] [--out DIR]
+        [--max-seconds 150] [--delay-s 0.4] [--jitter-s 0.05] [--bootstrap 30] [--kinds K1,K2] [--out DIR]
         [--results benchmarks/results]
 
 ``--delay-s 0`` holds the command delay at 0 (the truth's) instead of tuning it with the drive train.
@@ -52,7 +53,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from robot_corpus import CORPUS
 
 ROBOTS = {"so101": "SO-101", "panda": "Franka Panda"}
-KINDS = ("armature_joint", "friction_joint", "kp_joint")
+KINDS = ("armature_joint", "friction_joint", "kp_joint", "servo_gain_joint")
 #: the velocity clamp of the drive task [deg/s]: an STS3215 hobby servo turns about 200 deg/s unloaded, a
 #: Panda's joints 150-180 deg/s
 MAX_VELOCITY_DEG = {"so101": 180.0, "panda": 120.0}
@@ -62,9 +63,12 @@ PHASE_S = 1.0
 #: the arm rests at its start pose this long before the first step [s] (so each recording's motion onset, which
 #: aligns the repeats' clocks, can be seen)
 REST_S = 0.5
-#: the truth, as shares of each range (armature, friction) and as gains (kp), cycled over the joints
+#: the truth, as shares of each range (armature, friction), as gains (kp) and as multiples of the servo's generic gain
+#: for the drive task (a softer servo: a stiffer one than the task's generic gain would clip on a light link at the
+#: drive's command steps), cycled over the joints
 ARMATURE_SHARE = (0.4, 0.6, 0.3, 0.5, 0.7, 0.35, 0.45)
 FRICTION_SHARE = (0.25, 0.15, 0.35, 0.2, 0.3, 0.1, 0.4)
+SERVO_GAIN_FACTOR = (0.6, 0.4, 0.8, 0.5, 0.7, 0.45, 0.65)
 KP = (6.0, 14.0, 9.0, 18.0, 12.0, 7.0, 16.0)
 #: the true command delay [s], tuned with the drive train: every repeat's start is jittered about it and the
 #: aligned reference sits on the repeats' median clock, so a delay held at the truth would leave the median
@@ -128,24 +132,35 @@ def make_project(folder: Path, robot: str) -> Path:
     return project
 
 
-def ranges(project: Path, engine: str) -> dict[str, tuple[float, float]]:
-    """The drive-train parameters ``engine`` has for the project's robot, with their ranges."""
+def ranges(project: Path, engine: str, kinds: tuple[str, ...] = KINDS) -> dict[str, tuple[float, float]]:
+    """The parameters of ``kinds`` that ``engine`` has for the project's robot, with their ranges."""
     from simtune.engines import engine_class
     from simtune.params import get_space
     from simtune.project import load_project
 
     robot = load_project(project).task("drive").robot
     space = get_space("extended", engine_class(engine).supported(robot), robot=robot)
-    return {p.name: (p.low, p.high) for p in space.parameters if p.name.rsplit("_", 1)[0] in KINDS}
+    return {p.name: (p.low, p.high) for p in space.parameters if p.name.rsplit("_", 1)[0] in kinds}
 
 
-def truth(bounds: dict[str, tuple[float, float]]) -> dict[str, float]:
+def task_servo_gains(project: Path) -> tuple[float, ...]:
+    """MuJoCo's generic servo gain of each driven joint for the drive task (set for its command steps)."""
+    from simtune.project import load_project
+    from simtune.robot.generate import command_step, servo_gains
+
+    task = load_project(project).task("drive")
+    return servo_gains(task.robot, command_step(task.max_velocity_deg))
+
+
+def truth(bounds: dict[str, tuple[float, float]], servo: tuple[float, ...] = ()) -> dict[str, float]:
     out = {}
     for name, (lo, hi) in bounds.items():
         kind, index = name.rsplit("_", 1)
         i = int(index) - 1
         if kind == "kp_joint":
             out[name] = KP[i % len(KP)]
+        elif kind == "servo_gain_joint":
+            out[name] = round(min(max(SERVO_GAIN_FACTOR[i % len(SERVO_GAIN_FACTOR)] * servo[i], lo), hi), 6)
         else:
             share = (ARMATURE_SHARE if kind == "armature_joint" else FRICTION_SHARE)[i % len(ARMATURE_SHARE)]
             out[name] = round(lo + share * (hi - lo), 6)
@@ -175,11 +190,13 @@ def recover(
     jitter_s: float = JITTER_S,
     delay_s: float = DELAY_S,
     bootstrap: int = 0,
+    kinds: tuple[str, ...] = KINDS,
 ) -> dict:
     """Synthesise the truth in ``engine``, tune it back, and compare per parameter (the command delay tuned with
-    the drive train unless ``delay_s`` is 0: then it is held at 0, the truth's)."""
-    bounds = ranges(project, engine)
-    true = truth(bounds)
+    the drive train unless ``delay_s`` is 0: then it is held at 0, the truth's); the kinds left out of ``kinds``
+    stay at their generic values in the truth and in the tune."""
+    bounds = ranges(project, engine, kinds)
+    true = truth(bounds, task_servo_gains(project))
     truth_file = work / f"truth-{engine}.json"
     truth_file.write_text(json.dumps({"command_delay": delay_s, **true}))
     data = work / f"recordings-{engine}"
@@ -257,8 +274,14 @@ def main() -> None:
     parser.add_argument("--jitter-s", type=float, default=JITTER_S, help="synth's start jitter [s]")
     parser.add_argument("--delay-s", type=float, default=DELAY_S, help="the true command delay [s]; 0: held, not tuned")
     parser.add_argument("--bootstrap", type=int, default=0, help="draws of the repeats for the intervals (0: none)")
+    parser.add_argument(
+        "--kinds", default=",".join(KINDS), help=f"kinds set and tuned, joined by commas (default: {','.join(KINDS)})"
+    )
     add_results_option(parser)
     args = parser.parse_args()
+    kinds = tuple(args.kinds.split(","))
+    if unknown := set(kinds) - set(KINDS):
+        parser.error(f"--kinds: unknown {', '.join(sorted(unknown))}; the kinds are {', '.join(KINDS)}")
     results: dict = {}
     lines: list[str] = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -269,7 +292,9 @@ def main() -> None:
             project = make_project(folder, robot)
             for engine in args.engines.split(","):
                 started = time.monotonic()
-                result = recover(project, folder, engine, args.max_seconds, args.jitter_s, args.delay_s, args.bootstrap)
+                result = recover(
+                    project, folder, engine, args.max_seconds, args.jitter_s, args.delay_s, args.bootstrap, kinds
+                )
                 result["total_s"] = round(time.monotonic() - started, 1)
                 results.setdefault(robot, []).append(result)
                 lines += [*table(robot, result), ""]
@@ -279,7 +304,7 @@ def main() -> None:
         f"{JOINT_NOISE_DEG:g} deg, +-{args.jitter_s:g} s start jitter, {REPEATS} repeats), each engine tuned on its "
         f"own with --max-seconds {args.max_seconds:g}, optimizer auto; true command delay {args.delay_s:g} s "
         f"({'tuned with the drive train' if args.delay_s > 0 else 'held'}); intervals "
-        f"{f'with {args.bootstrap} bootstrap draws' if args.bootstrap else 'Gauss-Newton'}\n"
+        f"{f'with {args.bootstrap} bootstrap draws' if args.bootstrap else 'Gauss-Newton'}; kinds {', '.join(kinds)}\n"
     )
     write_result(args.results, "drivetrain-recovery", "md", header + "\n" + "\n".join(lines))
     write_json_result(args.results, "drivetrain-recovery", results)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -263,6 +264,36 @@ def test_mujocos_servo_does_not_chatter_on_coupled_joints_at_made_up_force_limit
     limits = sim.model.actuator_forcerange[:, 1]
     at_limit = np.sign(forces) * (np.abs(forces) >= 0.999 * limits)
     assert not ((at_limit[1:] * at_limit[:-1]) < 0).any()
+
+
+def test_a_task_faster_than_the_tuned_clamps_lowers_a_light_links_servo_gain_and_the_wrist_follows():
+    """The SO-101 driven at 180 deg/s (a hobby servo's speed): each command step reached 6.3 rad/s, so the servo gain
+    set for 40 deg/s steps (10 N m / 1.4 rad/s) clipped on links of grams, and the clipped force, undamped for a whole
+    step, spun the wrist to 98 deg and its roll to 210 deg for targets within 35 deg.  Set for the task's own step,
+    every joint stays within a degree of its targets' span; a task within 40 deg/s keeps the gains it had."""
+    from simtune.engines import engine_class
+    from simtune.robot.generate import LARGEST_COMMAND_STEP, command_step, servo_gains
+    from simtune.tasks.spec import Phase, TaskSpec
+
+    robot = loaded_corpus_robot("SO-101")
+    assert command_step(30.0) == command_step(40.0) == LARGEST_COMMAND_STEP
+    offsets = (30.0, -30.0, 30.0, -30.0, 30.0)
+    phases = tuple(Phase(0.5 + k, tuple(o * (-1) ** k for o in offsets)) for k in range(4))
+    fast = TaskSpec("drive", "steps at 180 deg/s", 4.5, phases, kp=10.0, max_velocity_deg=180.0, robot=robot)
+    slow = replace(fast, max_velocity_deg=30.0)
+    sim = engine_class("mujoco")(fast)
+    try:
+        gains = sim.model.actuator_gainprm[sim._servos, 0]
+        assert gains == pytest.approx(servo_gains(robot, command_step(180.0))) and max(gains) < min(servo_gains(robot))
+        angles = np.degrees(sim.rollout({}, 90).joint_angles)
+    finally:
+        sim.close()
+    assert np.abs(angles).max() < 31.0, np.abs(angles).max(axis=0)
+    sim = engine_class("mujoco")(slow)
+    try:
+        assert sim.model.actuator_gainprm[sim._servos, 0] == pytest.approx(servo_gains(robot))
+    finally:
+        sim.close()
 
 
 def test_the_example_reach_keeps_the_gripper_tip_off_the_floor():

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import math
 import os
 import re
 import tempfile
@@ -39,7 +40,8 @@ def quoteattr(text: str) -> str:
 
 #: Gain of MuJoCo's joint velocity servos [N m s/rad].
 SERVO_KV = 50.0
-#: The largest step of a velocity command the controller makes [rad/s] (-40 to +40 deg/s).
+#: The largest step of a velocity command the controller makes [rad/s] (-40 to +40 deg/s: the top of the tuned
+#: velocity clamps' range), for a task whose clamp is at most 40 deg/s (:func:`command_step`).
 LARGEST_COMMAND_STEP = 1.4
 #: How long a default velocity servo may lag its command [s]: the servo's time constant, inertia over gain.
 SERVO_LAG_S = 0.01
@@ -84,15 +86,29 @@ def _home_pose(mjcf: str, joints: tuple[str, ...]) -> tuple[float, ...] | None:
     return None if home is None else tuple(home)
 
 
-def servo_gains(robot: RobotDescription) -> tuple[float, ...]:
+def command_step(max_velocity_deg: float) -> float:
+    """The largest step of a velocity command [rad/s] for a task whose velocity clamp is ``max_velocity_deg``: a
+    reversal from one clamp to the other, at least :data:`LARGEST_COMMAND_STEP` (the tuned clamps reach 40 deg/s).
+
+    Args:
+        max_velocity_deg: the task's velocity clamp [deg/s].
+
+    Returns:
+        The step [rad/s].
+    """
+    return max(LARGEST_COMMAND_STEP, 2.0 * math.radians(max_velocity_deg))
+
+
+def servo_gains(robot: RobotDescription, step: float = LARGEST_COMMAND_STEP) -> tuple[float, ...]:
     """The gain of MuJoCo's velocity servo on each driven joint [N m s/rad]: the robot's ``servo_gain``
     where it sets one, else :data:`SERVO_KV`, raised where the joint's inertia (at the zero pose, or an MJCF's home
     keyframe where larger) would make
     the servo lag its command by more than :data:`SERVO_LAG_S` (a heavy arm's shoulder), and lowered to keep
     the largest command step's force within the joint's generic force limit where a clipped force would
     spin the link (:data:`SPIN_LIMIT`): a clipped servo force is not damped by the implicit integrator
-    (the MICO's light wrist in seed-2; a SO-101, whose URDF allows 10 N m, at every step with 50).  The
-    inertia counts the joint's armature (an MJCF file's rotor inertia: 4 kg m^2 on dm_control's Jaco), and
+    (the MICO's light wrist in seed-2; a SO-101, whose URDF allows 10 N m, at every step with 50), for a command
+    step of ``step`` (:func:`command_step`: a task faster than 40 deg/s steps further, a light link's gain is lower).
+    The inertia counts the joint's armature (an MJCF file's rotor inertia: 4 kg m^2 on dm_control's Jaco), and
     the gain is raised as well where the joint's damping or Coulomb friction would hold its speed below the
     command (:data:`DAMPING_MULTIPLE`, :data:`FRICTION_SLIP`, up to :data:`FASTEST_COMMAND`'s force limit): the
     other engines' hard motors hold the commanded speed against both, and a servo they slow lags them by
@@ -101,6 +117,7 @@ def servo_gains(robot: RobotDescription) -> tuple[float, ...]:
 
     Args:
         robot: the robot.
+        step: the largest step of a velocity command [rad/s].
 
     Returns:
         One gain per driven joint [N m s/rad].
@@ -114,14 +131,14 @@ def servo_gains(robot: RobotDescription) -> tuple[float, ...]:
         inertia = float(inertia) + joint.armature
         held_back = min(max(DAMPING_MULTIPLE * joint.damping, joint.friction / FRICTION_SLIP), effort / FASTEST_COMMAND)
         gain = max(SERVO_KV, inertia / SERVO_LAG_S, held_back)
-        clipped = gain * LARGEST_COMMAND_STEP > effort
+        clipped = gain * step > effort
         if clipped and effort * GENERIC_TIMESTEP > SPIN_LIMIT * inertia:
-            gain = effort / LARGEST_COMMAND_STEP
+            gain = effort / step
         gains.append(gain)
-    return _without_chatter(robot, gains)
+    return _without_chatter(robot, gains, step)
 
 
-def _without_chatter(robot: RobotDescription, gains: list[float]) -> tuple[float, ...]:
+def _without_chatter(robot: RobotDescription, gains: list[float], step: float) -> tuple[float, ...]:
     """``gains`` lowered where a clipped servo would chatter (:data:`CHATTER_BAND`).  The joints whose servo clips at
     the largest command step accelerate one another through the mass matrix (armature on its diagonal); the others'
     servos, unclipped, hold them (the implicit integrator damps them), so the speed one step of clipped forces gives
@@ -132,7 +149,7 @@ def _without_chatter(robot: RobotDescription, gains: list[float]) -> tuple[float
     where, measured, its servos never chattered), and the arms with their own limits keep their measured agreement."""
     efforts = np.array([robot.generic_effort(i) for i in range(robot.n_joints)])
     # a gain SPIN_LIMIT's rule set to force limit over command step does not clip (rounding aside)
-    clipped = [i for i, gain in enumerate(gains) if gain * LARGEST_COMMAND_STEP > efforts[i] * (1 + 1e-9)]
+    clipped = [i for i, gain in enumerate(gains) if gain * step > efforts[i] * (1 + 1e-9)]
     if len(clipped) < 2:  # one joint alone: SPIN_LIMIT's rule covers it
         return tuple(gains)
     armature = np.array([robot.joint_by_name[name].armature for name in robot.arm_joints])

@@ -36,7 +36,15 @@ from simtune.engines.mujoco.batch import Batch, Stepper
 from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot import MICO
 from simtune.robot.description import RobotDescription
-from simtune.robot.generate import FLOOR, OBJECT_BODY, SERVO_KV, scene_mjcf, servo_gains
+from simtune.robot.generate import (
+    FLOOR,
+    LARGEST_COMMAND_STEP,
+    OBJECT_BODY,
+    SERVO_KV,
+    command_step,
+    scene_mjcf,
+    servo_gains,
+)
 from simtune.tasks.spec import ObjectSpec, TaskSpec
 
 try:
@@ -129,6 +137,13 @@ class MujocoEngine(Engine):
         self._arm_qpos = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot.arm_joints])
         self._arm_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in robot.arm_joints])
         self._servos = np.array([m.actuator(j).id for j in robot.arm_joints])  # each named after its joint
+        step = command_step(task.max_velocity_deg)
+        if step > LARGEST_COMMAND_STEP and robot.servo_gain is None:
+            # a task faster than the tuned clamps (40 deg/s) steps its commands further: a light link's servo gain is
+            # lowered for it as servo_gains lowers it for 40 deg/s (a SO-101 driven at 180 deg/s spun its wrist)
+            gains = np.asarray(servo_gains(robot, step))
+            m.actuator_gainprm[self._servos, 0] = gains
+            m.actuator_biasprm[self._servos, 2] = -gains
         self._arm_links = robot.driven_links
         self._wrist = m.body(robot.tracked_link).id
         self._object = m.body(OBJECT_BODY).id if task.object is not None else None
