@@ -731,8 +731,8 @@ def _iv(iv) -> str:
 
 NOT_EXPRESSED = (
     "Left out of problems mico and panda (problem drive has armature and frictionloss): the actuator gain "
-    "(simtune's velocity-servo gain is a project setting, its position controller's kp_joint_<i> another gain "
-    "than MuJoCo's velocity servo kv for mujoco.sysid), the controller's velocity clamp on A (mujoco.sysid "
+    "(MuJoCo's velocity servo kv, simtune's servo_gain_joint_<i> since 2026-11-28, in none of these problems yet; "
+    "its position controller's kp_joint_<i> is another gain), the controller's velocity clamp on A (mujoco.sysid "
     "replays the commands the clamp already shaped: nothing to identify)."
 )
 
