@@ -411,7 +411,7 @@ def joint_bounds(kind: str, robot: RobotDescription, index: int) -> tuple[float,
     if kind == "friction_joint":
         return 0.0, max(FRICTION_FRACTION * robot.generic_effort(index), 2.0 * joint.friction)
     if kind == "servo_gain_joint":
-        gain = generic_joint_value(kind, robot, index, task_kp=0.0)
+        gain = servo_gains(robot)[index]
         return SERVO_GAIN_FACTORS[0] * gain, SERVO_GAIN_FACTORS[1] * gain
     if kind == "compliance_joint":
         load = float(robot.gravity_load_bounds()[index])

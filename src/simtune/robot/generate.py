@@ -99,6 +99,7 @@ def command_step(max_velocity_deg: float) -> float:
     return max(LARGEST_COMMAND_STEP, 2.0 * math.radians(max_velocity_deg))
 
 
+@functools.lru_cache(maxsize=32)  # per robot and step: each joint's range (params.kinds) and each engine ask
 def servo_gains(robot: RobotDescription, step: float = LARGEST_COMMAND_STEP) -> tuple[float, ...]:
     """The gain of MuJoCo's velocity servo on each driven joint [N m s/rad]: the robot's ``servo_gain``
     where it sets one, else :data:`SERVO_KV`, raised where the joint's inertia (at the zero pose, or an MJCF's home

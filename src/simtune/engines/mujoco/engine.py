@@ -138,12 +138,11 @@ class MujocoEngine(Engine):
         self._arm_dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in robot.arm_joints])
         self._servos = np.array([m.actuator(j).id for j in robot.arm_joints])  # each named after its joint
         step = command_step(task.max_velocity_deg)
+        # a task faster than the tuned clamps (40 deg/s) steps its commands further: a light link's servo gain is
+        # lowered for it as servo_gains lowers it for 40 deg/s (a SO-101 driven at 180 deg/s spun its wrist); any
+        # other task keeps the scene's own gains (written to 9 digits: set anew they would move every result)
         if step > LARGEST_COMMAND_STEP and robot.servo_gain is None:
-            # a task faster than the tuned clamps (40 deg/s) steps its commands further: a light link's servo gain is
-            # lowered for it as servo_gains lowers it for 40 deg/s (a SO-101 driven at 180 deg/s spun its wrist)
-            gains = np.asarray(servo_gains(robot, step))
-            m.actuator_gainprm[self._servos, 0] = gains
-            m.actuator_biasprm[self._servos, 2] = -gains
+            self.set_servo_gain(np.asarray(servo_gains(robot, step)))
         self._arm_links = robot.driven_links
         self._wrist = m.body(robot.tracked_link).id
         self._object = m.body(OBJECT_BODY).id if task.object is not None else None
