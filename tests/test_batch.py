@@ -145,3 +145,58 @@ def test_small_batches_stay_on_threads_past_the_threads_budget(tmp_path):
         assert not evaluator._need_pool(evaluator_module.POOL_BATCH * 2 - 1)
         assert evaluator._need_pool(evaluator_module.POOL_BATCH * 2)
     store.close()
+
+
+def test_members_that_differ_in_the_marker_offset_alone_share_one_simulation(two_task_data):
+    """A Jacobian's marker-offset columns move only what the fitness's marker model reads: their members are
+    simulated once, or not at all where a recent rollout simulated the same (the point the Jacobian is taken at),
+    each scored with its own offset, every result as the member's alone, bit for bit."""
+    obj = objective("cube,single", two_task_data)
+    space = obj.vector_space()
+    base = space.to_dict(vectors(obj, 1, seed=3)[0])
+    moved = [{**base, f"marker_offset_{a}": base[f"marker_offset_{a}"] + 1e-3} for a in "xyz"]
+    params = [base, *moved, {**base, "command_delay": base["command_delay"] + 0.01}]
+    alone = [obj.residuals_and_score(p) for p in params]
+    assert len({s.fitness for _, s in alone}) == len(params)  # the offset does change each member's score
+    fresh = objective("cube,single", two_task_data)
+    sizes: list[int] = []
+    for task in fresh.tasks:
+        engine = fresh._engine(task)
+        real = engine.rollout_batch
+
+        def counted(members, *args, real=real, **kwargs):
+            sizes.append(len(members))
+            return real(members, *args, **kwargs)
+
+        engine.rollout_batch = counted
+    for (r, s), (want_r, want_s) in zip(in_order(fresh.residuals_batch(params, threads=2)), alone):
+        assert s == want_s
+        np.testing.assert_array_equal(r, want_r)
+    assert sizes == [2, 2]  # per task: the base (with its three offsets) and the delayed member
+    # others simulated since, then the same points again: from the rollouts kept, as they were
+    sizes.clear()
+    others = [space.to_dict(x) for x in vectors(obj, 3, seed=4)]
+    assert len(in_order(fresh.score_batch(others))) == 3 and sizes == [3, 3]
+    again = [{**p, "marker_offset_x": p["marker_offset_x"] - 2e-3} for p in params]
+    sizes.clear()
+    assert in_order(fresh.score_batch(again)) == [obj.score(p) for p in again]
+    assert sizes == [0, 0]
+    # a member watched by a pruning monitor reads its own offset while simulating: simulated alone
+    sizes.clear()
+    assert in_order(fresh.score_batch(params, [None, 100.0, None, None, None])) == [s for _, s in alone]
+    assert sizes == [1, 1]  # the watched member; the others' rollouts were kept
+    obj.close()
+    fresh.close()
+
+
+def test_worker_processes_get_the_members_that_share_a_simulation_together(tmp_path):
+    obj = objective()
+    store = RunStore(tmp_path / "run", create=True)
+    space = obj.vector_space()
+    x = vectors(obj, 2, seed=6)
+    marker = space.names.index("marker_offset_y")
+    shifted = x[0].copy()
+    shifted[marker] += 1e-3
+    with Evaluator(obj, store, 2, threads=False) as evaluator:
+        assert evaluator._simulation_groups([x[0], x[1], shifted, x[0]]) == [[0, 2, 3], [1]]
+    store.close()

@@ -37,9 +37,13 @@ from simtune.fitness import (
 )
 from simtune.fitness import residuals as task_residuals
 from simtune.params import ParameterSpace
-from simtune.params.kinds import outside_generics
+from simtune.params.kinds import MARKER, applied_outside, outside_generics
 from simtune.tasks import TaskSpec
 from simtune.tasks.lerobot import reading_for
+
+#: Rollouts an objective keeps per task, for the points that differ from one of them in the marker offset only
+#: (:meth:`Objective._rollout_batch`): the points a least-squares phase's last batch scored, whose Jacobian comes next
+RECENT_ROLLOUTS = 8
 
 
 def load_task_recordings(
@@ -240,10 +244,13 @@ class Objective:
             {t.name: signal_noise(references[t.name]) for t in self.tasks} if noise_weighted else None
         )
         self._engines: dict[str, Engine] = {}
+        #: per task, the last rollouts simulated here, by what they simulated (:meth:`_rollout_batch`)
+        self._recent: dict[str, dict[tuple, Rollout]] = {}
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         state["_engines"] = {}  # engine handles stay in the process that made them
+        state["_recent"] = {}
         return state
 
     def with_references(self, references: dict[str, TaskData]) -> Objective:
@@ -258,6 +265,7 @@ class Objective:
         other = copy.copy(self)
         other.references = dict(references)
         other._engines = {}
+        other._recent = {}
         return other
 
     def _engine(self, task: TaskSpec) -> Engine:
@@ -304,7 +312,7 @@ class Objective:
                     _pruning_monitor(reference, params[i], bounds[i], spent[i], self.weights.wrist) for i in members
                 ]
             going_on = []
-            batch = self._engine(task).rollout_batch([params[i] for i in members], n, monitors, threads)
+            batch = self._rollout_batch(task, [params[i] for i in members], n, monitors, threads)
             for j, rollout in batch:
                 i = members[j]
                 try:
@@ -321,6 +329,53 @@ class Objective:
                 else:
                     going_on.append(i)
             members = sorted(going_on)
+
+    def _rollout_batch(
+        self,
+        task: TaskSpec,
+        params: Sequence[dict[str, float]],
+        n_samples: int,
+        monitors: Sequence[MarkerBudget | None] | None,
+        threads: int,
+    ) -> Iterator[tuple[int, Rollout | Exception]]:
+        """``task``'s engine's :meth:`~simtune.engines.Engine.rollout_batch`, each simulation run once for the
+        members that differ only in what the fitness's marker model reads (``marker_offset_*``), and not at all
+        for one of the last :data:`RECENT_ROLLOUTS` simulated here: a Jacobian's marker-offset columns share the
+        rollout of the point it is taken at.  Each member is yielded with its rollout as it finishes.  A member
+        watched by a monitor (which reads its own marker offset and may stop its rollout early) is simulated on
+        its own."""
+        marker = applied_outside(task.robot.n_joints, (MARKER,))
+        recent = self._recent.setdefault(task.name, {})
+        keys: dict[int, tuple] = {}
+        first: dict[tuple, int] = {}
+        sharing: dict[int, list[int]] = {}
+        for i, p in enumerate(params):
+            if monitors is not None and monitors[i] is not None:
+                continue
+            keys[i] = key = (n_samples, *sorted((name, value) for name, value in p.items() if name not in marker))
+            if key in recent:
+                yield i, recent[key]
+                continue
+            j = first.setdefault(key, i)
+            if j != i:
+                sharing.setdefault(j, []).append(i)
+        done = {i for i in keys if keys[i] in recent} | {i for twins in sharing.values() for i in twins}
+        simulated = [i for i in range(len(params)) if i not in done]
+        batch = self._engine(task).rollout_batch(
+            [params[i] for i in simulated],
+            n_samples,
+            None if monitors is None else [monitors[i] for i in simulated],
+            threads,
+        )
+        for j, rollout in batch:
+            i = simulated[j]
+            if i in keys and isinstance(rollout, Rollout):
+                recent[keys[i]] = rollout
+                while len(recent) > RECENT_ROLLOUTS:
+                    del recent[next(iter(recent))]
+            yield i, rollout
+            for twin in sharing.get(i, ()):
+                yield twin, rollout
 
     def _score(self, task: TaskSpec, rollout, params: dict[str, float]) -> TaskScore:
         return score_rollout(
@@ -432,8 +487,8 @@ class Objective:
             reference = self.references[task.name]
             joint_names = rollout_joint_names(task)
             going_on = []
-            for j, rollout in self._engine(task).rollout_batch(
-                [params[i] for i in members], len(reference.times), None, threads
+            for j, rollout in self._rollout_batch(
+                task, [params[i] for i in members], len(reference.times), None, threads
             ):
                 i = members[j]
                 try:
@@ -480,6 +535,7 @@ class Objective:
         for engine in self._engines.values():
             engine.close()
         self._engines.clear()
+        self._recent.clear()
 
 
 def _has_object_residual(task: TaskSpec, references: dict[str, TaskData]) -> bool:

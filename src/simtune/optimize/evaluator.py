@@ -64,6 +64,7 @@ from simtune.engines.controller import CONTROL_PERIOD
 from simtune.errors import SimtuneError
 from simtune.fitness import PENALTY, Score, TaskScore
 from simtune.objective import Objective
+from simtune.params.kinds import MARKER, applied_outside
 
 if TYPE_CHECKING:
     from pebble import ProcessPool
@@ -439,9 +440,11 @@ class Evaluator:
             return
         indices = list(jobs)
         if self.chunked:
-            units = [
-                [indices[j] for j in part] for part in chunks(self._costs([jobs[i][0] for i in indices]), self.workers)
-            ]
+            # the members that share a simulation (they differ in the marker offset only: Objective._rollout_batch)
+            # go to one worker together, the group weighing what one of them costs
+            groups = self._simulation_groups([jobs[i][0] for i in indices])
+            costs = self._costs([jobs[indices[group[0]]][0] for group in groups])
+            units = [sorted(indices[j] for g in part for j in groups[g]) for part in chunks(costs, self.workers)]
         else:
             units = [[i] for i in indices]
         futures: dict[Future, list[int]] = {}
@@ -512,6 +515,18 @@ class Evaluator:
             raise
         except Exception as exc:
             return None, self._failed(f"{type(exc).__name__}: {exc}"), waited_s
+
+    def _simulation_groups(self, vectors: list[np.ndarray]) -> list[list[int]]:
+        """The indices of ``vectors`` grouped by what they simulate: equal in every parameter but the marker
+        offset's, in the order of each group's first member."""
+        names = self.objective.vector_space().names
+        n_joints = self.objective.tasks[0].robot.n_joints
+        marker = applied_outside(n_joints, (MARKER,))
+        simulated = [k for k, name in enumerate(names) if name not in marker]
+        groups: dict[bytes, list[int]] = {}
+        for i, x in enumerate(vectors):
+            groups.setdefault(x[simulated].tobytes(), []).append(i)
+        return list(groups.values())
 
     def _costs(self, vectors: list[np.ndarray]) -> list[float]:
         """Each member's physics steps per control period, relative (its time step, where the space tunes it):
