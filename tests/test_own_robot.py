@@ -395,3 +395,36 @@ def test_check_of_a_project_reads_the_recordings_under_data(panda_project, tmp_p
     assert not any("no recordings yet" in line for line in lines)
     missing = cli("check", project, "--data", tmp_path / "nowhere")
     assert missing.returncode == 2 and "--data" in missing.stderr and "no such folder" in missing.stderr
+
+
+@pytest.mark.slow  # about 10 s: a synth, a tune and an export, each its own process
+def test_a_dart_export_of_a_mesh_robot_replays_its_run(panda_project, tmp_path):
+    """DART collides with each mesh's convex hull as a convex shape of its vertices (engines/dart/engine.py:
+    collide_with_hulls); the exported load_dart.py builds the same shapes, so the files replay the run exactly."""
+    import numpy as np
+
+    from simtune.engines import make_engine
+    from simtune.export.replay import replay_task
+    from simtune.objective import load_references, started_as_recorded
+
+    pytest.importorskip("dartpy")
+    project = copy_project(panda_project, tmp_path / "panda")
+    data = tmp_path / "recordings"
+    synth = cli("synth", "--project", project, "--engine", "mujoco", "--task", "reach", "--repeats", "2", "--out", data)
+    assert synth.returncode == 0, synth.stderr
+    run = tmp_path / "run"
+    tune = cli("tune", "--project", project, "--engine", "dart", "--task", "reach", "--data", data, "--only",
+               "command_delay", "--optimizer", "de", "--max-evaluations", "3", "--out", run, "--quiet")  # fmt: skip
+    assert tune.returncode == 0, tune.stderr
+    exported = cli("export", run, "--out", tmp_path / "export")
+    assert exported.returncode == 0, exported.stderr
+    sidecar = json.loads((tmp_path / "export" / "dart.json").read_text())
+    assert sidecar["robot"]["mesh_collision"]["shape"] == "MultiSphereConvexHullShape"
+    task = load_project(project).tasks["reach"]
+    reference = load_references(data, [task], reference="aligned")["reach"]  # the run's, by default
+    best = json.loads((run / "best_params.json").read_text())
+    engine = make_engine("dart", started_as_recorded(task, reference))
+    tuned = engine.rollout(best["params"], len(reference.times))
+    rollout, score = replay_task("dart", tmp_path / "export", task, reference)
+    assert np.linalg.norm(rollout.wrist_pos - tuned.wrist_pos, axis=1).max() <= 1e-9
+    assert score.fitness == pytest.approx(best["fitness"], abs=1e-9)

@@ -18,9 +18,13 @@ import hashlib
 import os
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from simtune.common.cache import cache_root
 from simtune.errors import RobotError
+
+if TYPE_CHECKING:
+    import numpy as np
 
 #: Extensions every engine reads as they are (compared in lower case).
 READ_AS_IS = (".obj",)
@@ -133,6 +137,23 @@ def convex_hull_file(source: str | Path) -> Path:
     if not target.is_file():
         _write_obj(_read(source, str(source)).convex_hull, target)
     return target
+
+
+def obj_vertices(path: str | Path) -> np.ndarray:
+    """The vertices of an OBJ file (its ``v`` lines) as an (n, 3) array, without reading its faces: the points of a
+    convex hull from :func:`convex_hull_file`, for an engine that builds the hull itself.
+
+    Args:
+        path: the OBJ file.
+
+    Returns:
+        The vertices, in the file's units.
+    """
+    import numpy as np
+
+    with open(path, encoding="utf-8") as f:
+        rows = [line.split()[1:4] for line in f if line.startswith("v ")]
+    return np.array(rows, dtype=float).reshape(-1, 3)
 
 
 def hull_of_points(points, name: str) -> Path:

@@ -17,6 +17,9 @@ Read from the DART engine after the tuned parameters were applied:
   type (SERVO) and force limits, limit enforcement, the floor (a plane), each
   object's start pose and the damping of its free joint, and the friction and
   restitution of every shape by material group.
+
+Each robot mesh is the OBJ of its convex hull in simtune's mesh cache, and ``load_dart.py`` makes it collide
+as the engine did: a ``MultiSphereConvexHullShape`` of the hull's vertices (``mesh_collision`` in ``dart.json``).
 """
 
 from __future__ import annotations
@@ -26,7 +29,9 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from simtune.engines import urdf_edit as urdf
+from simtune.engines.dart.engine import HULL_SPHERE_M
 from simtune.engines.export_base import ExportContext, hash_comment, num
+from simtune.robot import generate
 from simtune.tasks.spec import ObjectSpec
 
 SIDECAR = "dart.json"
@@ -46,6 +51,11 @@ def _inertial(body) -> urdf.Inertial:
 def _surface(shape_node) -> dict:
     aspect = shape_node.getDynamicsAspect()
     return {"friction": float(aspect.getFrictionCoeff()), "restitution": float(aspect.getRestitutionCoeff())}
+
+
+def _colliding(body) -> list:
+    """The shape nodes of ``body`` that collide (a mesh's own node keeps its visual aspect only)."""
+    return [node for node in body.getShapeNodes() if node.hasCollisionAspect()]
 
 
 def write(ctx: ExportContext) -> list[str]:
@@ -76,7 +86,8 @@ def write(ctx: ExportContext) -> list[str]:
                 ],
                 "limit_enforcement": True,
                 "gripper_links": gripper,
-                "gripper_surface": _surface(skeleton.getBodyNode(gripper[0]).getShapeNodes()[0]),
+                "gripper_surface": _surface(_colliding(skeleton.getBodyNode(gripper[0]))[0]),
+                "mesh_collision": {"shape": "MultiSphereConvexHullShape", "sphere_radius_m": HULL_SPHERE_M},
             },
             "floor": {"normal": [0.0, 0.0, 1.0], "offset_m": 0.0, "surface": _surface(floor_shape)},
             "objects": objects,
@@ -89,7 +100,7 @@ def write(ctx: ExportContext) -> list[str]:
 def _write_robot(ctx: ExportContext, skeleton) -> list[list[float]]:
     """robot.urdf from the engine's skeleton: inertias, damping, force limits; the driven joints' force limits."""
     robot = ctx.robot
-    root = urdf.parse(robot.urdf)
+    root = urdf.parse(generate.robot_urdf(robot.description, hulls=True))  # the meshes as the engine read them
     for name, link in urdf.links(root).items():
         urdf.set_inertial(link, _inertial(skeleton.getBodyNode(name)))
     forces = []
@@ -137,7 +148,9 @@ _ABOUT = {
     "collision_detector": "World.setCollisionDetector (Bullet: DART's default FCL meshes the primitives)",
     "robot": "robot.urdf with a FIXED root joint placed at base_position_m; driven joints get actuator type "
     "SERVO (the controller's velocity command is the servo's target) with force_limits_n_m [lower, upper] and "
-    "joint limit enforcement; gripper_links' shapes get the gripper surface; self-collision stays off",
+    "joint limit enforcement; gripper_links' shapes get the gripper surface; self-collision stays off; each mesh "
+    "(the OBJ of its convex hull) collides as mesh_collision's shape of its vertices, spheres of sphere_radius_m "
+    "(DART hands Bullet a MeshShape as a triangle mesh, collided triangle by triangle)",
     "floor": "a static skeleton with a PlaneShape (normal, offset) and its surface",
     "objects": "per task: URDF (FLOATING root: a FreeJoint), start pose, the FreeJoint's damping "
     "coefficients (coordinates 0-2 rotation, 3-5 translation), surface; cone: DART's ConeShape of that size "
@@ -182,6 +195,24 @@ def _surface(node, surface):
     aspect.setRestitutionCoeff(surface["restitution"])
 
 
+def _collide_with_hulls(skeleton, radius):
+    """Each mesh (a convex hull's OBJ) collides as a MultiSphereConvexHullShape of its vertices, as simtune's engine."""
+    for body in skeleton.getBodyNodes():
+        for node in list(body.getShapeNodes()):
+            shape = node.getShape()
+            if not node.hasCollisionAspect() or not isinstance(shape, d.dynamics.MeshShape):
+                continue
+            with open(shape.getMeshPath(), encoding="utf-8") as f:
+                points = np.array([line.split()[1:4] for line in f if line.startswith("v ")], dtype=float)
+            points = points.reshape(-1, 3) * np.asarray(shape.getScale(), dtype=float)
+            hull = body.createShapeNode(d.dynamics.MultiSphereConvexHullShape([(radius, p) for p in points]))
+            hull.setRelativeTransform(node.getRelativeTransform())
+            hull.createCollisionAspect()
+            hull.createDynamicsAspect()
+            node.removeCollisionAspect()
+            node.removeDynamicsAspect()
+
+
 def _skeleton(file, root):
     loader = d.utils.DartLoader()
     options = d.utils.DartLoader.Options()
@@ -200,6 +231,7 @@ def load(task):
     spec = side["robot"]
     robot = _skeleton(spec["file"], d.utils.DartLoaderRootJointType.FIXED)
     robot.getRootJoint().setTransformFromParentBodyNode(_pose(spec["base_position_m"]))
+    _collide_with_hulls(robot, spec["mesh_collision"]["sphere_radius_m"])
     for name, (lower, upper) in zip(spec["driven_joints"], spec["force_limits_n_m"]):
         joint = robot.getJoint(name)
         joint.setActuatorType(d.dynamics.ActuatorType.SERVO)
@@ -210,7 +242,8 @@ def load(task):
         robot.getJoint(name).setCoulombFriction(0, friction)
     for link in spec["gripper_links"]:
         for node in robot.getBodyNode(link).getShapeNodes():
-            _surface(node, spec["gripper_surface"])
+            if node.hasCollisionAspect():
+                _surface(node, spec["gripper_surface"])
     world.addSkeleton(robot)
     floor = d.dynamics.Skeleton("floor")
     _, body = floor.createWeldJointAndBodyNodePair(None)
