@@ -428,3 +428,30 @@ def test_a_dart_export_of_a_mesh_robot_replays_its_run(panda_project, tmp_path):
     rollout, score = replay_task("dart", tmp_path / "export", task, reference)
     assert np.linalg.norm(rollout.wrist_pos - tuned.wrist_pos, axis=1).max() <= 1e-9
     assert score.fitness == pytest.approx(best["fitness"], abs=1e-9)
+
+
+def test_ode_keeps_a_mesh_robots_hull_geoms_across_resets_and_each_rollout_is_as_from_a_fresh_engine(panda_project):
+    """ODE rebuilds its world at every reset but keeps the meshes' convex geoms (dCreateConvex is slow on a hull):
+    a rollout after others, with other parameters, equals the same rollout of a fresh engine, bit for bit."""
+    import numpy as np
+
+    from simtune.engines import engine_class
+
+    pytest.importorskip("odepy")
+    engine = engine_class("ode")
+    task = load_project(panda_project).task("reach")
+    n = 40
+    first = engine(task)
+    meshes = len(first._geoms_in_use)
+    assert meshes > 0  # the Panda's links are meshes
+    a = first.rollout({}, n)
+    first.rollout({"timestep": 0.003, "mass_link_2": 2.0}, n)
+    again = first.rollout({}, n)
+    assert len(first._geoms_in_use) == meshes and not any(first._spare_geoms.values())  # reused, none made anew
+    fresh = engine(task)
+    alone = fresh.rollout({}, n)
+    for rollout in (again, alone):
+        np.testing.assert_array_equal(rollout.wrist_pos, a.wrist_pos)
+        np.testing.assert_array_equal(rollout.joint_angles, a.joint_angles)
+    first.close()
+    fresh.close()
