@@ -1,7 +1,7 @@
-"""DART's warnings about missing material (.mtl) files: one warning line instead of a hundred per mesh, every other
-line of its stderr (a mesh it cannot open, its notes on zero masses) passed on unchanged."""
+"""A published OBJ whose material (.mtl) file is missing: DART reads each mesh's convex hull as simtune writes it
+(no material named), so none of its hundred lines per mesh about the missing file come; robot notes stay with the
+parent process."""
 
-import os
 import warnings
 from pathlib import Path
 
@@ -10,7 +10,6 @@ import pytest
 from conftest import engine_or_skip
 
 from simtune.common.spawn_guard import leave_robot_notes_to_parent
-from simtune.engines.dart.quiet import load_quietly, missing_materials
 from simtune.errors import RobotWarning
 from simtune.robot.urdf import load_urdf
 from simtune.tasks.spec import Phase, TaskSpec
@@ -32,22 +31,17 @@ f 2 3 4
 INERTIAL = '<inertial><mass value="{}"/><inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/></inertial>'
 
 
-def arm_urdf(folder: Path, meshes: tuple[str, ...], base_mass: float = 1.0) -> Path:
+def arm_urdf(folder: Path, meshes: tuple[str, ...]) -> Path:
     """A base and one revolute link whose collision shapes are ``meshes`` (files in ``folder``)."""
     shapes = "".join(f'<collision><geometry><mesh filename="{folder / m}"/></geometry></collision>' for m in meshes)
     path = folder / "arm.urdf"
     path.write_text(
-        f'<robot name="arm"><link name="base">{INERTIAL.format(base_mass)}</link>'
+        f'<robot name="arm"><link name="base">{INERTIAL.format(1.0)}</link>'
         f'<link name="link1">{INERTIAL.format(0.5)}{shapes}</link>'
         '<joint name="joint1" type="revolute"><parent link="base"/><child link="link1"/><axis xyz="0 0 1"/>'
         '<limit lower="-1" upper="1" effort="5" velocity="1"/></joint></robot>'
     )
     return path
-
-
-def parse(urdf: Path):
-    """The skeleton DART's own URDF loader makes of ``urdf`` (None where it cannot)."""
-    return dartpy.utils.DartLoader().parseSkeleton(str(urdf))
 
 
 def test_the_engine_collides_with_each_meshs_hull_and_never_reads_its_material(tmp_path, capfd, recwarn):
@@ -70,43 +64,6 @@ def test_the_engine_collides_with_each_meshs_hull_and_never_reads_its_material(t
     assert np.isfinite(sim.joint_angles()).all()
 
 
-def test_a_mesh_dart_cannot_open_and_its_other_notes_still_reach_stderr(tmp_path, capfd):
-    (tmp_path / "tetra.obj").write_text(TETRAHEDRON)
-    # a missing mesh (load_urdf refuses one; here DART reads the file itself) and a massless base
-    urdf = arm_urdf(tmp_path, ("tetra.obj", "gone.obj"), base_mass=0.0)
-    meshes = [str(tmp_path / "tetra.obj"), str(tmp_path / "gone.obj")]
-    with pytest.warns(RobotWarning, match="colours only"):
-        load_quietly(lambda: parse(urdf), meshes)
-    err = capfd.readouterr().err
-    assert "missing.mtl" not in err
-    assert "gone.obj" in err  # the real failure, as DART says it
-    assert "zero mass" in err
-    os.write(2, b"after\n")  # the descriptor is the one it was
-    assert capfd.readouterr().err == "after\n"
-
-
-def test_an_exception_in_the_load_comes_after_its_stderr(tmp_path, capfd):
-    (tmp_path / "tetra.obj").write_text(TETRAHEDRON)
-
-    def failing():
-        os.write(2, b"DART: something broke\n")
-        raise RuntimeError("broken")
-
-    with pytest.raises(RuntimeError, match="broken"):
-        load_quietly(failing, [str(tmp_path / "tetra.obj")])
-    assert capfd.readouterr().err == "DART: something broke\n"  # nothing about materials was left out: no warning
-
-
-def test_meshes_whose_materials_exist_are_loaded_as_they_are(tmp_path, recwarn):
-    (tmp_path / "tetra.obj").write_text(TETRAHEDRON)
-    (tmp_path / "plain.obj").write_text(TETRAHEDRON.replace("missing.mtl", "present.mtl"))
-    (tmp_path / "present.mtl").write_text("newmtl red\nKd 1 0 0\n")
-    meshes = [str(tmp_path / name) for name in ("tetra.obj", "plain.obj", "gone.obj", "shape.stl")]
-    assert missing_materials(meshes) == {meshes[0]: "missing.mtl"}
-    assert load_quietly(lambda: 7, meshes[1:]) == 7
-    assert not recwarn.list
-
-
 def test_workers_leave_the_robot_notes_to_their_parent():
     # a worker builds the robot's engine again: the parent has said the note (one line in a tune, not one a worker)
     with warnings.catch_warnings(record=True) as said:
@@ -115,26 +72,3 @@ def test_workers_leave_the_robot_notes_to_their_parent():
         warnings.warn("DART could not find ...", RobotWarning, stacklevel=1)
         warnings.warn("another kind", UserWarning, stacklevel=1)
     assert [str(w.message) for w in said] == ["another kind"]
-
-
-def test_loads_on_two_threads_leave_stderr_as_it_was(tmp_path, capfd):
-    import threading
-    import time
-
-    (tmp_path / "tetra.obj").write_text(TETRAHEDRON)
-    meshes = [str(tmp_path / "tetra.obj")]
-
-    def noisy():
-        os.write(2, f"Failed opening file '{tmp_path}/missing.mtl'\n".encode())
-        time.sleep(0.05)  # long enough for the other thread to start its own load meanwhile
-        os.write(2, b"kept\n")
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RobotWarning)
-        threads = [threading.Thread(target=load_quietly, args=(noisy, meshes)) for _ in range(2)]
-        for thread in threads:
-            thread.start()
-        for thread in threads:
-            thread.join()
-    os.write(2, b"after\n")  # fd 2 is the test's again, not one load's temporary file
-    assert capfd.readouterr().err == "kept\nkept\nafter\n"

@@ -244,6 +244,9 @@ class Objective:
             {t.name: signal_noise(references[t.name]) for t in self.tasks} if noise_weighted else None
         )
         self._engines: dict[str, Engine] = {}
+        #: the parameters only the fitness's marker model reads (``marker_offset_*``): points that differ in them
+        #: alone simulate the same (:meth:`_rollout_batch`, and the Evaluator's chunks)
+        self.marker_names = applied_outside(self.tasks[0].robot.n_joints, (MARKER,))
         #: per task, the last rollouts simulated here, by what they simulated (:meth:`_rollout_batch`)
         self._recent: dict[str, dict[tuple, Rollout]] = {}
 
@@ -344,22 +347,23 @@ class Objective:
         rollout of the point it is taken at.  Each member is yielded with its rollout as it finishes.  A member
         watched by a monitor (which reads its own marker offset and may stop its rollout early) is simulated on
         its own."""
-        marker = applied_outside(task.robot.n_joints, (MARKER,))
         recent = self._recent.setdefault(task.name, {})
         keys: dict[int, tuple] = {}
         first: dict[tuple, int] = {}
         sharing: dict[int, list[int]] = {}
+        done: set[int] = set()  # yielded from the rollouts kept, or sharing an earlier member's
         for i, p in enumerate(params):
             if monitors is not None and monitors[i] is not None:
                 continue
-            keys[i] = key = (n_samples, *sorted((name, value) for name, value in p.items() if name not in marker))
+            keys[i] = key = (n_samples, *sorted((n, v) for n, v in p.items() if n not in self.marker_names))
             if key in recent:
+                done.add(i)
                 yield i, recent[key]
                 continue
             j = first.setdefault(key, i)
             if j != i:
                 sharing.setdefault(j, []).append(i)
-        done = {i for i in keys if keys[i] in recent} | {i for twins in sharing.values() for i in twins}
+                done.add(i)
         simulated = [i for i in range(len(params)) if i not in done]
         batch = self._engine(task).rollout_batch(
             [params[i] for i in simulated],

@@ -64,7 +64,6 @@ from simtune.engines.controller import CONTROL_PERIOD
 from simtune.errors import SimtuneError
 from simtune.fitness import PENALTY, Score, TaskScore
 from simtune.objective import Objective
-from simtune.params.kinds import MARKER, applied_outside
 
 if TYPE_CHECKING:
     from pebble import ProcessPool
@@ -520,9 +519,7 @@ class Evaluator:
         """The indices of ``vectors`` grouped by what they simulate: equal in every parameter but the marker
         offset's, in the order of each group's first member."""
         names = self.objective.vector_space().names
-        n_joints = self.objective.tasks[0].robot.n_joints
-        marker = applied_outside(n_joints, (MARKER,))
-        simulated = [k for k, name in enumerate(names) if name not in marker]
+        simulated = [k for k, name in enumerate(names) if name not in self.objective.marker_names]
         groups: dict[bytes, list[int]] = {}
         for i, x in enumerate(vectors):
             groups.setdefault(x[simulated].tobytes(), []).append(i)

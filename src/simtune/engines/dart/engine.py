@@ -31,12 +31,10 @@ import numpy as np
 from simtune.common.geometry import rpy_matrix
 from simtune.engines._shapes import object_mass_properties
 from simtune.engines.base import Engine, unloaded_hard_motors
-from simtune.engines.dart.quiet import load_quietly
 from simtune.params.kinds import engine_parameters as kinds_of_engine
 from simtune.robot import MICO
-from simtune.robot.description import Mesh
 from simtune.robot.generate import robot_urdf_file
-from simtune.robot.meshes import convex_hull_file, obj_vertices
+from simtune.robot.meshes import obj_vertices
 from simtune.tasks.spec import TaskSpec
 
 try:
@@ -96,12 +94,9 @@ class DartEngine(Engine):
         loader.setOptions(options)
         robot = task.robot
         # each mesh read as its convex hull (the shape MuJoCo, PyBullet and ODE collide with), then made a convex
-        # shape of the hull's points (collide_with_hulls)
-        urdf = robot_urdf_file(robot, hulls=True)
-        # DART warns a hundred lines per mesh whose material file is missing (colours only): said in one line (the
-        # hulls simtune writes name none)
-        hulls = [str(convex_hull_file(s.path)) for link in robot.links for s in link.shapes if isinstance(s, Mesh)]
-        self.robot = load_quietly(lambda: loader.parseSkeleton(urdf), hulls)
+        # shape of the hull's points (collide_with_hulls); the hull OBJs simtune writes name no material file, so
+        # DART's hundred lines per mesh about a missing one (a published OBJ's) never come
+        self.robot = loader.parseSkeleton(robot_urdf_file(robot, hulls=True))
         collide_with_hulls(self.robot)
         base_rot = rpy_matrix(robot.base_rpy) if robot.base_rpy != (0.0, 0.0, 0.0) else None
         self.robot.getRootJoint().setTransformFromParentBodyNode(_isometry(robot.base_position, base_rot))
