@@ -433,7 +433,6 @@ def test_a_dart_export_of_a_mesh_robot_replays_its_run(panda_project, tmp_path):
 def test_ode_keeps_a_mesh_robots_hull_geoms_across_resets_and_each_rollout_is_as_from_a_fresh_engine(panda_project):
     """ODE rebuilds its world at every reset but keeps the meshes' convex geoms (dCreateConvex is slow on a hull):
     a rollout after others, with other parameters, equals the same rollout of a fresh engine, bit for bit."""
-    import numpy as np
 
     from simtune.engines import engine_class
 
@@ -448,10 +447,41 @@ def test_ode_keeps_a_mesh_robots_hull_geoms_across_resets_and_each_rollout_is_as
     first.rollout({"timestep": 0.003, "mass_link_2": 2.0}, n)
     again = first.rollout({}, n)
     assert len(first._geoms_in_use) == meshes and not any(first._spare_geoms.values())  # reused, none made anew
-    fresh = engine(task)
+    assert_as_from_a_fresh_engine(engine(task), n, a, again)
+    first.close()
+
+
+def test_pybullet_loads_a_mesh_robot_once_and_each_rollout_is_as_from_a_fresh_engine(panda_project, monkeypatch):
+    """PyBullet loads the scene once and restores it at each reset (loading the Panda's hulls again took as long as
+    its reach): a rollout after others, with other masses, damping and time step, equals the same rollout of a
+    fresh engine, bit for bit, and no reset loads the robot again."""
+
+    from simtune.engines import engine_class
+
+    pybullet = pytest.importorskip("pybullet")
+    engine = engine_class("pybullet")
+    task = load_project(panda_project).task("reach")
+    n = 40
+    first = engine(task)
+    loads: list[str] = []
+    load = pybullet.loadURDF
+    monkeypatch.setattr(pybullet, "loadURDF", lambda *args, **kwargs: loads.append(args[0]) or load(*args, **kwargs))
+    a = first.rollout({}, n)
+    first.rollout({"timestep": 0.003, "mass_link_2": 2.0, "joint_damping_4": 0.5}, n)
+    again = first.rollout({}, n)
+    assert loads == []  # restored, not loaded again
+    monkeypatch.undo()
+    assert_as_from_a_fresh_engine(engine(task), n, a, again)
+    first.close()
+
+
+def assert_as_from_a_fresh_engine(fresh, n: int, first, again) -> None:
+    """``again`` (a generic rollout after others) equals ``first`` (the engine's first) and ``fresh``'s own first
+    rollout, bit for bit; closes ``fresh``."""
+    import numpy as np
+
     alone = fresh.rollout({}, n)
     for rollout in (again, alone):
-        np.testing.assert_array_equal(rollout.wrist_pos, a.wrist_pos)
-        np.testing.assert_array_equal(rollout.joint_angles, a.joint_angles)
-    first.close()
+        np.testing.assert_array_equal(rollout.wrist_pos, first.wrist_pos)
+        np.testing.assert_array_equal(rollout.joint_angles, first.joint_angles)
     fresh.close()

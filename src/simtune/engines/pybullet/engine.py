@@ -1,9 +1,12 @@
 """PyBullet (Bullet 3 multibody) behind the engine interface.
 
-Each engine instance owns one DIRECT physics client.  A rollout resets the
-whole simulation and loads the scene again, so Bullet's contact caches and
-warm-started solver state never carry over between evaluations: the same
-parameters always give the same trajectory.
+Each engine instance owns one DIRECT physics client.  The scene is loaded once; a rollout's reset puts it back
+as loaded (:meth:`PybulletEngine._restore`: Bullet's ``restoreState`` of a snapshot taken right after loading -
+positions, velocities and contact points - and every dynamics value the last rollout may have changed set back
+to its loaded one), so Bullet's contact caches and warm-started solver state never carry over between
+evaluations: the same parameters always give the same trajectory, bit for bit the one a freshly loaded scene
+gives (tests/test_engines.py).  Loading again at each reset cost a meshed arm 0.1 s (the SO-101's 13 hulls of
+150-4,900 vertices, whose shapes Bullet builds from every vertex at each load), as much as its 8-s reach.
 
 Mapping (docs/parameters.md has the full table): timestep -> ``setTimeStep``;
 masses -> ``changeDynamics(mass=...)``; frictions, restitution and velocity damping
@@ -54,6 +57,10 @@ def _stdout_silenced():
 #: the engine's name in the registry and the kinds table
 NAME = "pybullet"
 
+#: the velocity damping a loaded multibody link has (``btMultiBody``'s ``0.04f``, a float: as a double 0.0399999991),
+#: which getDynamicsInfo does not report; :meth:`PybulletEngine._restore` sets it back exactly
+LOADED_LINK_DAMPING = float(np.float32(0.04))
+
 
 class PybulletEngine(Engine):
     name = NAME
@@ -82,6 +89,7 @@ class PybulletEngine(Engine):
         self._timestep = DEFAULT_TIMESTEP
         self._load()
         self._defaults = self._read_defaults()
+        self._snapshot()
 
     # --- scene --------------------------------------------------------------------
     def _load(self) -> None:
@@ -109,15 +117,8 @@ class PybulletEngine(Engine):
             link.name: index[link.name] for link in robot.links if link.material == "gripper" and link.name in index
         }
         # URDF joints start with a default velocity motor; switch them all to ours (zero target)
-        p.setJointMotorControlArray(
-            self.robot,
-            self._arm,
-            p.VELOCITY_CONTROL,
-            targetVelocities=[0.0] * len(self._arm),
-            forces=self._generic_forces,
-            physicsClientId=c,
-        )
         self._forces = list(self._generic_forces)
+        self.set_joint_velocities(np.zeros(len(self._arm)))
         self.object = None
         obj = self.task.object
         if obj is not None:
@@ -133,6 +134,39 @@ class PybulletEngine(Engine):
             self.object = p.createMultiBody(
                 obj.mass, shape, basePosition=obj.start_position, baseOrientation=quat, physicsClientId=c
             )
+
+    def _snapshot(self) -> None:
+        """Keep the scene as :meth:`_load` left it: Bullet's state (``saveState``) and every dynamics value a reset
+        may change, per (body, link), for :meth:`_restore`."""
+        p, c = pybullet, self.client
+        self._loaded_state = p.saveState(physicsClientId=c)
+        self._loaded_dynamics: dict[tuple[int, int], dict] = {}
+        bodies = [self.floor, self.robot] + ([self.object] if self.object is not None else [])
+        for body in bodies:
+            for link in range(-1, p.getNumJoints(body, physicsClientId=c)):
+                info = p.getDynamicsInfo(body, link, physicsClientId=c)
+                values = {"lateralFriction": info[1], "restitution": info[5]}
+                values |= {"rollingFriction": info[6], "spinningFriction": info[7]}
+                if body != self.floor:  # static: no mass, inertia or velocity damping to set
+                    values |= {"mass": info[0], "localInertiaDiagonal": info[2]}
+                    values |= {"linearDamping": LOADED_LINK_DAMPING, "angularDamping": LOADED_LINK_DAMPING}
+                self._loaded_dynamics[(body, link)] = values
+        self._loaded_joint_damping = [p.getJointInfo(self.robot, j, physicsClientId=c)[6] for j in self._arm]
+
+    def _restore(self) -> None:
+        """The scene as :meth:`_load` left it, without loading it again: the snapshot's state restored (bodies,
+        joints, velocities, contact points), every dynamics value set back to its loaded one (a mass set by the
+        last reset also recomputed its link's inertia from the collision shape: the loaded inertia is set back
+        with it), the time step and the arm's motors as :meth:`_load` sets them."""
+        p, c = pybullet, self.client
+        p.restoreState(self._loaded_state, physicsClientId=c)
+        p.setTimeStep(self._timestep, physicsClientId=c)
+        for (body, link), values in self._loaded_dynamics.items():
+            p.changeDynamics(body, link, physicsClientId=c, **values)
+        for joint, damping in zip(self._arm, self._loaded_joint_damping):
+            p.changeDynamics(self.robot, joint, jointDamping=damping, physicsClientId=c)
+        self._forces = list(self._generic_forces)
+        self.set_joint_velocities(np.zeros(len(self._arm)))
 
     def _groups(self) -> dict[str, list[tuple[int, int]]]:
         """Material group -> (body, link) pairs it covers."""
@@ -178,7 +212,7 @@ class PybulletEngine(Engine):
         p, c = pybullet, self.client
         self.apply_drive(params)  # PyBullet has no drive-train kind: a value for one is refused
         self._timestep = params.get("timestep", DEFAULT_TIMESTEP)
-        self._load()
+        self._restore()
         for i, link in enumerate(self._arm, start=1):
             if f"mass_link_{i}" in params:
                 p.changeDynamics(self.robot, link, mass=params[f"mass_link_{i}"], physicsClientId=c)
