@@ -1,12 +1,15 @@
 """PyBullet (Bullet 3 multibody) behind the engine interface.
 
-Each engine instance owns one DIRECT physics client.  The scene is loaded once; a rollout's reset puts it back
-as loaded (:meth:`PybulletEngine._restore`: Bullet's ``restoreState`` of a snapshot taken right after loading -
-positions, velocities and contact points - and every dynamics value the last rollout may have changed set back
-to its loaded one), so Bullet's contact caches and warm-started solver state never carry over between
-evaluations: the same parameters always give the same trajectory, bit for bit the one a freshly loaded scene
-gives (tests/test_engines.py).  Loading again at each reset cost a meshed arm 0.1 s (the SO-101's 13 hulls of
-150-4,900 vertices, whose shapes Bullet builds from every vertex at each load), as much as its 8-s reach.
+Each engine instance owns one DIRECT physics client.  A rollout's reset gives it the scene as loaded, so Bullet's
+contact caches and warm-started solver state never carry over between evaluations: the same parameters always give
+the same trajectory, bit for bit the one a freshly loaded scene gives (tests/test_engines.py, test_contact.py).
+A scene without an object is loaded once and put back at each reset (:meth:`PybulletEngine._restore`: Bullet's
+``restoreState`` of a snapshot taken right after loading - positions, velocities and contact points - and every
+dynamics value the last rollout may have changed set back to its loaded one): loading again cost a meshed arm 0.1 s
+a reset (the SO-101's 13 hulls of 150-4,900 vertices, whose shapes Bullet builds from every vertex at each load), as
+much as its 8-s reach.  A scene with an object is loaded again at each reset (``resetSimulation``, ``loadURDF``):
+``restoreState`` does not restore a body's sleep, so an object that came to rest and fell asleep at the end of one
+rollout started the next asleep (the MICO's cube 1.8 mm off over its task); the fixed-base arm does not sleep.
 
 Mapping (docs/parameters.md has the full table): timestep -> ``setTimeStep``;
 masses -> ``changeDynamics(mass=...)``; frictions, restitution and velocity damping
@@ -89,7 +92,8 @@ class PybulletEngine(Engine):
         self._timestep = DEFAULT_TIMESTEP
         self._load()
         self._defaults = self._read_defaults()
-        self._snapshot()
+        if task.object is None:  # an object can fall asleep, which restoreState does not undo: loaded again instead
+            self._snapshot()
 
     # --- scene --------------------------------------------------------------------
     def _load(self) -> None:
@@ -137,7 +141,7 @@ class PybulletEngine(Engine):
 
     def _snapshot(self) -> None:
         """Keep the scene as :meth:`_load` left it: Bullet's state (``saveState``) and every dynamics value a reset
-        may change, per (body, link), for :meth:`_restore`."""
+        may change, per (body, link), for :meth:`_restore` (a scene without an object)."""
         p, c = pybullet, self.client
         self._loaded_state = p.saveState(physicsClientId=c)
         self._loaded_dynamics: dict[tuple[int, int], dict] = {}
@@ -212,7 +216,10 @@ class PybulletEngine(Engine):
         p, c = pybullet, self.client
         self.apply_drive(params)  # PyBullet has no drive-train kind: a value for one is refused
         self._timestep = params.get("timestep", DEFAULT_TIMESTEP)
-        self._restore()
+        if self.task.object is None:
+            self._restore()
+        else:
+            self._load()
         for i, link in enumerate(self._arm, start=1):
             if f"mass_link_{i}" in params:
                 p.changeDynamics(self.robot, link, mass=params[f"mass_link_{i}"], physicsClientId=c)
