@@ -54,7 +54,8 @@ def test_cube_rollout_is_deterministic(engine):
     for first, second in ((a, b), (generic, again)):
         np.testing.assert_array_equal(first.wrist_pos, second.wrist_pos)
         np.testing.assert_array_equal(first.object_pos, second.object_pos)
-    # and as from a fresh engine (PyBullet and ODE keep parts of the scene from one reset to the next)
+    # and as from a fresh engine: what an engine keeps from one reset to the next (ODE its hull geoms, PyBullet an
+    # object-free scene, DART its world) changes nothing
     fresh = engine_or_skip(engine)(get_task("cube"))
     alone = fresh.rollout({}, 401)
     np.testing.assert_array_equal(alone.wrist_pos, again.wrist_pos)

@@ -92,6 +92,7 @@ class PybulletEngine(Engine):
         self._timestep = DEFAULT_TIMESTEP
         self._load()
         self._defaults = self._read_defaults()
+        self._loaded_state: int | None = None  # the snapshot _restore puts back; None: each reset loads again
         if task.object is None:  # an object can fall asleep, which restoreState does not undo: loaded again instead
             self._snapshot()
 
@@ -145,8 +146,7 @@ class PybulletEngine(Engine):
         p, c = pybullet, self.client
         self._loaded_state = p.saveState(physicsClientId=c)
         self._loaded_dynamics: dict[tuple[int, int], dict] = {}
-        bodies = [self.floor, self.robot] + ([self.object] if self.object is not None else [])
-        for body in bodies:
+        for body in (self.floor, self.robot):  # no object: a scene with one is loaded again at each reset
             for link in range(-1, p.getNumJoints(body, physicsClientId=c)):
                 info = p.getDynamicsInfo(body, link, physicsClientId=c)
                 values = {"lateralFriction": info[1], "restitution": info[5]}
@@ -163,6 +163,7 @@ class PybulletEngine(Engine):
         last reset also recomputed its link's inertia from the collision shape: the loaded inertia is set back
         with it), the time step and the arm's motors as :meth:`_load` sets them."""
         p, c = pybullet, self.client
+        assert self._loaded_state is not None, "a scene without an object has its snapshot"
         p.restoreState(self._loaded_state, physicsClientId=c)
         p.setTimeStep(self._timestep, physicsClientId=c)
         for (body, link), values in self._loaded_dynamics.items():
@@ -216,7 +217,7 @@ class PybulletEngine(Engine):
         p, c = pybullet, self.client
         self.apply_drive(params)  # PyBullet has no drive-train kind: a value for one is refused
         self._timestep = params.get("timestep", DEFAULT_TIMESTEP)
-        if self.task.object is None:
+        if self._loaded_state is not None:
             self._restore()
         else:
             self._load()
