@@ -233,3 +233,34 @@ def test_the_search_starts_a_joints_gain_at_the_tasks_kp():
 
     nominal = nominal_values("mujoco", tasks)
     assert {name: nominal[name] for name in names} == generic
+
+
+def test_a_global_phase_scores_the_population_it_starts_from_once(tmp_path):
+    """SciPy's differential evolution scales an `init` population into its unit cube and back before scoring it,
+    moving each coordinate by a rounding error: a round's starting population (scored already: the last round's,
+    the opening's best) was simulated again, member by member, as new points (issue 44). Now its first batch is
+    served by the store and the population the phase returns holds the points themselves, not their copies."""
+    from simtune.optimize.base import BatchSearch
+    from simtune.optimize.evaluator import TuneSettings, as_originals
+    from simtune.run_plan import plan_run
+
+    objective = plan_run(config()).objective()
+    store = RunStore(tmp_path / "run", create=True)
+    search = BatchSearch(objective, store, TuneSettings(), prune=True)
+    population = search.from_unit(pipeline.opening_population(np.array([0.3, 0.6, 0.7]), seed=4))
+    middle, width = 0.5 * (search.lows + search.highs), search.highs - search.lows
+    scipy_copy = middle + ((population - middle) / width + 0.5 - 0.5) * width  # SciPy's scaling, there and back
+    assert not np.array_equal(scipy_copy, population)  # rounding moved some member: the case this guards
+    with search:
+        search.evaluate(population)
+        simulated = search.evaluator.simulated_jobs
+        last, _, _ = pipeline._global_phase(search, population, seed=7)
+        trials = search.evaluator.simulated_jobs - simulated
+    store.close()
+    # 2 generations of 5 trials were simulated; the 5 members it started from were not, not even as copies
+    assert trials <= pipeline.GLOBAL_GENERATIONS * len(population)
+    kept = [row for row in last if any(np.array_equal(row, member) for member in population)]
+    near = [row for row in last if (np.abs(population - row) <= 1e-9).all(axis=1).any()]
+    assert len(kept) == len(near) >= 1  # every member it kept is the point given, bit for bit
+    tolerance = np.full(3, 1e-12)
+    np.testing.assert_array_equal(as_originals(scipy_copy, population, tolerance), population)

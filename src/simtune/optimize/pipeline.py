@@ -74,7 +74,7 @@ from simtune.alignment import cached_delay, delay_parameter
 from simtune.objective import Objective, generic_values
 from simtune.optimize.base import BatchSearch, BudgetSpent
 from simtune.optimize.de import DE_SETTINGS, POPSIZE
-from simtune.optimize.evaluator import TuneResult, TuneSettings
+from simtune.optimize.evaluator import TuneResult, TuneSettings, as_originals
 from simtune.optimize.refine import least_squares_phase
 from simtune.optimize.start_check import warn_about_start
 from simtune.store import RunStore
@@ -90,6 +90,9 @@ ROUND_RTOL = 0.01
 #: a local phase that ends where its residuals' sum of squares is at most this many times the recordings' noise floor
 #: (:func:`noise_floor_cost`) ends the run: no basin can be better by more than this share of the repeats' scatter
 FLOOR_RATIO = 1.1
+#: a point of a global phase's first batch within this share of each range of a member it started from is that member
+#: (SciPy's scaling into its unit cube and back moves a coordinate by about 1e-16 of its range)
+ROUNDING = 1e-12
 
 
 def converged(best_after_round: list[float]) -> bool:
@@ -329,6 +332,9 @@ def _global_phase(search: BatchSearch, init: np.ndarray | None, seed: int) -> tu
         return spent
 
     search.evaluator.parent_energies = None
+    if init is not None:  # members scored already: SciPy's scaling moves them by rounding errors only
+        tolerance = ROUNDING * np.maximum(search.highs - search.lows, np.abs(init).max(axis=0))
+        search.evaluator.expect_copies(init, tolerance)
     differential_evolution(
         lambda x: search.objective.score_vector(x).fitness,  # never called: the Evaluator is the workers map
         bounds=search.space.bounds,
@@ -341,4 +347,6 @@ def _global_phase(search: BatchSearch, init: np.ndarray | None, seed: int) -> tu
     if spent:
         raise BudgetSpent
     population, energies = last[-1]
+    if init is not None:  # members SciPy kept since its start are the points it was given, not their rounded copies
+        population = as_originals(population, init, tolerance)
     return population, energies, population[int(np.argmin(energies))]
