@@ -11,7 +11,10 @@ is often one basin away.  Then, in rounds:
    members drawn close around it and half a latin hypercube (:func:`opening_population`; or, after
    ``resume --rescore``, from the old run's last population, with no opening), every later one from the
    last round's population
-   with a fresh seed: the global search goes on where it stopped;
+   with a fresh seed: the global search goes on where it stopped.  Those members are scored already: SciPy's
+   scaling into its unit cube and back moves them by rounding errors, and the Evaluator takes such a copy as the
+   member itself (:meth:`~simtune.optimize.evaluator.Evaluator.expect_copies`), so a round's first batch comes from
+   the store;
 2. **local**: SciPy's ``least_squares`` (trust-region reflective, within the bounds, in the unit cube)
    from the best point of the run on the per-sample residuals (:func:`simtune.fitness.residuals`),
    with a forward-difference Jacobian whose D perturbed points go to the Evaluator as one batch (worker
