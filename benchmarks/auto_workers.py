@@ -17,8 +17,9 @@ on the real recordings (the run's other settings at their defaults), then, from 
   follow its rejection as there are workers besides it), so each run's schedule is simulated at its own worker count
   and at 1.  A run with more workers than this machine has cores (16 here) runs them as threads of one
   process: its schedule is what it is measured for, not its evaluations per second;
-- the coordinator's share: elapsed time outside the batches' evaluations (the solver, the store, checks),
-  which no worker count shortens.
+- the coordinator's share: elapsed time outside the Evaluator's batches (the solver, DE, the checks, the store between
+  batches), which no worker count shortens; beside it the time outside the stored evaluations' walls, which also
+  counts what those walls miss.
 
 With --same-search the runs at more workers do not stop at --max-seconds but where the first worker count's run
 stopped its search (its used evaluations, `max_evaluations`: the search takes the same path on any number of
@@ -57,9 +58,10 @@ from simtune.runs import RunConfig, start_run
 from simtune.store import RunStore
 
 
-def batches(run_dir: Path) -> tuple[list[tuple[int, float]], float]:
+def batches(run_dir: Path) -> tuple[list[tuple[int, float]], float, float | None]:
     """(members, seconds) of each batch of the run (its evaluations grouped by generation); the run's elapsed
-    time."""
+    time at its last checkpoint; the seconds the search spent inside its batches by then (None from a store written
+    before simtune kept them)."""
     store = RunStore.open_read_only(run_dir)
     try:
         sizes: dict[int, int] = defaultdict(int)
@@ -68,10 +70,11 @@ def batches(run_dir: Path) -> tuple[list[tuple[int, float]], float]:
             sizes[evaluation["generation"]] += 1
             seconds[evaluation["generation"]] += evaluation["wall_s"]
         generations = store.generations()
+        simulating = store.get("session_simulating_s")
     finally:
         store.close()
     elapsed = generations[-1]["elapsed_s"] if generations else 0.0
-    return [(sizes[g], seconds[g]) for g in sorted(sizes)], elapsed
+    return [(sizes[g], seconds[g]) for g in sorted(sizes)], elapsed, simulating
 
 
 def schedule_efficiency(run: list[tuple[int, float]], workers: int) -> float:
@@ -79,6 +82,17 @@ def schedule_efficiency(run: list[tuple[int, float]], workers: int) -> float:
     busy = sum(seconds for _, seconds in run)
     held = sum(seconds / n * math.ceil(n / workers) * workers for n, seconds in run if n)
     return busy / held if held else 1.0
+
+
+def coordinator_share(elapsed: float, simulating: float | None, evaluating: float) -> str:
+    """The coordinator's share of a run's wall time, in words: the time outside the Evaluator's batches (the
+    solver, DE, the checks, the store between batches), and beside it the older reading, outside the stored
+    evaluations' walls, which also counts what those walls miss (a point simulated again for its residuals, each
+    batch's last store write)."""
+    by_walls = f"{max(0.0, elapsed - evaluating) / elapsed:.1%} outside the stored evaluations' walls"
+    if simulating is None:
+        return f"{by_walls} of the wall time"
+    return f"{max(0.0, elapsed - simulating) / elapsed:.1%} of the wall time outside the batches ({by_walls})"
 
 
 #: turns of one process alone and two together in the ceiling's measurement
@@ -210,7 +224,7 @@ def main() -> None:
                 run_dir = Path(tmp) / "run"
                 result = start_run(config, run_dir, show_progress=False)
                 load = max(load, os.getloadavg()[0])
-                run, elapsed = batches(run_dir)
+                run, elapsed, simulating = batches(run_dir)
             simulated = sum(n for n, _ in run)
             evaluating = sum(seconds for _, seconds in run)
             rate = simulated / elapsed
@@ -234,8 +248,7 @@ def main() -> None:
                 f"{rate:.1f} eval/s; "
                 f"best {result.fitness:.4f}; {len(run)} batches (sizes median {statistics.median(sizes):g}, "
                 f"min {sizes[0]}, max {sizes[-1]}); schedule efficiency at {schedule}; coordinator "
-                f"{max(0.0, elapsed - evaluating) / elapsed:.0%} of the wall time (1 worker's evaluation time is "
-                f"its batches' sum); load average {load:.2f}"
+                f"{coordinator_share(elapsed, simulating, evaluating)}; load average {load:.2f}"
             )
     base = statistics.median(rates[worker_counts[0]])
     for workers in [w for w in worker_counts[1:] if rates[w]]:

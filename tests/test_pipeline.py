@@ -185,6 +185,12 @@ def test_auto_without_a_budget_stops_when_converged_and_says_so(tmp_path):
     assert verdict is not None and 0 < verdict["floor"] < result.fitness
     assert verdict["over_floor"] == pytest.approx(result.fitness / verdict["floor"])
     assert [m["name"] for m in verdict["moved"]] == ["command_delay"] and verdict["moved"][0]["generic"] == 0.0
+    # the seconds inside its batches, kept for the coordinator's share (benchmarks/auto_workers.py): some, not more
+    # than the search's elapsed time
+    store = RunStore.open_read_only(tmp_path / "run")
+    simulating, elapsed = store.get("session_simulating_s"), store.get("elapsed_s")
+    store.close()
+    assert 0 < simulating <= elapsed
 
 
 def test_a_batch_that_would_run_past_max_seconds_is_not_started(tmp_path):

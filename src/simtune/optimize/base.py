@@ -238,7 +238,9 @@ class BatchSearch:
             elapsed,
             keep_population=population,
         )
-        self.store.set(elapsed_s=elapsed)
+        # this session's seconds inside the Evaluator's batches: what is left of its elapsed time is the coordinator's
+        # (the solver, DE, the checks; benchmarks/auto_workers.py reads it)
+        self.store.set(elapsed_s=elapsed, session_simulating_s=self.evaluator.simulated_seconds)
         if self.settings.on_generation:
             self.settings.on_generation(generation, self.best_fitness)
         spent = self._check()
