@@ -260,7 +260,7 @@ def test_a_global_phase_scores_the_population_it_starts_from_once(tmp_path):
     with search:
         search.evaluate(population)
         simulated = search.evaluator.simulated_jobs
-        last, _, _ = pipeline._global_phase(search, population, seed=7)
+        last, _ = pipeline._global_phase(search, population, seed=7)
         trials = search.evaluator.simulated_jobs - simulated
     store.close()
     # 2 generations of 5 trials were simulated; the 5 members it started from were not, not even as copies
