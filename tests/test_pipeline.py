@@ -247,7 +247,7 @@ def test_a_global_phase_scores_the_population_it_starts_from_once(tmp_path):
     the opening's best) was simulated again, member by member, as new points (issue 44). Now its first batch is
     served by the store and the population the phase returns holds the points themselves, not their copies."""
     from simtune.optimize.base import BatchSearch
-    from simtune.optimize.evaluator import TuneSettings, as_originals
+    from simtune.optimize.evaluator import TuneSettings
     from simtune.run_plan import plan_run
 
     objective = plan_run(config()).objective()
@@ -269,4 +269,4 @@ def test_a_global_phase_scores_the_population_it_starts_from_once(tmp_path):
     near = [row for row in last if (np.abs(population - row) <= 1e-9).all(axis=1).any()]
     assert len(kept) == len(near) >= 1  # every member it kept is the point given, bit for bit
     tolerance = np.full(3, 1e-12)
-    np.testing.assert_array_equal(as_originals(scipy_copy, population, tolerance), population)
+    np.testing.assert_array_equal(pipeline.as_originals(scipy_copy, population, tolerance), population)

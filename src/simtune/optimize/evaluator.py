@@ -250,27 +250,6 @@ def _batch_results(
         yield indices[j], payload, result, wall_s
 
 
-def as_originals(vectors: np.ndarray, points: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
-    """``vectors`` (one per row) with each that lies within ``tolerance`` (per parameter) of a row of ``points``
-    replaced by that row: a point moved by rounding errors is the point itself.
-
-    Args:
-        vectors: the vectors, one per row.
-        points: the points they may be copies of, one per row.
-        tolerance: the largest difference per parameter that counts as rounding.
-    Returns:
-        A new array of ``vectors``' shape.
-    """
-    out = np.array(vectors, dtype=float)
-    if out.ndim != 2 or len(points) == 0 or out.shape[1] != np.shape(points)[1]:
-        return out
-    for i, x in enumerate(out):
-        near = np.flatnonzero(np.all(np.abs(points - x) <= tolerance, axis=1))
-        if len(near):
-            out[i] = points[near[0]]
-    return out
-
-
 _WORKER_OBJECTIVE: Objective | None = None
 
 
@@ -367,8 +346,6 @@ class Evaluator:
         self.steps = 0
         #: fitness of each trial's parent, in SciPy's population order (None: no pruning)
         self.parent_energies: np.ndarray | None = None
-        #: points the next batch's vectors may be copies of, moved by rounding (:meth:`expect_copies`), and how far
-        self._originals: tuple[np.ndarray, np.ndarray] | None = None
         self.prune = prune
         self._pool: ProcessPool | None = None
         self._blas_limit: threadpool_limits | None = None
@@ -617,35 +594,12 @@ class Evaluator:
             return score.fitness
         raise AssertionError("one job gives one result")
 
-    def expect_copies(self, points: np.ndarray, tolerance: np.ndarray) -> None:
-        """Take the next batch's vectors that lie within ``tolerance`` (per parameter) of one of ``points`` as that
-        point itself: scored from the store, or simulated and stored as it is.
-
-        SciPy's differential evolution scales an ``init`` population into its unit cube and back before scoring it,
-        which moves a coordinate by a rounding error: without this, every member of a population scored already (the
-        last round's, the opening's best) would be simulated again as a new point, a whole batch per round.
-
-        Args:
-            points: the points, one per row (the population handed to SciPy).
-            tolerance: the largest difference per parameter that counts as rounding.
-        """
-        self._originals = (np.array(points, dtype=float), np.asarray(tolerance, dtype=float))
-
-    def _as_originals(self, vectors: list[np.ndarray]) -> list[np.ndarray]:
-        """``vectors`` with each copy of a point of :meth:`expect_copies` replaced by that point (once: the
-        expectation holds for one batch)."""
-        if self._originals is None:
-            return vectors
-        points, tolerance = self._originals
-        self._originals = None
-        return list(as_originals(np.array(vectors), points, tolerance))
-
     def evaluate(self, vectors) -> np.ndarray:
         """Fitness of each vector of a batch (one generation), from the store or simulated."""
         return np.asarray(self(None, vectors), dtype=float)
 
     def __call__(self, func, vectors) -> list[float]:
-        vectors = self._as_originals([np.asarray(x, dtype=float) for x in vectors])
+        vectors = [np.asarray(x, dtype=float) for x in vectors]
         self.requested += len(vectors)
         self._batch_failures = []
         parents = self.parent_energies

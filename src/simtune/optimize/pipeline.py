@@ -12,9 +12,8 @@ is often one basin away.  Then, in rounds:
    ``resume --rescore``, from the old run's last population, with no opening), every later one from the
    last round's population
    with a fresh seed: the global search goes on where it stopped.  Those members are scored already: SciPy's
-   scaling into its unit cube and back moves them by rounding errors, and the Evaluator takes such a copy as the
-   member itself (:meth:`~simtune.optimize.evaluator.Evaluator.expect_copies`), so a round's first batch comes from
-   the store;
+   scaling into its unit cube and back moves them by rounding errors, and the phase takes such a copy as the member
+   itself (:func:`as_originals`), so a round's first batch comes from the store;
 2. **local**: SciPy's ``least_squares`` (trust-region reflective, within the bounds, in the unit cube)
    from the best point of the run on the per-sample residuals (:func:`simtune.fitness.residuals`),
    with a forward-difference Jacobian whose D perturbed points go to the Evaluator as one batch (worker
@@ -72,6 +71,8 @@ reads it from the start-up cache (:func:`simtune.alignment.cached_delay`) or run
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from scipy.optimize import differential_evolution
 
@@ -79,7 +80,7 @@ from simtune.alignment import cached_delay, delay_parameter
 from simtune.objective import Objective, generic_values
 from simtune.optimize.base import BatchSearch, BudgetSpent
 from simtune.optimize.de import DE_SETTINGS, POPSIZE
-from simtune.optimize.evaluator import TuneResult, TuneSettings, as_originals
+from simtune.optimize.evaluator import TuneResult, TuneSettings
 from simtune.optimize.refine import least_squares_phase
 from simtune.optimize.start_check import warn_about_start
 from simtune.store import RunStore
@@ -310,6 +311,31 @@ def _opening_draw(dim: int, seed: int) -> tuple[np.random.Generator, np.ndarray,
     return rng, unit, 1 + int(NEAR_SHARE * size)
 
 
+def as_originals(vectors: np.ndarray, points: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
+    """``vectors`` (one per row) with each that lies within ``tolerance`` (per parameter) of a row of ``points``
+    replaced by that row: a point moved by rounding errors is the point itself.
+
+    SciPy's differential evolution scales an ``init`` population into its unit cube and back before scoring it,
+    which moves a coordinate by a rounding error: without this, every member of a population scored already (the
+    last round's, the opening's best) would be simulated again as a new point, a whole batch per round.
+
+    Args:
+        vectors: the vectors, one per row.
+        points: the points they may be copies of, one per row.
+        tolerance: the largest difference per parameter that counts as rounding.
+    Returns:
+        A new array of ``vectors``' shape.
+    """
+    out = np.array(vectors, dtype=float)
+    if out.ndim != 2 or len(points) == 0 or out.shape[1] != np.shape(points)[1]:
+        return out
+    for i, x in enumerate(out):
+        near = np.flatnonzero(np.all(np.abs(points - x) <= tolerance, axis=1))
+        if len(near):
+            out[i] = points[near[0]]
+    return out
+
+
 def _global_phase(search: BatchSearch, init: np.ndarray | None, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """``GLOBAL_GENERATIONS`` generations of differential evolution (the paper's settings) from ``init`` (None:
     a latin hypercube); its last population and their fitness."""
@@ -327,15 +353,23 @@ def _global_phase(search: BatchSearch, init: np.ndarray | None, seed: int) -> tu
         return spent
 
     search.evaluator.parent_energies = None
+    workers: Callable = search.evaluator
     if init is not None:  # members scored already: SciPy's scaling moves them by rounding errors only
         tolerance = ROUNDING * np.maximum(search.highs - search.lows, np.abs(init).max(axis=0))
-        search.evaluator.expect_copies(init, tolerance)
+        scored_first: list[bool] = []
+
+        def workers(func, vectors):  # the Evaluator, its first batch (the population SciPy starts from) as given
+            if not scored_first:
+                scored_first.append(True)
+                vectors = as_originals(np.asarray(vectors, dtype=float), init, tolerance)
+            return search.evaluator(func, vectors)
+
     differential_evolution(
         lambda x: search.objective.score_vector(x).fitness,  # never called: the Evaluator is the workers map
         bounds=search.space.bounds,
         maxiter=GLOBAL_GENERATIONS,
         rng=np.random.default_rng(seed),
-        workers=search.evaluator,
+        workers=workers,
         callback=checkpoint,
         **{**DE_SETTINGS, **({"init": init} if init is not None else {})},
     )
