@@ -121,6 +121,13 @@ def test_rounds_converge_when_the_last_rounds_together_gain_less_than_the_tolera
     assert not pipeline.converged(flat[:-1])  # not enough rounds yet
     assert not pipeline.converged([1.0] + [1.0 - 2 * rtol * k for k in range(1, patience + 1)])  # still gaining
     assert not pipeline.converged([float("inf")] * (patience + 1))  # nothing scored yet: no basin to judge
+    # a long run is judged on the last half of its rounds: twelve rounds gaining 3 % each, then two flat ones, go on
+    # (real `cube`'s finds come in bursts after such plateaus); flat for half of the rounds, it has converged
+    gaining = [0.97**k for k in range(13)]
+    assert pipeline.patience(gaining + [gaining[-1]] * 2) == 7
+    assert not pipeline.converged(gaining + [gaining[-1]] * patience)
+    assert pipeline.converged(gaining + [gaining[-1]] * 11)  # 23 rounds, the last 11 flat
+    assert not pipeline.converged(gaining + [gaining[-1]] * 10)  # 22 rounds, the last 11 gained 3 %
 
 
 def test_the_noise_floor_is_what_the_mean_of_the_repeats_leaves_a_fit_of_the_truth():
