@@ -374,11 +374,12 @@ def _global_phase(search: BatchSearch, init: np.ndarray | None, seed: int) -> tu
     workers: Callable = search.evaluator
     if init is not None:  # members scored already: SciPy's scaling moves them by rounding errors only
         tolerance = ROUNDING * np.maximum(search.highs - search.lows, np.abs(init).max(axis=0))
-        scored_first: list[bool] = []
+        first_batch = True
 
         def workers(func, vectors):  # the Evaluator, its first batch (the population SciPy starts from) as given
-            if not scored_first:
-                scored_first.append(True)
+            nonlocal first_batch
+            if first_batch:
+                first_batch = False
                 vectors = as_originals(np.asarray(vectors, dtype=float), init, tolerance)
             return search.evaluator(func, vectors)
 
