@@ -1,12 +1,15 @@
 """Time alignment per recording: per-task command delays, their estimate, and evaluate aligning an unseen clock."""
 
 import json
+import math
 import subprocess
 import sys
 
 import pytest
+from scipy.optimize import minimize_scalar
 
-from simtune.alignment import estimate_delay
+from simtune import alignment
+from simtune.alignment import TOLERANCE_S, estimate_delay
 from simtune.engines.controller import JointController
 from simtune.errors import ConfigError
 from simtune.objective import Objective, load_references
@@ -60,12 +63,39 @@ def test_the_delay_of_a_recording_is_found_with_the_physics_fixed(cube_objective
     """The shipped reference was simulated with a 1.4 s delay (+- 0.05 s jitter per repeat)."""
     task, objective = cube_objective
     physics = {k: v for k, v in TRUTH.items() if k != "command_delay"}
-    estimate = estimate_delay(objective, task, physics)
+    estimate = estimate_delay(objective, task, physics, scan=False)  # auto's start-up: one bounded search
     assert estimate.recorded_onset_s is not None and estimate.simulated_onset_s is not None
     assert estimate.onset_delay_s == pytest.approx(1.4, abs=0.15)
     assert estimate.delay_s == pytest.approx(1.4, abs=0.05)
     assert estimate.fitness < estimate.fitness_unaligned
     assert estimate.fitness == pytest.approx(objective.score({**physics, "command_delay": estimate.delay_s}).fitness)
+
+
+def test_the_scan_finds_the_deepest_of_narrow_valleys_one_bounded_search_misses():
+    """A contact task's fitness over the delay: valleys 0.02 s wide, 0.1 s apart, the deepest not the nearest."""
+    depths = {0.3: 0.45, 0.4: 0.45, 0.5: 0.45, 0.6: 0.45, 0.7: 0.45, 0.8: 0.7}
+
+    def comb(delay: float) -> float:
+        return 1.0 - sum(d * math.exp(-(((delay - at) / 0.01) ** 2)) for at, d in depths.items())
+
+    one_search = minimize_scalar(comb, bounds=(0.2, 0.9), method="bounded", options={"xatol": TOLERANCE_S})
+    assert comb(float(one_search.x)) > 0.4  # the premise: Brent's bounded search alone ends elsewhere
+    delay, best = alignment._scanned(comb, 0.2, 0.9)
+    assert delay == pytest.approx(0.8, abs=0.002)
+    assert best == pytest.approx(comb(delay)) and best < 0.31
+
+
+@pytest.mark.slow  # 25 s
+def test_the_scanned_delay_is_never_worse_than_one_search_or_the_delay_the_parameters_carry(cube_objective):
+    task, objective = cube_objective
+    physics = {k: v for k, v in TRUTH.items() if k != "command_delay"}
+    single = estimate_delay(objective, task, physics, scan=False)
+    scanned = estimate_delay(objective, task, {**physics, "command_delay": 1.4})
+    assert scanned.fitness <= single.fitness
+    assert scanned.fitness <= scanned.fitness_unaligned
+    assert scanned.delay_s == pytest.approx(1.4, abs=0.05)
+    assert scanned.rollouts > 100  # the window's grid, every 10 ms
+    assert scanned.fitness == pytest.approx(objective.score({**physics, "command_delay": scanned.delay_s}).fitness)
 
 
 @pytest.mark.slow  # 9 s
