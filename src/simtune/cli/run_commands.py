@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -87,20 +88,24 @@ def evaluate(
     """
     from simtune import api
 
-    score = api.evaluate(
-        engine,
-        task,
-        project=project,
-        data=data,
-        params=params_file,
-        weights=weights,
-        joint_topic=joint_topic,
-        align_clock=_tasks_to_align(align_clock, params_file, task, project),
-        reference=reference,
-        repeats=repeats,
-        targets=targets,
-        keep_repeats=keep_repeats,
-    )
+    aligning = _tasks_to_align(align_clock, params_file, task, project)
+    # aligning a clock scans its delay (about a hundred rollouts a task): minutes in a slow engine, so say so
+    doing = f"{engine}: scoring {task}" + (f", aligning the clock of {', '.join(aligning)}" if aligning else "")
+    with err.status(doing) if sys.stderr.isatty() and not as_json else nullcontext():
+        score = api.evaluate(
+            engine,
+            task,
+            project=project,
+            data=data,
+            params=params_file,
+            weights=weights,
+            joint_topic=joint_topic,
+            align_clock=aligning,
+            reference=reference,
+            repeats=repeats,
+            targets=targets,
+            keep_repeats=keep_repeats,
+        )
     if as_json:
         print_json(evaluation_json(engine, task, score))
         return
