@@ -98,7 +98,7 @@ def test_the_scanned_delay_is_never_worse_than_one_search_or_the_delay_the_param
     assert scanned.fitness == pytest.approx(objective.score({**physics, "command_delay": scanned.delay_s}).fitness)
 
 
-@pytest.mark.slow  # 9 s
+@pytest.mark.slow  # 30-50 s (two delay scans of cube)
 def test_evaluate_aligns_a_clock_when_asked_and_says_so(tmp_path):
     physics = {k: v for k, v in TRUTH.items() if k != "command_delay"}
     path = tmp_path / "tuned.json"
