@@ -21,6 +21,15 @@ def test_space_sizes_match_the_paper():
     }
 
 
+def test_gains_is_calibrated_plus_the_gains_in_the_drive_train_s_order():
+    calibrated, gains, drivetrain = (SPACES[s] for s in ("calibrated", "gains", "drivetrain"))
+    assert gains[:72] == calibrated
+    assert {p.name for p in gains[72:]} == {f"{k}_joint_{i}" for k in ("kp", "servo_gain") for i in range(1, 7)}
+    assert list(gains) == [p for p in drivetrain if p in gains]  # a run of drivetrain --only these is the same search
+    assert list(SPACES).index("gains") == list(SPACES).index("calibrated") + 1
+    assert get_space("gains", engine_class("pybullet").supported()).names[-6:] == [f"kp_joint_{i}" for i in range(1, 7)]
+
+
 def test_the_drive_train_is_in_extended_for_an_own_robot():
     from dataclasses import replace
 
@@ -31,6 +40,7 @@ def test_the_drive_train_is_in_extended_for_an_own_robot():
     names = [p.name for p in robot_spaces(own)["extended"]]
     assert "armature_joint_1" in names and "kp_joint_6" in names and "servo_gain_joint_4" in names
     assert len(robot_spaces(own)["drivetrain"]) == len(robot_spaces(own)["calibrated"])
+    assert robot_spaces(own)["gains"] == robot_spaces(own)["calibrated"]
 
 
 def test_ranges_of_table_one():

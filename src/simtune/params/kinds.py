@@ -341,6 +341,11 @@ DRIVE_KINDS = tuple(kind for kind in KINDS if kind.apply is not None)
 #: The nested spaces, smallest first (``drivetrain``: ``calibrated`` plus, for the MICO, the drive-train kinds; for
 #: another robot they are in ``extended`` already, and ``drivetrain`` is ``calibrated``).
 SPACE_ORDER = ("shared", "individual", "extended", "calibrated", "drivetrain")
+#: Spaces that are a step of :data:`SPACE_ORDER` plus some kinds of the next, listed after the step they extend:
+#: ``gains`` is ``calibrated`` plus each joint's controller gain and servo gain - a servo's hidden firmware
+#: gains, without the armature and friction that a wrist marker alone cannot pin (docs/calibration.md).  For
+#: another robot those kinds are in ``extended`` already, and ``gains`` is ``calibrated``.
+SELECTIONS = {"gains": ("calibrated", ("kp_joint", "servo_gain_joint"))}
 
 #: The seed paper's motor force limit range [N m], for joints whose description gives no effort.
 TORQUE_RANGE = (100.0, 9000.0)

@@ -30,6 +30,7 @@ import numpy as np
 from simtune.errors import ConfigError
 from simtune.params.kinds import (
     AXIS,
+    BY_NAME,
     FIXED_BOUNDS,
     JOINT,
     KINDS,
@@ -37,6 +38,7 @@ from simtune.params.kinds import (
     MASS_FACTORS,
     MATERIAL,
     OBJECT,
+    SELECTIONS,
     SPACE_ORDER,
     Kind,
     joint_bounds,
@@ -119,14 +121,23 @@ def _kind_parameters(kind: Kind, robot: RobotDescription) -> list[Parameter]:
 
 @lru_cache(maxsize=8)
 def robot_spaces(robot: RobotDescription) -> dict[str, tuple[Parameter, ...]]:
-    """The spaces ``shared``, ``individual``, ``extended`` and ``calibrated`` for ``robot``'s driven
-    joints and links: each the one before it plus the kinds (:data:`simtune.params.kinds.KINDS`) it adds."""
-    spaces: dict[str, tuple[Parameter, ...]] = {}
+    """The spaces of :data:`~simtune.params.kinds.SPACE_ORDER` for ``robot``'s driven joints and links, each the
+    one before it plus the kinds (:data:`simtune.params.kinds.KINDS`) it adds, and after the step each selection of
+    :data:`~simtune.params.kinds.SELECTIONS` extends, that selection: its step plus the parameters of its kinds, in
+    the order the whole set holds them (so that no nested space changes its order)."""
+    nested: dict[str, tuple[Parameter, ...]] = {}
     held: list[Parameter] = []
     mico = robot == MICO
     for space in SPACE_ORDER:
         held += [p for kind in KINDS if kind.home(mico) == space for p in _kind_parameters(kind, robot)]
-        spaces[space] = tuple(held)
+        nested[space] = tuple(held)
+    spaces: dict[str, tuple[Parameter, ...]] = {}
+    for space, params in nested.items():
+        spaces[space] = params
+        for name, (step, kinds) in SELECTIONS.items():
+            if step == space:
+                added = {p.name for kind in kinds for p in _kind_parameters(BY_NAME[kind], robot)}
+                spaces[name] = tuple(p for p in held if p in params or p.name in added)
     return spaces
 
 

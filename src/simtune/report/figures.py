@@ -25,7 +25,14 @@ PNG_DPI = 110
 RECORDED = "#222222"
 UNTUNED = "#d62728"
 TUNED = "#1f77b4"
-SPACE_STYLES = {"shared": ":", "individual": "--", "extended": "-", "calibrated": "-.", "drivetrain": (0, (5, 1, 1, 1))}
+SPACE_STYLES = {
+    "shared": ":",
+    "individual": "--",
+    "extended": "-",
+    "calibrated": "-.",
+    "gains": (0, (3, 1, 1, 1, 1, 1)),
+    "drivetrain": (0, (5, 1, 1, 1)),
+}
 PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
 
 
