@@ -34,6 +34,7 @@ from scipy.optimize import minimize_scalar
 
 from simtune.data.cache import cached
 from simtune.data.onset import motion_onset
+from simtune.engines.controller import given_delay
 from simtune.fitness import marker_positions
 from simtune.objective import Objective, simulation_content
 from simtune.params import find_parameter
@@ -129,7 +130,7 @@ def estimate_delay(
         at_first = fitness(first)
         if at_first <= best:  # the search never returns worse than its starting estimate
             delay, best = first, at_first
-        own = _own_delay(params, task.name)
+        own = given_delay(task.name, params)
         if scan and own is not None and unaligned < best:  # nor than the delay the parameters carry
             delay, best = own, unaligned
     finally:
@@ -152,12 +153,6 @@ def _scanned(fitness: Callable[[float], float], low: float, high: float) -> tupl
         if float(result.fun) < best:
             delay, best = float(result.x), float(result.fun)
     return delay, best
-
-
-def _own_delay(params: dict[str, float], task: str) -> float | None:
-    """The delay ``params`` give ``task`` (its own before the shared one, as the controller reads them), if any."""
-    value = params.get(delay_parameter(task), params.get("command_delay"))
-    return None if value is None else float(value)
 
 
 def cached_delay(objective: Objective, task: TaskSpec, params: dict[str, float]) -> DelayEstimate:

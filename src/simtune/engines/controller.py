@@ -29,6 +29,8 @@ torque.  Without these parameters the encoder reads the true angle.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import numpy.typing as npt
 
@@ -53,6 +55,13 @@ def encoder_parameters(n_joints: int) -> frozenset[str]:
 CONTROLLER_PARAMETERS = controller_parameters(6)
 
 
+def given_delay(task: str, params: Mapping[str, float]) -> float | None:
+    """The command delay [s] ``params`` give ``task``: its own (``command_delay_<task>``, tasks tuned together)
+    before the shared ``command_delay``; None where they give neither (the controller then runs without one)."""
+    value = params.get(f"command_delay_{task}", params.get("command_delay"))
+    return None if value is None else float(value)
+
+
 class JointController:
     """Clamped proportional velocity control towards the task's joint targets.
 
@@ -68,8 +77,8 @@ class JointController:
         self.kp = np.array([params.get(f"kp_joint_{i}", task.kp) for i in range(1, n + 1)], dtype=float)
         v_max = [params.get(f"max_velocity_joint_{i}", task.max_velocity_deg) for i in range(1, n + 1)]
         self.v_max = np.radians(np.array(v_max, dtype=float))
-        # a task's own delay (``command_delay_<task>``, tasks tuned together) before the shared one
-        self.delay = float(params.get(f"command_delay_{task.name}", params.get("command_delay", 0.0)))
+        delay = given_delay(task.name, params)
+        self.delay = 0.0 if delay is None else delay
         #: how long after each 20 Hz sample instant the controller updates [s], in [0, CONTROL_PERIOD)
         self.phase = self.delay % CONTROL_PERIOD
         robot = task.robot
