@@ -20,7 +20,8 @@ from pathlib import Path
 
 from common import QRG2019_DATA, make_parser
 
-from simtune.alignment import delay_parameter, estimate_delay
+from simtune.alignment import estimate_delay
+from simtune.params.kinds import task_delay_name
 from simtune.run_plan import plan_run
 from simtune.runs import read_run_record
 
@@ -44,7 +45,7 @@ def main() -> int:
         for scan in (True, False):
             params = dict(best)
             for task in objective.tasks:
-                params[delay_parameter(task.name)] = estimate_delay(objective, task, params, scan=scan).delay_s
+                params[task_delay_name(task.name)] = estimate_delay(objective, task, params, scan=scan).delay_s
             aligned = objective.score(params)
             parts = ", ".join(f"{t.task} {t.fitness:.5f}" for t in aligned.tasks)
             seen = "fitted" if repeats == stored.repeats else "held out"

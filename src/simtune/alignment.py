@@ -38,6 +38,7 @@ from simtune.engines.controller import given_delay
 from simtune.fitness import marker_positions
 from simtune.objective import Objective, simulation_content
 from simtune.params import find_parameter
+from simtune.params.kinds import DELAY, delay_names, task_delay_name
 from simtune.tasks import TaskSpec
 
 #: How far [s] the 1-D search may move the delay from the onset estimate, each way.
@@ -68,16 +69,11 @@ class DelayEstimate:
 
     @property
     def parameter(self) -> str:
-        return delay_parameter(self.task)
-
-
-def delay_parameter(task: str) -> str:
-    """The name of a task's own command delay."""
-    return f"command_delay_{task}"
+        return task_delay_name(self.task)
 
 
 def _without_delay(params: dict[str, float], task: str) -> dict[str, float]:
-    return {k: v for k, v in params.items() if k not in ("command_delay", delay_parameter(task))}
+    return {k: v for k, v in params.items() if k not in delay_names(task)}
 
 
 def estimate_delay(
@@ -96,13 +92,13 @@ def estimate_delay(
     """
     reference = objective.references[task.name]
     one = Objective(objective.engine, [task], {task.name: reference})
-    bounds = find_parameter("command_delay")
-    assert bounds is not None, "command_delay is a known parameter"
+    bounds = find_parameter(DELAY)
+    assert bounds is not None, "the command delay is a known parameter"
     rollouts = 0
     try:
         base = _without_delay(params, task.name)
         unaligned = one.score(params).fitness
-        probe = {**base, delay_parameter(task.name): PROBE_DELAY_S}
+        probe = {**base, task_delay_name(task.name): PROBE_DELAY_S}
         rollout = one.rollouts(probe)[task.name]
         rollouts += 2
         onset = motion_onset(rollout.times, marker_positions(rollout, probe))
@@ -119,7 +115,7 @@ def estimate_delay(
         def fitness(delay: float) -> float:
             nonlocal rollouts
             rollouts += 1
-            return one.score({**base, delay_parameter(task.name): float(delay)}).fitness
+            return one.score({**base, task_delay_name(task.name): float(delay)}).fitness
 
         low, high = max(bounds.low, first - SEARCH_S), min(bounds.high, first + SEARCH_S)
         if scan:

@@ -47,6 +47,7 @@ from simtune.optimize.pipeline import LOCAL_NFEV, STALL_FTOL
 from simtune.optimize.refine import STEP as LOCAL_STEP
 from simtune.optimize.refine import jacobian_from, jacobian_points
 from simtune.params import ParameterSpace
+from simtune.params.kinds import delay_names
 from simtune.store import RunStore
 
 #: Finite-difference step, as a fraction of each parameter's range.
@@ -515,8 +516,6 @@ def repeat_spread(objective: Objective, x_timestep: float | None = None) -> Repe
     Returns:
         The :class:`RepeatSpread`.
     """
-    from simtune.alignment import delay_parameter
-
     names = objective.vector_space().names
     counts = objective.residual_counts()
     # the simulation starts each controller update on a whole physics step: a delay is resolved to one step
@@ -530,7 +529,7 @@ def repeat_spread(objective: Objective, x_timestep: float | None = None) -> Repe
         origin = 0.0
         if shifts is not None and len(shifts) >= 2:
             origin = (MEDIAN_EFFICIENCY * float(np.std(shifts, ddof=1))) ** 2 / len(shifts)
-        delays = [names.index(name) for name in (delay_parameter(task.name), "command_delay") if name in names]
+        delays = [names.index(name) for name in delay_names(task.name) if name in names]
         for i in delays:
             clock[i] = max(clock.get(i, 0.0), origin + resolution)
         if not delays and origin > 0:

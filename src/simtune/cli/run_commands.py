@@ -117,6 +117,7 @@ def _tasks_to_align(align_clock: bool | None, params_file: Path | None, task: st
     """The tasks whose clocks evaluate aligns: all (--align-clock), none (--no-align-clock), or by default those a
     run's parameter file was not tuned on (its 'tasks' field) and does not time with its own delay."""
     from simtune.params import read_params_file
+    from simtune.params.kinds import task_delay_name
     from simtune.project import get_project
 
     names = [t.name for t in get_project(project).parse_tasks(task)]
@@ -135,7 +136,7 @@ def _tasks_to_align(align_clock: bool | None, params_file: Path | None, task: st
         params = read_params_file(params_file)
     except SimtuneError:
         return []
-    return [name for name in names if name not in seen and f"command_delay_{name}" not in params]
+    return [name for name in names if name not in seen and task_delay_name(name) not in params]
 
 
 def report_tune(result, run_dir: Path, config, as_json: bool) -> None:

@@ -34,7 +34,7 @@ from collections.abc import Mapping
 import numpy as np
 import numpy.typing as npt
 
-from simtune.params.kinds import CONTROLLER, ENCODERS, applied_outside
+from simtune.params.kinds import CONTROLLER, ENCODERS, applied_outside, delay_names
 from simtune.tasks.spec import TaskSpec
 
 CONTROL_PERIOD = 0.05  # seconds between controller updates (20 Hz)
@@ -58,7 +58,8 @@ CONTROLLER_PARAMETERS = controller_parameters(6)
 def given_delay(task: str, params: Mapping[str, float]) -> float | None:
     """The command delay [s] ``params`` give ``task``: its own (``command_delay_<task>``, tasks tuned together)
     before the shared ``command_delay``; None where they give neither (the controller then runs without one)."""
-    value = params.get(f"command_delay_{task}", params.get("command_delay"))
+    own, shared = delay_names(task)
+    value = params.get(own, params.get(shared))
     return None if value is None else float(value)
 
 

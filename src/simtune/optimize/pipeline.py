@@ -80,13 +80,14 @@ from collections.abc import Callable
 import numpy as np
 from scipy.optimize import differential_evolution
 
-from simtune.alignment import cached_delay, delay_parameter
+from simtune.alignment import cached_delay
 from simtune.objective import Objective, generic_values
 from simtune.optimize.base import BatchSearch, BudgetSpent
 from simtune.optimize.de import DE_SETTINGS, POPSIZE
 from simtune.optimize.evaluator import TuneResult, TuneSettings
 from simtune.optimize.refine import least_squares_phase
 from simtune.optimize.start_check import warn_about_start
+from simtune.params.kinds import delay_names
 from simtune.store import RunStore
 
 GLOBAL_GENERATIONS = 10  # differential evolution generations per round's global phase
@@ -283,9 +284,10 @@ def aligned_generic_start(objective: Objective) -> np.ndarray:
     space = objective.vector_space()
     values = generic_values(objective, space.names)
     for task in objective.tasks:
-        name = delay_parameter(task.name) if delay_parameter(task.name) in space.names else "command_delay"
-        if name in space.names:
-            values[name] = cached_delay(objective, task, values).delay_s
+        for name in delay_names(task.name):
+            if name in space.names:
+                values[name] = cached_delay(objective, task, values).delay_s
+                break
     return space.vector_within_bounds(values)
 
 

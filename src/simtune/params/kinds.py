@@ -336,6 +336,22 @@ KINDS: tuple[Kind, ...] = (
 )
 #: kind name -> kind
 BY_NAME = {kind.name: kind for kind in KINDS}
+#: The command delay's kind: one delay shared by every task, or (tasks tuned together) one per task.
+DELAY = "command_delay"
+#: A task's own command delay is named ``command_delay_<task>``.
+TASK_DELAY_PREFIX = f"{DELAY}_"
+
+
+def task_delay_name(task: str) -> str:
+    """The name of ``task``'s own command delay (each task's recordings have their own clock)."""
+    return f"{TASK_DELAY_PREFIX}{task}"
+
+
+def delay_names(task: str) -> tuple[str, str]:
+    """The names a command delay for ``task`` can go by, the task's own first, then the shared one."""
+    return task_delay_name(task), DELAY
+
+
 #: The drive-train kinds each engine applies through one method of its own (``Kind.apply``).
 DRIVE_KINDS = tuple(kind for kind in KINDS if kind.apply is not None)
 #: The nested spaces, smallest first (``drivetrain``: ``calibrated`` plus, for the MICO, the drive-train kinds; for

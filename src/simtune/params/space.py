@@ -31,6 +31,7 @@ from simtune.errors import ConfigError
 from simtune.params.kinds import (
     AXIS,
     BY_NAME,
+    DELAY,
     FIXED_BOUNDS,
     JOINT,
     KINDS,
@@ -40,15 +41,14 @@ from simtune.params.kinds import (
     OBJECT,
     SELECTIONS,
     SPACE_ORDER,
+    TASK_DELAY_PREFIX,
     Kind,
     joint_bounds,
+    task_delay_name,
 )
 from simtune.robot.description import RobotDescription
 from simtune.robot.mico import MICO
 from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS
-
-#: The command delay's kind: one shared delay, or one per task (``command_delay_<task>``) when tasks are tuned together.
-DELAY = "command_delay"
 
 #: Nominal masses [kg] the seed paper's mass ranges are relative to (links 1..6 of the MICO, then objects).
 ARM_MASS_NOMINAL = MICO.nominal
@@ -180,16 +180,10 @@ class ParameterSpace:
         return np.array([min(max(values.get(p.name, (p.low + p.high) / 2), p.low), p.high) for p in self.parameters])
 
 
-#: A task's own command delay, when several tasks are tuned together: ``command_delay_<task>``.
-TASK_DELAY_PREFIX = f"{DELAY}_"
-
-
 def task_delay(task: str) -> Parameter:
     """The command delay of one task's recordings (each recording's clock starts when its operator pressed record)."""
     shared = PARAMETERS[DELAY]
-    return Parameter(
-        f"{TASK_DELAY_PREFIX}{task}", shared.low, shared.high, shared.unit, f"{shared.description}, task {task}"
-    )
+    return Parameter(task_delay_name(task), shared.low, shared.high, shared.unit, f"{shared.description}, task {task}")
 
 
 def find_parameter(name: str, known: Mapping[str, Parameter] | None = None) -> Parameter | None:
