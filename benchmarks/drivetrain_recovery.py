@@ -63,6 +63,8 @@ PHASE_S = 1.0
 #: the arm rests at its start pose this long before the first step [s] (so each recording's motion onset, which
 #: aligns the repeats' clocks, can be seen)
 REST_S = 0.5
+#: mirrorings and halvings of the phases that touch the floor before giving up
+FLOOR_TRIES = 8
 #: the truth, as shares of each range (armature, friction), as gains (kp) and as multiples of the servo's generic gain
 #: for the drive task (a softer servo: a stiffer one than the task's generic gain would clip on a light link at the
 #: drive's command steps), cycled over the joints
@@ -80,17 +82,23 @@ JOINT_NOISE_DEG = 0.05
 JITTER_S = 0.05
 REPEATS = 10
 WITHIN = 5.0  # [% of the range]
+#: each joint's armature, friction and servo gain scaled together by these, to test their scale symmetry
+SYMMETRY_SCALES = (0.8, 1.25)
+#: a fitness change [%] under which a joint's scaled truth counts as fitting as well as the truth
+SYMMETRIC = 0.5
 COVERAGE = 0.8
 
 
-def drive_task(joints: list[str], start: list[float], limits: list[tuple[float, float]], robot: str) -> str:
+def drive_task(
+    joints: list[str], start: list[float], limits: list[tuple[float, float]], robot: str, scales: list[float]
+) -> str:
     """The ``drive`` task file: each joint steps through :data:`PATTERN` (rotated by its index) around ``start``,
-    kept 5 deg inside its limits."""
+    each phase's offsets times its entry of ``scales``, kept 5 deg inside the joints' limits."""
     phases = [f"[[phases]]\nstart = 0.0\ntargets_deg = {json.dumps(start)}\n"]
     for k in range(len(PATTERN)):
         targets = []
         for i, (s, (lo, hi)) in enumerate(zip(start, limits, strict=True)):
-            offset = PATTERN[(k + i) % len(PATTERN)] * (1.0 if i % 2 == 0 else -1.0)
+            offset = PATTERN[(k + i) % len(PATTERN)] * (1.0 if i % 2 == 0 else -1.0) * scales[k]
             targets.append(round(min(max(s + offset, lo + 5.0), hi - 5.0), 2))
         phases.append(f"[[phases]]\nstart = {REST_S + k * PHASE_S:g}\ntargets_deg = {json.dumps(targets)}\n")
     return (
@@ -105,7 +113,7 @@ def drive_task(joints: list[str], start: list[float], limits: list[tuple[float, 
     )
 
 
-def make_project(folder: Path, robot: str) -> Path:
+def make_project(folder: Path, robot: str, servo_scale: float = 1.0) -> Path:
     from simtune.project import load_project
 
     (entry,) = [r for r in CORPUS if r.name == ROBOTS[robot]]
@@ -123,13 +131,41 @@ def make_project(folder: Path, robot: str) -> Path:
         hi = 180.0 if joint.upper is None else float(joint.upper) * 57.29577951308232
         limits.append((lo, hi))
     start = [round(float(v), 2) for v in reach.start_pose_deg]
-    text = drive_task(joints, start, limits, robot).replace("{link}", description.tracked_link)
-    (project / "tasks" / "drive.toml").write_text(text)
     file = project / "simtune.toml"
     file.write_text(
         file.read_text().replace('tasks = ["tasks/reach.toml"]', 'tasks = ["tasks/reach.toml", "tasks/drive.toml"]')
     )
-    return project
+    # a phase whose steps drive the hand into the floor is mirrored, then halved, until the arm stays clear of it
+    # with the generic parameters and with MuJoCo's truth: a touch makes the fitness jump
+    # wherever a parameter moves it by one physics step (docs/parameters.md)
+    scales = [1.0] * len(PATTERN)
+    for _ in range(FLOOR_TRIES):
+        text = drive_task(joints, start, limits, robot, scales).replace("{link}", description.tracked_link)
+        (project / "tasks" / "drive.toml").write_text(text)
+        true = truth(ranges(project, "mujoco"), task_servo_gains(project), servo_scale)
+        touched = phases_touching_floor(project, {}) | phases_touching_floor(project, true)
+        if not touched:
+            return project
+        for k in touched:
+            scales[k] = -scales[k] if scales[k] > 0 else -scales[k] / 2
+        print(f"{robot}: the drive task's phase(s) {sorted(touched)} touch the floor; scales now {scales}", flush=True)
+    sys.exit(f"{robot}: the drive task still touches the floor after {FLOOR_TRIES} tries")
+
+
+def phases_touching_floor(project: Path, params: dict[str, float]) -> set[int]:
+    """The phases of :data:`PATTERN` (0-based) during which the arm touches the floor in MuJoCo with ``params``."""
+    from simtune.engines import make_engine
+    from simtune.engines.contact import floor_touches
+    from simtune.project import load_project
+
+    task = load_project(project).task("drive")
+    engine = make_engine("mujoco", task)
+    try:
+        spans = floor_touches(engine, params)
+    finally:
+        engine.close()
+    # a touch that goes on after a phase's end belongs to the phase that drove the hand down
+    return {min(max(int((t0 - REST_S) // PHASE_S), 0), len(PATTERN) - 1) for t0, _ in spans}
 
 
 def ranges(project: Path, engine: str, kinds: tuple[str, ...] = KINDS) -> dict[str, tuple[float, float]]:
@@ -152,7 +188,9 @@ def task_servo_gains(project: Path) -> tuple[float, ...]:
     return servo_gains(task.robot, command_step(task.max_velocity_deg))
 
 
-def truth(bounds: dict[str, tuple[float, float]], servo: tuple[float, ...] = ()) -> dict[str, float]:
+def truth(
+    bounds: dict[str, tuple[float, float]], servo: tuple[float, ...] = (), servo_scale: float = 1.0
+) -> dict[str, float]:
     out = {}
     for name, (lo, hi) in bounds.items():
         kind, index = name.rsplit("_", 1)
@@ -160,7 +198,8 @@ def truth(bounds: dict[str, tuple[float, float]], servo: tuple[float, ...] = ())
         if kind == "kp_joint":
             out[name] = KP[i % len(KP)]
         elif kind == "servo_gain_joint":
-            out[name] = round(min(max(SERVO_GAIN_FACTOR[i % len(SERVO_GAIN_FACTOR)] * servo[i], lo), hi), 6)
+            gain = servo_scale * SERVO_GAIN_FACTOR[i % len(SERVO_GAIN_FACTOR)] * servo[i]
+            out[name] = round(min(max(gain, lo), hi), 6)
         else:
             share = (ARMATURE_SHARE if kind == "armature_joint" else FRICTION_SHARE)[i % len(ARMATURE_SHARE)]
             out[name] = round(lo + share * (hi - lo), 6)
@@ -191,12 +230,13 @@ def recover(
     delay_s: float = DELAY_S,
     bootstrap: int = 0,
     kinds: tuple[str, ...] = KINDS,
+    servo_scale: float = 1.0,
 ) -> dict:
     """Synthesise the truth in ``engine``, tune it back, and compare per parameter (the command delay tuned with
     the drive train unless ``delay_s`` is 0: then it is held at 0, the truth's); the kinds left out of ``kinds``
     stay at their generic values in the truth and in the tune."""
     bounds = ranges(project, engine, kinds)
-    true = truth(bounds, task_servo_gains(project))
+    true = truth(bounds, task_servo_gains(project), servo_scale)
     truth_file = work / f"truth-{engine}.json"
     truth_file.write_text(json.dumps({"command_delay": delay_s, **true}))
     data = work / f"recordings-{engine}"
@@ -207,6 +247,7 @@ def recover(
                                 "--data", data, "--json"))["fitness"]  # fmt: skip
     floor = last_json(simtune("evaluate", "--project", project, "--engine", engine, "--task", "drive",
                               "--data", data, "--params-file", truth_file, "--json"))["fitness"]  # fmt: skip
+    symmetric = scale_symmetry(project, engine, data, true, bounds, work, floor)
     run = work / f"tune-{engine}"
     only = ",".join(["command_delay", *true] if delay_s > 0 else true)
     started = time.monotonic()
@@ -236,7 +277,47 @@ def recover(
     tuned = float(best.get("fitness", float("nan"))) if isinstance(best, dict) else float("nan")
     delay = {"truth": delay_s, "estimate": float(values.get("command_delay", 0.0)), **found.get("command_delay", {})}
     return {"engine": engine, "wall_s": round(wall, 1), "generic": generic, "floor": floor, "tuned": tuned,
-            "rows": rows, "delay": delay}  # fmt: skip
+            "rows": rows, "delay": delay, "scale_symmetry": symmetric}  # fmt: skip
+
+
+def scale_symmetry(
+    project: Path,
+    engine: str,
+    data: Path,
+    true: dict[str, float],
+    bounds: dict[str, tuple[float, float]],
+    work: Path,
+    floor: float,
+) -> dict[str, list[float | None]]:
+    """Per joint whose armature, Coulomb friction and servo gain are all tuned: the truth's fitness change [%] with
+    the three scaled together by each of :data:`SYMMETRY_SCALES`.  Below its force limit a velocity servo's joint
+    moves by (link inertia + armature) / gain and friction / gain alone, so where the link's own inertia is small
+    and gravity does not load the joint (a wrist roll) the scaled truth fits as well as the truth: no recording of
+    such motion can tell the three apart, and an unbounded interval is the right answer.  None where a scaled
+    value leaves its range (a truth at the edge of it)."""
+    out: dict[str, list[float | None]] = {}
+    joints = sorted({name.rsplit("_", 1)[1] for name in true if name.startswith("servo_gain_joint_")}, key=int)
+    for j in joints:
+        names = [f"{kind}_{j}" for kind in ("armature_joint", "friction_joint", "servo_gain_joint")]
+        if any(name not in true for name in names):
+            continue
+        changes: list[float | None] = []
+        for scale in SYMMETRY_SCALES:
+            values = {name: true[name] * scale for name in names}
+            if any(not bounds[name][0] <= value <= bounds[name][1] for name, value in values.items()):
+                changes.append(None)
+                continue
+            scaled = work / f"symmetry-{engine}-{j}-{scale:g}.json"
+            scaled.write_text(json.dumps({**true, **values}))
+            fitness = last_json(simtune("evaluate", "--project", project, "--engine", engine, "--task", "drive",
+                                        "--data", data, "--params-file", scaled, "--json"))["fitness"]  # fmt: skip
+            changes.append(round(100.0 * (fitness / floor - 1.0), 3))
+        out[j] = changes
+    return out
+
+
+def _change(change: float | None) -> str:
+    return "out of range" if change is None else f"{change:+.2f} %"
 
 
 def table(robot: str, result: dict) -> list[str]:
@@ -262,6 +343,24 @@ def table(robot: str, result: dict) -> list[str]:
             f"| `{r['name']}` | [{lo:.4g}, {hi:.4g}] | {r['truth']:.4g} | {r['estimate']:.4g} | {r['error_pct']:.2f} "
             f"| {interval} | {'yes' if r['holds'] else 'no'} |"
         )
+    if symmetric := result.get("scale_symmetry"):
+        blind = [j for j, changes in symmetric.items() if all(c is not None and abs(c) < SYMMETRIC for c in changes)]
+        scales = " / ".join(f"x{scale:g}" for scale in SYMMETRY_SCALES)
+        lines += [
+            "",
+            f"Scale symmetry: the truth's fitness change with a joint's armature, friction and servo gain scaled "
+            f"together ({scales}): "
+            + "; ".join(f"joint {j} " + " / ".join(map(_change, changes)) for j, changes in symmetric.items()),
+        ]
+        if blind:
+            kept = [r for r in rows if r["name"].rsplit("_", 1)[1] not in blind or r["name"].startswith("kp_joint")]
+            lines += [
+                "",
+                f"Joint(s) {', '.join(blind)}: within {SYMMETRIC:g} % at both scales, so no estimator can tell their "
+                f"armature, friction and servo gain apart from these recordings; without them "
+                f"{sum(r['error_pct'] <= WITHIN for r in kept)}/{len(kept)} within {WITHIN:g} %, the truth inside "
+                f"{sum(r['holds'] for r in kept)}/{len(kept)} intervals",
+            ]
     return lines
 
 
@@ -273,6 +372,12 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="working folder (default: a temporary one)")
     parser.add_argument("--jitter-s", type=float, default=JITTER_S, help="synth's start jitter [s]")
     parser.add_argument("--delay-s", type=float, default=DELAY_S, help="the true command delay [s]; 0: held, not tuned")
+    parser.add_argument(
+        "--servo-scale",
+        type=float,
+        default=1.0,
+        help="the true servo gains times this (1: 0.4-0.8 x the drive task's generic gain)",
+    )
     parser.add_argument("--bootstrap", type=int, default=0, help="draws of the repeats for the intervals (0: none)")
     parser.add_argument(
         "--kinds", default=",".join(KINDS), help=f"kinds set and tuned, joined by commas (default: {','.join(KINDS)})"
@@ -289,11 +394,19 @@ def main() -> None:
         for robot in args.robots.split(","):
             folder = work / robot
             folder.mkdir(parents=True, exist_ok=True)
-            project = make_project(folder, robot)
+            project = make_project(folder, robot, args.servo_scale)
             for engine in args.engines.split(","):
                 started = time.monotonic()
                 result = recover(
-                    project, folder, engine, args.max_seconds, args.jitter_s, args.delay_s, args.bootstrap, kinds
+                    project,
+                    folder,
+                    engine,
+                    args.max_seconds,
+                    args.jitter_s,
+                    args.delay_s,
+                    args.bootstrap,
+                    kinds,
+                    args.servo_scale,
                 )
                 result["total_s"] = round(time.monotonic() - started, 1)
                 results.setdefault(robot, []).append(result)
@@ -304,7 +417,9 @@ def main() -> None:
         f"{JOINT_NOISE_DEG:g} deg, +-{args.jitter_s:g} s start jitter, {REPEATS} repeats), each engine tuned on its "
         f"own with --max-seconds {args.max_seconds:g}, optimizer auto; true command delay {args.delay_s:g} s "
         f"({'tuned with the drive train' if args.delay_s > 0 else 'held'}); intervals "
-        f"{f'with {args.bootstrap} bootstrap draws' if args.bootstrap else 'Gauss-Newton'}; kinds {', '.join(kinds)}\n"
+        f"{f'with {args.bootstrap} bootstrap draws' if args.bootstrap else 'Gauss-Newton'}; kinds {', '.join(kinds)}; "
+        f"true servo gains {args.servo_scale:g} x (0.4-0.8 x the drive task's generic gain); the drive task clear of "
+        "the floor\n"
     )
     write_result(args.results, "drivetrain-recovery", "md", header + "\n" + "\n".join(lines))
     write_json_result(args.results, "drivetrain-recovery", results)

@@ -189,3 +189,20 @@ def test_real_cube_with_a_wrist_turned_in_place_is_put_back(mocap_root: Path):
     proposal = rows["phase 3"]["proposal"]
     assert list(proposal["changed"]) == ["joint_6"] and abs(proposal["changed"]["joint_6"][1]) < 1.5
     assert proposal["orientation_before_deg"] > 18 and proposal["orientation_after_deg"] < 1.5
+
+
+def test_a_task_whose_arm_reaches_the_floor_is_warned_about(recorded, tmp_path, capsys):
+    """A task without an object is tuned as if the arm never touched the floor: the check says when it does (the
+    shoulder swung 130 deg down lays the arm on the floor) and stays quiet where it does not."""
+    from simtune.cli.check_output import print_data_quality
+
+    clear = _checked(single_project(tmp_path / "clear", str(TRUE_TARGETS), recorded["body"]), recorded["body"])
+    assert clear["floor_touches_s"] == []
+    print_data_quality([clear])
+    assert "touches the floor" not in capsys.readouterr().out
+    lowered = "[0, -130, 0, 0, 0, 0]"
+    down = _checked(single_project(tmp_path / "down", lowered, recorded["body"]), recorded["body"])
+    (start, end), *_ = down["floor_touches_s"]
+    assert 2.0 < start < end <= get_task("single").duration
+    print_data_quality([down])
+    assert f"the generic simulation's arm touches the floor ({start:.2f}-" in capsys.readouterr().out

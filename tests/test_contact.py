@@ -1,5 +1,7 @@
 """Arm-object contact from each engine's own contact list, and whether the seed tasks push their objects."""
 
+import dataclasses
+import itertools
 import json
 import subprocess
 import sys
@@ -9,9 +11,10 @@ import pytest
 from conftest import COSTLY_ENGINES, SLOWEST_ENGINES, engine_or_skip, every_engine
 
 from simtune.engines import make_engine
-from simtune.engines.contact import probe_contact
+from simtune.engines.contact import floor_touches, probe_contact
 from simtune.tasks import TASKS, get_task
 from simtune.tasks.seed import published_task
+from simtune.tasks.spec import Phase
 
 PUSHING = [name for name, task in TASKS.items() if name.startswith("seed-") and task.object is not None]
 
@@ -106,3 +109,35 @@ def test_cli_contact_refuses_tasks_without_objects_and_stray_options():
     assert proc.returncode == 2 and "--contact" in proc.stderr
     proc = subprocess.run([*run, "--contact", "--engine", "bullet"], capture_output=True, text=True)
     assert proc.returncode == 2 and "unknown engine" in proc.stderr
+
+
+def _lowered(task, shoulder_deg: float, elbow_deg: float):
+    """``task`` with one phase that swings the MICO's shoulder (joint 2) and elbow (joint 3) to the angles given."""
+    targets = (0.0, shoulder_deg, elbow_deg, 0.0, 0.0, 0.0)
+    return dataclasses.replace(task, phases=(Phase(0.0, targets),))
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
+def test_floor_touches_are_where_the_hand_reaches_the_floor(engine):
+    """`single` never touches the floor; swung 130 deg down at the shoulder, the arm lands on it after its swing,
+    in both engines that report floor contact."""
+    task = get_task("single")
+    assert floor_touches(engine_or_skip(engine)(task)) == []
+    spans = floor_touches(engine_or_skip(engine)(_lowered(task, -130.0, 0.0)))
+    assert len(spans) >= 1
+    assert 2.0 < spans[0][0] < 5.0
+    assert all(a <= b < c for (a, b), (c, _) in itertools.pairwise(spans))
+    # folded the other way at the elbow, the same shoulder swing stays clear
+    assert floor_touches(engine_or_skip(engine)(_lowered(task, -130.0, -90.0))) == []
+
+
+def test_an_engine_without_floor_contacts_says_so():
+    """An engine that does not report floor contact raises rather than answering 'no touch'; the check then
+    reports None (cannot tell), not an empty list."""
+    from simtune.check.task import _floor_touches
+
+    sim = engine_or_skip("ode")(get_task("single"))
+    with pytest.raises(NotImplementedError):
+        sim.arm_floor_contact()
+    assert _floor_touches(sim) is None
+    assert _floor_touches(make_engine("mujoco", get_task("cube"))) == []  # a task with an object: not asked

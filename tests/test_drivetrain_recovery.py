@@ -52,3 +52,35 @@ def test_mujoco_recovers_a_joints_coulomb_friction_and_gain(recordings, tmp_path
         error = abs(result.x[name] - value) / ranges[name]
         assert error < WITHIN, (name, result.x[name], value)
     assert np.isfinite(result.fitness)
+
+
+def test_a_joint_without_load_moves_alike_with_its_drive_train_scaled_together():
+    """Why no recording pins a wrist roll's drive train (docs/parameters.md, "Clear of the floor"): below its force
+    limit a velocity servo moves a joint by (link inertia + armature) / gain and friction / gain, so where the link's
+    own inertia is small and gravity does not load the joint, the three scaled together give the same motion, while
+    each scaled alone moves the joint by more than an encoder's noise (0.05 deg)."""
+    import dataclasses
+
+    from simtune.engines import make_engine
+    from simtune.tasks import get_task
+    from simtune.tasks.spec import Phase
+
+    rest = (0.0,) * 6
+    turns = (Phase(0.0, rest), Phase(0.5, (*rest[:5], 60.0)), Phase(3.0, (*rest[:5], -30.0)))
+    engine = make_engine("mujoco", dataclasses.replace(get_task("single"), phases=turns))
+    truth = {"armature_joint_6": 0.05, "friction_joint_6": 0.5, "servo_gain_joint_6": 2.0}
+
+    def wrist_roll_deg(scales: dict[str, float]) -> np.ndarray:
+        params = {name: value * scales.get(name, 1.0) for name, value in truth.items()}
+        return np.degrees(engine.rollout(params, 121).joint_angles[:, 5])
+
+    try:
+        at_truth = wrist_roll_deg({})
+        assert at_truth.max() > 30.0  # it turns
+        for scale in (0.8, 1.25):
+            together = wrist_roll_deg(dict.fromkeys(truth, scale))
+            assert np.abs(together - at_truth).max() < 0.005
+            for name in truth:
+                assert np.abs(wrist_roll_deg({name: scale}) - at_truth).max() > 0.05, name
+    finally:
+        engine.close()

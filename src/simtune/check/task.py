@@ -44,6 +44,7 @@ from simtune.data.clock import outlying_shifts
 from simtune.data.onset import motion_onset
 from simtune.data.orientation import RecordedRotations
 from simtune.engines import engine_class, make_engine
+from simtune.engines.contact import floor_touches
 from simtune.errors import SimtuneError
 from simtune.fitness import NOISE_UNIT_M, marker_positions, reference_floor, repeat_floor
 from simtune.objective import START_WARN_M, Objective, generic_values, load_references
@@ -482,6 +483,17 @@ def _rests(task: TaskSpec, reference: TaskData, rollout, marker: np.ndarray, del
     return rows, start or {}, orientation
 
 
+def _floor_touches(sim) -> list[list[float]] | None:
+    """The spans [s] during which the generic simulation's arm touches the floor, for a task without an object
+    (with one, a touch may be the task's: none asked); None where the engine cannot tell."""
+    if sim.task.object is not None:
+        return []
+    try:
+        return [[round(a, 3), round(b, 3)] for a, b in floor_touches(sim)]
+    except NotImplementedError:
+        return None
+
+
 def task_quality(
     engine: str, task: TaskSpec, root: Path, reference: str = "aligned", repeats: str = "all", keep: bool = False
 ) -> tuple[dict, TaskData]:
@@ -502,6 +514,7 @@ def task_quality(
     try:
         rollout = sim.rollout({}, len(aligned.times))
         delayed = sim.rollout({"command_delay": PROBE_DELAY_S}, len(aligned.times))
+        touches = _floor_touches(sim)
     finally:
         sim.close()
     sim_marker = marker_positions(rollout, {})
@@ -536,6 +549,7 @@ def task_quality(
         "onset_std_s": float(np.std(onsets, ddof=1)) if len(onsets) > 1 else None,
         "simulated_onset_s": sim_onset,
         "implied_command_delay_s": delay,
+        "floor_touches_s": touches,
     }
     rests, start, orientation = _rests(task, chosen, rollout, sim_marker, max(delay or 0.0, 0.0))
     summary["rest_poses"], summary["orientation"] = rests, orientation

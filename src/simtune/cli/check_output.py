@@ -61,6 +61,15 @@ def print_data_quality(parts: list[dict]) -> None:
             f"simulation moves at {fmt_g(part['simulated_onset_s'])} s: command delay about "
             f"{fmt_g(part['implied_command_delay_s'])} s"
         )
+        if touches := part.get("floor_touches_s"):
+            spans = ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in touches)
+            out.print(
+                f"  warning: the generic simulation's arm touches the floor ({spans}): a task without an object is "
+                "tuned as if it never did (the floor's surfaces are held), and each touch makes the fitness jump "
+                "with the parameters; keep the hand clear of the floor",
+                highlight=False,
+                soft_wrap=True,
+            )
         _print_rest_poses(part)
 
 

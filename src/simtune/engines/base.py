@@ -390,6 +390,14 @@ class Engine(ABC):
         """
         raise NotImplementedError(f"{self.name} does not report contacts")
 
+    def arm_floor_contact(self) -> bool:
+        """Whether an arm or finger shape touches the floor now (read as :meth:`arm_object_contact`).
+
+        A task without an object is simulated as if the arm never reached the floor (its surfaces' parameters are
+        inactive there), so a task whose arm does touch it is flagged (:func:`simtune.engines.contact.floor_touches`).
+        """
+        raise NotImplementedError(f"{self.name} does not report floor contacts")
+
     def diverged(self) -> str:
         """A reason if the engine itself reports the simulation as broken, else ''."""
         return ""

@@ -85,3 +85,35 @@ def probe_contact(engine: Engine, params: dict[str, float] | None = None) -> Con
         stable=rollout.stable,
         message=rollout.message,
     )
+
+
+def floor_touches(engine: Engine, params: dict[str, float] | None = None) -> list[tuple[float, float]]:
+    """When the arm touches the floor in ``engine``'s task with ``params`` (default: generic).
+
+    A task without an object is tuned as if the arm never reached the floor (the floor's and gripper's surface
+    parameters are held as inactive); an arm that does reach it makes the fitness jump with every parameter that
+    moves a touch by one physics step, which no local search or Gauss-Newton interval survives.
+
+    Args:
+        engine: an engine for the task (its :meth:`~simtune.engines.base.Engine.arm_floor_contact` implemented).
+        params: the parameters to simulate (default: the engine's generic values).
+    Returns:
+        The spans of simulated time [s] during which some arm shape touches the floor, first to last step of
+        each span, in order; empty if it never does.
+    """
+    steps = 0
+    spans: list[tuple[float, float]] = []
+    touching = False
+
+    def watch() -> None:
+        nonlocal steps, touching
+        steps += 1
+        now = engine.arm_floor_contact()
+        if now and touching:
+            spans[-1] = (spans[-1][0], steps * engine.timestep)
+        elif now:
+            spans.append((steps * engine.timestep, steps * engine.timestep))
+        touching = now
+
+    engine.rollout(params or {}, rollout_samples(engine.task.duration), after_step=watch)
+    return spans

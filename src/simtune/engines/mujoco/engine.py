@@ -279,6 +279,14 @@ class MujocoEngine(Engine):
         b2 = bodies[self.data.contact.geom2[:n]]
         return bool(np.any(((b1 == self._object) & self._arm_body[b2]) | ((b2 == self._object) & self._arm_body[b1])))
 
+    def arm_floor_contact(self) -> bool:
+        n = self.data.ncon
+        if not n:
+            return False
+        floor, bodies = self._groups["floor"][0], self.model.geom_bodyid
+        g1, g2 = self.data.contact.geom1[:n], self.data.contact.geom2[:n]
+        return bool(np.any(((g1 == floor) & self._arm_body[bodies[g2]]) | ((g2 == floor) & self._arm_body[bodies[g1]])))
+
     def joint_angles(self) -> np.ndarray:
         return self.data.qpos[self._arm_qpos].copy()
 

@@ -275,6 +275,10 @@ class PybulletEngine(Engine):
         # Bullet keeps manifold points up to its breaking distance apart: only touching ones count
         return any(point[8] <= 0.0 for point in points)
 
+    def arm_floor_contact(self) -> bool:
+        points = pybullet.getContactPoints(self.robot, self.floor, physicsClientId=self.client)
+        return any(point[8] <= 0.0 for point in points)
+
     def close(self) -> None:
         if pybullet is not None and self.client is not None and pybullet.isConnected(self.client):
             pybullet.disconnect(self.client)
