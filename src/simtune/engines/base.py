@@ -21,7 +21,6 @@ from simtune.engines.controller import CONTROL_PERIOD, JointController
 from simtune.errors import ConfigError, RobotError, SimtuneError
 from simtune.params.kinds import (
     ALL_ENGINES,
-    BY_NAME,
     CONTROLLER,
     DRIVE_KINDS,
     ENCODERS,
@@ -44,13 +43,6 @@ NAMED_JOINTS = range(1, DEFAULT_ROBOT.n_joints + 1)
 
 #: Parameters applied outside the engine (controller, its encoders and the marker model), of the default robot.
 COMMON_PARAMETERS = applied_outside(len(NAMED_JOINTS))
-
-#: Rigid-body parameters any engine with masses, motors and joint damping maps (every engine has these kinds).
-RIGID_BODY_PARAMETERS = frozenset(
-    name
-    for kind in ("timestep", "mass_link", "mass", "max_torque_joint", "joint_damping")
-    for name in BY_NAME[kind].names(len(NAMED_JOINTS))
-)
 
 
 def per_joint(names: frozenset[str], n_joints: int) -> frozenset[str]:
