@@ -126,3 +126,23 @@ def test_synth_command_writes_data_and_refuses_to_mix_recordings(tmp_path):
     assert again.returncode == 2 and "already holds recordings" in again.stderr and again.stderr.count("\n") == 1
     bad = simtune("synth", "--task", "nope", "--out", str(tmp_path / "x"))
     assert bad.returncode == 2 and "unknown task" in bad.stderr
+
+
+def test_synthesising_an_arm_on_the_floor_warns(recwarn):
+    """A truth whose arm touches the floor in a task without an object is synthesised, with one warning that says
+    when (the MICO's shoulder swung 130 deg down lays the arm on the floor); the bundled `single` gives none."""
+    import dataclasses
+
+    from simtune.errors import TaskWarning
+    from simtune.reference.make import synthesize
+    from simtune.tasks.spec import Phase
+
+    single = get_task("single")
+    settings = {"repeats": 1, "noise_m": 0.002, "jitter_s": 0.0, "seed": 0}
+    synthesize("mujoco", single, {}, **settings)
+    assert not [w for w in recwarn if issubclass(w.category, TaskWarning)]
+    down = dataclasses.replace(single, phases=(Phase(0.0, (0.0, -130.0, 0.0, 0.0, 0.0, 0.0)),))
+    (recording,) = synthesize("mujoco", down, {}, **settings)
+    (warned,) = [w for w in recwarn if issubclass(w.category, TaskWarning)]
+    assert "task single: the arm touches the floor with these true values (" in str(warned.message)
+    assert len(recording.time) > 0

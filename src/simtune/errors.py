@@ -42,6 +42,11 @@ class RobotWarning(UserWarning):
     """A robot description that loads, but where simtune chose or changed something the user should know."""
 
 
+class TaskWarning(UserWarning):
+    """A task that runs, but against an assumption simtune tunes it under (an arm that touches the floor in a task
+    without an object)."""
+
+
 class RobotError(SimtuneError):
     """A robot description (URDF, meshes) that cannot be loaded, or a link or joint it does not have."""
 

@@ -13,6 +13,7 @@ Regenerate with ``python -m simtune.reference.make`` (deterministic).
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -20,7 +21,8 @@ import numpy as np
 
 from simtune.data import Recording, write_qualisys_tsv
 from simtune.engines import make_engine
-from simtune.errors import SimtuneError
+from simtune.engines.contact import floor_touches
+from simtune.errors import SimtuneError, TaskWarning
 from simtune.fitness import marker_positions
 from simtune.reference import REFERENCE_DIR
 from simtune.tasks import TaskSpec, get_task
@@ -41,6 +43,26 @@ TRUTH = {
     "marker_offset_y": -0.01,
     "marker_offset_z": 0.012,
 }
+
+
+def _warn_of_floor(sim, truth: dict[str, float]) -> None:
+    """Warn where the truth's arm touches the floor in a task without an object, which is tuned as if it never did
+    (its fitness then jumps with the parameters); engines that cannot tell are not asked."""
+    if sim.task.object is not None:
+        return
+    try:
+        spans = floor_touches(sim, truth)
+    except NotImplementedError:
+        return
+    if spans:
+        when = ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in spans[:3]) + (" ..." if len(spans) > 3 else "")
+        warnings.warn(
+            f"task {sim.task.name}: the arm touches the floor with these true values ({when}); a task without an "
+            "object is tuned as if it never did, and its fitness then jumps with the parameters (simtune check "
+            "--task says it too): keep the hand clear of the floor",
+            TaskWarning,
+            stacklevel=3,
+        )
 
 
 def synthesize(
@@ -73,6 +95,7 @@ def synthesize(
     rng = np.random.default_rng(seed)
     joint_rng = np.random.default_rng([seed, 1])
     sim = make_engine(engine, task)
+    _warn_of_floor(sim, truth)
     duration = task.duration
     recordings = []
     for r in range(repeats):
