@@ -264,6 +264,17 @@ class DartEngine(Engine):
                 return True
         return False
 
+    def arm_floor_contact(self) -> bool:
+        arm = self.robot.getName()
+        for contact in self.world.getLastCollisionResult().getContacts():
+            owners = {
+                shape.getShapeFrame().asShapeNode().getBodyNode().getSkeleton().getName()
+                for shape in (contact.collisionObject1, contact.collisionObject2)
+            }
+            if owners == {arm, "floor"}:  # the floor's skeleton, made in __init__
+                return True
+        return False
+
     def joint_angles(self) -> np.ndarray:
         return np.array(self.robot.getPositions())[self._dofs]
 

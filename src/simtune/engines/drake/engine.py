@@ -373,6 +373,17 @@ class DrakeEngine(Engine):
                 return True
         return False
 
+    def arm_floor_contact(self) -> bool:
+        s = self._sys
+        results = s.plant.get_contact_results_output_port().Eval(s.plant_context)
+        world = int(s.plant.world_body().index())  # the floor's half space is the world body's geometry
+        for i in range(results.num_point_pair_contacts()):  # the arm's boxes touch the rigid floor as points
+            info = results.point_pair_contact_info(i)
+            a, b = int(info.bodyA_index()), int(info.bodyB_index())
+            if (a == world and b in s.arm_bodies) or (b == world and a in s.arm_bodies):
+                return True
+        return False
+
     def diverged(self) -> str:
         return f"Drake: {self._failed}" if self._failed else ""
 
