@@ -9,7 +9,9 @@ Everything goes through the command line, as a user would run it:
    The example ``reach`` (+20 deg and back at 30 deg/s) cannot identify armature: its velocity changes are
    too small for the reflected inertia to show against 0.05 deg of encoder noise; ``drive``'s steps start
    and stop at up to ``MAX_VELOCITY_DEG`` (the robot's own speed class), where the servo's force limit
-   makes each joint's acceleration its torque over its inertia (armature included).
+   makes each joint's acceleration its torque over its inertia (armature included).  A phase whose steps drive
+   the hand into the floor (MuJoCo's floor-contact probe, with the generic parameters and with the truth) is
+   mirrored, then halved, until the arm stays clear: a task without an object is tuned as if it never touched.
 2. Per engine: the truth (``truth()``: each joint's armature and Coulomb friction at chosen shares of their
    ranges, its ``kp``, and its servo gain at a fraction of the drive task's generic one; only the kinds that engine
    has) is synthesised by that engine: ``simtune synth
@@ -21,9 +23,13 @@ Everything goes through the command line, as a user would run it:
    N draws of the repeats where the simulation is not smooth).
 4. Per parameter: truth, estimate, error as % of its range, the 95 % interval, and whether it holds the
    truth.  Done-when: every error within 5 % and the truth inside at least 80 % of the intervals.
+5. Per joint whose armature, friction and servo gain are all tuned (MuJoCo): the truth's fitness with the three
+   scaled together by 0.8 and 1.25 (:func:`scale_symmetry`); a joint whose scaled truth fits as well as the truth
+   cannot have them told apart by any estimator, and the done-when is also counted without such joints.
 
     python benchmarks/drivetrain_recovery.py [--robots so101,panda] [--engines mujoco,pybullet,ode,dart,drake]
-        [--max-seconds 150] [--delay-s 0.4] [--jitter-s 0.05] [--bootstrap 30] [--kinds K1,K2] [--out DIR]
+        [--max-seconds 150] [--delay-s 0.4] [--jitter-s 0.05] [--bootstrap 30] [--kinds K1,K2] [--servo-scale 1]
+        [--out DIR]
         [--results benchmarks/results]
 
 ``--delay-s 0`` holds the command delay at 0 (the truth's) instead of tuning it with the drive train.
