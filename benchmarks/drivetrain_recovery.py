@@ -253,7 +253,7 @@ def recover(
                                 "--data", data, "--json"))["fitness"]  # fmt: skip
     floor = last_json(simtune("evaluate", "--project", project, "--engine", engine, "--task", "drive",
                               "--data", data, "--params-file", truth_file, "--json"))["fitness"]  # fmt: skip
-    symmetric = scale_symmetry(project, engine, data, true, bounds, work, floor)
+    symmetric = scale_symmetry(project, engine, data, {"command_delay": delay_s, **true}, bounds, work, floor)
     run = work / f"tune-{engine}"
     only = ",".join(["command_delay", *true] if delay_s > 0 else true)
     started = time.monotonic()
@@ -295,12 +295,13 @@ def scale_symmetry(
     work: Path,
     floor: float,
 ) -> dict[str, list[float | None]]:
-    """Per joint whose armature, Coulomb friction and servo gain are all tuned: the truth's fitness change [%] with
-    the three scaled together by each of :data:`SYMMETRY_SCALES`.  Below its force limit a velocity servo's joint
-    moves by (link inertia + armature) / gain and friction / gain alone, so where the link's own inertia is small
-    and gravity does not load the joint (a wrist roll) the scaled truth fits as well as the truth: no recording of
-    such motion can tell the three apart, and an unbounded interval is the right answer.  None where a scaled
-    value leaves its range (a truth at the edge of it)."""
+    """Per joint whose armature, Coulomb friction and servo gain are all tuned: the truth's (``true``, its command
+    delay included) fitness change [%] with the three scaled together by each of :data:`SYMMETRY_SCALES`.
+
+    Below its force limit a velocity servo moves its joint by (link inertia + armature) / gain and friction / gain
+    alone, so where the link's own inertia is small and gravity does not load the joint (a wrist roll) the scaled
+    truth fits as well as the truth: no recording of such motion can tell the three apart, and an unbounded interval
+    is the right answer.  None where a scaled value leaves its range (a truth at the edge of it)."""
     out: dict[str, list[float | None]] = {}
     joints = sorted({name.rsplit("_", 1)[1] for name in true if name.startswith("servo_gain_joint_")}, key=int)
     for j in joints:
