@@ -251,27 +251,20 @@ class DartEngine(Engine):
             world.step(False)  # False: keep the servo commands for the next step
 
     def arm_object_contact(self) -> bool:
-        if self.object is None:
-            return False
-        # the detector's contacts of the last step, each between two shapes: arm skeleton vs object skeleton
-        arm, obj = self.robot.getName(), self.object.getSkeleton().getName()
-        for contact in self.world.getLastCollisionResult().getContacts():
-            owners = {
-                shape.getShapeFrame().asShapeNode().getBodyNode().getSkeleton().getName()
-                for shape in (contact.collisionObject1, contact.collisionObject2)
-            }
-            if owners == {arm, obj}:
-                return True
-        return False
+        return self.object is not None and self._arm_touches(self.object.getSkeleton().getName())
 
     def arm_floor_contact(self) -> bool:
-        arm = self.robot.getName()
+        return self._arm_touches("floor")  # the floor's skeleton, made in __init__
+
+    def _arm_touches(self, skeleton: str) -> bool:
+        # the detector's contacts of the last step, each between two shapes: arm skeleton vs the other's
+        pair = {self.robot.getName(), skeleton}
         for contact in self.world.getLastCollisionResult().getContacts():
             owners = {
                 shape.getShapeFrame().asShapeNode().getBodyNode().getSkeleton().getName()
                 for shape in (contact.collisionObject1, contact.collisionObject2)
             }
-            if owners == {arm, "floor"}:  # the floor's skeleton, made in __init__
+            if owners == pair:
                 return True
         return False
 

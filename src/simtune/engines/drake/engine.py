@@ -359,12 +359,8 @@ class DrakeEngine(Engine):
         results = s.plant.get_contact_results_output_port().Eval(s.plant_context)
         # the arm's boxes have no hydroelastic properties, so they touch the object through point
         # contact; hydroelastic surfaces are checked too, should that ever change
-        body = int(s.object_body.index())
-        for i in range(results.num_point_pair_contacts()):
-            info = results.point_pair_contact_info(i)
-            a, b = int(info.bodyA_index()), int(info.bodyB_index())
-            if (a == body and b in s.arm_bodies) or (b == body and a in s.arm_bodies):
-                return True
+        if self._arm_point_contact(results, int(s.object_body.index())):
+            return True
         geometry = s.object_geometry
         for i in range(results.num_hydroelastic_contacts()):
             surface = results.hydroelastic_contact_info(i).contact_surface()
@@ -376,11 +372,16 @@ class DrakeEngine(Engine):
     def arm_floor_contact(self) -> bool:
         s = self._sys
         results = s.plant.get_contact_results_output_port().Eval(s.plant_context)
-        world = int(s.plant.world_body().index())  # the floor's half space is the world body's geometry
-        for i in range(results.num_point_pair_contacts()):  # the arm's boxes touch the rigid floor as points
+        # the floor's half space is the world body's geometry; the arm's boxes touch the rigid floor as points
+        return self._arm_point_contact(results, int(s.plant.world_body().index()))
+
+    def _arm_point_contact(self, results, body: int) -> bool:
+        """Whether a point contact of ``results`` pairs an arm body with the body of index ``body``."""
+        arm = self._sys.arm_bodies
+        for i in range(results.num_point_pair_contacts()):
             info = results.point_pair_contact_info(i)
             a, b = int(info.bodyA_index()), int(info.bodyB_index())
-            if (a == world and b in s.arm_bodies) or (b == world and a in s.arm_bodies):
+            if (a == body and b in arm) or (b == body and a in arm):
                 return True
         return False
 

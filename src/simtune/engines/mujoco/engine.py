@@ -24,7 +24,7 @@ from __future__ import annotations
 import copy
 import math
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -270,22 +270,21 @@ class MujocoEngine(Engine):
         return ""
 
     def arm_object_contact(self) -> bool:
-        n = self.data.ncon
-        if self._object is None or not n:
-            return False
-        # MuJoCo's contact list holds overlapping geom pairs only (no margins in the scene)
-        bodies = self.model.geom_bodyid
-        b1 = bodies[self.data.contact.geom1[:n]]
-        b2 = bodies[self.data.contact.geom2[:n]]
-        return bool(np.any(((b1 == self._object) & self._arm_body[b2]) | ((b2 == self._object) & self._arm_body[b1])))
+        obj = self._object
+        return obj is not None and self._arm_touches(lambda geoms: self.model.geom_bodyid[geoms] == obj)
 
     def arm_floor_contact(self) -> bool:
+        return self._arm_touches(lambda geoms: geoms == self._groups["floor"][0])
+
+    def _arm_touches(self, other: Callable[[np.ndarray], np.ndarray]) -> bool:
+        """Whether a contact of the last step pairs an arm shape with a geom ``other`` picks (geom ids -> mask)."""
         n = self.data.ncon
         if not n:
             return False
-        floor, bodies = self._groups["floor"][0], self.model.geom_bodyid
+        # MuJoCo's contact list holds overlapping geom pairs only (no margins in the scene)
         g1, g2 = self.data.contact.geom1[:n], self.data.contact.geom2[:n]
-        return bool(np.any(((g1 == floor) & self._arm_body[bodies[g2]]) | ((g2 == floor) & self._arm_body[bodies[g1]])))
+        bodies = self.model.geom_bodyid
+        return bool(np.any((other(g1) & self._arm_body[bodies[g2]]) | (other(g2) & self._arm_body[bodies[g1]])))
 
     def joint_angles(self) -> np.ndarray:
         return self.data.qpos[self._arm_qpos].copy()

@@ -269,14 +269,14 @@ class PybulletEngine(Engine):
         return np.array(pybullet.getBasePositionAndOrientation(self.object, physicsClientId=self.client)[0])
 
     def arm_object_contact(self) -> bool:
-        if self.object is None:
-            return False
-        points = pybullet.getContactPoints(self.robot, self.object, physicsClientId=self.client)
-        # Bullet keeps manifold points up to its breaking distance apart: only touching ones count
-        return any(point[8] <= 0.0 for point in points)
+        return self.object is not None and self._arm_touches(self.object)
 
     def arm_floor_contact(self) -> bool:
-        points = pybullet.getContactPoints(self.robot, self.floor, physicsClientId=self.client)
+        return self._arm_touches(self.floor)
+
+    def _arm_touches(self, body: int) -> bool:
+        points = pybullet.getContactPoints(self.robot, body, physicsClientId=self.client)
+        # Bullet keeps manifold points up to its breaking distance apart: only touching ones count
         return any(point[8] <= 0.0 for point in points)
 
     def close(self) -> None:
