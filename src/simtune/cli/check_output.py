@@ -62,11 +62,11 @@ def print_data_quality(parts: list[dict]) -> None:
             f"{fmt_g(part['implied_command_delay_s'])} s"
         )
         if touches := part.get("floor_touches_s"):
-            spans = ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in touches)
+            from simtune.engines.contact import FLOOR_TOUCH_CONSEQUENCE, touch_spans_text
+
             out.print(
-                f"  warning: the generic simulation's arm touches the floor ({spans}): a task without an object is "
-                "tuned as if it never did (the floor's surfaces are held), and each touch makes the fitness jump "
-                "with the parameters; keep the hand clear of the floor",
+                f"  warning: the generic simulation's arm touches the floor ({touch_spans_text(touches)}): "
+                + FLOOR_TOUCH_CONSEQUENCE,
                 highlight=False,
                 soft_wrap=True,
             )

@@ -87,6 +87,19 @@ def probe_contact(engine: Engine, params: dict[str, float] | None = None) -> Con
     )
 
 
+#: what a touch of the floor does to a task without an object, for the warnings of ``check`` and ``synth``
+FLOOR_TOUCH_CONSEQUENCE = (
+    "a task without an object is tuned as if it never did (the floor's surfaces are held), and each touch makes the "
+    "fitness jump with the parameters; keep the hand clear of the floor"
+)
+
+
+def touch_spans_text(spans: list[tuple[float, float]] | list[list[float]], most: int | None = None) -> str:
+    """``spans`` (:func:`floor_touches`) in words, ``0.65-0.71 s, 0.73-1.50 s``; past ``most`` of them, `` ...``."""
+    shown = spans if most is None else spans[:most]
+    return ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in shown) + (" ..." if len(shown) < len(spans) else "")
+
+
 def floor_touches(engine: Engine, params: dict[str, float] | None = None) -> list[tuple[float, float]]:
     """When the arm touches the floor in ``engine``'s task with ``params`` (default: generic).
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from simtune.data import Recording, write_qualisys_tsv
 from simtune.engines import make_engine
-from simtune.engines.contact import floor_touches
+from simtune.engines.contact import FLOOR_TOUCH_CONSEQUENCE, floor_touches, touch_spans_text
 from simtune.errors import SimtuneError, TaskWarning
 from simtune.fitness import marker_positions
 from simtune.reference import REFERENCE_DIR
@@ -55,11 +55,9 @@ def _warn_of_floor(sim, truth: dict[str, float]) -> None:
     except NotImplementedError:
         return
     if spans:
-        when = ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in spans[:3]) + (" ..." if len(spans) > 3 else "")
         warnings.warn(
-            f"task {sim.task.name}: the arm touches the floor with these true values ({when}); a task without an "
-            "object is tuned as if it never did, and its fitness then jumps with the parameters (simtune check "
-            "--task says it too): keep the hand clear of the floor",
+            f"task {sim.task.name}: the arm touches the floor with these true values ({touch_spans_text(spans, 3)}): "
+            + FLOOR_TOUCH_CONSEQUENCE,
             TaskWarning,
             stacklevel=3,
         )
