@@ -249,10 +249,8 @@ def recover(
     simtune("synth", "--project", project, "--engine", engine, "--task", "drive", "--truth", truth_file,
             "--format", "csv", "--noise-mm", NOISE_MM, "--joint-noise-deg", JOINT_NOISE_DEG, "--jitter-s", jitter_s,
             "--repeats", REPEATS, "--delay-s", delay_s, "--out", data)  # fmt: skip
-    generic = last_json(simtune("evaluate", "--project", project, "--engine", engine, "--task", "drive",
-                                "--data", data, "--json"))["fitness"]  # fmt: skip
-    floor = last_json(simtune("evaluate", "--project", project, "--engine", engine, "--task", "drive",
-                              "--data", data, "--params-file", truth_file, "--json"))["fitness"]  # fmt: skip
+    generic = drive_fitness(project, engine, data)
+    floor = drive_fitness(project, engine, data, truth_file)
     symmetric = scale_symmetry(project, engine, data, {"command_delay": delay_s, **true}, bounds, work, floor)
     run = work / f"tune-{engine}"
     only = ",".join(["command_delay", *true] if delay_s > 0 else true)
@@ -286,6 +284,13 @@ def recover(
             "rows": rows, "delay": delay, "scale_symmetry": symmetric}  # fmt: skip
 
 
+def drive_fitness(project: Path, engine: str, data: Path, params_file: Path | None = None) -> float:
+    """``simtune evaluate``'s fitness of the drive task on ``data``: generic, or with ``params_file``."""
+    chosen = ("--params-file", params_file) if params_file is not None else ()
+    return last_json(simtune("evaluate", "--project", project, "--engine", engine, "--task", "drive",
+                             "--data", data, *chosen, "--json"))["fitness"]  # fmt: skip
+
+
 def scale_symmetry(
     project: Path,
     engine: str,
@@ -316,9 +321,7 @@ def scale_symmetry(
                 continue
             scaled = work / f"symmetry-{engine}-{j}-{scale:g}.json"
             scaled.write_text(json.dumps({**true, **values}))
-            fitness = last_json(simtune("evaluate", "--project", project, "--engine", engine, "--task", "drive",
-                                        "--data", data, "--params-file", scaled, "--json"))["fitness"]  # fmt: skip
-            changes.append(round(100.0 * (fitness / floor - 1.0), 3))
+            changes.append(round(100.0 * (drive_fitness(project, engine, data, scaled) / floor - 1.0), 3))
         out[j] = changes
     return out
 
