@@ -4,8 +4,11 @@ A run's first step on a fresh machine is the probe (``simtune.activity``): which
 rollouts, measured with a few hundred rollouts, half a minute to minutes before the search.  Its outcome depends on
 the engine's version, the task, the robot and the space, all fixed for the bundled MICO project, so simtune ships
 it (``src/simtune/projects/probes.json.gz``) and a first run of a bundled task reads it instead (issue 44, a cold
-start within seconds).  Run this after a change to a bundled task, the robot, a space or an engine that a test
-(``tests/test_activity.py``) says moved a key, and commit the file.
+start within seconds).  Each entry names the engine version it was measured on and keeps a witness (a few of its
+rollouts, sampled), so that it also answers for another version of the engine that rolls the witness out the same
+(issue 66: a patch release).  Run this after a change to a bundled task, the robot, a space or an engine that a test
+(``tests/test_activity_cache.py``) says moved a key or no longer replays, with the locked versions installed
+(``requirements/lock.txt``), and commit the file.
 
 Each entry is measured afresh (the cache is neither read nor written), for each engine named, each bundled task
 (each of its target sets: what the robot ran, and the published ones where a task corrects them) and each space.
@@ -20,9 +23,8 @@ import gzip
 import json
 import sys
 import time
-from dataclasses import asdict
 
-from simtune.activity import SHIPPED_PROBES, cache_name, task_activity
+from simtune.activity import SHIPPED_PROBES, shipped_entry, shipped_name, task_activity
 from simtune.params.space import SPACES
 from simtune.run_config import RunConfig
 from simtune.run_plan import plan_run
@@ -47,12 +49,12 @@ def main() -> int:
                     config = RunConfig(engine=engine, tasks=task_name, space=space_name, targets=targets)
                     plan = plan_run(config)
                     (task,) = plan.tasks
-                    name = cache_name(engine, task, plan.full_space)
+                    name = shipped_name(engine, task, plan.full_space)
                     if name in entries:
                         continue  # the published targets equal the task's where the task corrects none
                     started = time.monotonic()
                     found = task_activity(engine, task, plan.full_space, use_cache=False, workers=args.workers)
-                    entries[name] = {key: asdict(value) for key, value in found.items()}
+                    entries[name] = shipped_entry(engine, task, plan.full_space, found)
                     inactive = sum(not a.active for a in found.values())
                     print(
                         f"{name}: {inactive} of {len(found)} inactive ({time.monotonic() - started:.1f} s)",

@@ -4,7 +4,13 @@
 #   scripts/test.sh              the default tier: python -m pytest on 2 processes (pytest-xdist), 3.4 minutes on 2 cores
 #   scripts/test.sh -m slow      the slow tier: end-to-end tuning, kill -9 and hang tests, real data
 #   scripts/test.sh --ci         CI: ruff check, ruff format --check, mypy, the default tier, the slow tier
+#   scripts/test.sh --latest     the default tier (or ARGS) against the newest versions pyproject.toml allows, in
+#                                .venv-latest, instead of the tested set (requirements/lock.txt): an upgrade's test
 #   scripts/test.sh ARGS...      any other arguments go to pytest
+#
+# It installs the tested set of versions, requirements/lock.txt (pip constraints), after checking that the lock and
+# pyproject.toml agree (scripts/lock.py check: one line each where not, exit 2).  `python3.11 scripts/lock.py
+# refresh` writes a new lock from the newest versions; see docs/contributing.md.
 #
 # The default tier runs on two pytest-xdist processes (-n 2): its tests are independent and mostly one-core
 # work.  Each test file goes to one process (--dist loadfile), so that a file's module-wide fixture (a short
@@ -23,8 +29,12 @@ cd "$(dirname "$0")/.."
 PYTHON="${PYTHON:-python3.11}"
 
 ci=0
+latest=0
 if [ "${1:-}" = "--ci" ]; then
     ci=1
+    shift
+elif [ "${1:-}" = "--latest" ]; then
+    latest=1
     shift
 fi
 
@@ -55,24 +65,35 @@ if [ ${#missing[@]} -gt 0 ]; then
     fi
 fi
 
-[ -x .venv/bin/python ] || "$PYTHON" -m venv .venv
+# the lock and pyproject.toml must agree before anything is installed from them (one line each where not)
+"$PYTHON" scripts/lock.py check
+
+venv=.venv
+[ "$latest" = 1 ] && venv=.venv-latest
+[ -x "$venv/bin/python" ] || "$PYTHON" -m venv "$venv"
 extras="test"
 [ "$ci" = 1 ] && extras="test,lint"
-.venv/bin/python -m pip install -q -e ".[$extras]"
+if [ "$latest" = 1 ]; then
+    # the newest versions the ranges allow, every package upgraded
+    "$venv/bin/python" -m pip install -q --upgrade --upgrade-strategy eager -e ".[$extras]"
+else
+    "$venv/bin/python" -m pip install -q -c requirements/lock.txt -e ".[$extras]"
+fi
 # simtune's own modules compiled once: the tests start many simtune processes (CLI commands, worker
 # processes), and where the environment says PYTHONDONTWRITEBYTECODE (as on the project's development host) an editable
 # install is otherwise compiled from source in every one of them (0.17 s of each command's start on 2 cores)
-.venv/bin/python -m compileall -q src >/dev/null
+"$venv/bin/python" -m compileall -q src >/dev/null
+"$venv/bin/python" -c "import mujoco; print(f'testing with MuJoCo {mujoco.__version__} ($venv)')"
 
 if [ "$ci" = 1 ]; then
-    .venv/bin/ruff check src tests benchmarks
-    .venv/bin/ruff format --check src tests benchmarks
-    .venv/bin/mypy
+    "$venv/bin/ruff" check src tests benchmarks
+    "$venv/bin/ruff" format --check src tests benchmarks
+    "$venv/bin/mypy"
     # the slowest tests are listed so that the default tier's budget (4 minutes) stays visible in CI's log
-    .venv/bin/python -m pytest -n 2 --dist loadfile --durations=25 "$@"
-    .venv/bin/python -m pytest -m slow --durations=10 "$@"
+    "$venv/bin/python" -m pytest -n 2 --dist loadfile --durations=25 "$@"
+    "$venv/bin/python" -m pytest -m slow --durations=10 "$@"
 elif [[ " $* " == *" -m "* ]]; then
-    .venv/bin/python -m pytest "$@"  # a chosen tier (-m slow): one process
+    "$venv/bin/python" -m pytest "$@"  # a chosen tier (-m slow): one process
 else
-    .venv/bin/python -m pytest -n 2 --dist loadfile "$@"
+    "$venv/bin/python" -m pytest -n 2 --dist loadfile "$@"
 fi

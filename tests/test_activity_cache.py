@@ -233,13 +233,19 @@ def fake_probe(calls: list):
 
 
 @pytest.fixture
-def empty_cache(tmp_path, monkeypatch) -> list:
+def fresh_cache(tmp_path, monkeypatch) -> list:
+    """An empty cache, the probe's rollouts counted (:func:`fake_probe`); the shipped probes as simtune ships them."""
     monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
     monkeypatch.setattr(activity, "_MEMORY", {})
     calls: list = []
     monkeypatch.setattr(activity, "measure_activity", fake_probe(calls))
-    monkeypatch.setattr(activity, "shipped_probes", dict)  # nothing shipped either: a probe runs
     return calls
+
+
+@pytest.fixture
+def empty_cache(fresh_cache, monkeypatch) -> list:
+    monkeypatch.setattr(activity, "shipped_probes", dict)  # nothing shipped either: a probe runs
+    return fresh_cache
 
 
 def test_a_second_checkout_reads_the_first_ones_probe(two_checkouts, empty_cache, monkeypatch):
@@ -311,19 +317,29 @@ def bundled_plan(task: str, space: str, targets: str = "task"):
 
 
 def test_every_bundled_task_and_space_ships_its_probe_for_the_default_engine():
+    """Keyed without the engine's version: on the version it was measured on it is read as it is, on another (a
+    patch release) only where its witness replays - checked here for whichever MuJoCo is installed."""
     from simtune.params.space import SPACES
     from simtune.tasks import TARGETS
 
-    missing = []
+    missing, stale = [], []
     for task_name in SHIPPED_TASKS:
         for space_name in SPACES:
             for targets in TARGETS:
                 task, space = bundled_plan(task_name, space_name, targets)
-                if activity.cache_name("mujoco", task, space) not in activity.shipped_probes():
+                if activity.shipped_name("mujoco", task, space) not in activity.shipped_probes():
                     missing.append(f"{task_name}/{space_name}/{targets}")
+                    continue
+                found, why = activity.shipped_activity("mujoco", task, space)
+                if found is None:
+                    stale.append(why)
     assert not missing, (
-        f"no shipped probe under today's key for {', '.join(missing)}: a bundled task, the robot, a space or MuJoCo "
-        "changed; run `python scripts/seed_probes.py` and commit src/simtune/projects/probes.json.gz"
+        f"no shipped probe for {', '.join(missing)}: a bundled task, the robot or a space changed; run "
+        "`python scripts/seed_probes.py` and commit src/simtune/projects/probes.json.gz"
+    )
+    assert not stale, (
+        f"{stale[0]} (and {len(stale) - 1} more): this MuJoCo rolls the bundled tasks out differently; run "
+        "`python scripts/seed_probes.py` with it and commit src/simtune/projects/probes.json.gz with the lock"
     )
 
 
@@ -337,19 +353,75 @@ def test_a_fresh_cache_reads_the_shipped_probe_and_runs_none(tmp_path, monkeypat
     monkeypatch.setattr(activity, "measure_activity", no_probe)
     task, space = bundled_plan("cube", "calibrated")
     found = task_activity("mujoco", task, space)
-    shipped = activity.shipped_probes()[activity.cache_name("mujoco", task, space)]
+    shipped = activity.shipped_probes()[activity.shipped_name("mujoco", task, space)]["activity"]
     assert list(found) == space.names
     assert {name: found[name].active for name in found} == {name: shipped[name]["active"] for name in found}
     assert not found["mass_cube_wood"].active  # cube has no wood object: the engine's reason, as shipped
     assert "wood" in found["mass_cube_wood"].reason
+    # and kept in the cache under today's key, engine version included: the next process reads it at once
+    assert (tmp_path / "cache" / "activity" / activity.cache_name("mujoco", task, space)).is_file()
 
 
 @pytest.mark.parametrize("task_name", ["single", pytest.param("cube", marks=pytest.mark.slow)])
 def test_a_shipped_probe_is_what_the_probe_measures_today(task_name):
     """Its key holds simtune's version, not its code: an engine change that moves a rollout without moving the key
-    shows here, as a shipped outcome that today's probe no longer gives."""
+    shows here, as a shipped outcome that today's probe no longer gives (on any installed MuJoCo)."""
     # `single` in the shared space (2 s) in the default tier; `cube` in the calibrated one, a default run's
     task, space = bundled_plan(task_name, "shared" if task_name == "single" else "calibrated")
     measured = activity.measure_activity("mujoco", task, space)
-    shipped = activity.shipped_probes()[activity.cache_name("mujoco", task, space)]
+    shipped = activity.shipped_probes()[activity.shipped_name("mujoco", task, space)]["activity"]
     assert {name: shipped[name] for name in space.names} == {name: asdict(a) for name, a in measured.items()}
+
+
+# --- a shipped probe of another engine version: read where its witness replays, measured again where not ----------
+def shipped_as_if_measured_on(monkeypatch, version: str, nudge: float = 0.0):
+    """The shipped probes as if measured on MuJoCo ``version``, each witness moved by ``nudge`` [m]."""
+    import copy
+
+    entries = copy.deepcopy(activity.shipped_probes())
+    for entry in entries.values():
+        entry["engine_version"] = version
+        for track in entry["witness"]:
+            if track is not None:
+                track[len(track) // 2][0] += nudge
+    monkeypatch.setattr(activity, "shipped_probes", lambda: entries)
+    return entries
+
+
+def test_a_shipped_probe_of_another_engine_version_answers_where_its_witness_replays(
+    fresh_cache, monkeypatch, capsys, recwarn
+):
+    """Measured: MuJoCo 4.0.0 and 4.0.1 roll the bundled tasks out bit for bit alike (benchmarks/engine_versions.py),
+    so a probe shipped from one answers on the other after two rollouts, not a few hundred."""
+    entries = shipped_as_if_measured_on(monkeypatch, "0.0.1")
+    task, space = bundled_plan("single", "shared")
+    with announcing(True):
+        found = task_activity("mujoco", task, space)
+    shipped = entries[activity.shipped_name("mujoco", task, space)]["activity"]
+    assert fresh_cache == [] and {n: asdict(a) for n, a in found.items()} == {n: shipped[n] for n in space.names}
+    assert capsys.readouterr().err == "" and not recwarn.list  # nothing to say: the fast start holds
+
+
+def test_a_shipped_probe_whose_witness_moves_is_measured_again_saying_why(fresh_cache, monkeypatch, capsys):
+    shipped_as_if_measured_on(monkeypatch, "0.0.1", nudge=activity.WITNESS_TOLERANCE * 10)
+    task, space = bundled_plan("single", "shared")
+    installed = engine_class("mujoco").version()
+    with announcing(True):  # someone watches: the probe's own line says why it runs
+        task_activity("mujoco", task, space)
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.startswith("measuring which of ") and "'single'" in line and line.endswith("...")
+    assert "measured on mujoco 0.0.1" in line and f"mujoco {installed}'s rollouts of it move by up to 1e-07 m" in line
+    assert fresh_cache == ["single"]
+    # in a log (nobody watches): a warning line instead, for the next space's probe
+    task, space = bundled_plan("single", "calibrated")
+    with announcing(False), pytest.warns(activity.EngineVersionWarning, match="measured on mujoco 0.0.1.*again"):
+        task_activity("mujoco", task, space)
+    assert fresh_cache == ["single", "single"]
+
+
+def test_a_probe_of_an_own_task_says_it_was_never_measured_here(empty_cache, capsys):
+    from simtune.tasks import get_task
+
+    with announcing(True):
+        task_activity("mujoco", get_task("cube"), get_space("shared", engine_class("mujoco").supported()))
+    assert "not measured on this machine before" in capsys.readouterr().err

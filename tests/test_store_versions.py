@@ -321,6 +321,14 @@ def test_scores_come_back_from_the_store_exactly(tmp_path, version):
 
 
 FIXTURES = Path(__file__).parent / "fixtures" / "stores"
+#: the engine the fixture stores were made with (their fingerprints name it): the tests assume no other
+FIXTURE_ENGINE = "mujoco 4.0.0"
+
+
+def installed_engine() -> str:
+    from simtune.engines import engine_class
+
+    return f"mujoco {engine_class('mujoco').version()}"
 
 
 @pytest.fixture(scope="module")
@@ -403,7 +411,7 @@ def test_a_fixture_store_runs_its_tasks_with_the_published_targets(published_ref
     """A store made before the correction names no targets: its plan runs the cube's published phase 2 (65 deg),
     whose fingerprint is the one the store holds; a new run's plan runs the task file's (74 deg)."""
     from simtune.run_plan import plan_run
-    from simtune.runs import fingerprint_differences, run_fingerprint
+    from simtune.runs import engine_change, fingerprint_differences, run_fingerprint
 
     run_dir = fixture_run(3, tmp_path, published_reference)
     record = read_run_record(run_dir)
@@ -413,12 +421,56 @@ def test_a_fixture_store_runs_its_tasks_with_the_published_targets(published_ref
     stored.close()
     plan = plan_run(config)
     assert plan.tasks[0].phases[1].targets_deg[2] == 65.0
-    assert record.fingerprint is not None and fingerprint_differences(record.fingerprint, run_fingerprint(plan)) == []
+    assert record.fingerprint is not None and record.fingerprint["engine"] == FIXTURE_ENGINE
+    # the engine version differs wherever another MuJoCo than the fixtures' is installed, and nothing else does
+    engine = [] if installed_engine() == FIXTURE_ENGINE else [engine_change(FIXTURE_ENGINE, installed_engine())]
+    assert fingerprint_differences(record.fingerprint, run_fingerprint(plan)) == engine
     new = plan_run(RunConfig(**{**config.record(), "targets": "task"}))
     assert new.tasks[0].phases[1].targets_deg[2] == 74.0
     assert fingerprint_differences(record.fingerprint, run_fingerprint(new)) == [
-        "the definition of task 'cube' changed"
+        "the definition of task 'cube' changed",
+        *engine,
     ]
+
+
+def as_made_with_engine(run_dir: Path, engine: str, best_fitness_offset: float = 0.0) -> None:
+    """The stored run as if tuned with ``engine`` (its fingerprint's "engine"), its stored best fitness moved by
+    ``best_fitness_offset`` (as an engine version whose rollouts differ would score it)."""
+    with closing(sqlite3.connect(run_dir / STORE_FILE)) as db, db:
+        fingerprint = json.loads(db.execute("SELECT value FROM meta WHERE key = 'fingerprint'").fetchone()[0])
+        fingerprint["engine"] = engine
+        db.execute("UPDATE meta SET value = ? WHERE key = 'fingerprint'", (json.dumps(fingerprint),))
+        if best_fitness_offset:
+            (best_id,) = db.execute("SELECT id FROM evaluations ORDER BY fitness, id LIMIT 1").fetchone()
+            db.execute("UPDATE evaluations SET fitness = fitness + ? WHERE id = ?", (best_fitness_offset, best_id))
+
+
+def test_a_run_stored_under_another_engine_version_resumes_where_it_replays(published_reference, tmp_path):
+    """Measured for MuJoCo 4.0.0 and 4.0.1 (benchmarks/engine_versions.py: bit-identical rollouts): a run of one goes
+    on under the other, saying so in one line; here as a run whose fingerprint names a version that is not installed."""
+    run_dir = fixture_run(3, tmp_path, published_reference, running=True, max_generations=3)
+    as_made_with_engine(run_dir, "mujoco 3.99.0")
+    from simtune.errors import EngineVersionWarning
+
+    with pytest.warns(EngineVersionWarning) as said:  # the command line prints each as one `warning:` line
+        resumed = CliRunner().invoke(app, ["resume", str(run_dir), "-q", "--json"])
+    assert resumed.exit_code == 0, resumed.output
+    (line,) = [str(w.message) for w in said if issubclass(w.category, EngineVersionWarning)]
+    assert f"was tuned with mujoco 3.99.0; {installed_engine()} replays its stored evaluations" in line
+    record = read_run_record(run_dir)
+    assert record.status == "finished" and [g["generation"] for g in record.generations] == [1, 2, 3]
+
+
+def test_a_run_another_engine_version_scores_otherwise_is_refused(published_reference, tmp_path):
+    run_dir = fixture_run(3, tmp_path, published_reference, running=True, max_generations=3)
+    as_made_with_engine(run_dir, "mujoco 3.99.0", best_fitness_offset=1e-6)
+    from simtune.errors import SimtuneError
+
+    resumed = CliRunner().invoke(app, ["resume", str(run_dir), "-q"])  # simtune's main prints it as one line, rc 2
+    assert isinstance(resumed.exception, SimtuneError), resumed.output
+    message = str(resumed.exception)
+    assert f"engine mujoco 3.99.0 is now {installed_engine()} and scores its stored evaluations differently" in message
+    assert "--rescore" in message
 
 
 def test_a_stored_run_keeps_the_parameters_it_was_made_with(published_reference, tmp_path):

@@ -24,9 +24,14 @@ what the outcome depends on (:func:`cache_key`): simtune's and the engine's vers
 engine runs it with its robot by content (mesh and MJCF files by their bytes, never by their paths),
 the space's names and bounds, and the probe's settings.  So a second checkout of a project, in
 another folder, reads the first one's results instead of probing again.  The bundled project's probes ship
-with simtune (:data:`SHIPPED_PROBES`, under the same keys): a fresh machine's first run of a bundled task reads
-them.  A probe that is neither cached nor shipped says so in one line on stderr where someone watches
-(:func:`announcing`): the first run of an own robot on a fresh machine spends its first seconds on it.
+with simtune (:data:`SHIPPED_PROBES`): a fresh machine's first run of a bundled task reads them.  A shipped entry is
+keyed like the cache but without the engine's version (:func:`shipped_name`), and carries the version it was
+measured on and a *witness*: the probe's first base rollouts, sampled (:func:`witness_tracks`).  On that version it
+is read as it is; on another one (a patch release of the engine) it answers only where today's engine rolls the
+witness out within :data:`WITNESS_TOLERANCE` of the stored one - a few rollouts instead of hundreds - and is measured
+again, saying why, where it does not.  (Measured for MuJoCo 4.0.0 and 4.0.1: bit-identical rollouts,
+``benchmarks/engine_versions.py``.)  A probe that is neither cached nor shipped says so in one line on stderr where
+someone watches (:func:`announcing`): the first run of an own robot on a fresh machine spends its first seconds on it.
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ import os
 import signal
 import sys
 import tempfile
+import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
@@ -58,6 +64,7 @@ from simtune.common.spawn_guard import (
 from simtune.engines import engine_class, make_engine
 from simtune.engines.base import Rollout
 from simtune.engines.controller import CONTROL_PERIOD
+from simtune.errors import EngineVersionWarning
 from simtune.fitness import marker_positions
 from simtune.params import ParameterSpace
 from simtune.params.space import is_supported
@@ -75,6 +82,13 @@ PROBE_VERSION = 2
 PROBE_SEED = 0
 #: How far out along each hand axis the probe watches a point [m] (turns of the hand about the wrist).
 HAND_ARM_M = 0.1
+#: A shipped probe's witness: the rollouts of the probe's first base points (the generic one and the first random
+#: one), every :data:`WITNESS_STRIDE`-th sample of their visible tracks.
+WITNESS_POINTS = 2
+WITNESS_STRIDE = 20
+#: A shipped probe measured on another engine version answers for today's where its witness rolls out within this
+#: [m]: a hundredth of :data:`TOLERANCE`, so that no parameter's verdict can hinge on the difference.
+WITNESS_TOLERANCE = TOLERANCE / 100
 
 
 def measured_reason(change: float, points: int = PROBE_POINTS) -> str:
@@ -265,7 +279,7 @@ def _tracks(params: list[dict[str, float]]) -> list[np.ndarray | None]:
     return found
 
 
-def cache_key(engine: str, task: TaskSpec, space: ParameterSpace, points: int) -> str:
+def cache_key(engine: str, task: TaskSpec, space: ParameterSpace, points: int, engine_version: bool = True) -> str:
     """What a probe's outcome depends on, hashed: simtune's and the engine's versions, the task and its robot by
     content (:func:`task_content`), the space's names and bounds, the probe's settings.
 
@@ -276,13 +290,15 @@ def cache_key(engine: str, task: TaskSpec, space: ParameterSpace, points: int) -
         task: the task probed.
         space: the parameters probed.
         points: random base points besides the generic one.
+        engine_version: whether the installed engine's version enters it (False: a shipped probe's key, whose
+            entry names its version and carries its witness instead).
 
     Returns:
         20 hex digits.
     """
     what = {
         "simtune": simtune.__version__,
-        "engine": f"{engine} {engine_class(engine).version()}",
+        "engine": f"{engine} {engine_class(engine).version()}" if engine_version else engine,
         "task": task_content(task),
         "space": [space.name, space.names, space.bounds],
         "probe": [PROBE_VERSION, TOLERANCE, points, PROBE_SEED],
@@ -471,8 +487,11 @@ def probe_size(engine: str, task: TaskSpec, space: ParameterSpace, points: int) 
     return probed, (points + 1) * (1 + 2 * probed)
 
 
-def probe_note(engine: str, task: TaskSpec, space: ParameterSpace, points: int, workers: int, cached: bool) -> str:
-    """The line that announces a probe: what it measures, on which engine, at most how many rollouts of what length.
+def probe_note(
+    engine: str, task: TaskSpec, space: ParameterSpace, points: int, workers: int, cached: bool, why: str = ""
+) -> str:
+    """The line that announces a probe: what it measures, on which engine, at most how many rollouts of what length,
+    and why it runs.
 
     Args:
         engine: the engine's registry name.
@@ -481,6 +500,8 @@ def probe_note(engine: str, task: TaskSpec, space: ParameterSpace, points: int, 
         points: random base points besides the generic one.
         workers: worker processes the rollouts run on.
         cached: whether the outcome is stored for the next run.
+        why: why no stored outcome answers (:func:`shipped_activity`'s); empty: none was stored (with ``cached``:
+            not measured on this machine before).
 
     Returns:
         One line, without its newline.
@@ -488,6 +509,10 @@ def probe_note(engine: str, task: TaskSpec, space: ParameterSpace, points: int, 
     probed, rollouts = probe_size(engine, task, space, points)
     on = f" on {workers} workers" if workers > 1 else ""
     after = "; cached afterwards" if cached else ""
+    if why:
+        after += f"; {why}"
+    elif cached:
+        after += "; not measured on this machine before"
     return (
         f"measuring which of {probed} parameters change the rollouts of task {task.name!r} ({engine}: up to "
         f"{rollouts} rollouts of {task.duration:g} s{on}{after}) ..."
@@ -499,9 +524,11 @@ _MEMORY: dict[Path, dict[str, Activity]] = {}
 
 #: The probes of the bundled projects' tasks, measured by ``scripts/seed_probes.py`` and shipped with simtune: a
 #: fresh machine's first run of a bundled task reads its outcome here instead of spending half a minute or more on
-#: it (issue 44, a cold start).  Entries are named like the cache's files, key included (:func:`cache_key`), so an
-#: entry is read only for the engine version, task, robot, space and probe it was measured with; a test re-measures
-#: one and checks that every bundled task and space of the default engine has one under today's key.
+#: it (issue 44, a cold start).  Entries are named like the cache's files, but keyed without the engine's version
+#: (:func:`shipped_name`), so an entry is read only for the task, robot, space and probe it was measured with; each
+#: holds ``engine_version``, ``witness`` (:func:`witness_tracks`) and ``activity`` (name -> Activity's fields), and
+#: answers for another engine version only where its witness replays (:func:`shipped_activity`).  A test re-measures
+#: one and checks that every bundled task and space of the default engine has one that answers today.
 SHIPPED_PROBES = Path(__file__).resolve().parent / "projects" / "probes.json.gz"
 
 
@@ -521,8 +548,109 @@ def shipped_probes() -> dict[str, dict]:
     return entries if isinstance(entries, dict) else {}
 
 
-def cache_name(engine: str, task: TaskSpec, space: ParameterSpace, points: int = PROBE_POINTS) -> str:
-    """The file name of a probe's outcome in the cache (and of its entry in :data:`SHIPPED_PROBES`).
+def cache_name(
+    engine: str, task: TaskSpec, space: ParameterSpace, points: int = PROBE_POINTS, engine_version: bool = True
+) -> str:
+    """The file name of a probe's outcome in the cache (without the engine's version: of its entry in
+    :data:`SHIPPED_PROBES`, :func:`shipped_name`).
+
+    Args:
+        engine: the engine's registry name.
+        task: the task probed.
+        space: the parameters probed.
+        points: random base points besides the generic one.
+        engine_version: whether the key holds the installed engine's version (:func:`cache_key`).
+
+    Returns:
+        ``<engine>-<task>-<space>-<key>.json``, the key :func:`cache_key`'s.
+    """
+    return f"{engine}-{task.name}-{space.name}-{cache_key(engine, task, space, points, engine_version)}.json"
+
+
+def shipped_name(engine: str, task: TaskSpec, space: ParameterSpace, points: int = PROBE_POINTS) -> str:
+    """The name of a probe's entry in :data:`SHIPPED_PROBES`: :func:`cache_name` keyed without the engine's version."""
+    return cache_name(engine, task, space, points, engine_version=False)
+
+
+def witness_tracks(
+    engine: str, task: TaskSpec, space: ParameterSpace, points: int = PROBE_POINTS
+) -> list[np.ndarray | None]:
+    """What a shipped probe keeps to show which engine versions it answers for: the visible tracks of the probe's
+    first :data:`WITNESS_POINTS` base points, every :data:`WITNESS_STRIDE`-th sample (None for a rollout that blew up).
+
+    Args:
+        engine: the engine's registry name.
+        task: the task probed.
+        space: the parameters probed.
+        points: random base points besides the generic one (the seeded points depend on it only through the space).
+
+    Returns:
+        One ``(samples, columns)`` array (or None) per witness point.
+    """
+    bases = base_points(space, points)[:WITNESS_POINTS]
+    with _Probe(engine, task, task_samples(task), 1) as probe:
+        tracks = probe.tracks(bases)
+    return [None if track is None else track[::WITNESS_STRIDE] for track in tracks]
+
+
+def shipped_entry(
+    engine: str, task: TaskSpec, space: ParameterSpace, found: dict[str, Activity], points: int = PROBE_POINTS
+) -> dict:
+    """A probe's outcome as :data:`SHIPPED_PROBES` holds it: the installed engine's version, the witness, the outcome.
+
+    Args:
+        engine: the engine's registry name.
+        task: the task probed.
+        space: the parameters probed.
+        found: the probe's outcome on the installed engine (:func:`measure_activity`).
+        points: random base points besides the generic one.
+
+    Returns:
+        ``{"engine_version", "witness", "activity"}``, JSON-serialisable (the witness rounded to 0.1 nm).
+    """
+    witness = witness_tracks(engine, task, space, points)
+    return {
+        "engine_version": engine_class(engine).version(),
+        "witness": [None if track is None else np.round(track, 10).tolist() for track in witness],
+        "activity": {name: asdict(value) for name, value in found.items()},
+    }
+
+
+def witness_difference(entry: dict, engine: str, task: TaskSpec, space: ParameterSpace, points: int) -> float:
+    """How far today's engine rolls a shipped entry's witness out from the stored one [m] (inf where one of them blew
+    up and the other did not, or their shapes differ).
+
+    Args:
+        entry: a :data:`SHIPPED_PROBES` entry.
+        engine: the engine's registry name.
+        task: the task probed.
+        space: the parameters probed.
+        points: random base points besides the generic one.
+
+    Returns:
+        The largest difference of any witness sample.
+    """
+    stored = entry.get("witness")
+    if not isinstance(stored, list) or not stored:
+        return float("inf")
+    largest = 0.0
+    for was, now in zip(stored, witness_tracks(engine, task, space, points)):
+        if (was is None) != (now is None):
+            return float("inf")
+        if was is None or now is None:
+            continue
+        was = np.asarray(was, dtype=float)
+        if was.shape != now.shape:
+            return float("inf")
+        largest = max(largest, float(np.abs(was - now).max()))
+    return largest
+
+
+def shipped_activity(
+    engine: str, task: TaskSpec, space: ParameterSpace, points: int = PROBE_POINTS
+) -> tuple[dict[str, Activity] | None, str]:
+    """The shipped probe of ``task`` x ``space``, where it answers for the installed engine: as it is on the version
+    it was measured on, on another one where its witness replays within :data:`WITNESS_TOLERANCE`.
 
     Args:
         engine: the engine's registry name.
@@ -531,9 +659,28 @@ def cache_name(engine: str, task: TaskSpec, space: ParameterSpace, points: int =
         points: random base points besides the generic one.
 
     Returns:
-        ``<engine>-<task>-<space>-<key>.json``, the key :func:`cache_key`'s.
+        ``(outcome, "")`` where it answers; ``(None, why)`` where none does (``why`` empty where none is shipped:
+        an own task; else why the shipped one cannot answer).
     """
-    return f"{engine}-{task.name}-{space.name}-{cache_key(engine, task, space, points)}.json"
+    entry = shipped_probes().get(shipped_name(engine, task, space, points))
+    if not isinstance(entry, dict):
+        return None, ""
+    try:
+        found = {name: Activity(**entry["activity"][name]) for name in space.names}
+        measured_on = str(entry["engine_version"])
+    except (KeyError, TypeError):
+        return None, ""
+    installed = engine_class(engine).version()
+    if measured_on == installed:
+        return found, ""
+    moved = witness_difference(entry, engine, task, space, points)
+    if moved <= WITNESS_TOLERANCE:
+        return found, ""
+    by = "blow up where they did not" if moved == float("inf") else f"move by up to {moved:.2g} m"
+    return None, (
+        f"the probe simtune ships for task {task.name!r} ({space.name} space) was measured on {engine} {measured_on}; "
+        f"{engine} {installed}'s rollouts of it {by}, so it is measured again"
+    )
 
 
 def task_activity(
@@ -561,17 +708,26 @@ def task_activity(
     path = cache_root() / "activity" / cache_name(engine, task, space, points)
     if use_cache and path in _MEMORY:
         return _MEMORY[path]
+    why = ""
     if use_cache:
-        for read in (lambda: json.loads(path.read_text()), lambda: shipped_probes()[path.name]):
-            try:
-                stored = read()
-                _MEMORY[path] = {name: Activity(**stored[name]) for name in space.names}
-                return _MEMORY[path]
-            except (OSError, ValueError, KeyError, TypeError):
-                pass  # not cached (or shipped) yet, or a damaged entry: measure again
+        try:
+            stored = json.loads(path.read_text())
+            _MEMORY[path] = {name: Activity(**stored[name]) for name in space.names}
+            return _MEMORY[path]
+        except (OSError, ValueError, KeyError, TypeError):
+            pass  # not cached yet, or a damaged entry: the shipped one, else measure again
+        shipped, why = shipped_activity(engine, task, space, points)
+        if shipped is not None:
+            _write_cache(path, {name: asdict(a) for name, a in shipped.items()})  # the next run reads it at once
+            _MEMORY[path] = shipped
+            return shipped
     if _announces():
-        print(probe_note(engine, task, space, points, workers, use_cache), file=sys.stderr, flush=True)
+        print(probe_note(engine, task, space, points, workers, use_cache, why), file=sys.stderr, flush=True)
         found = _measured_with_a_bar(engine, task, space, points, workers)
+    elif why:  # nobody watches the start, but a fast start that is lost is said, in a log too
+        at_most = probe_size(engine, task, space, points)[1]
+        warnings.warn(f"{why} ({at_most} rollouts at most)", EngineVersionWarning, stacklevel=2)
+        found = measure_activity(engine, task, space, points, workers=workers)
     else:
         found = measure_activity(engine, task, space, points, workers=workers)
     if use_cache:

@@ -314,7 +314,7 @@ def evaluate(
     robot = common_robot(specs)
     supported = cls.supported(robot)
     if isinstance(given, Path):
-        file_values = read_params_file(given, engine)
+        file_values = read_params_file(given, engine, robot)
         values = validate_params(file_values, supported, engine, where=str(given), robot=robot)
     else:
         values = validate_params(dict(given), supported, engine, where="params", robot=robot)

@@ -47,6 +47,11 @@ class TaskWarning(UserWarning):
     without an object)."""
 
 
+class EngineVersionWarning(UserWarning):
+    """A result measured or stored under another version of an engine than the installed one: used where it was
+    checked to replay (a shipped probe, a stored run), measured again where it does not."""
+
+
 class RobotError(SimtuneError):
     """A robot description (URDF, meshes) that cannot be loaded, or a link or joint it does not have."""
 

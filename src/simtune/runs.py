@@ -37,6 +37,7 @@ import sqlite3
 import sys
 import tempfile
 import time
+import warnings
 from dataclasses import asdict, fields, replace
 from pathlib import Path
 
@@ -46,7 +47,7 @@ import simtune
 from simtune.activity import announce, robot_content
 from simtune.common.spawn_guard import check_main_guarded, start_worker_server
 from simtune.data.fingerprint import fingerprint_changes, folders_fingerprint
-from simtune.errors import RunInterrupted, SimtuneError
+from simtune.errors import EngineVersionWarning, RunInterrupted, SimtuneError
 from simtune.objective import Objective, generic_score, recordings_folder
 from simtune.optimize import TuneResult, TuneSettings, get_optimizer, least_squares_refine
 from simtune.optimize.evaluator import THREADS_FIRST_S, timed_out
@@ -172,8 +173,58 @@ def fingerprint_differences(stored: dict, now: dict) -> list[str]:
         if before != after and before != FORMER_TASK_FINGERPRINTS.get(after or "") and not robot_changed:
             changes.append(f"the definition of task {name!r} changed")
     if stored.get("engine", now["engine"]) != now["engine"]:
-        changes.append(f"engine {stored['engine']} is now {now['engine']}")
+        changes.append(engine_change(stored["engine"], now["engine"]))
     return changes
+
+
+def engine_change(stored: str, now: str) -> str:
+    """The phrase of :func:`fingerprint_differences` for a run stored under another engine or engine version."""
+    return f"engine {stored} is now {now}"
+
+
+def replays_under_this_engine(run_dir: Path, plan: RunPlan, store: RunStore, changes: list[str]) -> list[str]:
+    """``changes`` less an engine version that changed alone, where this engine replays the run's stored evaluations:
+    its best one and the first of its initial population, re-scored now, to the stored fitness exactly.  A run that
+    replays resumes, with one warning line saying so; one that does not keeps the change (refused, with why).
+
+    Args:
+        run_dir: the run's folder (named in the line).
+        plan: the run as it would go on now.
+        store: its store, open.
+        changes: :func:`fingerprint_differences` of its fingerprint and today's.
+
+    Returns:
+        The changes that remain.
+    """
+    stored_engine = store.get("fingerprint", {}).get("engine", "")
+    now_engine = f"{plan.config.engine} {plan.engine.version()}"
+    phrase = engine_change(stored_engine, now_engine)
+    if phrase not in changes or stored_engine.split(" ")[0] != plan.config.engine:
+        return changes  # no version change, or another engine altogether
+    others = [c for c in changes if c != phrase]
+    objective = plan.objective(store.get("inactive_parameters"), store.get("parameters"))
+    try:
+        best = store.best_evaluation()
+        witnesses = [] if best is None else [(best["x"], best["score"]["fitness"])]
+        first = store.initial_population()[:1]
+        score = store.lookup(first[0]) if first else None
+        if score is not None and not score.pruned:  # a pruned score is a bound, not the fitness
+            witnesses.append((first[0], score.fitness))
+        if objective.vector_space().names != store.get("parameters") or not witnesses:
+            return changes
+        differences = [abs(objective.score_vector(np.asarray(x, dtype=float)).fitness - f) for x, f in witnesses]
+    finally:
+        objective.close()
+    largest = max(differences)
+    if largest != 0.0:
+        return [*others, f"{phrase} and scores its stored evaluations differently (by up to {largest:.3g})"]
+    warnings.warn(
+        f"{run_dir} was tuned with {stored_engine}; {now_engine} replays its stored evaluations to the same fitness "
+        f"({len(witnesses)} re-scored), so it goes on with {now_engine}",
+        EngineVersionWarning,
+        stacklevel=2,
+    )
+    return others
 
 
 def _summary(changes: list[str], shown: int = 3) -> str:
@@ -343,6 +394,8 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
                 changes = fingerprint_differences(stored_fingerprint, run_fingerprint(plan, screened=False))
                 if not changes:  # the data as it was: the repeats left out of it must be the same
                     changes = left_out_changes(stored_fingerprint.get("left_out", {}), left_out_repeats(plan))
+                if not rescore:  # another engine version that replays the stored evaluations goes on, saying so
+                    changes = replays_under_this_engine(run_dir, plan, store, changes)
             if rescore:
                 return _rescore(run_dir, store, plan, changes, show_progress)
             if changes:

@@ -132,8 +132,9 @@ def _tasks_to_align(align_clock: bool | None, params_file: Path | None, task: st
     if not isinstance(tuned_on, str):
         return []
     try:
-        seen = {t.name for t in get_project(project).parse_tasks(tuned_on)}
-        params = read_params_file(params_file)
+        specs = get_project(project).parse_tasks(tuned_on)
+        seen = {t.name for t in specs}
+        params = read_params_file(params_file, robot=specs[0].robot if specs else None)
     except SimtuneError:
         return []
     return [name for name in names if name not in seen and task_delay_name(name) not in params]

@@ -253,13 +253,22 @@ def validate_params(
     return out
 
 
-def read_params_file(path: Path, engine: str | None = None) -> dict:
+def read_params_file(path: Path, engine: str | None = None, robot: RobotDescription | None = None) -> dict:
     """Parameter values from a JSON file: ``{"params": {...}}`` as ``tune`` writes it, or a flat mapping.
 
     A file in the first form may say which engine and space its values are for
     (``best_params.json`` and ``truth.json`` do): with ``engine``, a file made for
-    another engine is refused; its values must lie in the space it names.  An empty
+    another engine is refused; its values must lie in the space it names, as that space is for ``robot``
+    (default the MICO: an own robot's spaces hold its own joints' and links' parameters).  An empty
     file, or one that is not an object of names and values, is refused.
+
+    Args:
+        path: the JSON file.
+        engine: the engine the values are for (None: any).
+        robot: the robot the values are for (None: the bundled MICO).
+
+    Returns:
+        Parameter name -> value, as the file gives them (unchecked against their ranges: ``validate_params``).
     """
     try:
         data = json.loads(Path(path).read_text(encoding="utf-8-sig"))  # a byte-order mark is harmless
@@ -275,7 +284,7 @@ def read_params_file(path: Path, engine: str | None = None) -> dict:
         values = data["params"]
         if not isinstance(values, dict):
             raise ConfigError(f"{path}: field 'params' must be an object of parameter names and values")
-        _check_file_fields(path, data, values, engine)
+        _check_file_fields(path, data, values, engine, robot)
     else:
         values = data
     if not values:
@@ -283,7 +292,9 @@ def read_params_file(path: Path, engine: str | None = None) -> dict:
     return values
 
 
-def _check_file_fields(path: Path, data: dict, values: dict, engine: str | None) -> None:
+def _check_file_fields(
+    path: Path, data: dict, values: dict, engine: str | None, robot: RobotDescription | None
+) -> None:
     """The fields beside ``params`` that say what the values are: ``parameters``, ``engine``, ``space``."""
     listed = data.get("parameters")
     if listed is not None:  # a run's file says which parameters it holds: all of them, no others
@@ -305,7 +316,7 @@ def _check_file_fields(path: Path, data: dict, values: dict, engine: str | None)
     if space is not None:
         if space not in SPACES:
             raise ConfigError(f"{path}: field 'space': unknown parameter space {space!r} (known: {', '.join(SPACES)})")
-        names = {p.name for p in SPACES[space]}
+        names = {p.name for p in (SPACES[space] if robot is None else robot_spaces(robot)[space])}
         for name in values:
             if name not in names and not (name.startswith(TASK_DELAY_PREFIX) and DELAY in names):
                 raise ConfigError(f"{path}: parameter {name!r} is not in space {space!r}, which field 'space' names")

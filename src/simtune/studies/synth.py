@@ -66,7 +66,8 @@ def load_truth(
     supported = engine_class(engine).supported(robot)
     truth: dict[str, float] = {}
     if path is not None:
-        truth = validate_params(read_params_file(path, engine), supported, engine, where=str(path), robot=robot)
+        values = read_params_file(path, engine, robot)
+        truth = validate_params(values, supported, engine, where=str(path), robot=robot)
     if delay_s is not None:
         truth["command_delay"] = delay_s
     elif path is None:
