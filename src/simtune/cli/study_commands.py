@@ -130,6 +130,7 @@ TransferOutOpt = Annotated[Path, out_option("Folder for the tuning run (OUT/run)
     "eval_timeout",
     "reference",
     "repeats",
+    "project",
     defaults=TRANSFER_DEFAULTS,
     options={"space": SpaceOpt, "optimizer": OptimizerOpt},
 )

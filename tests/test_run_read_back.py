@@ -1,0 +1,109 @@
+"""Every run `tune` makes can be read back from its own best_params.json: evaluated on the task it was tuned on and on
+another one of its project (a transfer), exported and reported - for an own robot (a URDF project) in every space,
+and for the bundled MICO (probe 5, issue 71: an own robot's `calibrated` file was refused by `evaluate` because it
+was checked against the MICO's `calibrated`)."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+import simtune.api as st
+from simtune.params.space import SPACES
+from simtune.reference import REFERENCE_DIR
+from simtune.tasks.init_project import init_project
+
+#: two driven joints, a box on each link: quick to roll out in every engine
+ARM_URDF = """\
+<robot name="arm">
+  <link name="base">
+    <inertial><mass value="2"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <link name="upper">
+    <inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 0.15"/><geometry><box size="0.05 0.05 0.3"/></geometry></collision>
+  </link>
+  <link name="hand">
+    <inertial><mass value="0.5"/><inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 0.05"/><geometry><box size="0.04 0.04 0.1"/></geometry></collision>
+  </link>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="upper"/><origin xyz="0 0 0.5"/><axis xyz="0 1 0"/>
+    <limit lower="-1.5" upper="1.5" effort="20" velocity="1"/>
+  </joint>
+  <joint name="elbow" type="revolute">
+    <parent link="upper"/><child link="hand"/><origin xyz="0 0 0.3"/><axis xyz="0 1 0"/>
+    <limit lower="-1.5" upper="1.5" effort="20" velocity="1"/>
+  </joint>
+</robot>
+"""
+
+
+@pytest.fixture(scope="module")
+def own_project(tmp_path_factory) -> Path:
+    """An own robot's project of two tasks (init's example `reach` and a second reach the other way), with
+    synthetic recordings of both in its recordings folder."""
+    root = tmp_path_factory.mktemp("own")
+    (root / "arm.urdf").write_text(ARM_URDF)
+    project = root / "arm"
+    init_project(root / "arm.urdf", project)
+    reach = (project / "tasks" / "reach.toml").read_text()
+    (project / "tasks" / "back.toml").write_text(
+        reach.replace('name = "reach"', 'name = "back"').replace("targets_deg = [20, 20]", "targets_deg = [-15, 25]")
+    )
+    toml = project / "simtune.toml"
+    toml.write_text(
+        toml.read_text().replace('tasks = ["tasks/reach.toml"]', 'tasks = ["tasks/reach.toml", "tasks/back.toml"]')
+    )
+    st.synth("mujoco", "reach,back", out=project / "recordings", project=project, repeats=2)
+    return project
+
+
+def read_back(run: Path, tasks: list[str], tmp_path: Path, project: Path | None, data: Path | None) -> None:
+    """The run's best_params.json scored on each of ``tasks`` (the one tuned on, then another), exported, reported."""
+    best = run / "best_params.json"
+    stored = json.loads(best.read_text())
+    for task in tasks:
+        score = st.evaluate("mujoco", task, params=best, project=project, data=data)
+        if task == tasks[0]:
+            assert score.fitness == pytest.approx(stored["fitness"], rel=1e-9, abs=1e-12)
+    exports, _ = st.export(run, tmp_path / "export")
+    assert exports and (tmp_path / "export" / "provenance.json").is_file()
+    assert st.report(run, tmp_path / "report").is_file()
+
+
+#: the default tier reads back the default space and the largest; the slow tier every other
+QUICK = ("calibrated", "drivetrain")
+
+
+@pytest.mark.parametrize("space", [s if s in QUICK else pytest.param(s, marks=pytest.mark.slow) for s in SPACES])
+def test_an_own_robots_run_reads_back_in_every_space(space, own_project, tmp_path):
+    run = tmp_path / "run"
+    st.tune(
+        "mujoco", "reach", project=own_project, space=space, out=run, optimizer="random", max_evaluations=2, workers=1
+    )
+    read_back(run, ["reach", "back"], tmp_path, own_project, None)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("space", list(SPACES))
+def test_a_mico_run_reads_back_in_every_space(space, tmp_path):
+    run = tmp_path / "run"
+    st.tune("mujoco", "cube", data=REFERENCE_DIR, space=space, out=run, optimizer="random", max_evaluations=2)
+    read_back(run, ["cube"], tmp_path, None, REFERENCE_DIR)
+
+
+def test_transfer_carries_an_own_robots_tasks(own_project, tmp_path):
+    """`simtune transfer --project`: an own robot tuned on one of its tasks and tested on another (probe 5's third
+    journey: transfer took no --project)."""
+    from typer.testing import CliRunner
+
+    from simtune.cli import app
+
+    out = tmp_path / "transfer"
+    args = ["transfer", "--project", str(own_project), "--train", "reach", "--test", "back", "--out", str(out)]
+    done = CliRunner().invoke(app, [*args, "--optimizer", "random", "--max-evaluations", "2", "--workers", "1", "-q"])
+    assert done.exit_code == 0, done.output
+    result = json.loads((out / "transfer.json").read_text())
+    assert [(r["task"], r["role"]) for r in result["tasks"]] == [("reach", "train"), ("back", "test")]
+    assert all(r["stable"] and r["tuned"] > 0 for r in result["tasks"])
