@@ -195,6 +195,17 @@ def test_synth_and_the_delay_recovered_in_mujoco(fixture_project, tmp_path):
         max_evaluations=40,
     )  # fmt: skip
     assert abs(result.x["command_delay"] - TRUE_DELAY_S) < DELAY_TOLERANCE_S, result.x
+    # exported, the scene holds the robot the run simulated: every body, joint and servo (probe 5: only the floor)
+    import mujoco
+
+    from simtune.engines.mujoco.engine import compile_scene
+
+    (exported,), _ = st.export(tmp_path / "run", tmp_path / "export")
+    assert "scene_reach.mjb" in exported.files
+    model = mujoco.MjModel.from_binary_path(str(tmp_path / "export" / "scene_reach.mjb"))
+    simulated = compile_scene(load_project(fixture_project).task("reach").robot, None)
+    assert (model.nbody, model.njnt, model.nu) == (simulated.nbody, simulated.njnt, simulated.nu) and model.nu == 4
+    assert [model.actuator(i).name for i in range(model.nu)] == ["j1", "j2", "j3", "j4"]
 
 
 # --------------------------------------------------------------------------- bad input: one line, exit 2

@@ -16,12 +16,19 @@ start position, so their positions are the world coordinates of the object's
 origin) and a ball joint (its orientation relative to the start orientation):
 the same six degrees of freedom, seven position coordinates and damping per
 degree of freedom.
+
+A robot read from an MJCF file is attached to the scene as MuJoCo's model editor (``MjSpec``) builds it, with its
+own default classes, unnamed geoms and asset folders, which MuJoCo cannot write back as one loadable MJCF: its
+export is the tuned, compiled model itself, ``scene_<task>.mjb`` (MuJoCo's binary model, read with
+``mujoco.MjModel.from_binary_path`` by the MuJoCo version that wrote it), every body, joint and servo the run
+simulated, each value as it simulated it.
 """
 
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
+import mujoco
 import numpy as np
 
 from simtune.engines.export_base import ExportContext, num, nums, xml_comment
@@ -32,6 +39,12 @@ def write(ctx: ExportContext) -> list[str]:
     names = []
     for task in ctx.tasks:
         engine = ctx.engines[task.name]
+        if ctx.robot.description.mjcf is not None:  # the tuned model as it was compiled (see the module's notes)
+            name = f"scene_{task.name}.mjb"
+            mujoco.mj_saveModel(engine.model, str(ctx.out / name), None)  # type: ignore[attr-defined]
+            ctx.files.append(name)
+            names.append(name)
+            continue
         name = f"scene_{task.name}.xml"
         root = ET.fromstring(ctx.robot.scene_mjcf(task.object))
         _write_values(root, engine.model)  # type: ignore[attr-defined]
