@@ -322,3 +322,17 @@ def test_help():
     assert (
         proc.returncode == 0 and "--all-engines" in proc.stdout and "--dr" in proc.stdout and "--force" in proc.stdout
     )
+
+
+@pytest.mark.parametrize("users_file", ["controller.yaml", "provenance.json", "scene_cube.xml"])
+def test_force_never_overwrites_a_file_no_previous_export_wrote(tmp_path_factory, tmp_path, users_file):
+    """Probe 5 #13: `--force` into a folder that never held an export overwrote the user's controller.yaml,
+    provenance.json and scene file without a line; it replaces a previous export only."""
+    run_dir = tuned_run(tmp_path_factory, "mujoco")
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / users_file).write_text("the user's own\n")
+    (out / "notes.txt").write_text("keep me\n")
+    one_line_error(simtune_cli("export", str(run_dir), "--out", str(out), "--force"), f"{users_file} exists and is not")
+    assert (out / users_file).read_text() == "the user's own\n" and (out / "notes.txt").read_text() == "keep me\n"
+    assert sorted(p.name for p in out.iterdir()) == sorted([users_file, "notes.txt"])  # nothing half-written left

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from simtune.engines._shapes import cone_hull
+from simtune.errors import SimtuneError
 from simtune.engines.base import Engine
 from simtune.robot import description, generate
 from simtune.tasks.spec import ObjectSpec, TaskSpec
@@ -125,8 +126,16 @@ class ExportContext:
         return header_lines(self.provenance, what)
 
     def write(self, name: str, text: str) -> Path:
-        path = self.out / name
+        path = self.claim(name)
         path.write_text(text)
+        return path
+
+    def claim(self, name: str) -> Path:
+        """The path of the export's file ``name``, listed; a file there that this export did not write (one a
+        previous export, removed before, did not list) is refused rather than overwritten."""
+        path = self.out / name
+        if name not in self.files and path.exists():
+            raise SimtuneError(f"{path} exists and is not a file of a previous export: export never overwrites it")
         if name not in self.files:
             self.files.append(name)
         return path

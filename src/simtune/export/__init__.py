@@ -123,9 +123,14 @@ def _prepare(out: Path, force: bool, children: list[str] | None = None) -> None:
 
 
 def _remove_previous(folder: Path) -> None:
+    """Remove the files a previous export listed in its provenance.json (none where it holds no export of simtune's:
+    the export then writes beside the folder's files and refuses to write over any, ``ExportContext.claim``)."""
     record = folder / PROVENANCE_FILE
     try:
-        listed = json.loads(record.read_text()).get("files", {})
+        previous = json.loads(record.read_text())
+        listed = previous.get("files", {})
+        if not str(previous.get("exported_by", "")).startswith("simtune") or not isinstance(listed, dict):
+            return  # the user's own provenance.json: kept, and the export refuses to write over it
     except (OSError, ValueError, AttributeError):
         return
     try:
@@ -175,6 +180,10 @@ def _export(run: TunedRun, out: Path, robot: RobotDescription, ranges: dict | No
         if ranges is not None:
             _write_dr(ctx, ranges)
         record = {**ctx.provenance, "files": {name: sha256(out / name) for name in ctx.files}}
+        if (out / PROVENANCE_FILE).exists():  # the user's own (a previous export's was removed before)
+            raise SimtuneError(
+                f"{out / PROVENANCE_FILE} exists and is not a previous export's: export never overwrites it"
+            )
         (out / PROVENANCE_FILE).write_text(json.dumps(record, indent=2) + "\n")
     except BaseException as exc:
         for name in ctx.files if ctx is not None else []:  # nothing half-written stays behind

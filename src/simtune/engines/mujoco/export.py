@@ -41,8 +41,7 @@ def write(ctx: ExportContext) -> list[str]:
         engine = ctx.engines[task.name]
         if ctx.robot.description.mjcf is not None:  # the tuned model as it was compiled (see the module's notes)
             name = f"scene_{task.name}.mjb"
-            mujoco.mj_saveModel(engine.model, str(ctx.out / name), None)  # type: ignore[attr-defined]
-            ctx.files.append(name)
+            mujoco.mj_saveModel(engine.model, str(ctx.claim(name)), None)  # type: ignore[attr-defined]
             names.append(name)
             continue
         name = f"scene_{task.name}.xml"
