@@ -462,6 +462,24 @@ def test_resume_reads_a_foreign_store_without_writing_to_it(tmp_path):
     one_line_error(run(tune_cmd(folder)), "not a simtune run store")  # nor will tune overwrite it
 
 
+def test_a_users_meta_table_is_never_taken_for_a_store_set_up_halfway(tmp_path):
+    """Probe 5 #17: a run.sqlite holding only a table named ``meta`` (a user's, with rows) was taken for a store whose
+    process died while creating it, and `tune` deleted its rows."""
+    import sqlite3
+
+    folder = tmp_path / "p25"
+    folder.mkdir()
+    db = sqlite3.connect(folder / STORE_FILE)
+    db.execute("CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT)")
+    db.execute("INSERT INTO meta VALUES ('owner', 'me')")
+    db.commit()
+    db.close()
+    digest = hashlib.sha256((folder / STORE_FILE).read_bytes()).hexdigest()
+    one_line_error(run(resume_cmd(folder)), "not a simtune run store", "left unchanged")
+    one_line_error(run(tune_cmd(folder, "--max-generations", "1")), "not a simtune run store", "left unchanged")
+    assert hashlib.sha256((folder / STORE_FILE).read_bytes()).hexdigest() == digest
+
+
 def test_tune_into_a_folder_with_other_files_is_refused(tmp_path):
     folder = tmp_path / "results"
     folder.mkdir()

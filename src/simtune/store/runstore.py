@@ -35,7 +35,7 @@ def check_store_file(path: Path) -> bool:
     """Refuse a file that is not a run store of this simtune's schema, reading it only (one line naming it).
 
     A foreign SQLite file (or any other file) named ``run.sqlite`` is left exactly as it was.  False for a
-    store that was never set up: an empty database, or one holding only simtune's tables and no schema
+    store that was never set up: an empty database, or one holding only simtune's tables, empty, and no schema
     version yet (its process died while creating it; nothing of a user's is in it, so it may be replaced).
     """
     path = Path(path)
@@ -46,11 +46,21 @@ def check_store_file(path: Path) -> bool:
             row = None
             if {"meta", "evaluations", "generations"} <= tables:
                 row = db.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
+            # a store whose process died while creating it holds simtune's tables, empty: rows in them without a
+            # schema version are someone else's (a user's table named meta), never replaced
+            filled = row is None and any(
+                db.execute(f'SELECT 1 FROM "{table}" LIMIT 1').fetchone() is not None for table in tables & _OWN_TABLES
+            )
         finally:
             db.close()
     except sqlite3.DatabaseError as exc:
         raise SimtuneError(f"{path} cannot be read as a run store ({exc}); it was left unchanged") from None
     if row is None:
+        if filled:
+            raise SimtuneError(
+                f"{path} is not a simtune run store (its tables hold rows but no simtune schema version); "
+                "it was left unchanged"
+            )
         if tables <= _OWN_TABLES:
             return False
         raise SimtuneError(f"{path} is not a simtune run store (no simtune tables in it); it was left unchanged")
