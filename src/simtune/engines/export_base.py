@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from simtune.engines._shapes import cone_hull
-from simtune.errors import SimtuneError
 from simtune.engines.base import Engine
+from simtune.errors import SimtuneError
 from simtune.robot import description, generate
 from simtune.tasks.spec import ObjectSpec, TaskSpec
 
