@@ -236,3 +236,27 @@ def test_both_index_classes_keep_the_same_record(index_url, tmp_path):
     again = open_index(tmp_path / "grid", index_url)  # the record outlives the connection
     assert again.counts() == {"done": 2, "failed": 1}
     again.close()
+
+
+def test_a_grid_run_again_with_other_settings_is_refused_not_reported_as_done(two_task_data, tmp_path):
+    """Probe 5 #10: the same --out with another --data or --only reported every old cell `done` with its old
+    fitness, and a run of other settings copied into a cell's folder was adopted as that cell."""
+    from dataclasses import replace
+
+    spec = GridSpec(
+        engines=["mujoco"], tasks=["single"], spaces=["extended"], repeats=1, data=str(two_task_data),
+        max_generations=1, only=["command_delay"],
+    )  # fmt: skip
+    grid_dir = tmp_path / "grid"
+    (row,) = run_grid(spec, grid_dir, executor="local", workers=1).rows()
+    assert row["status"] == "done"
+    cell = grid_dir / "runs" / row["id"]
+    stored = RunStore(cell).count_evaluations()
+    with pytest.raises(SimtuneError, match=r"holds a run with other settings \(only differ"):
+        run_grid(replace(spec, only=["command_delay", "marker_offset_z"]), grid_dir, executor="local", workers=1)
+    # a run of other settings copied into a new grid's cell folder: refused, its store as it was
+    other = tmp_path / "other"
+    shutil.copytree(grid_dir, other)
+    with pytest.raises(SimtuneError, match=r"\(max_generations differ"):
+        run_grid(replace(spec, max_generations=2), other, executor="local", workers=1)
+    assert RunStore(cell).count_evaluations() == stored == RunStore(other / "runs" / row["id"]).count_evaluations()

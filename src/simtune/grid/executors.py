@@ -19,7 +19,7 @@ from pathlib import Path
 from simtune.common.spawn_guard import check_main_guarded
 from simtune.errors import ConfigError, SimtuneError
 from simtune.grid.index import GridIndex, open_index
-from simtune.grid.spec import GridSpec, Unit, run_unit
+from simtune.grid.spec import GridSpec, Unit, other_settings, run_unit, stored_differences
 
 EXECUTORS = ("local", "dask")
 MAX_ATTEMPTS = 3
@@ -130,8 +130,15 @@ def run_grid(
         raise ConfigError(f"unknown executor {executor!r} (known: {', '.join(EXECUTORS)})")
     spec.validate()
     index = open_index(grid_dir, index_url)
-    index.set_meta("spec", json.dumps(asdict(spec)))
     units = spec.units()
+    # a grid run again into the same folder with other settings: refused before any compute, never its old cells
+    # reported as this grid's (nor a run of other settings copied into a cell's folder adopted as that cell)
+    for unit in units:
+        differences = stored_differences(unit, index.run_dir(unit), spec)
+        if differences:
+            index.close()
+            raise other_settings(index.run_dir(unit), differences)
+    index.set_meta("spec", json.dumps(asdict(spec)))
     index.add(units)
     todo = [u for u in units if index.status(u) != "done"]
 

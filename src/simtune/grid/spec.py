@@ -67,14 +67,11 @@ class GridSpec:
         load_references(Path(self.data), list(tasks.values()), reference=self.reference, repeats=self.repeat_set)
 
 
-def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
-    """Run or resume one optimisation; returns its summary.  Safe to run again after a crash."""
+def unit_config(unit: Unit, spec: GridSpec):
+    """The run configuration of one unit of ``spec`` (a :class:`~simtune.run_config.RunConfig`)."""
     from simtune.run_plan import new_run_config
-    from simtune.runs import has_run, read_run_record, resume_run, start_run
-    from simtune.store.lock import run_lock
 
-    path = Path(run_dir)
-    config = new_run_config(
+    return new_run_config(
         unit.engine,
         unit.tasks,
         unit.space,
@@ -92,12 +89,52 @@ def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
         optimizer="de",
         eval_timeout=None,
     )
+
+
+def stored_differences(unit: Unit, run_dir: Path, spec: GridSpec) -> list[str]:
+    """The settings in which the run stored in ``run_dir`` differs from what ``spec`` asks of ``unit`` (their names:
+    ``data``, ``only`` ...); empty where it holds none, or the same."""
+    from simtune.store import STORE_FILE, RunStore, check_store_file
+
+    path = Path(run_dir)
+    if not (path / STORE_FILE).exists() or not check_store_file(path / STORE_FILE):
+        return []
+    store = RunStore.open_read_only(path)
+    try:
+        stored = store.get("config")
+    finally:
+        store.close()
+    if stored is None:
+        return []
+    wanted = unit_config(unit, spec).record()
+    stored = {"reference": "mean", **stored}  # a run stored before the choice of reference scored against the mean
+    return sorted(key for key in set(stored) | set(wanted) if stored.get(key) != wanted.get(key))
+
+
+def other_settings(run_dir: Path, differences: list[str]) -> SimtuneError:
+    """The error for a grid cell whose folder holds a run of other settings."""
+    return SimtuneError(
+        f"{run_dir} holds a run with other settings ({', '.join(differences)} differ from this grid's): a grid "
+        "with other settings needs another --out"
+    )
+
+
+def run_unit(unit: Unit, run_dir: str, spec: GridSpec) -> dict:
+    """Run or resume one optimisation; returns its summary.  Safe to run again after a crash."""
+    from simtune.runs import has_run, read_run_record, resume_run, start_run
+    from simtune.store.lock import run_lock
+
+    path = Path(run_dir)
+    config = unit_config(unit, spec)
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise SimtuneError(f"cannot create run folder {path}: {exc.strerror}") from None
     with run_lock(path):  # one writer: a unit still running elsewhere (a worker thought lost) refuses this one
         if has_run(path):
+            differences = stored_differences(unit, path, spec)
+            if differences:  # never adopted as this cell (nor its store rewritten)
+                raise other_settings(path, differences)
             result = resume_run(path, show_progress=False)
         else:  # new, or died before the run was set up: start_run clears such a store
             result = start_run(config, path, show_progress=False)
