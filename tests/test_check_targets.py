@@ -62,6 +62,29 @@ def test_the_corrected_text_keeps_the_file_and_the_former_targets(tmp_path):
     assert task.phases[1].targets_deg[2] == 74.5 and task.as_published().phases[1].targets_deg[2] == 65.0
 
 
+def test_a_file_with_a_target_offset_gets_its_targets_before_the_offset(tmp_path):
+    """Probe 5 #12: the check proposes the targets the robot ran, offset included; written as they were beside the
+    file's `target_offset_deg` (seven bundled seed tasks have one), the corrected task ran the offset twice."""
+    project = published_cube_project(tmp_path)
+    source = project / "tasks" / "cube.toml"
+    text = source.read_text().replace(
+        "start_pose_deg =", "target_offset_deg = [0, 0, 10, 0, 0, 0]\nstart_pose_deg =", 1
+    )
+    source.write_text(text.replace("targets_deg = [0, -60, 65, 90, 0, 0]", "targets_deg = [0, -60, 55, 90, 0, 0]"))
+    ran = load_project(project).task("cube")
+    assert ran.phases[1].targets_deg[2] == 65.0  # 55 + 10
+    # the robot ran joint 3 at 80 in phase 2: the proposal (what the check measures) and the file's targets (as run)
+    write_corrected_task(
+        source, tmp_path / "fixed.toml", {1: Correction((0, -60, 80, 90, 0, 0), "why")}, {1: (0, -60, 65, 90, 0, 0)}
+    )
+    fixed = (tmp_path / "fixed.toml").read_text()
+    assert "targets_deg = [0, -60, 70, 90, 0, 0]\npublished_targets_deg = [0, -60, 55, 90, 0, 0]" in fixed
+    source.rename(project / "tasks" / "old.toml")
+    (tmp_path / "fixed.toml").rename(source)
+    corrected = load_project(project).task("cube")
+    assert corrected.phases[1].targets_deg[2] == 80.0 and corrected.as_published().phases[1].targets_deg[2] == 65.0
+
+
 def test_the_task_file_is_never_written_over(tmp_path):
     source = published_cube_project(tmp_path) / "tasks" / "cube.toml"
     fix = {1: Correction((0, -60, 74, 90, 0, 0), "why")}

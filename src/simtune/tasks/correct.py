@@ -11,6 +11,7 @@ the user's comments, order and spelling stay; only TOML files whose schedule is 
 from __future__ import annotations
 
 import re
+import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -84,6 +85,28 @@ def corrected_text(
     return "".join(line for k, old in enumerate(lines) for line in edits.get(k, [old]))
 
 
+def _before_offset(
+    text: str, corrections: Mapping[int, Correction], previous: Mapping[int, tuple]
+) -> tuple[dict[int, Correction], dict[int, tuple]]:
+    """The proposals and previous targets as the file writes them: the check measures the targets the robot ran,
+    the file's ``target_offset_deg`` added (the seed tasks' re-aim); written as they are, the offset would run twice."""
+    try:
+        offset = tomllib.loads(text).get("target_offset_deg")
+    except tomllib.TOMLDecodeError:
+        offset = None  # the task loaded, so this cannot be; corrected_text names a file it cannot edit
+    if not isinstance(offset, list) or not offset:
+        return dict(corrections), dict(previous)
+
+    def less(values) -> tuple[float, ...]:
+        return tuple(round(float(v) - float(d), 6) for v, d in zip(values, offset))
+
+    note = f"(as the file writes them: its target_offset_deg {_numbers(offset)} is added when it runs)"
+    return (
+        {k: Correction(less(c.targets_deg), f"{c.evidence}\n{note}") for k, c in corrections.items()},
+        {k: less(v) for k, v in previous.items()},
+    )
+
+
 def write_corrected_task(
     source: Path, out: Path, corrections: Mapping[int, Correction], previous: Mapping[int, tuple]
 ) -> Path:
@@ -108,7 +131,9 @@ def write_corrected_task(
         raise SimtuneError(f"--write-task {out}: no folder {out.parent}")
     if source.suffix.lower() != ".toml":
         raise SimtuneError(f"{source}: only TOML task files are corrected here; edit its targets_deg by hand")
-    text = corrected_text(source.read_text(encoding="utf-8"), source, corrections, previous)
+    text = source.read_text(encoding="utf-8")
+    corrections, previous = _before_offset(text, corrections, previous)
+    text = corrected_text(text, source, corrections, previous)
     with open(out, "x", encoding="utf-8") as fh:  # "x": never over a file that appeared meanwhile
         fh.write(text)
     return out
