@@ -45,6 +45,16 @@ def test_short_tune_improves_on_generic_and_stores_every_evaluation(tmp_path):
     assert store.get("versions")["mujoco"] and store.get("config")["seed"] == 3
 
 
+def test_a_time_cap_reached_inside_a_batch_says_how_long_the_search_ran(tmp_path):
+    """Probe 5 #6: `--max-seconds 120` ran 323 s and said "stopped after 120 s". A batch is never cut (the first one
+    always runs): the reason gives the search's own seconds beside its cap."""
+    result = start_run(config(max_seconds=0.01, max_generations=50), tmp_path / "run", show_progress=False)
+    assert result.stop_reason == "max-seconds"
+    assert result.message.startswith("stopped after ") and "its cap 0.01 s reached inside a batch" in result.message
+    ran = float(result.message.split()[2])
+    assert ran == pytest.approx(result.wall_s, abs=1.0)
+
+
 @pytest.mark.slow  # a process pool of two workers: about 10 s
 def test_same_seed_same_result_with_one_or_two_workers(tmp_path):
     one = start_run(config(max_generations=2), tmp_path / "one", show_progress=False)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from contextlib import nullcontext
 from pathlib import Path
 from typing import Annotated, Any
@@ -140,8 +141,9 @@ def _tasks_to_align(align_clock: bool | None, params_file: Path | None, task: st
     return [name for name in names if name not in seen and task_delay_name(name) not in params]
 
 
-def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
-    """What ``tune`` and ``resume`` print: the tuned fitness against the generic one, and where the run is."""
+def report_tune(result, run_dir: Path, config, as_json: bool, command_s: float | None = None) -> None:
+    """What ``tune`` and ``resume`` print: the tuned fitness against the generic one, and where the run is; with
+    ``command_s`` (the whole command's seconds), how much of a ``--max-seconds`` cap it kept to."""
     from simtune.runs import BEST_PARAMS_FILE, read_run_record
 
     record = read_run_record(run_dir)
@@ -187,6 +189,13 @@ def report_tune(result, run_dir: Path, config, as_json: bool) -> None:
         f"({result.message})"
     )
     out.print(f"  best parameters: {payload['best_params_file']}")
+    if command_s is not None and config.max_seconds is not None and command_s > config.max_seconds + 5:
+        # --max-seconds caps the search; the probe before it and the uncertainty after it are not searched
+        out.print(
+            f"  the command took {command_s:.0f} s: the search {result.wall_s:.0f} s (--max-seconds "
+            f"{config.max_seconds:g} caps the search), the rest before and after it (reading the recordings, the "
+            "probe of which parameters act, the uncertainty)"
+        )
     print_verdict(record.verdict)
     if record.uncertainty:
         print_uncertainty(record.uncertainty, short=True, run_dir=run_dir)
@@ -219,10 +228,11 @@ def tune(
     config = api.run_config(**settings)
     from simtune.activity import announcing
 
+    started = time.perf_counter()
     # the probe's note goes with the progress bar: a terminal's, never with --quiet or --json
     with announcing(not quiet and not as_json and sys.stderr.isatty()):
         result = api.start(config, out_dir, show_progress=not quiet and not as_json)
-    report_tune(result, out_dir, config, as_json)
+    report_tune(result, out_dir, config, as_json, command_s=time.perf_counter() - started)
 
 
 def uncertainty(

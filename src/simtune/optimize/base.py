@@ -139,8 +139,15 @@ class BatchSearch:
     def _check(self) -> tuple[str, str] | None:
         """The budget that is spent, as its code (:data:`STOP_REASONS`) and in words; None while none is."""
         s = self.settings
-        if s.max_seconds is not None and self.elapsed() >= s.max_seconds:
-            return "max-seconds", f"stopped after {s.max_seconds:g} s"
+        if s.max_seconds is not None and (elapsed := self.elapsed()) >= s.max_seconds:
+            # budgets are checked between batches: say how long it ran, not only the cap (probe 5: "stopped after
+            # 120 s" after 323 s)
+            if elapsed < s.max_seconds * 1.05 + 1:
+                return "max-seconds", f"stopped after {elapsed:.0f} s (its cap {s.max_seconds:g} s)"
+            return "max-seconds", (
+                f"stopped after {elapsed:.0f} s, its cap {s.max_seconds:g} s reached inside a batch that ran on to its "
+                "end (a batch is never cut: its evaluations are the search's next step)"
+            )
         if s.target_fitness is not None and self.best_fitness <= s.target_fitness:
             return "target-fitness", f"reached the target fitness {s.target_fitness:g}"
         if s.max_evaluations is not None and self.used >= s.max_evaluations:
