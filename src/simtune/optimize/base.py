@@ -143,7 +143,7 @@ class BatchSearch:
             # budgets are checked between batches: say how long it ran, not only the cap (probe 5: "stopped after
             # 120 s" after 323 s)
             if elapsed < s.max_seconds * 1.05 + 1:
-                return "max-seconds", f"stopped after {elapsed:.0f} s (its cap {s.max_seconds:g} s)"
+                return "max-seconds", f"stopped after {max(elapsed, s.max_seconds):.0f} s"
             return "max-seconds", (
                 f"stopped after {elapsed:.0f} s, its cap {s.max_seconds:g} s reached inside a batch that ran on to its "
                 "end (a batch is never cut: its evaluations are the search's next step)"
