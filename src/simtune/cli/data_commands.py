@@ -193,7 +193,7 @@ ForceOpt = Annotated[
     typer.Option(
         "--force",
         help="Replace the truth files of an earlier synth into OUT (OUT/truth.json holding another truth); "
-        "each task's own OUT/truth-<task>.json is kept.",
+        "each task's own `OUT/truth-<task>.json` is kept.",
     ),
 ]
 
@@ -218,7 +218,7 @@ def synth(
 
     Writes Qualisys 6D TSV files (with header) to `OUT/<task>/` (or joint logs:
     --format), read by every command's --data OUT like real recordings, each
-    task's truth to OUT/truth-<task>.json and OUT/truth.json (the truth of every
+    task's truth to `OUT/truth-<task>.json` and OUT/truth.json (the truth of every
     task synthesised into OUT with it; each file also a --params-file).  Tune on
     them to check that tuning recovers the truth.  Another truth already in OUT
     is never overwritten without --force.
@@ -296,7 +296,7 @@ DensityOpt = Annotated[
     float | None,
     typer.Option(
         "--density",
-        help="[kg/m^3] Links without an <inertial> get the mass and inertia of their collision (else visual) "
+        help="[kg/m^3] Links without an `<inertial>` get the mass and inertia of their collision (else visual) "
         "geometry as solids of this density (default 2700, aluminium).",
     ),
 ]

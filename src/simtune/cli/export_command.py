@@ -50,7 +50,7 @@ def export(
 ) -> None:
     """Export a tuned run as the engine's own model files, with provenance: MJCF, URDF + sidecar, SDFormat ...
 
-    MuJoCo: scene_<task>.xml; PyBullet and DART: URDF files, a JSON sidecar and a
+    MuJoCo: `scene_<task>.xml` (an MJCF robot: `scene_<task>.mjb`); PyBullet and DART: URDF files, a JSON sidecar and a
     load script; Drake: URDF and SDFormat with Drake's tags, a sidecar and a load
     script; ODE: the sidecar only (ODE has no model file). Every export has
     controller.yaml (how the run drove the model) and provenance.json (run,

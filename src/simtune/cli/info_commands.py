@@ -66,7 +66,7 @@ ContactTaskOpt = Annotated[
 ]
 FigureOpt = Annotated[
     Path | None,
-    typer.Option(help="With --contact: write the arm at first contact to FIGURE/contact-<engine>.png (and .svg)."),
+    typer.Option(help="With --contact: write the arm at first contact to `FIGURE/contact-<engine>.png` (and .svg)."),
 ]
 ContactJsonOpt = Annotated[
     bool, typer.Option("--json", help="With --contact: one JSON object per line, one per engine and task.")

@@ -218,11 +218,44 @@ def evaluation_json(engine: str, task: str, score) -> dict:
         "fitness_unaligned": score.fitness if score.fitness_unaligned is None else score.fitness_unaligned,
         "clock_aligned": score.clock_aligned,
         "reference": score.reference,
+        # the delay each task ran with [s] (None: none given, so 0; a task whose clock was aligned: the estimate)
+        "command_delay_s": command_delays(score),
     }
     if score.repeats != "all":
         payload["repeats"] = score.repeats
         payload["repeat_files"] = score.repeat_files
     return payload
+
+
+def command_delays(score) -> dict[str, float | None]:
+    """Per task, the command delay it ran with [s] (its clock's estimate where aligned; None where none is given)."""
+    from simtune.engines.controller import given_delay
+
+    aligned = {e.task: e.delay_s for e in score.alignments}
+    return {task: aligned.get(task, given_delay(task, score.x or {})) for task in score.parts}
+
+
+def delay_lines(score) -> list[str]:
+    """Which command delay each task not aligned ran with, where parameters were given: a held-out task scored with
+    a parameter file that times no clock of it runs at delay 0 (probe 5: a generic score, without a word)."""
+    from simtune.engines.controller import given_delay
+
+    if not score.x:
+        return []
+    aligned = {e.task for e in score.alignments}
+    lines = []
+    for task in score.parts:
+        if task in aligned:
+            continue
+        delay = given_delay(task, score.x)
+        if delay is None:
+            lines.append(
+                f"command delay: {task} ran at 0 s, the parameters give it none; if its recordings start at another "
+                f"time, --align-clock estimates its delay from them"
+            )
+        else:
+            lines.append(f"command delay: {task} ran at {delay:.3g} s, the parameters' own")
+    return lines
 
 
 def print_evaluation(score, title: str) -> None:
@@ -251,11 +284,14 @@ def print_evaluation(score, title: str) -> None:
     out.print(table)
     if score.x:
         out.print(f"generic fitness: {score.generic_fitness:.4f}")
+    for line in delay_lines(score):
+        out.print(line, highlight=False, soft_wrap=True)
     for e in score.alignments:
+        onset = "" if e.recorded_onset_s is None else f" (motion onset {fmt_g(e.recorded_onset_s)} s)"
         out.print(
-            f"clock aligned: {e.task}'s command delay {e.delay_s:.2f} s, estimated from its recordings (motion onset "
-            f"{fmt_g(e.recorded_onset_s)} s) with the physics held fixed; without alignment the fitness is "
-            f"{score.fitness_unaligned:.4f} (--no-align-clock)"
+            f"clock aligned: {e.task}'s command delay {e.delay_s:.2f} s, estimated from its recordings{onset} with "
+            f"the physics held fixed; without alignment the fitness is {score.fitness_unaligned:.4f} "
+            "(--no-align-clock)"
         )
     if score.repeats != "all":
         for task, files in score.repeat_files.items():
