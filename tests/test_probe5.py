@@ -76,3 +76,25 @@ def test_help_keeps_every_angle_bracketed_name(capsys):
         for number, line in enumerate(source.read_text().splitlines(), 1):
             bare = re.sub(r"`[^`]*`", "", line)
             assert not re.search(r"<[a-z_]+>", bare), f"{source.name}:{number}: {line.strip()}"
+
+
+# --- 5: one repeat has no floor, not "floor 0.0000" --------------------------------------------------------------
+def test_a_task_of_one_repeat_has_no_floor(tmp_path):
+    """Probe 5 #5: `check` gave a one-episode task "floor 0.0000", presented as what a tuned simulation compares
+    with; one repeat scores 0 against itself."""
+    import shutil
+
+    from simtune.check.project import floor_words
+    from simtune.fitness import reference_floor
+    from simtune.objective import load_references
+    from simtune.tasks import get_task
+
+    (tmp_path / "cube").mkdir()
+    first = sorted((REFERENCE_DIR / "cube").iterdir())[0]
+    shutil.copy(first, tmp_path / "cube" / first.name)
+    task = get_task("cube")
+    (one,) = load_references(tmp_path, [task], reference="aligned").values()
+    assert reference_floor(one).floor is None
+    assert floor_words(None).startswith("no floor: one repeat") and "0.0000" not in floor_words(None)
+    (many,) = load_references(REFERENCE_DIR, [task], reference="aligned").values()
+    assert reference_floor(many).floor > 0

@@ -259,7 +259,8 @@ class RepeatFloor:
     shift_min_s: float
     shift_max_s: float
     outliers: tuple[str, ...]  # the files whose shift is an outlier
-    floor: float  # mean over the repeats of :func:`repeat_floor`
+    #: mean over the repeats of :func:`repeat_floor`; None with one repeat, which scores 0 against itself: no floor
+    floor: float | None
 
 
 def reference_floor(aligned: TaskData, weights: FitnessWeights = FitnessWeights()) -> RepeatFloor:
@@ -277,7 +278,7 @@ def reference_floor(aligned: TaskData, weights: FitnessWeights = FitnessWeights(
         shift_min_s=float(shifts.min()),
         shift_max_s=float(shifts.max()),
         outliers=tuple(aligned.sources[i].name for i in outlying_shifts(shifts, 1.0 / aligned.rate)),
-        floor=float(repeat_floor(aligned, weights).mean()),
+        floor=float(repeat_floor(aligned, weights).mean()) if len(aligned.sources) > 1 else None,
     )
 
 

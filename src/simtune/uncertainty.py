@@ -567,7 +567,8 @@ def verdict(
     floor: float | None = None
     try:
         floors = [reference_floor(ref, objective.weights).floor for ref in references.values()]
-        floor = float(sum(floors)) if floors and all(math.isfinite(f) and f > 0 for f in floors) else None
+        known = [f for f in floors if f is not None and math.isfinite(f) and f > 0]
+        floor = float(sum(known)) if floors and len(known) == len(floors) else None
     except (ValueError, TypeError):
         floor = None  # the plain mean, joint logs only or one repeat: no floor to compare with
     space = objective.vector_space()

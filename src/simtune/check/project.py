@@ -182,10 +182,18 @@ def _floor_line(name: str, data: TaskData) -> str:
             f"wrist spread {floor.spread_unaligned_m * 1000:.1f} mm as recorded, "
             f"{floor.spread_aligned_m * 1000:.1f} mm with the clocks aligned; "
         )
-    return (
-        f"task {name}: {spread}clock shifts {floor.shift_min_s:+.3f} to {floor.shift_max_s:+.3f} s; floor (the aligned "
-        f"mean scored against each repeat, what a tuned simulation compares with) {floor.floor:.4f}"
-    )
+    shifts = f"clock shifts {floor.shift_min_s:+.3f} to {floor.shift_max_s:+.3f} s"
+    return f"task {name}: {spread}{shifts}; {floor_words(floor.floor)}"
+
+
+def floor_words(floor: float | None) -> str:
+    """The floor of a fitness in words: its value, or why there is none (one repeat: nothing to compare it with)."""
+    if floor is None:
+        return (
+            "no floor: one repeat, which scores 0 against itself (record two or more to know what a tuned "
+            "simulation compares with)"
+        )
+    return f"floor (the aligned mean scored against each repeat, what a tuned simulation compares with) {floor:.4f}"
 
 
 def _xyz(v) -> str:

@@ -98,7 +98,7 @@ def _repeat_rows(task: TaskSpec, aligned: TaskData, plain_agreement: np.ndarray,
                 "onset_s": aligned.alignment.onsets[i],
                 "shift_s": float(shifts[i]),
                 "shift_outlier": i in odd,
-                "floor_fitness": float(floor[i]),
+                "floor_fitness": float(floor[i]) if len(aligned.sources) > 1 else None,
             }
         )
     return rows

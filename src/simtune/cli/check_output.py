@@ -37,7 +37,7 @@ def print_data_quality(parts: list[dict]) -> None:
                 f"{1000 * r['start_distance_m']:.1f}",
                 fmt_g(r["onset_s"]),
                 f"{r['shift_s']:+.3f}" + (" (outlier)" if r["shift_outlier"] else ""),
-                f"{r['floor_fitness']:.4f}",
+                "-" if r["floor_fitness"] is None else f"{r['floor_fitness']:.4f}",
             )
         out.print(table)
         if "repeat_selection" in part:
@@ -53,8 +53,14 @@ def print_data_quality(parts: list[dict]) -> None:
         out.print(
             f"  repeat spread {1000 * part['repeat_spread_unaligned_m']:.1f} mm as recorded, "
             f"{1000 * part['repeat_spread_aligned_m']:.1f} mm with the clocks aligned (shifts "
-            f"{part['shift_range_s'][0]:+.3f} to {part['shift_range_s'][1]:+.3f} s); floor: the aligned mean "
-            f"scores {part['floor_fitness']:.4f} against the repeats (mean), what a tuned simulation compares with"
+            f"{part['shift_range_s'][0]:+.3f} to {part['shift_range_s'][1]:+.3f} s); "
+            + (
+                "no floor: one repeat, which scores 0 against itself (record two or more to know what a tuned "
+                "simulation compares with)"
+                if part["floor_fitness"] is None
+                else f"floor: the aligned mean scores {part['floor_fitness']:.4f} against the repeats (mean), what a "
+                "tuned simulation compares with"
+            )
         )
         out.print(
             f"  motion onset {fmt_g(part['onset_mean_s'])} s (std {fmt_g(part['onset_std_s'])} s); the generic "
