@@ -53,6 +53,21 @@ def test_warn_about_start_warns_once_per_finding_and_says_what_to_do():
     assert "a with b" in texts[2] or "b with a" in texts[2]
 
 
+def test_a_fit_that_pushes_a_damping_below_zero_is_never_told_to_widen_the_range():
+    """Probe 5 #7: negative damping is never physical; an encoder offset may go either way."""
+    from simtune.params.kinds import never_negative
+
+    assert never_negative("joint_damping_2") and never_negative("mass_cube_wood") and never_negative("timestep")
+    assert not never_negative("joint_offset_3") and not never_negative("command_delay_cube")
+    assert not never_negative("marker_offset_x") and not never_negative("no_such_kind")
+    names = ["joint_damping_2", "command_delay"]
+    jac = np.column_stack([np.ones(10), np.arange(10.0)])
+    with pytest.warns(SearchWarning):
+        texts = warn_about_start(names, np.array([0.0, 0.5]), np.zeros(2), np.ones(2), jac, np.ones(10))
+    assert "pushes joint_damping_2 below 0, which no arm has: not a range to widen" in texts[0]
+    assert not any("widen the range" in t for t in texts)
+
+
 @pytest.fixture
 def short_rounds(monkeypatch):
     monkeypatch.setattr(pipeline, "GLOBAL_GENERATIONS", 2)

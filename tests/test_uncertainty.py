@@ -44,6 +44,32 @@ def test_gauss_newton_interval_matches_the_linear_model():
     assert set(entries["command_delay"]) == CONTRACT
 
 
+def test_an_interval_past_a_range_is_cut_there_and_says_so():
+    """Probe 5 #3, #26: a time step's interval reached below 0, dampings' below zero; a value no arm can have."""
+    space = get_space("extended", only=["timestep", "command_delay"])
+    rng = np.random.default_rng(3)
+    m = 200
+    J = rng.normal(size=(m, 2))
+    J[:, 0] *= 0.05  # the time step barely moves the residuals: a wide interval about a value near its lower bound
+    r = rng.normal(scale=0.01, size=m)
+    result = analyse(space, np.array([0.0015, 1.0]), Jacobian(r, J, True))
+    step = {e["name"]: e for e in result["parameters"]}["timestep"]
+    assert step["identifiable"] and step["low"] == 0.001 and step["cut"] == ["low"] and step["high"] < 0.05
+    delay = {e["name"]: e for e in result["parameters"]}["command_delay"]
+    assert "cut" not in delay and set(delay) == CONTRACT  # the contract's fields, and `cut` only where cut
+    from simtune.cli.output import _cut
+
+    assert _cut(step) == " (cut at its range's lower end)" and _cut(delay) == ""
+
+
+def test_fewer_than_ten_bootstrap_draws_are_refused(short_run):
+    from simtune import api
+    from simtune.errors import SimtuneError
+
+    with pytest.raises(SimtuneError, match="a 95 % interval needs 10 draws or more"):
+        api.uncertainty(short_run, bootstrap=2)
+
+
 def test_a_barely_moving_direction_is_cut_off_and_correlation_is_reported():
     space = get_space("extended", only=["command_delay", "marker_offset_x"])
     rng = np.random.default_rng(2)
@@ -105,7 +131,7 @@ def test_a_finished_run_stores_its_uncertainty_and_keeps_its_evaluations(short_r
     )
     assert proc.returncode == 0, proc.stderr
     printed = json.loads(proc.stdout)
-    assert [set(e) for e in printed["parameters"]] == [CONTRACT] * 4
+    assert [set(e) - {"cut"} for e in printed["parameters"]] == [CONTRACT] * 4
     assert [e["name"] for e in printed["parameters"]] == names
     store = RunStore(short_run)
     assert store.count_evaluations() == evaluations
@@ -114,20 +140,20 @@ def test_a_finished_run_stores_its_uncertainty_and_keeps_its_evaluations(short_r
 
 @pytest.mark.slow
 def test_the_bootstrap_refits_a_run_and_stores_what_it_says(short_run, tmp_path):
-    """`simtune uncertainty RUN --bootstrap N` (end to end, on a copy of a run): N refits, the same contract per
-    parameter, the summary stored in the run, its evaluations untouched."""
+    """`simtune uncertainty RUN --bootstrap N` (end to end, on a copy of a run; 10, the fewest it takes): N refits,
+    the same contract per parameter, the summary stored in the run, its evaluations untouched."""
     run = tmp_path / "run"
     shutil.copytree(short_run, run)
     evaluations = RunStore(run).count_evaluations()
     proc = subprocess.run(
-        [sys.executable, "-m", "simtune.cli", "uncertainty", str(run), "--bootstrap", "3", "--workers", "2", "--json"],
+        [sys.executable, "-m", "simtune.cli", "uncertainty", str(run), "--bootstrap", "10", "--workers", "2", "--json"],
         capture_output=True,
         text=True,
         timeout=600,
     )
     assert proc.returncode == 0, proc.stderr
     printed = json.loads(proc.stdout)
-    assert printed["bootstrap_draws"] == 3 and [set(e) for e in printed["parameters"]] == [CONTRACT] * 4
+    assert printed["bootstrap_draws"] == 10 and [set(e) - {"cut"} for e in printed["parameters"]] == [CONTRACT] * 4
     store = RunStore(run)
     assert store.get("uncertainty") == printed
     assert store.count_evaluations() == evaluations

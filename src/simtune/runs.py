@@ -642,7 +642,13 @@ def _uncertainty_or_reason(objective: Objective, plan: RunPlan, store: RunStore,
 def run_uncertainty(run_dir: Path, workers: int = 1, bootstrap: int = 0) -> dict:
     """Compute (again) the uncertainty at a finished run's best point and store it in the run (store meta), with
     ``bootstrap`` draws of the repeats to refit against (:func:`simtune.uncertainty.bootstrap_refits`)."""
+    from simtune.common.limits import MIN_BOOTSTRAP
+
     run_dir = Path(run_dir)
+    if 0 < bootstrap < MIN_BOOTSTRAP:
+        raise SimtuneError(
+            f"--bootstrap {bootstrap}: a 95 % interval needs {MIN_BOOTSTRAP} draws or more (0: Gauss-Newton alone)"
+        )
     path = _run_to_write(run_dir, "uncertainty")
     with run_lock(run_dir):
         store = RunStore(run_dir)

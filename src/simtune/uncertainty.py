@@ -303,16 +303,15 @@ def analyse(
         sd = float(sds[i])
         active = p.name not in inactive
         identifiable = bool(active and smooth[i] and null_share[i] < NULL_SHARE and 2 * Z95 * sd <= width[i])
-        entries.append(
-            {
-                "name": p.name,
-                "value": float(x[i]),
-                "low": float(x[i] - Z95 * sd) if identifiable else None,
-                "high": float(x[i] + Z95 * sd) if identifiable else None,
-                "active": active,
-                "identifiable": identifiable,
-            }
-        )
+        entry = {
+            "name": p.name,
+            "value": float(x[i]),
+            "low": float(x[i] - Z95 * sd) if identifiable else None,
+            "high": float(x[i] + Z95 * sd) if identifiable else None,
+            "active": active,
+            "identifiable": identifiable,
+        }
+        entries.append(_cut_to_range(entry, p.low, p.high))
     pairs = []
     ident = [i for i, e in enumerate(entries) if e["identifiable"]]  # correlations: Gauss-Newton's
     for a_pos, a in enumerate(ident):
@@ -431,6 +430,18 @@ def _refit(objective: Objective, start: np.ndarray, low: np.ndarray, width: np.n
         return jacobian_from(fun(u), batch(points), steps)
 
     return least_squares(fun, start, jac=jac, bounds=(0.0, 1.0), max_nfev=LOCAL_NFEV, ftol=STALL_FTOL).x
+
+
+def _cut_to_range(entry: dict, low: float, high: float) -> dict:
+    """An identified parameter's interval within its range: a damping, a mass or a time step below its range (below
+    zero for those whose range starts there) is no value an arm can have (probe 5: a negative time step, dampings
+    reaching below 0).  ``cut`` names the ends that were cut (absent where none was)."""
+    if entry["low"] is None or entry["high"] is None:
+        return entry
+    cut = [end for end, outside in (("low", entry["low"] < low), ("high", entry["high"] > high)) if outside]
+    if not cut:
+        return entry
+    return {**entry, "low": max(entry["low"], low), "high": min(entry["high"], high), "cut": cut}
 
 
 def _with_repeats(sds, J, spread: RepeatSpread, keep, s, vt, width) -> np.ndarray:

@@ -136,6 +136,15 @@ def _say(text: str, indent: int = 2) -> None:
         out.print(line, markup=False, highlight=False, soft_wrap=True)
 
 
+def _cut(entry: dict) -> str:
+    """`` (cut at its range)`` where an interval reached past the parameter's range (a damping below 0)."""
+    ends = entry.get("cut") or ()
+    if not ends:
+        return ""
+    which = " and ".join("lower" if end == "low" else "upper" for end in ends)
+    return f" (cut at its range's {which} end)"
+
+
 def print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
     """How well the recordings pin the parameters at a run's best point, for someone reading it the first time.
 
@@ -162,7 +171,7 @@ def print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
         _say(f"identified: {len(identified)} of the {searched} searched parameters")
         table = text_table("", ("parameter", "value", "95 % interval", "+- (of value)"))
         cells = [
-            (e["name"], fmt_g(e["value"]), f"{fmt_g(e['low'])} to {fmt_g(e['high'])}", _tightness(e))
+            (e["name"], fmt_g(e["value"]), f"{fmt_g(e['low'])} to {fmt_g(e['high'])}{_cut(e)}", _tightness(e))
             for e in identified
         ]
         for row in cells:

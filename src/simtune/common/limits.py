@@ -10,3 +10,5 @@ MAX_WORKERS = 256
 #: bootstrap draws of `simtune uncertainty --bootstrap`: each refits the run's best point (a few seconds to minutes),
 #: so a mistyped count is refused rather than running for days
 MAX_BOOTSTRAP = 1000
+#: ... and at least this many where any: a 95 % interval from the scatter of two or three draws is noise (probe 5)
+MIN_BOOTSTRAP = 10

@@ -21,6 +21,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from simtune.params.kinds import never_negative
+
 #: Largest to smallest singular value of the unit-scaled Jacobian above which it counts as ill-conditioned
 #: (``J^T J`` then has a condition number above its square, 1e8).
 CONDITION = 1e4
@@ -125,6 +127,17 @@ def warn_about_start(
     gradient = jacobian.T @ residuals / cost if cost > 0 else None
     x, lows, highs = (np.asarray(v, dtype=float) for v in (x, lows, highs))
     bound = pushed_past_bounds(names, x, lows, highs, gradient) if gradient is not None else []
+    # below 0 for a damping, a friction, a mass: no range to widen (probe 5: "widen the range" of a damping at 0)
+    unphysical = [b for b in bound if b.endswith("(lower bound 0)") and never_negative(b.split(" ")[0])]
+    bound = [b for b in bound if b not in unphysical]
+    if unphysical:
+        one = len(unphysical) == 1
+        names_at_zero = ", ".join(b.split(" ")[0] for b in unphysical)
+        texts.append(
+            f"the fit pushes {names_at_zero} below 0, which no arm has: not a range to widen, but what the "
+            "recordings' noise or a part of the arm the model lacks (another controller, a delay) asks of "
+            f"{'it' if one else 'them'}"
+        )
     if bound:
         one = len(bound) == 1
         texts.append(

@@ -508,6 +508,25 @@ def kinds_of(names: Iterable[str]) -> set[str]:
     return found
 
 
+#: the kinds whose values may be negative: an encoder's zero offset, the marker's offset on the hand, a clock's
+#: delay; every other kind (a mass, a damping, a friction, a gain, a time step ...) is never below 0 on any arm
+SIGNED_KINDS = frozenset({"joint_offset", "marker_offset", DELAY})
+
+
+def never_negative(name: str) -> bool:
+    """Whether parameter ``name`` is physically at least 0 (a damping: yes; an encoder offset: no).
+
+    Args:
+        name: a parameter name.
+
+    Returns:
+        True for a parameter of a kind of :data:`KINDS` outside :data:`SIGNED_KINDS`; False for those (a task's own
+        delay among them) and for a name of no kind.
+    """
+    kinds = [kind for kind in BY_NAME if name == kind or name.startswith(f"{kind}_")]
+    return bool(kinds) and max(kinds, key=len) not in SIGNED_KINDS
+
+
 def per_joint_kind(name: str) -> tuple[str, int] | None:
     """(kind, n) of a per-joint or per-link parameter name (``joint_damping_3`` -> ("joint_damping", 3)).
 
