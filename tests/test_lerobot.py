@@ -599,3 +599,25 @@ def test_so101_path_from_lerobot_actions_to_a_tuned_delay(tmp_path):
         "mujoco", "wave", project=root, out=tmp_path / "run", only=["command_delay"], max_evaluations=30, seed=1
     )
     assert tuned.x["command_delay"] == pytest.approx(0.25, abs=0.06), tuned.x
+
+
+def test_episodes_of_other_commanded_motions_are_never_averaged_into_one_reference(tmp_path, simulated):
+    """Probe 5 #2: a dataset of different motions read as one task's repeats was averaged into one reference with
+    only a clock warning. Repeats of one schedule, each started a frame or two apart, stay one task's."""
+    episodes = [(t, s[:, :6], a[:, :6]) for t, s, a in simulated]
+    late = episodes[1][2].copy()
+    late[2:] = late[:-2]  # the same commands two frames later (a start jitter)
+    same = write_lerobot_dataset(
+        tmp_path / "same", [episodes[0], (episodes[1][0], episodes[1][1], late)], NAMES[:6], FPS
+    )
+    assert len(read_lerobot_dataset(same, ARM_JOINTS, LeRobotReading(units="deg"))) == 2
+    other = episodes[2][2].copy()
+    other[:, 0] += 15.0  # joint 1 commanded 15 deg elsewhere the whole episode: another motion
+    mixed = write_lerobot_dataset(
+        tmp_path / "mixed", [episodes[0], episodes[1], (episodes[2][0], episodes[2][1], other)], NAMES[:6], FPS
+    )
+    with pytest.raises(RecordingError, match=r"episodes 2 were commanded another motion than episode 0") as info:
+        read_lerobot_dataset(mixed, ARM_JOINTS, LeRobotReading(units="deg"))
+    assert "`[recordings] episodes = [0]`" in str(info.value) and "schedule_episode" in str(info.value)
+    # the repeats named: read as the task's recordings
+    assert len(read_lerobot_dataset(mixed, ARM_JOINTS, LeRobotReading(units="deg", episodes=(0, 1)))) == 2

@@ -454,14 +454,78 @@ def read_lerobot_dataset(
     factor = to_radians(root, reading, f"features.{STATE}")
     ranges = dict(reading.ranges)
     recordings = []
-    for episode in read_episodes(root, [STATE], reading.episodes):
+    commanded = ACTION in info["features"]
+    episodes = read_episodes(root, [STATE, ACTION] if commanded else [STATE], reading.episodes)
+    for episode in episodes:
         joints = _angles(episode, columns, factor, root)
         if ranges:
             _check_stated_units(root, episode, columns, ranges, str(reading.units))
         source = root / f"episode_{episode.index:06d}"
         frames = np.arange(1, len(episode.time) + 1)
         recordings.append(finish_recording(source, _shown(root, source), episode.time, frames, {}, {}, joints, "frame"))
+    if commanded and len(episodes) > 1:  # after the states' own checks, which name a wrong unit first
+        try:
+            actions = pick_columns(root, info, ACTION, joint_names, reading)
+        except RecordingError:
+            actions = None  # commands of other joints (or names) than the state's: nothing to compare
+        if actions is not None and actions.picked:
+            check_one_commanded_motion(root, episodes, actions, to_radians(root, reading, f"features.{ACTION}"))
     return recordings
+
+
+#: Episodes whose commanded angles (``action``) differ by more than :data:`SAME_COMMAND_RAD` in more than
+#: :data:`OTHER_MOTION_SHARE` of their frames, on the best shift of their clocks within :data:`COMMAND_SHIFT_S`,
+#: are other motions: 1 deg is far above a servo's quantisation (0.09 deg on the SO-101's) and far below two
+#: teleoperated takes; the shift and the share keep repeats of one schedule started at other moments (a start
+#: jitter puts each step a frame or two apart) together
+SAME_COMMAND_RAD = math.radians(1.0)
+OTHER_MOTION_SHARE = 0.1
+COMMAND_SHIFT_S = 1.0
+
+
+def check_one_commanded_motion(root: Path, episodes: Sequence[Episode], actions: Columns, factor: float) -> None:
+    """Refuse episodes of other commanded motions as repeats of one task: their ``observation.state`` averaged into
+    one reference fits no schedule (probe 5: a dataset of ten teleoperated episodes averaged, one line of warning).
+
+    Each episode's ``action`` stream is compared with the first's frame by frame, on its own clock shifted by the
+    whole number of frames (within :data:`COMMAND_SHIFT_S`) that brings the two closest, over the frames both hold.
+
+    Args:
+        root: the dataset.
+        episodes: the episodes read as the task's recordings (two or more), with their ``action`` vectors.
+        actions: the ``action`` entries of the driven joints.
+        factor: the dataset's angle unit in radians.
+
+    Raises:
+        RecordingError: naming the episodes commanded otherwise, by how much, and the task file's remedies.
+    """
+    first = np.column_stack(list(_angles(episodes[0], actions, factor, root).values()))
+    steps = np.diff(episodes[0].time)
+    frame_s = float(np.median(steps)) if steps.size else 0.0
+    most = int(COMMAND_SHIFT_S / frame_s) if frame_s > 0 else 0
+    other: list[tuple[int, float]] = []
+    for episode in episodes[1:]:
+        angles = np.column_stack(list(_angles(episode, actions, factor, root).values()))
+        shares = []
+        for shift in range(-most, most + 1):
+            a = first[max(0, -shift) :]
+            b = angles[max(0, shift) :]
+            n = min(len(a), len(b))
+            if n >= max(2, len(first) // 2):  # at least half the first episode in common
+                shares.append(float(np.mean(np.any(np.abs(a[:n] - b[:n]) > SAME_COMMAND_RAD, axis=1))))
+        share = min(shares, default=1.0)
+        if share > OTHER_MOTION_SHARE:
+            other.append((episode.index, share))
+    if other:
+        shown = ", ".join(str(k) for k, _ in other[:5]) + (f" and {len(other) - 5} more" if len(other) > 5 else "")
+        least = min(share for _, share in other)
+        raise RecordingError(
+            f"{_shown(root)}: episodes {shown} were commanded another motion than episode {episodes[0].index} (their "
+            f"action streams differ from it by more than {math.degrees(SAME_COMMAND_RAD):g} deg in {100 * least:.0f} % "
+            "or more of their frames): a task's recordings are repeats of one commanded motion, averaged into its "
+            f"reference; name the repeats in the task file (`[recordings] episodes = [{episodes[0].index}]`), or make "
+            "one task per episode (`schedule_episode`)"
+        )
 
 
 def _check_stated_units(
