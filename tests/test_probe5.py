@@ -98,3 +98,22 @@ def test_a_task_of_one_repeat_has_no_floor(tmp_path):
     assert floor_words(None).startswith("no floor: one repeat") and "0.0000" not in floor_words(None)
     (many,) = load_references(REFERENCE_DIR, [task], reference="aligned").values()
     assert reference_floor(many).floor > 0
+
+
+# --- 8: at 80 columns no cell a user acts on is cut short ---------------------------------------------------------
+def test_a_table_wider_than_the_terminal_becomes_one_line_per_row_never_cut_short(monkeypatch):
+    """Probe 5 #8: in a pipe (80 columns) `check`'s table cut every file name to `CubeE…` and the floor to `0.00…`."""
+    from simtune.cli import output
+
+    headers = ("file", "lost frames", "longest gap [s]", "to mean [mm]", "as recorded [mm]", "onset [s]", "floor")
+    rows = [(f"CubeExp00{k:02d}_6D.tsv", "0", "0.00", "1.9", "12.1", "1.215", "0.0043") for k in range(1, 4)]
+    monkeypatch.setattr(output.out, "width", 80)
+    with output.out.capture() as seen:
+        output.print_whole_table("cube: 3 repeats", headers, rows)
+    text = seen.get()
+    assert "…" not in text and all(f"CubeExp00{k:02d}_6D.tsv" in text for k in range(1, 4))
+    assert "floor 0.0043" in text and max(len(line) for line in text.splitlines()) <= 80
+    monkeypatch.setattr(output.out, "width", 200)  # wide enough: the table itself
+    with output.out.capture() as seen:
+        output.print_whole_table("cube: 3 repeats", headers, rows)
+    assert "┃ file" in seen.get() or "│ CubeExp0001_6D.tsv" in seen.get()

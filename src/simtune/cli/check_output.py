@@ -5,30 +5,30 @@ from __future__ import annotations
 
 from rich.markup import escape
 
-from simtune.cli.output import fmt_g, out
+from simtune.cli.output import fmt_g, out, print_whole_table
 from simtune.common.console import text_table
 
 
 def print_data_quality(parts: list[dict]) -> None:
     for part in parts:
         selection = f", repeats {part['repeat_selection']}" if "repeat_selection" in part else ""
-        table = text_table(
+        title = (
             f"{part['task']}: {len(part['repeats'])} repeats, spread {1000 * part['repeat_spread_m']:.1f} mm "
-            f"(reference: {part['reference']}{selection})",
-            (
-                "file",
-                "lost frames",
-                "longest gap [s]",
-                "to mean [mm]",
-                "as recorded [mm]",
-                "start distance [mm]",
-                "onset [s]",
-                "shift [s]",
-                "floor",
-            ),
+            f"(reference: {part['reference']}{selection})"
         )
-        for r in part["repeats"]:
-            table.add_row(
+        headers = (
+            "file",
+            "lost frames",
+            "longest gap [s]",
+            "to mean [mm]",
+            "as recorded [mm]",
+            "start distance [mm]",
+            "onset [s]",
+            "shift [s]",
+            "floor",
+        )
+        rows = [
+            (
                 r["file"],
                 str(r["lost_frames"]),
                 f"{r['longest_gap_s']:.2f}",
@@ -39,7 +39,9 @@ def print_data_quality(parts: list[dict]) -> None:
                 f"{r['shift_s']:+.3f}" + (" (outlier)" if r["shift_outlier"] else ""),
                 "-" if r["floor_fitness"] is None else f"{r['floor_fitness']:.4f}",
             )
-        out.print(table)
+            for r in part["repeats"]
+        ]
+        print_whole_table(title, headers, rows)
         if "repeat_selection" in part:
             held = ", ".join(part["held_out"]) or "none"
             out.print(

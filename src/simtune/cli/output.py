@@ -136,6 +136,27 @@ def _say(text: str, indent: int = 2) -> None:
         out.print(line, markup=False, highlight=False, soft_wrap=True)
 
 
+def print_whole_table(title: str, headers: tuple[str, ...], rows: list[tuple[str, ...]]) -> None:
+    """A table where it fits the terminal (or the pipe's 80 columns) whole; narrower, one line per row, each cell
+    named by its header: Rich would squeeze it by cutting cells short ("CubeE…", "0.00…"), and a user acts on them.
+
+    Args:
+        title: the table's title.
+        headers: the column headers.
+        rows: the cells of each row, as text.
+    """
+    table = text_table(title, headers)
+    for row in rows:
+        table.add_row(*row)
+    if Measurement.get(out, out.options.update(max_width=10_000), table).maximum <= out.width:
+        out.print(table)
+        return
+    out.print(escape(title), highlight=False)
+    for row in rows:  # wrapped between words only: a file name stays whole
+        cells = [row[0], *(f"{header} {cell}" for header, cell in zip(headers[1:], row[1:]))]
+        out.print("  " + escape("; ".join(cells)), highlight=False)
+
+
 def _cut(entry: dict) -> str:
     """`` (cut at its range)`` where an interval reached past the parameter's range (a damping below 0)."""
     ends = entry.get("cut") or ()
