@@ -362,14 +362,17 @@ def test_a_replay_that_takes_another_path_replaces_the_later_checkpoints(tmp_pat
 
 # --- Ctrl-C ------------------------------------------------------------------------------------------------
 @pytest.mark.slow  # a kill test: a run on two workers is sent SIGINT (about 5 s each)
-@pytest.mark.parametrize("command", ["tune", "resume"])
+@pytest.mark.parametrize("command", ["tune", "resume", "tune --json"])
 def test_ctrl_c_exits_130_saying_how_to_resume(command, tmp_path):
+    """With --json a script still gets its one object (probe 5 #22: it got none): stop_reason "interrupted"."""
     out = tmp_path / "run"
     if command == "resume":
         kill_when(tune_cmd(out, "--max-generations", "40", "--no-prune"), out, 6)
     cmd = tune_cmd(out, "--workers", "2", "--max-generations", "40", "--no-prune")  # stopped long before the end
+    if command == "tune --json":
+        cmd = [*cmd, "--json"]
     proc = subprocess.Popen(
-        cmd if command == "tune" else resume_cmd(out),
+        cmd if command != "resume" else resume_cmd(out),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -382,9 +385,13 @@ def test_ctrl_c_exits_130_saying_how_to_resume(command, tmp_path):
     while time.time() < deadline and stored_evaluations(out) < start + 3 and proc.poll() is None:
         time.sleep(0.02)
     os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C reaches every process of the group, workers included
-    _, stderr = proc.communicate(timeout=120)
+    stdout, stderr = proc.communicate(timeout=120)
     assert proc.returncode == 130
     assert stderr.strip().splitlines() == [f"interrupted - resume with: simtune resume {out}"], stderr
+    if command == "tune --json":
+        printed = json.loads(stdout)
+        assert printed["stop_reason"] == "interrupted" and printed["run_dir"] == str(out)
+        assert printed["resume"] == f"simtune resume {out}" and printed["evaluations"] >= 3
     store = RunStore(out)
     assert store.get("config") is not None and store.get("status") == "running"  # a run to resume
     store.close()

@@ -80,9 +80,30 @@ def _interruptible(command):
             return command(*args, **kwargs)
         except KeyboardInterrupt as exc:
             _say_interrupted(exc)
+            if kwargs.get("as_json"):  # a script reads stdout: it gets its one object, stop_reason "interrupted"
+                _print_interrupted_json(exc)
             raise SystemExit(130) from None
 
     return run
+
+
+def _print_interrupted_json(exc: BaseException) -> None:
+    """``--json``'s object for a run stopped by Ctrl-C: why, where it is, how to go on, what it has so far."""
+    from simtune.cli.output import print_json
+
+    run_dir = getattr(exc, "run_dir", None)
+    payload: dict = {"stop_reason": "interrupted", "run_dir": None if run_dir is None else str(run_dir)}
+    if run_dir is not None:
+        payload["resume"] = f"simtune resume {run_dir}"
+        try:
+            from simtune.runs import read_run_record
+
+            record = read_run_record(run_dir)
+            payload["evaluations"] = record.evaluations
+            payload["fitness"] = None if record.best is None else record.best["score"]["fitness"]
+        except (SimtuneError, OSError, ValueError):
+            pass  # the run folder cannot be read now: where it is and how to resume still stand
+    print_json(payload)
 
 
 for _command in COMMANDS:
