@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import textwrap
+from collections.abc import Sequence
 from pathlib import Path
 
 from rich.console import Console
@@ -136,7 +137,7 @@ def _say(text: str, indent: int = 2) -> None:
         out.print(line, markup=False, highlight=False, soft_wrap=True)
 
 
-def print_whole_table(title: str, headers: tuple[str, ...], rows: list[tuple[str, ...]]) -> None:
+def print_whole_table(title: str, headers: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
     """A table where it fits the terminal (or the pipe's 80 columns) whole; narrower, one line per row, each cell
     named by its header: Rich would squeeze it by cutting cells short ("CubeE…", "0.00…"), and a user acts on them.
 
