@@ -55,6 +55,13 @@ def test_a_time_cap_reached_inside_a_batch_says_how_long_the_search_ran(tmp_path
     assert ran == pytest.approx(result.wall_s, abs=1.0)
 
 
+def test_an_evaluation_budget_reached_inside_a_generation_says_what_it_used(tmp_path):
+    """Probe 5 #20: `--max-evaluations 4` ran a whole generation (DE's population) and said only "max-evaluations"."""
+    result = start_run(config(max_evaluations=4), tmp_path / "run", show_progress=False)
+    assert result.stop_reason == "max-evaluations" and result.evaluations > 4
+    assert result.message.startswith(f"used {result.evaluations} evaluations, its budget of 4 reached inside a batch")
+
+
 @pytest.mark.slow  # a process pool of two workers: about 10 s
 def test_same_seed_same_result_with_one_or_two_workers(tmp_path):
     one = start_run(config(max_generations=2), tmp_path / "one", show_progress=False)

@@ -151,6 +151,11 @@ class BatchSearch:
         if s.target_fitness is not None and self.best_fitness <= s.target_fitness:
             return "target-fitness", f"reached the target fitness {s.target_fitness:g}"
         if s.max_evaluations is not None and self.used >= s.max_evaluations:
+            if self.used > s.max_evaluations:  # a generation or a Jacobian is never cut: say what it cost
+                return "max-evaluations", (
+                    f"used {self.used} evaluations, its budget of {s.max_evaluations} reached inside a batch that ran "
+                    "on to its end (a batch is never cut: its evaluations are the search's next step)"
+                )
             return "max-evaluations", f"used its budget of {s.max_evaluations} evaluations"
         if s.max_generations is not None:
             if not self.generation_size and self.generations >= s.max_generations:
