@@ -621,3 +621,27 @@ def test_episodes_of_other_commanded_motions_are_never_averaged_into_one_referen
     assert "`[recordings] episodes = [0]`" in str(info.value) and "schedule_episode" in str(info.value)
     # the repeats named: read as the task's recordings
     assert len(read_lerobot_dataset(mixed, ARM_JOINTS, LeRobotReading(units="deg", episodes=(0, 1)))) == 2
+
+
+@pytest.mark.parametrize(
+    ("fps", "scale", "message"),
+    [
+        (30, 10.0, "steps 0.333333 s a frame (3 frames per second), but meta/info.json says fps 30"),
+        (0, 1.0, "fps: 0 is not a frame rate"),
+        (-30, 1.0, "fps: -30 is not a frame rate"),
+        ("thirty", 1.0, 'fps: "thirty" is not a frame rate'),
+        (300, 1.0, "(30 frames per second), but meta/info.json says fps 300"),
+    ],
+)
+def test_timestamps_and_fps_that_disagree_are_one_line(tmp_path, simulated, fps, scale, message):
+    """Probe 5 #15: timestamps 10 x too large (3 Hz where info.json says 30), and fps 0, -30, "thirty", 300, were
+    read without a line: the schedule stretched 10 x."""
+    t, s, a = simulated[0]
+    root = write_raw(tmp_path / "d", "v3.0", [(t * scale, s, a)])
+    info_path = root / "meta" / "info.json"
+    info = json.loads(info_path.read_text())
+    info["fps"] = fps
+    info_path.write_text(json.dumps(info))
+    with pytest.raises(RecordingError, match="^") as caught:
+        read_lerobot_dataset(root, ARM_JOINTS, LeRobotReading(units="deg", undriven=("finger_joint_1",)))
+    assert message in str(caught.value)

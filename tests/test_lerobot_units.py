@@ -221,8 +221,9 @@ def test_the_declared_units_rules_on_their_own():
 SCHEDULES = {
     "timestamps in milliseconds": (
         lambda: [episode(time_scale=1000.0)],
-        "wave/episode_000000 frame 3: time check: the time 66.6667 s is more than 10 x the task's 4 s after the "
-        "first frame's 0 s",
+        # meta/info.json's fps names it first (probe 5 #15)
+        "wave/data/chunk-000/file-000.parquet: timestamp: episode 0 steps 33.3333 s a frame (0.03 frames per "
+        "second), but meta/info.json says fps 30",
     ),
     "one frame": (
         lambda: [tuple(part[:1] for part in episode())],

@@ -151,7 +151,43 @@ def read_info(root: Path) -> dict[str, Any]:
         )
     if not isinstance(info.get("features"), dict):
         raise RecordingError(f"{shown}: features: missing or not a table of features")
+    fps = info.get("fps")
+    if fps is not None and (
+        isinstance(fps, bool) or not isinstance(fps, int | float) or not math.isfinite(fps) or fps <= 0
+    ):
+        raise RecordingError(f"{shown}: fps: {json.dumps(fps)} is not a frame rate (frames per second, above 0)")
     return info
+
+
+#: an episode's timestamps may step this much away from info.json's 1 / fps (median over the episode) before they
+#: are another clock: a LeRobot writer synthesises them as frame_index / fps, so they agree to rounding
+FPS_TOLERANCE = 0.05
+
+
+def check_frame_rate(root: Path, info: dict[str, Any], episode: Episode) -> None:
+    """An episode's timestamps against ``info.json``'s fps (probe 5: timestamps 10 x too large read as 3 Hz, the
+    schedule stretched 10 x, without a line).
+
+    Args:
+        root: the dataset.
+        info: its meta/info.json.
+        episode: one episode as read.
+
+    Raises:
+        RecordingError: naming the file, the episode, both rates and what to do.
+    """
+    fps = info.get("fps")
+    steps = np.diff(episode.time)
+    if fps is None or steps.size == 0:
+        return
+    step = float(np.median(steps))
+    if abs(step * fps - 1.0) > FPS_TOLERANCE:
+        seen = f"{1.0 / step:.4g} frames per second" if step > 0 else "no time at all between frames"
+        raise RecordingError(
+            f"{_shown(root, episode.file)}: timestamp: episode {episode.index} steps {step:.6g} s a frame "
+            f"({seen}), but meta/info.json says fps {fps:g} ({1.0 / fps:.6g} s): timestamps in another unit "
+            "(milliseconds?) or a wrong fps; correct the dataset before simtune reads it"
+        )
 
 
 def feature_names(root: Path, info: dict[str, Any], feature: str) -> tuple[str, ...]:
@@ -268,6 +304,8 @@ def read_episodes(root: Path, features: Sequence[str], episodes: Collection[int]
                 raise RecordingError(f"{_shown(root, file)}: episode_index: episode {episode.index} is also in {other}")
             found[episode.index] = episode
     _check_lengths(root, info, found, pq)
+    for episode in found.values():
+        check_frame_rate(root, info, episode)
     if episodes is not None:
         missing = [k for k in episodes if k not in found]
         if missing:
