@@ -117,3 +117,35 @@ def test_a_table_wider_than_the_terminal_becomes_one_line_per_row_never_cut_shor
     with output.out.capture() as seen:
         output.print_whole_table("cube: 3 repeats", headers, rows)
     assert "┃ file" in seen.get() or "│ CubeExp0001_6D.tsv" in seen.get()
+
+
+# --- third journey: the velocity clamp's range comes from the robot, and a project can state its own -----------
+def test_an_own_robots_velocity_clamp_ranges_to_its_joints_limits_or_the_projects(tmp_path):
+    """Probe 5: the clamp's range was [10, 40] deg/s for every robot; a task commanded at 60 deg/s was forced to 40 on
+    every joint and the fit pushed the true damping to 0. The MICO keeps the seed paper's range."""
+    import math
+
+    from test_run_read_back import ARM_URDF
+
+    from simtune.errors import ProjectError
+    from simtune.params.space import SPACES, get_space
+    from simtune.project import load_project
+    from simtune.tasks.init_project import init_project
+
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(ARM_URDF.replace('velocity="1"/>', 'velocity="2"/>', 1))  # the shoulder 2 rad/s, the elbow 1
+    init_project(urdf, tmp_path / "p")
+    robot = load_project(tmp_path / "p").robot.description
+    space = {p.name: (p.low, p.high) for p in get_space("shared", robot=robot).parameters}
+    assert space["max_velocity_joint_1"] == (10.0, pytest.approx(math.degrees(2.0)))
+    assert space["max_velocity_joint_2"] == (10.0, pytest.approx(math.degrees(1.0)))
+    assert {p.name: (p.low, p.high) for p in SPACES["shared"]}["max_velocity_joint_2"] == (10.0, 40.0)
+    toml = tmp_path / "p" / "simtune.toml"
+    toml.write_text(toml.read_text().replace("[robot]\n", "[robot]\nmax_velocity_deg = [20, 90]\n", 1))
+    robot = load_project(tmp_path / "p").robot.description
+    assert all(
+        (p.low, p.high) == (20.0, 90.0) for p in get_space("shared", robot=robot).parameters if "velocity" in p.name
+    )
+    toml.write_text(toml.read_text().replace("max_velocity_deg = [20, 90]", "max_velocity_deg = [90, 20]"))
+    with pytest.raises(ProjectError, match=r"max_velocity_deg: expected 0 < low < high"):
+        load_project(tmp_path / "p")

@@ -341,7 +341,8 @@ def robot_content(robot: RobotDescription) -> dict:
         if not f.compare:
             content.pop(f.name)
     content.pop("source")  # a path (or "bundled"): what was read from it is in the other values
-    for added in ("estimated_masses", "placeholder_masses"):  # fields added later: a robot without them keeps its key
+    # fields added later: a robot without them keeps its key
+    for added in ("estimated_masses", "placeholder_masses", "max_velocity_range"):
         if not content.get(added):
             content.pop(added, None)
     for joint in content["joints"]:  # likewise a joint's armature (an MJCF file's): 0 keeps the joint's key

@@ -199,6 +199,9 @@ class RobotDescription:
     #: over the gain: a heavier arm than the MICO needs a stiffer servo to follow as a real arm's velocity
     #: loop does (PyBullet, ODE and DART drive velocities as constraints, without that lag).
     servo_gain: float | None = None
+    #: the range of the controller's velocity clamp (``max_velocity_joint_<n>``) [deg/s] a project states
+    #: (``[robot] max_velocity_deg = [low, high]``); None: from the description (each joint's velocity limit)
+    max_velocity_range: tuple[float, float] | None = None
     #: links whose mass and inertia the source does not give, estimated from their geometry (a URDF link without
     #: an ``<inertial>``: :mod:`simtune.robot.inertia`); their ``mass_link_<n>`` is tuned in the extended space
     estimated_masses: tuple[str, ...] = ()

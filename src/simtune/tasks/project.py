@@ -126,6 +126,7 @@ ROBOT_KEYS = (
     "held",
     "gripper_links",
     "servo_gain",
+    "max_velocity_deg",
     "package_path",
     "density",
     "total_mass",
@@ -179,6 +180,9 @@ def _file_robot(keys: Keys, folder: Path) -> RobotDescription:
     tracked_link = table.string("tracked_link")
     gripper_links = table.strings("gripper_links")
     servo_gain = table.number("servo_gain", above=0.0)
+    clamp = table.numbers("max_velocity_deg", 2, " (the velocity clamp's range: low, high [deg/s])")
+    if clamp is not None and not 0 < clamp[0] < clamp[1]:
+        raise table.error("max_velocity_deg", f"expected 0 < low < high [deg/s], got {list(clamp)}")
     package_path = _package_path(table, folder)
     density, total_mass = table.number("density", above=0.0), table.number("total_mass", above=0.0)
     if density is not None and total_mass is not None:
@@ -204,7 +208,9 @@ def _file_robot(keys: Keys, folder: Path) -> RobotDescription:
         key = next((k for k, names in named.items() if any(f"{n!r}" in message for n in names or ())), file_key)
         key = "total_mass" if ": total_mass " in message else key
         raise table.error(key, message) from None
-    return robot if servo_gain is None else replace(robot, servo_gain=float(servo_gain))
+    if servo_gain is not None:
+        robot = replace(robot, servo_gain=float(servo_gain))
+    return robot if clamp is None else replace(robot, max_velocity_range=(float(clamp[0]), float(clamp[1])))
 
 
 def _package_path(table: Keys, folder: Path) -> list[str]:
