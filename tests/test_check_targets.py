@@ -3,6 +3,7 @@
 the bundled `cube` with phase 2's joint 3 at 74 deg: checked against a task that still says 65 deg, the check
 finds that phase far and puts it back on joint 3."""
 
+import re
 from pathlib import Path
 
 import pytest
@@ -132,3 +133,30 @@ def test_check_refuses_targets_it_does_not_know():
 
     with pytest.raises(ConfigError, match="targets must be one of task, published, got 'bogus'"):
         api.check("mujoco", "cube", targets="bogus")
+
+
+@pytest.mark.parametrize("case", ["dangling link", "unwritable folder", "exists", "no folder"])
+def test_a_write_task_that_cannot_be_written_is_refused_before_the_check(tmp_path, monkeypatch, case):
+    """Probe 5 #18, #32: refused (or a traceback) only after the whole check (8-220 s), its report lost."""
+    import os
+
+    def no_check(*args, **kwargs):
+        raise AssertionError("the check ran")
+
+    monkeypatch.setattr(api, "run_check", no_check)
+    project = published_cube_project(tmp_path / "project")
+    out = tmp_path / "fixed.toml"
+    match = {"dangling link": "the file exists", "exists": "the file exists", "no folder": "no folder"}.get(case, "")
+    if case == "dangling link":
+        out.symlink_to(tmp_path / "nowhere.toml")
+    elif case == "exists":
+        out.write_text("mine")
+    elif case == "no folder":
+        out = tmp_path / "missing" / "fixed.toml"
+    elif case == "unwritable folder":
+        if os.geteuid() == 0:
+            pytest.skip("root writes into any folder")
+        (tmp_path / "ro").mkdir(mode=0o500)
+        out, match = tmp_path / "ro" / "fixed.toml", "cannot be written"
+    with pytest.raises(SimtuneError, match=re.escape(match)):
+        api.check("mujoco", "cube", project=project, write_task=out)

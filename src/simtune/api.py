@@ -786,6 +786,13 @@ def check(
     if write_task is not None and len(specs) != 1:
         raise ConfigError(f"--write-task writes one task's file: check one task, not {len(specs)}")
     out = None if write_task is None else _path("write_task", write_task)
+    if out is not None:  # refused before the check (seconds to minutes), never after it
+        from simtune.tasks.correct import check_task_out
+
+        source = proj.task_files.get(specs[0].name)
+        if source is None:
+            raise SimtuneError(f"--write-task: task {specs[0].name!r} has no task file to correct")
+        check_task_out(source, out)
     keep = _flag("keep_repeats", keep_repeats)
     result = run_check(
         engine, specs, root, space, _workers(workers), reference=kind, repeats=selection, keep_repeats=keep

@@ -10,6 +10,7 @@ the user's comments, order and spelling stay; only TOML files whose schedule is 
 
 from __future__ import annotations
 
+import os
 import re
 import tomllib
 from collections.abc import Mapping
@@ -107,6 +108,33 @@ def _before_offset(
     )
 
 
+def check_task_out(source: Path, out: Path) -> None:
+    """Refuse, before any check runs, a ``--write-task`` file that could not be written or a task file that could not
+    be corrected (probe 5: refused, or a traceback, only after the whole check, its report lost).
+
+    Args:
+        source: the task file as it is.
+        out: where the corrected file would go.
+
+    Raises:
+        SimtuneError: ``out`` is ``source``, exists (a dangling link too), lies in no folder or one that cannot be
+            written; ``source`` is not a TOML file of ``[[phases]]`` tables.
+    """
+    source, out = Path(source), Path(out)
+    if out.resolve() == source.resolve():
+        raise SimtuneError(f"--write-task {out}: that is the task file itself; write the corrected one beside it")
+    if os.path.lexists(out):
+        raise SimtuneError(f"--write-task {out}: the file exists; name a new one (simtune never writes over a file)")
+    if not out.parent.is_dir():
+        raise SimtuneError(f"--write-task {out}: no folder {out.parent}")
+    if not os.access(out.parent, os.W_OK | os.X_OK):
+        raise SimtuneError(f"--write-task {out}: the folder {out.parent} cannot be written; name a file elsewhere")
+    if source.suffix.lower() != ".toml":
+        raise SimtuneError(f"{source}: only TOML task files are corrected here; edit its targets_deg by hand")
+    if not any(_PHASES.match(line) for line in source.read_text(encoding="utf-8").splitlines()):
+        raise SimtuneError(f"{source}: no [[phases]] tables to correct (a schedule_csv or a LeRobot schedule is data)")
+
+
 def write_corrected_task(
     source: Path, out: Path, corrections: Mapping[int, Correction], previous: Mapping[int, tuple]
 ) -> Path:
@@ -123,17 +151,13 @@ def write_corrected_task(
         SimtuneError: ``out`` is ``source`` or exists already, its folder does not, or ``source`` cannot be edited.
     """
     source, out = Path(source), Path(out)
-    if out.resolve() == source.resolve():
-        raise SimtuneError(f"--write-task {out}: that is the task file itself; write the corrected one beside it")
-    if out.exists():
-        raise SimtuneError(f"--write-task {out}: the file exists; name a new one (simtune never writes over a file)")
-    if not out.parent.is_dir():
-        raise SimtuneError(f"--write-task {out}: no folder {out.parent}")
-    if source.suffix.lower() != ".toml":
-        raise SimtuneError(f"{source}: only TOML task files are corrected here; edit its targets_deg by hand")
+    check_task_out(source, out)
     text = source.read_text(encoding="utf-8")
     corrections, previous = _before_offset(text, corrections, previous)
     text = corrected_text(text, source, corrections, previous)
-    with open(out, "x", encoding="utf-8") as fh:  # "x": never over a file that appeared meanwhile
-        fh.write(text)
+    try:
+        with open(out, "x", encoding="utf-8") as fh:  # "x": never over a file that appeared meanwhile
+            fh.write(text)
+    except OSError as exc:
+        raise SimtuneError(f"--write-task {out}: cannot write it ({exc.strerror or exc})") from None
     return out
