@@ -149,3 +149,27 @@ def test_an_own_robots_velocity_clamp_ranges_to_its_joints_limits_or_the_project
     toml.write_text(toml.read_text().replace("max_velocity_deg = [20, 90]", "max_velocity_deg = [90, 20]"))
     with pytest.raises(ProjectError, match=r"max_velocity_deg: expected 0 < low < high"):
         load_project(tmp_path / "p")
+
+
+# --- 18: init into a folder it cannot write: one line, never a traceback (nor one from its own clean-up) ---------
+def test_init_into_a_folder_it_cannot_write_is_one_line(tmp_path, monkeypatch):
+    from test_run_read_back import ARM_URDF
+
+    from simtune.errors import ProjectError
+    from simtune.tasks import init_project as init_module
+
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(ARM_URDF)
+    # as a folder without write permission reads (the tests run as root, who may write anywhere)
+    monkeypatch.setattr(init_module.os, "access", lambda path, mode: False)
+    with pytest.raises(ProjectError, match=r"cannot write the project there \(.* is not writable\)"):
+        init_module.init_project(urdf, tmp_path / "new")
+    monkeypatch.undo()
+    (tmp_path / "empty").mkdir()
+
+    def refused(self, *args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(Path, "write_text", refused)  # an existing empty folder whose files cannot be written
+    with pytest.raises(ProjectError, match=r"cannot write the project there \(Permission denied\)"):
+        init_module.init_project(urdf, tmp_path / "empty")

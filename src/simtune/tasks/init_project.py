@@ -11,6 +11,7 @@ nothing half-written.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -411,10 +412,19 @@ def init_project(
         "tasks/reach.toml": reach_text(robot),
         ".gitignore": GITIGNORE,
     }
+    where = out if out.is_dir() else parent
+    if not os.access(where, os.W_OK | os.X_OK):  # one line, not a traceback from a temporary folder's mkdir
+        raise ProjectError(f"{out}: cannot write the project there ({where} is not writable): choose another --out")
     if out.is_dir():  # empty: written in place (it may be the working folder, which cannot be replaced)
-        _write_project(out, texts, remove_on_error=False)
+        try:
+            _write_project(out, texts, remove_on_error=False)
+        except OSError as exc:
+            raise ProjectError(f"{out}: cannot write the project there ({exc.strerror or exc})") from None
         return out / "simtune.toml"
-    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
+    except OSError as exc:
+        raise ProjectError(f"{out}: cannot write the project there ({exc.strerror or exc})") from None
     try:
         umask = os.umask(0)
         os.umask(umask)
@@ -487,5 +497,6 @@ def _write_project(folder: Path, texts: dict[str, str], remove_on_error: bool) -
         if not remove_on_error:
             for file in written:
                 file.unlink(missing_ok=True)
-            (folder / "tasks").rmdir()
+            with contextlib.suppress(OSError):  # its own clean-up never hides the cause
+                (folder / "tasks").rmdir()
         raise
