@@ -206,6 +206,15 @@ def test_synth_and_the_delay_recovered_in_mujoco(fixture_project, tmp_path):
     simulated = compile_scene(load_project(fixture_project).task("reach").robot, None)
     assert (model.nbody, model.njnt, model.nu) == (simulated.nbody, simulated.njnt, simulated.nu) and model.nu == 4
     assert [model.actuator(i).name for i in range(model.nu)] == ["j1", "j2", "j3", "j4"]
+    # and its loader, as the other engines' exports have one (probe 5: a MuJoCo export had none)
+    loaded = subprocess.run(
+        [sys.executable, "load_mujoco.py", "reach"],
+        cwd=tmp_path / "export",
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert loaded.returncode == 0 and loaded.stdout.startswith("reach wrist at"), loaded.stderr
 
 
 # --------------------------------------------------------------------------- bad input: one line, exit 2

@@ -4,6 +4,8 @@ and for the bundled MICO (probe 5, issue 71: an own robot's `calibrated` file wa
 was checked against the MICO's `calibrated`)."""
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -69,6 +71,10 @@ def read_back(run: Path, tasks: list[str], tmp_path: Path, project: Path | None,
             assert score.fitness == pytest.approx(stored["fitness"], rel=1e-9, abs=1e-12)
     exports, _ = st.export(run, tmp_path / "export")
     assert exports and (tmp_path / "export" / "provenance.json").is_file()
+    loaded = subprocess.run(
+        [sys.executable, "load_mujoco.py", tasks[0]], cwd=tmp_path / "export", capture_output=True, text=True
+    )
+    assert loaded.returncode == 0 and loaded.stdout.startswith(f"{tasks[0]} wrist at"), loaded.stderr
     assert st.report(run, tmp_path / "report").is_file()
 
 

@@ -31,11 +31,20 @@ import xml.etree.ElementTree as ET
 import mujoco
 import numpy as np
 
-from simtune.engines.export_base import ExportContext, num, nums, xml_comment
+from simtune.engines.export_base import ExportContext, hash_comment, num, nums, xml_comment
 from simtune.errors import SimtuneError
+
+#: the export's loader, as the other engines' exports have one
+SCRIPT = "load_mujoco.py"
 
 
 def write(ctx: ExportContext) -> list[str]:
+    names = _scenes(ctx)
+    ctx.write(SCRIPT, hash_comment(ctx.header("load_mujoco.py: load this export in MuJoCo")) + _SCRIPT)
+    return [*names, SCRIPT]
+
+
+def _scenes(ctx: ExportContext) -> list[str]:
     names = []
     for task in ctx.tasks:
         engine = ctx.engines[task.name]
@@ -141,3 +150,37 @@ def _quat_to_matrix(quat, out) -> None:
     import mujoco
 
     mujoco.mju_quat2Mat(out, np.asarray(quat, dtype=float))
+
+
+_SCRIPT = '''"""Load the tuned MuJoCo scene of one task (scene_<task>.xml, or scene_<task>.mjb for a robot read from an MJCF
+file) and drive it as controller.yaml says; run it to let the arm stand one second and print where its wrist is."""
+
+import pathlib
+import sys
+
+import mujoco
+
+HERE = pathlib.Path(__file__).resolve().parent
+
+
+def load(task):
+    """The tuned model of ``task`` and a data for it at the model's reference pose: (model, data)."""
+    xml, mjb = HERE / f"scene_{task}.xml", HERE / f"scene_{task}.mjb"
+    model = mujoco.MjModel.from_xml_path(str(xml)) if xml.is_file() else mujoco.MjModel.from_binary_path(str(mjb))
+    return model, mujoco.MjData(model)
+
+
+if __name__ == "__main__":
+    import yaml
+
+    control = yaml.safe_load((HERE / "controller.yaml").read_text())
+    task = sys.argv[1] if len(sys.argv) > 1 else next(iter(control["tasks"]))
+    model, data = load(task)
+    start = control["tasks"][task]["start_pose_deg"]
+    for joint, angle in zip(control["control"]["joints"], start):
+        data.joint(joint).qpos[0] = angle * 3.141592653589793 / 180.0
+    # the velocity servos (actuators named after their joints) hold the start pose: zero commanded velocity
+    for _ in range(round(1.0 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    print(task, "wrist at", data.body(control["tracking"]["link"]).xpos)
+'''
