@@ -173,3 +173,13 @@ def test_init_into_a_folder_it_cannot_write_is_one_line(tmp_path, monkeypatch):
     monkeypatch.setattr(Path, "write_text", refused)  # an existing empty folder whose files cannot be written
     with pytest.raises(ProjectError, match=r"cannot write the project there \(Permission denied\)"):
         init_module.init_project(urdf, tmp_path / "empty")
+
+
+# --- 13: an arm driven into the floor is never told it "never reaches the floor" ----------------------------------
+def test_the_floor_surfaces_of_a_task_without_an_object_are_said_to_be_held_not_unreached():
+    from simtune.engines import engine_class
+    from simtune.tasks import get_task
+
+    reasons = engine_class("mujoco").inactive_parameters(get_task("single"))
+    floor = [why for name, why in reasons.items() if name.endswith("_floor")]
+    assert floor and all("never reaches" not in why and "surfaces are held" in why for why in floor)

@@ -300,8 +300,11 @@ class Engine(ABC):
         if obj is None:
             for group in ("gripper", "floor"):
                 for kind in CONTACT_KINDS:
+                    # held, not measured: a task without an object is tuned as if its arm never touched the floor
+                    # (`simtune check` warns where the generic arm does: probe 5 said it "never reaches" it there)
                     inactive[f"{kind}_{group}"] = (
-                        f"task {task.name!r} has no object, and the arm never reaches the floor"
+                        f"task {task.name!r} has no object: the floor's and the gripper's surfaces are held, the task "
+                        "tuned as if the arm never touched the floor"
                     )
         supported = cls.supported(task.robot)
         return {name: why for name, why in inactive.items() if name in supported}
