@@ -152,8 +152,8 @@ def _quat_to_matrix(quat, out) -> None:
     mujoco.mju_quat2Mat(out, np.asarray(quat, dtype=float))
 
 
-_SCRIPT = '''"""Load the tuned MuJoCo scene of one task (scene_<task>.xml, or scene_<task>.mjb for a robot read from an MJCF
-file) and drive it as controller.yaml says; run it to let the arm stand one second and print where its wrist is."""
+_SCRIPT = '''"""Load the tuned MuJoCo scene of one task (scene_<task>.xml, or scene_<task>.mjb for a robot read from
+an MJCF file) to drive as controller.yaml says; run it to let the arm stand one second and print where its wrist is."""
 
 import pathlib
 import sys
