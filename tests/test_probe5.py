@@ -183,3 +183,19 @@ def test_the_floor_surfaces_of_a_task_without_an_object_are_said_to_be_held_not_
     reasons = engine_class("mujoco").inactive_parameters(get_task("single"))
     floor = [why for name, why in reasons.items() if name.endswith("_floor")]
     assert floor and all("never reaches" not in why and "surfaces are held" in why for why in floor)
+
+
+# --- 24: the API refuses a setting when it is given, not later ---------------------------------------------------
+@pytest.mark.parametrize(
+    ("setting", "message"),
+    [
+        ({"space": "nope"}, r"unknown parameter space 'nope' \(known: shared, individual, extended"),
+        ({"max_evaluations": 10**30}, "max_evaluations must be at most 1000000000"),
+    ],
+)
+def test_run_config_refuses_an_unknown_space_and_an_endless_budget_at_once(setting, message):
+    import simtune.api as st
+    from simtune.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=message):
+        st.run_config("mujoco", "cube", **setting)

@@ -51,6 +51,11 @@ def _is_number(value) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
+#: evaluations one run may be given: far above any search that ends (a day of MuJoCo rollouts is about 10^6), low
+#: enough that a mistyped count is refused rather than taken as "never stop"
+MAX_EVALUATIONS = 10**9
+
+
 @dataclass
 class RunConfig:
     """A run's settings: the one list of them.  Its defaults are a new run's, wherever it is made (``simtune
@@ -207,6 +212,8 @@ class RunConfig:
             raise bad("max_generations", "an integer of at least 1")
         if self.max_evaluations is not None and (not _is_int(self.max_evaluations) or self.max_evaluations < 1):
             raise bad("max_evaluations", "an integer of at least 1")
+        if self.max_evaluations is not None and self.max_evaluations > MAX_EVALUATIONS:
+            raise bad("max_evaluations", f"at most {MAX_EVALUATIONS} (a budget, not 'never stop')")
         for key in ("max_seconds", "eval_timeout"):
             value = getattr(self, key)
             if value is not None and (not _is_number(value) or value <= 0):
@@ -227,6 +234,10 @@ class RunConfig:
         if self.joint_topic is not None and not isinstance(self.joint_topic, str):
             raise bad("joint_topic", "a topic name")
         get_optimizer(self.optimizer)
+        from simtune.params.space import SPACES
+
+        if self.space not in SPACES:
+            raise ConfigError(f"{at}unknown parameter space {self.space!r} (known: {', '.join(SPACES)})")
         check_reference(self.reference, f"{at}reference")
         check_repeats(self.repeats, f"{at}repeats")
         check_targets(self.targets, f"{at}targets")
