@@ -78,8 +78,8 @@ def read_back(run: Path, tasks: list[str], tmp_path: Path, project: Path | None,
     assert st.report(run, tmp_path / "report").is_file()
 
 
-#: the default tier reads back the default space and the largest; the slow tier every other
-QUICK = ("calibrated", "drivetrain")
+#: the default tier reads back the default space; the slow tier every other (the default tier's 4 minutes)
+QUICK = ("calibrated",)
 
 
 @pytest.mark.parametrize("space", [s if s in QUICK else pytest.param(s, marks=pytest.mark.slow) for s in SPACES])
@@ -99,6 +99,7 @@ def test_a_mico_run_reads_back_in_every_space(space, tmp_path):
     read_back(run, ["cube"], tmp_path, None, REFERENCE_DIR)
 
 
+@pytest.mark.slow  # 5 s: an own robot's evaluate on another task is in the default tier's read-back
 def test_transfer_carries_an_own_robots_tasks(own_project, tmp_path):
     """`simtune transfer --project`: an own robot tuned on one of its tasks and tested on another (probe 5's third
     journey: transfer took no --project)."""
