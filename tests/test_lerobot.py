@@ -478,7 +478,7 @@ TASK_ERRORS = {
     ),
     "an episode the dataset lacks": (
         'schedule_lerobot = "../recordings/wave"\nschedule_episode = 4',
-        "wave.toml: schedule_lerobot: wave: recordings.episodes: no episode 4 (the dataset's episodes: 0-1)",
+        "wave.toml: schedule_lerobot: wave: schedule_episode: no episode 4 (the dataset's episodes: 0-1)",
     ),
     "a bad unit": (
         'schedule_lerobot = "../recordings/wave"\n[recordings]\nunits = "grad"\n[x]',

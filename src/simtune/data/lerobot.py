@@ -286,9 +286,12 @@ def to_radians(root: Path, reading: LeRobotReading, where: str) -> float:
     return ANGLE_UNITS[reading.units]
 
 
-def read_episodes(root: Path, features: Sequence[str], episodes: Collection[int] | None = None) -> list[Episode]:
+def read_episodes(
+    root: Path, features: Sequence[str], episodes: Collection[int] | None = None, key: str = "recordings.episodes"
+) -> list[Episode]:
     """The episodes of the dataset in ``root`` (those in ``episodes``; None: all), in episode order, with the
-    raw vectors of ``features``; every problem one RecordingError naming the file, row and field."""
+    raw vectors of ``features``; every problem one RecordingError naming the file, row and field (an episode
+    ``episodes`` names that the dataset lacks: the task file's ``key`` that named it)."""
     root = Path(root)
     info = read_info(root)
     widths = {f: len(feature_names(root, info, f)) for f in features}
@@ -310,7 +313,7 @@ def read_episodes(root: Path, features: Sequence[str], episodes: Collection[int]
         missing = [k for k in episodes if k not in found]
         if missing:
             raise RecordingError(
-                f"{_shown(root)}: recordings.episodes: no episode {missing[0]} (the dataset's episodes: "
+                f"{_shown(root)}: {key}: no episode {missing[0]} (the dataset's episodes: "
                 f"{_index_ranges(sorted(found))})"
             )
         return [found[k] for k in episodes]
@@ -648,7 +651,7 @@ def read_lerobot_actions(
     state = pick_columns(root, info, STATE, joint_names, reading) if STATE in info["features"] else None
     factor = to_radians(root, reading, f"features.{ACTION}")
     features = [ACTION] + ([STATE] if state is not None else [])
-    chosen = read_episodes(root, features, None if episode is None else [episode])[0]
+    chosen = read_episodes(root, features, None if episode is None else [episode], key="schedule_episode")[0]
     targets = _angles(chosen, action, factor, root)
     start = {} if state is None else {j: float(q[0]) for j, q in _angles(chosen, state, factor, root).items()}
     if limits is not None:
@@ -918,10 +921,15 @@ def write_task_dataset(root: Path, task: WrittenTask, recordings: Sequence[Recor
     reading = task.lerobot or LeRobotReading()
     factor = ANGLE_UNITS[stated_units(task)]
     starts, table = task.schedule
+    # the command in force at each frame's timestamp as written (float32): a schedule read from a dataset starts
+    # its phases at float32 timestamps, which lie above or below the float64 frame time in about half the frames;
+    # compared in float32, the phase that starts at a frame's own timestamp is in force there, never one frame late
+    phase_starts = np.asarray(starts, dtype=np.float32)
     episodes = []
     for rec in recordings:
         state = np.column_stack([rec.joints[j] for j in task.joints]) / factor
-        action = np.radians(table[np.searchsorted(starts, rec.time, side="right")]) / factor
+        stamps = np.asarray(rec.time, dtype=np.float32)
+        action = np.radians(table[np.searchsorted(phase_starts, stamps, side="right")]) / factor
         episodes.append((rec.time, state, action))
     names = [reading.dataset_name(j) for j in task.joints]
     return write_lerobot_dataset(

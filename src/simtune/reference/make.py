@@ -76,6 +76,7 @@ def synthesize(
     suffix: str = ".tsv.gz",
     joint_names: Sequence[str] | None = None,
     joint_noise_rad: float = 0.0,
+    delays: list[float] | None = None,
 ) -> list[Recording]:
     """Recordings of ``task`` simulated by ``engine`` with parameters ``truth``, plus mocap-like noise.
 
@@ -88,7 +89,9 @@ def synthesize(
     rollout's joint columns) each recording also logs the joint angles at
     ``rate`` Hz with Gaussian noise of ``joint_noise_rad``, drawn from a stream
     of their own so the markers stay as they are without joints.  A truth
-    whose simulation blows up is refused with a SimtuneError.
+    whose simulation blows up is refused with a SimtuneError.  ``delays``, when
+    given, gets each repeat's command delay (the truth's moved by its start
+    jitter) appended in repeat order, for the truth files that record them.
     """
     rng = np.random.default_rng(seed)
     joint_rng = np.random.default_rng([seed, 1])
@@ -99,6 +102,8 @@ def synthesize(
     for r in range(repeats):
         params = dict(truth)
         params["command_delay"] = max(0.0, truth.get("command_delay", 0.0) + rng.uniform(-jitter_s, jitter_s))
+        if delays is not None:
+            delays.append(params["command_delay"])
         n20 = int(round(duration * 20)) + 1
         rollout = sim.rollout(params, n20)
         if not rollout.stable:

@@ -10,7 +10,7 @@ with encoder-like noise), beside the markers in simtune CSV or instead of
 them in a CSV, an MCAP file or a rosbag2 folder; or each task's repeats as the
 episodes of one LeRobot dataset ``OUT/<task>/`` (joint angles and the commanded
 targets, at 30 frames per second).  ``OUT/truth-<task>.json`` holds each task's
-truth and settings, and ``OUT/truth.json`` the truth of every task synthesised
+truth and settings and each repeat's start (its jitter), and ``OUT/truth.json`` the truth of every task synthesised
 into ``OUT`` with the same truth and settings; each is also a parameter file
 (``simtune evaluate --params-file OUT/truth.json``).  Synthesising into a folder
 that holds another truth is refused unless ``force``: no truth is overwritten
@@ -125,6 +125,7 @@ def make_synthetic(
             )
     _check_truths(out, meta, force)  # before any simulation: no truth is overwritten without force
     files: dict[str, list[Path]] = {}
+    starts: dict[str, list[dict]] = {}  # task -> each repeat's start (its jitter), for its truth file
     for spec in specs:
         folder = out / spec.name
         try:
@@ -132,6 +133,7 @@ def make_synthetic(
         except OSError as exc:
             raise SimtuneError(f"--out {out}: cannot create {folder} ({exc.strerror})") from None
         # each task its own noise stream, so adding a task leaves the others' recordings unchanged
+        delays: list[float] = []
         recordings = synthesize(
             engine,
             spec,
@@ -144,9 +146,12 @@ def make_synthetic(
             rate=write.rate or RATE,
             joint_names=rollout_joint_names(spec) if write.joints else None,
             joint_noise_rad=joint_noise_rad,
+            delays=delays,
         )
         files[spec.name] = write.write(folder, recordings, spec)
-    _write_truths(out, meta, force)
+        names = [f"episode_{k:06d}" if write.dataset else rec.source.name for k, rec in enumerate(recordings)]
+        starts[spec.name] = repeat_starts(names, delays, truth.get("command_delay", 0.0))
+    _write_truths(out, meta, force, starts)
     return SynthResult(out, truth, files, joint_noise_rad)
 
 
@@ -218,9 +223,12 @@ def _check_truths(out: Path, meta: dict, force: bool) -> dict | None:
     for task in meta["tasks"]:
         path = out / truth_file(task)
         if path.exists() and not force:
-            raise SimtuneError(
-                f"{path} holds the truth of an earlier synth of {task}: choose another --out, or --force to replace it"
+            what = (
+                f"holds the truth of an earlier synth of {task}"
+                if _read_truth(path) is not None
+                else "is not a truth file simtune synth wrote (no JSON object with params): it is left as it is"
             )
+            raise SimtuneError(f"{path} {what}: choose another --out, or --force to replace it")
     path = out / TRUTH_FILE
     if not path.exists():
         return None
@@ -237,8 +245,27 @@ def _check_truths(out: Path, meta: dict, force: bool) -> dict | None:
     return earlier
 
 
-def _write_truths(out: Path, meta: dict, force: bool) -> None:
-    """Each task's truth file, and ``truth.json``: the truth of every task synthesised into ``out`` with it."""
+def repeat_starts(names: list[str], delays: list[float], delay: float) -> list[dict]:
+    """Each repeat's start as its task's truth file records it.
+
+    Args:
+        names: the repeats' recordings (file names, or a dataset's ``episode_NNNNNN``), in repeat order.
+        delays: the command delay [s] each repeat was simulated with, in the same order.
+        delay: the truth's command delay [s].
+
+    Returns:
+        Per repeat ``{"repeat": name, "start_jitter_s": its delay - the truth's, "command_delay": its delay}``: the
+        jitter as simulated (a delay jittered below 0 starts at 0).
+    """
+    return [
+        {"repeat": name, "start_jitter_s": round(d - delay, 9), "command_delay": round(d, 9)}
+        for name, d in zip(names, delays)
+    ]
+
+
+def _write_truths(out: Path, meta: dict, force: bool, starts: dict[str, list[dict]] | None = None) -> None:
+    """Each task's truth file (with ``starts``' repeats of the task, :func:`repeat_starts`), and ``truth.json``:
+    the truth of every task synthesised into ``out`` with it."""
     earlier = _check_truths(out, meta, force)
     if earlier is not None and not _same_truth(earlier, meta):
         # replaced (force): an earlier truth.json's tasks without their own file get one first, so none is lost
@@ -248,7 +275,8 @@ def _write_truths(out: Path, meta: dict, force: bool) -> None:
                 own.write_text(json.dumps({**earlier, "tasks": [task]}, indent=2) + "\n")
         earlier = None
     for task in meta["tasks"]:
-        (out / truth_file(task)).write_text(json.dumps({**meta, "tasks": [task]}, indent=2) + "\n")
+        content = {**meta, "tasks": [task], "repeat_starts": (starts or {}).get(task, [])}
+        (out / truth_file(task)).write_text(json.dumps(content, indent=2) + "\n")
     tasks = [t for t in (earlier or {}).get("tasks", []) if t not in meta["tasks"]] + meta["tasks"]
     (out / TRUTH_FILE).write_text(json.dumps({**meta, "tasks": tasks}, indent=2) + "\n")
 

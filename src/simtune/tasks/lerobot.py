@@ -52,9 +52,14 @@ def recordings_key(keys: Keys, base: Path) -> tuple[str | None, LeRobotReading |
         if not isinstance(joint, str):
             raise table.error(f"joints.{name!r}", f'expected a joint name (or "" to leave it out), got {joint!r}')
     episodes = table.data.get("episodes")
+    if episodes == []:
+        raise table.error(
+            "episodes",
+            "the list is empty: it names no episode to read (name one or more, or leave `episodes` out to read "
+            "all of the dataset's episodes)",
+        )
     if episodes is not None and (
         not isinstance(episodes, list)
-        or not episodes
         or not all(isinstance(k, int) and not isinstance(k, bool) and k >= 0 for k in episodes)
     ):
         raise table.error("episodes", f"expected a list of episode numbers (0 or more), got {episodes!r}")
