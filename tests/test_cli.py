@@ -43,6 +43,7 @@ COMMANDS = [
     "init",
     "compare",
     "transfer",
+    "generalise",
     "sensitivity",
     "export",
     "report",

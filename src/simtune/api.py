@@ -50,6 +50,7 @@ from simtune.run_config import DEFAULTS as RUN_DEFAULTS
 from simtune.run_plan import RunConfig, new_run_config
 from simtune.runs import read_run_record, resume_run, run_uncertainty, start_run
 from simtune.studies.compare import run_compare
+from simtune.studies.generalise import run_generalisation
 from simtune.studies.sensitivity import evaluation_count, run_sensitivity
 from simtune.studies.synth import SynthResult, load_truth, make_synthetic
 from simtune.studies.transfer import run_transfer
@@ -574,6 +575,37 @@ def transfer(
     )
 
 
+def generalise(
+    engine: str = "mujoco",
+    tasks: str | Collection[str] = "single,cube",
+    *,
+    out: Path | str,
+    show_progress: bool = False,
+    on_run: Callable[[int, int, str, Path], None] | None = None,
+    **settings: Any,
+) -> dict:
+    """Tune each of ``tasks`` alone, all together and (three or more) leaving each out, and score every task each
+    way against its floor (``simtune generalise``; :mod:`simtune.studies.generalise`).
+
+    Args:
+        engine: the physics engine.
+        tasks: two tasks or more (comma-separated or a list).
+        out: the study's folder: its runs (``alone/<task>``, ``joint``, ``without/<task>``) and generalise.json;
+            run again, finished runs are reused and unfinished ones resumed.
+        show_progress: draw each run's progress bar.
+        on_run: called before each run with its number, the number of runs, its label and its folder.
+        settings: :func:`run_config`'s settings for every run (``tune``'s defaults where left out).
+
+    Returns:
+        The study, as OUT/generalise.json holds it: per task (``rows``) its floor, its fit alone, joint and held
+        out (each ``{"fitness", "wrist", "delay_s"}``), the joint-fit penalty and the held-out ratio.
+    """
+    if on_run is not None and not callable(on_run):
+        raise ConfigError(f"on_run: expected a function or None, got {on_run!r}")
+    config = run_config(engine, tasks, **settings)
+    return run_generalisation(config, _path("out", out), show_progress=show_progress, on_run=on_run)
+
+
 def sensitivity(
     engine: str = "mujoco",
     tasks: str | Collection[str] = "cube",
@@ -985,6 +1017,7 @@ __all__ = [
     "demo",
     "evaluate",
     "export",
+    "generalise",
     "grid",
     "grid_spec",
     "init_project",

@@ -56,6 +56,7 @@ COMMANDS = (
     data_commands.init,
     study_commands.compare,
     study_commands.transfer,
+    study_commands.generalise,
     study_commands.sensitivity,
     export_command.export,
     report_command.report,

@@ -24,7 +24,7 @@ from simtune.cli.options import (
     path,
     seed_option,
 )
-from simtune.cli.output import err, fmt, only_names, out, print_json, split
+from simtune.cli.output import err, fmt, only_names, out, print_json, print_whole_table, split
 from simtune.cli.run_options import run_options
 from simtune.common.console import text_table
 from simtune.run_config import COMPARE_DEFAULTS, TRANSFER_DEFAULTS
@@ -215,6 +215,83 @@ def _transfer_table(result: dict, title: str):
                 "",
             )
     return table
+
+
+GeneraliseOutOpt = Annotated[
+    Path,
+    out_option(
+        "Folder for the study's runs (OUT/alone/<task>, OUT/joint, OUT/without/<task>) and generalise.json; "
+        "finished runs are reused, unfinished ones resumed."
+    ),
+]
+
+
+@run_options(defaults={"tasks": "single,cube"})
+def generalise(
+    out_dir: GeneraliseOutOpt = Path("runs/generalise"),
+    quiet: QuietOpt = False,
+    as_json: JsonOpt = False,
+    **settings: Any,
+) -> None:
+    """Is the tuned simulator one of the robot or of the task it saw? Tune each task alone, all together and
+    leaving each out; one table of each task's fit against its floor.
+
+    For each task: its floor (the real arm against its own repeats), its fit tuned alone, its part of the fit
+    tuned on every task together (joint / alone: the joint-fit penalty, 1 where one parameter set is right for
+    every task) and its fit tuned on the other tasks only, its own clock aligned (held out: a motion never
+    recorded). Every run is an ordinary run: `simtune report OUT/joint`, `simtune evaluate --params-file`.
+
+    Example: simtune generalise --engine mujoco --task single,cube --data DATA --seed 0 --workers 2
+    """
+    from simtune import api
+
+    def on_run(number: int, count: int, label: str, folder: Path) -> None:
+        if not as_json:
+            out.print(f"[{number}/{count}] {label}: {folder}", highlight=False, soft_wrap=True)
+
+    result = api.generalise(out=out_dir, show_progress=not quiet and not as_json, on_run=on_run, **settings)
+    if as_json:
+        print_json(result)
+        return
+    print_whole_table(
+        f"{result['engine']}: {', '.join(result['tasks'])} ({result['space']}, {result['optimizer']}, "
+        f"seed {result['seed']}); each fitness (x its floor)",
+        GENERALISE_HEADERS,
+        generalise_rows(result),
+    )
+    out.print(
+        f"joint-fit penalty (median over tasks) {result['joint_penalty']:.2f}, held out over alone "
+        f"{result['transfer']:.2f} (1: one simulator of the robot fits every task as well as each alone)",
+        highlight=False,
+        soft_wrap=True,
+    )
+    out.print(f"result: {out_dir / 'generalise.json'}", highlight=False, soft_wrap=True)
+
+
+def generalise_rows(result: dict) -> list[list[str]]:
+    """The study's table as text, a row per task: its floor, its fit alone, joint and held out (each with its
+    ratio to the floor), the joint-fit penalty, held out over alone, and the tasks it was held out from."""
+
+    def cell(fitness: float, over_floor: float | None) -> str:
+        return fmt(fitness) if over_floor is None else f"{fmt(fitness)} ({over_floor:.1f}x)"
+
+    return [
+        [
+            r["task"],
+            "none (1 repeat)" if r["floor"] is None else fmt(r["floor"]),
+            cell(r["alone"]["fitness"], r["alone_over_floor"]),
+            cell(r["joint"]["fitness"], r["joint_over_floor"]),
+            f"{r['penalty']:.2f}",
+            cell(r["held_out"]["fitness"], r["held_out_over_floor"]),
+            f"{r['transfer']:.2f}",
+            ", ".join(r["held_out_from"]),
+        ]
+        for r in result["rows"]
+    ]
+
+
+#: the study table's headers: (x floor) follows each fitness
+GENERALISE_HEADERS = ("task", "floor", "alone", "joint", "joint/alone", "held out", "held/alone", "tuned on")
 
 
 SamplesOpt = Annotated[

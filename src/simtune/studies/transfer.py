@@ -70,7 +70,7 @@ def run_transfer(
     test_refs = load_references(test_root, test_tasks, config.joint_topic, config.reference, config.repeats)
     out = Path(out)
     run_dir = out / RUN_FOLDER
-    tuned = _tune(config, run_dir, show_progress)
+    tuned = tuned_run(config, run_dir, show_progress)
     train_refs = load_references(_root(config.data), train_tasks, config.joint_topic, config.reference, config.repeats)
     weights = None if config.weights is None else FitnessWeights.from_mapping(config.weights, "weights")
     rows = [
@@ -100,7 +100,7 @@ def run_transfer(
     return result
 
 
-def _tune(config: RunConfig, run_dir: Path, show_progress: bool) -> TuneResult:
+def tuned_run(config: RunConfig, run_dir: Path, show_progress: bool) -> TuneResult:
     """The tuning run in ``run_dir``: resumed (or reused) when it holds one of these settings, else started."""
     if not (run_dir / STORE_FILE).exists():
         return start_run(config, run_dir, show_progress=show_progress)
