@@ -11,14 +11,17 @@ is MuJoCo's (synth) or the controller's clamped P law (tests/test_lerobot_units.
 """
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
-from test_lerobot import FPS, make_project, write_raw
+from test_lerobot import FPS, STEPS, make_project, write_raw
+from test_lerobot_units import episode, one_line, phases, project
 
 import simtune.api as st
-from simtune.errors import ProjectError, SimtuneError
+from simtune.errors import ProjectError, RecordingError, RecordingWarning, SimtuneError
+from simtune.objective import load_task_recordings
 from simtune.project import load_project
 from simtune.studies.synth import make_synthetic
 
@@ -148,3 +151,76 @@ def test_task_file_messages_name_the_key_the_file_sets(tmp_path, case):
     assert message in str(info.value) and "\n" not in str(info.value)
     assert "recordings.episodes: no episode" not in str(info.value)
     assert "expected a list of episode numbers" not in str(info.value)
+
+
+# --- what a LeRobot dataset's states say about themselves ----------------------------------------------------------
+
+#: a small arm's schedule [deg]: targets of 1.6 and -1.2 deg, no joint commanded over 10 deg (the refusing units
+#: check's least span)
+TINY_STEPS = [
+    (0.0, [0, 0, 0, 0, 0, 0]),
+    (0.5, [0, 1.6, 0, 0, 0, 0]),
+    (1.5, [0, 1.6, -1.2, 0, 0, 0]),
+]
+
+
+def recording_warnings(root: Path) -> list[str]:
+    """The RecordingWarnings that reading the project's task `wave`'s recordings raises."""
+    task = load_project(root).task("wave")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load_task_recordings(root / "recordings" / "wave", task)
+    return [str(w.message) for w in caught if issubclass(w.category, RecordingWarning)]
+
+
+def test_a_state_that_never_moves_under_moving_commands_is_warned_of(tmp_path):
+    """All zeros (the gripper's opening aside) while the task commands joint_1 30 deg, joint_2 50 and joint_3 40."""
+    time, state, action = episode()
+    still = state.copy()
+    still[:, :6] = 0.0
+    root = project(tmp_path / "p", phases(STEPS), "deg", [(time, still, action), (time, still, action)])
+    said = recording_warnings(root)
+    joint_2 = [m for m in said if "joint 'joint_2'" in m]
+    assert len(joint_2) == 1, said
+    one_line(
+        joint_2[0],
+        "wave: observation.state[1] ('joint_2.pos', joint 'joint_2') never moves in episodes 0-1",
+        "while the task commands it over 50 deg",
+        "[recordings.joints]",
+    )
+    assert not [m for m in said if "joint 'joint_4'" in m]  # held at 0: not commanded, not doubted
+    # an arm that follows its commands is not warned of
+    assert not [
+        m for m in recording_warnings(project(tmp_path / "q", phases(STEPS), "deg", [episode()])) if "never moves" in m
+    ]
+
+
+def test_a_small_arms_radians_stated_as_degrees_are_warned_of_naming_the_units_key(tmp_path):
+    root = project(tmp_path / "p", phases(TINY_STEPS), "deg", [episode("rad", TINY_STEPS)] * 2)
+    said = [m for m in recording_warnings(root) if "units check" in m]
+    assert len(said) == 1, said
+    one_line(
+        said[0],
+        "observation.state[1] ('joint_2.pos', joint 'joint_2'), stated \"deg\"",
+        "of the 1.6 deg the task commands it over",
+        "looks like radians",
+        'units = "rad" in the task file\'s [recordings] table',
+    )
+    # in degrees as stated, or in radians stated so: no doubt
+    for unit in ("deg", "rad"):
+        right = project(tmp_path / unit, phases(TINY_STEPS), unit, [episode(unit, TINY_STEPS)])
+        assert not [m for m in recording_warnings(right) if "units check" in m]
+
+
+def test_a_one_frame_episode_beside_good_ones_is_left_out_with_a_warning(tmp_path):
+    good = episode()
+    single = tuple(column[:1] for column in good)
+    root = project(tmp_path / "p", phases(STEPS), "deg", [good, good, single])
+    said = recording_warnings(root)
+    assert [m for m in said if "episode_000002: duration check: left out: holds 1 frame" in m], said
+    with pytest.warns(RecordingWarning, match="left out: holds 1 frame"):
+        data = load_task_recordings(root / "recordings" / "wave", load_project(root).task("wave"))
+    assert data.joint_repeats is not None and data.joint_repeats.shape[0] == 2
+    alone = project(tmp_path / "alone", phases(STEPS), "deg", [single])
+    with pytest.raises(RecordingError, match="episode_000000 frame 1: only 1 valid frame"):
+        load_task_recordings(alone / "recordings" / "wave", load_project(alone).task("wave"))

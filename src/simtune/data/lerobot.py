@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,14 +34,20 @@ import numpy as np
 from simtune.data._table import read_bytes
 from simtune.data.recording import MAX_ABS_JOINT_RAD, Recording, finish_recording
 from simtune.data.sanity import (
+    ANGLE_FACTORS,
+    MIN_COMMANDED_SPAN_RAD,
     MIN_DURATION_SHARE,
+    SMALL_MOTION_SHARE,
     JointRange,
     UnitsProblem,
     check_time,
     declared_units_problem,
     schedule_units_problem,
 )
-from simtune.errors import ConfigError, RecordingError
+from simtune.data.sanity import (
+    OTHER_MOTION_SHARE as OTHER_UNIT_MOTION_SHARE,
+)
+from simtune.errors import ConfigError, RecordingError, RecordingWarning
 
 #: the dataset's description, relative to its folder
 INFO = "meta/info.json"
@@ -496,7 +503,9 @@ def read_lerobot_dataset(
     ranges = dict(reading.ranges)
     recordings = []
     commanded = ACTION in info["features"]
-    episodes = read_episodes(root, [STATE, ACTION] if commanded else [STATE], reading.episodes)
+    episodes = _drop_single_frames(
+        root, read_episodes(root, [STATE, ACTION] if commanded else [STATE], reading.episodes)
+    )
     for episode in episodes:
         joints = _angles(episode, columns, factor, root)
         if ranges:
@@ -504,6 +513,9 @@ def read_lerobot_dataset(
         source = root / f"episode_{episode.index:06d}"
         frames = np.arange(1, len(episode.time) + 1)
         recordings.append(finish_recording(source, _shown(root, source), episode.time, frames, {}, {}, joints, "frame"))
+    if ranges:
+        warn_of_still_joints(root, episodes, columns, [rec.joints for rec in recordings], ranges)
+        warn_of_small_motion(root, episodes, columns, ranges, str(reading.units))
     if commanded and len(episodes) > 1:  # after the states' own checks, which name a wrong unit first
         try:
             actions = pick_columns(root, info, ACTION, joint_names, reading)
@@ -512,6 +524,131 @@ def read_lerobot_dataset(
         if actions is not None and actions.picked:
             check_one_commanded_motion(root, episodes, actions, to_radians(root, reading, f"features.{ACTION}"))
     return recordings
+
+
+#: A joint the task commands over :data:`~simtune.data.sanity.MIN_COMMANDED_SPAN_RAD` or more whose logged state
+#: spans less than this share of that span never moved: a stuck encoder, another joint's column, a log written
+#: while the arm was off (probe 5: a state of zeros under a 10-deg command was scored, fitness 0.0434, no line).
+#: An arm following its commands covers most of the span; 0.05-deg encoder noise alone spans 0.25 deg.
+STILL_SHARE = 0.02
+#: The least commanded span [rad] by which an arm that stays within a few degrees tells a stated unit (radians
+#: stated as degrees move 57 times too little): far above an encoder's resolution, below any commanded motion.
+MIN_TELLING_SPAN_RAD = math.radians(0.5)
+#: Read in the other unit, such a log moves at most this many times its commanded span (else the other unit
+#: fits no better: a still log's noise read as radians moves far more than any command).
+MOST_MOTION_SHARE = 4.0
+
+
+def warn_of_still_joints(
+    root: Path,
+    episodes: Sequence[Episode],
+    columns: Columns,
+    angles: Sequence[Mapping[str, np.ndarray]],
+    ranges: Mapping[str, JointRange],
+) -> None:
+    """Warn, one line per joint, where a joint that the task commands to move never moves in the log.
+
+    Args:
+        root: the dataset.
+        episodes: the episodes read.
+        columns: the ``observation.state`` entries of the driven joints.
+        angles: per episode, its joints' angles [rad].
+        ranges: per driven joint, what the task commands it over (its start angle and targets) [rad].
+    """
+    for entry, joint in columns.picked:
+        if joint not in ranges:
+            continue
+        span = ranges[joint].high - ranges[joint].low
+        if span < MIN_COMMANDED_SPAN_RAD:
+            continue
+        moved = [float(np.ptp(a[joint])) for a in angles]
+        still = [episode.index for episode, m in zip(episodes, moved) if m < STILL_SHARE * span]
+        if not still:
+            continue
+        which = f"episode {still[0]}" if len(still) == 1 else f"episodes {_index_ranges(still)}"
+        warnings.warn(
+            f"{_shown(root)}: {STATE}[{entry}] ({columns.names[entry]!r}, joint {joint!r}) never moves in {which} "
+            f"(spans {math.degrees(max(m for e, m in zip(episodes, moved) if e.index in still)):.3g} deg at most) "
+            f"while the task commands it over {math.degrees(span):.3g} deg: a log that does not follow its commands "
+            "is a stuck encoder, another joint's column or an arm that was off; check the dataset and the task "
+            "file's [recordings.joints] (its motion is scored as logged)",
+            RecordingWarning,
+            stacklevel=4,  # at load_task_data's caller
+        )
+
+
+def warn_of_small_motion(
+    root: Path, episodes: Sequence[Episode], columns: Columns, ranges: Mapping[str, JointRange], unit: str
+) -> None:
+    """Warn where a small arm's log in radians is stated as degrees: the refusing units check
+    (:func:`simtune.data.sanity.declared_units_problem`) tells it by joints commanded over
+    :data:`~simtune.data.sanity.MIN_COMMANDED_SPAN_RAD`; an arm commanded a few degrees has none (probe 5: 1.6-deg
+    targets, read 57 times too small, no line).
+
+    Warned when no joint is commanded that far, some joint over :data:`MIN_TELLING_SPAN_RAD`, and in every
+    episode each such joint moves less than :data:`~simtune.data.sanity.SMALL_MOTION_SHARE` of its commanded span
+    in the stated degrees, while read as radians some moves between
+    :data:`~simtune.data.sanity.OTHER_MOTION_SHARE` and :data:`MOST_MOTION_SHARE` of it.
+
+    Args:
+        root: the dataset.
+        episodes: the episodes read.
+        columns: the ``observation.state`` entries of the driven joints.
+        ranges: per driven joint, what the task commands it over [rad].
+        unit: the stated unit (only ``"deg"`` is doubted: degrees stated as radians leave the joints' limits).
+    """
+    if unit != "deg" or not episodes:
+        return
+    spans = {joint: ranges[joint].high - ranges[joint].low for _, joint in columns.picked if joint in ranges}
+    if not spans or max(spans.values()) >= MIN_COMMANDED_SPAN_RAD:
+        return  # the refusing check tells these
+    telling = [(entry, joint) for entry, joint in columns.picked if spans.get(joint, 0.0) >= MIN_TELLING_SPAN_RAD]
+    if not telling:
+        return
+    best: tuple[float, int, str] | None = None  # (share read as radians, entry, joint) of the first episode
+    for episode in episodes:
+        shares = {}
+        for entry, joint in telling:
+            moved = float(np.ptp(episode.vectors[columns.feature][:, entry]))  # in the dataset's numbers
+            if moved * ANGLE_FACTORS["deg"] >= SMALL_MOTION_SHARE * spans[joint]:
+                return  # moves as commanded in degrees
+            shares[(entry, joint)] = moved * ANGLE_FACTORS["rad"] / spans[joint]
+        fitting = {k: v for k, v in shares.items() if OTHER_UNIT_MOTION_SHARE <= v <= MOST_MOTION_SHARE}
+        if not fitting:
+            return  # read as radians it moves no more like its commands
+        if best is None:
+            (entry, joint), share = max(fitting.items(), key=lambda item: spans[item[0][1]])  # the widest commanded
+            best = (share, entry, joint)
+    assert best is not None
+    share, entry, joint = best
+    as_stated = share * ANGLE_FACTORS["deg"]  # the same motion read in degrees: 57 times less
+    warnings.warn(
+        f'{_shown(root)}: units check: {STATE}[{entry}] ({columns.names[entry]!r}, joint {joint!r}), stated "deg", '
+        f"moves {as_stated:.1%} of the {math.degrees(spans[joint]):.3g} deg the task commands it over in episode "
+        f"{episodes[0].index} (and as little in every episode); read as radians it moves {share:.0%} of it: the "
+        'log looks like radians, 57 times larger than read: set units = "rad" in the task file\'s [recordings] table '
+        "if so",
+        RecordingWarning,
+        stacklevel=4,  # at load_task_data's caller
+    )
+
+
+def _drop_single_frames(root: Path, episodes: list[Episode]) -> list[Episode]:
+    """The episodes of two or more frames: an episode of one frame (a recording aborted at its start) beside longer
+    ones is left out with a warning, as a repeat too short for the task is; only one-frame episodes stop (the first
+    one's error), since no recording remains."""
+    kept = [e for e in episodes if len(e.time) >= 2]
+    if not kept:
+        return episodes  # finish_recording names the first episode's only frame
+    for episode in episodes:
+        if len(episode.time) < 2:
+            warnings.warn(
+                f"{_shown(root, root / f'episode_{episode.index:06d}')}: duration check: left out: holds "
+                f"{len(episode.time)} frame (a recording needs at least 2)",
+                RecordingWarning,
+                stacklevel=4,  # at load_task_data's caller
+            )
+    return kept
 
 
 #: Episodes whose commanded angles (``action``) differ by more than :data:`SAME_COMMAND_RAD` in more than
