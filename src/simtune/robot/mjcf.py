@@ -14,11 +14,18 @@ what that leaves out: springs; the file's armature and friction loss are the des
 engines that have those parameters and for MuJoCo's servo gains).
 
 simtune owns the control and the contacts, so the file's actuators, sensors, tendons,
-equality constraints, contact pairs and keyframes are dropped when the scene is built,
-and joints that are not driven are removed (their bodies welded at the joint's zero: a
+equality constraints, contact pairs and keyframes are dropped when the scene is built (a
+warning names the equality constraints and tendons: they couple joints that then move on
+their own), and joints that are not driven are removed (their bodies welded as drawn: a
 gripper's fingers held at 0).  Driven joints default to the hinges from the root body
 down to the tracked link, and the tracked link to where the root's chain first branches
 or ends.
+
+A joint's position is MuJoCo's ``qpos``: a hinge with a ``ref`` stands as drawn at ``qpos = ref``, so the
+description's joint frame is the body's turned by ``-ref`` about the axis, and every engine puts the arm where
+MuJoCo does at the same angles (its ranges and keyframes are in those coordinates too).  A NaN or an infinity in
+a number of the robot's bodies, joints, geoms, inertials, meshes, defaults or keyframes is refused before MuJoCo
+compiles the file (MuJoCo takes most of them, and a mass it replaces from the geometry).
 """
 
 from __future__ import annotations
@@ -30,9 +37,19 @@ from pathlib import Path
 import numpy as np
 
 from simtune.common.geometry import rpy_matrix
-from simtune.errors import RobotError
+from simtune.errors import RobotError, RobotWarning
 from simtune.robot.description import Box as BoxShape
-from simtune.robot.description import Cylinder, Joint, Link, Mesh, RobotDescription, Shape, Sphere, Vec3
+from simtune.robot.description import (
+    Cylinder,
+    Joint,
+    Link,
+    Mesh,
+    RobotDescription,
+    Shape,
+    Sphere,
+    Vec3,
+    axis_angle_matrix,
+)
 
 #: The keyframe whose driven joint positions ``simtune init`` takes as the example task's start pose.
 HOME_KEYFRAME = "home"
@@ -60,8 +77,87 @@ def _matrix_rpy(matrix) -> Vec3:
         return _vec(Rotation.from_matrix(np.asarray(matrix, dtype=float)).as_euler("xyz"))
 
 
+#: The MJCF elements whose numbers make the robot simtune reads (in the file and in its default classes): its
+#: bodies and their placement, joints, geoms, inertials, meshes, keyframes and the compiler's mass settings.  The
+#: actuators, sensors, tendons and equality constraints are dropped, so their numbers are not checked.
+CHECKED_ELEMENTS = frozenset({"body", "frame", "joint", "freejoint", "geom", "inertial", "mesh", "key", "compiler"})
+#: Attributes that hold names or paths (a body may be called "inf"): never read as numbers.
+NAME_ATTRIBUTES = frozenset(
+    {
+        "name", "class", "childclass", "file", "mesh", "material", "texture", "hfield", "joint", "body", "site",
+        "target", "prefix", "meshdir", "texturedir", "assetdir", "content_type",
+    }
+)  # fmt: skip
+#: What the refusal of an attribute adds, where the usual intent is known.
+NON_FINITE_HINTS = {
+    "range": ' (for an unlimited joint leave range out, or write limited="false")',
+    "mass": " (a mass in kg, above 0)",
+}
+
+
+def _non_finite(value: str) -> bool:
+    """Whether ``value`` is a list of numbers of which one is a NaN or an infinity (a value that is not all
+    numbers, a name, is not)."""
+    try:
+        numbers = [float(token) for token in value.split()]
+    except ValueError:
+        return False
+    return any(not np.isfinite(number) for number in numbers)
+
+
+def _element_words(element) -> str:
+    """``<joint name='j2'>``, or for an unnamed element where it is: ``<geom> of body 'link3'``, ``<joint> of
+    default class 'arm'``."""
+    name = element.get("name")
+    if name is not None:
+        return f"<{element.tag} name={name!r}>"
+    parent = element.getparent()
+    while parent is not None and parent.get("name") is None and parent.tag != "default":
+        parent = parent.getparent()
+    if parent is None:
+        return f"<{element.tag}>"
+    if parent.tag == "default":  # the top <default> is MuJoCo's class "main"
+        return f"<{element.tag}> of default class {parent.get('class', 'main')!r}"
+    return f"<{element.tag}> of {parent.tag} {parent.get('name')!r}"
+
+
+def _refuse_non_finite(path: Path, main_folder: Path, seen: set[Path] | None = None) -> None:
+    """Refuse the MJCF at ``path`` (and the files it includes) where a number of :data:`CHECKED_ELEMENTS` is a NaN
+    or an infinity: one line naming the file, its line, the element and the attribute.  A file that does not
+    parse, or an include that is not found, is left to MuJoCo's compiler to name."""
+    from lxml import etree
+
+    seen = set() if seen is None else seen
+    if path in seen:
+        return
+    seen.add(path)
+    try:
+        root = etree.parse(str(path), etree.XMLParser(resolve_entities=False, no_network=True)).getroot()
+    except (OSError, etree.XMLSyntaxError):
+        return
+    for element in root.iter():
+        if not isinstance(element.tag, str):
+            continue  # a comment or a processing instruction
+        if element.tag == "include" and element.get("file"):
+            # MuJoCo resolves an include against the main file's folder (a nested one, in some versions, its own)
+            for folder in (path.parent, main_folder):
+                included = (folder / element.get("file")).resolve()
+                if included.is_file():
+                    _refuse_non_finite(included, main_folder, seen)
+                    break
+            continue
+        if element.tag not in CHECKED_ELEMENTS:
+            continue
+        for attribute, value in element.attrib.items():
+            if attribute not in NAME_ATTRIBUTES and _non_finite(value):
+                raise RobotError(
+                    f"{path} line {element.sourceline}: {_element_words(element)} {attribute}={value!r} is not a "
+                    f"finite number{NON_FINITE_HINTS.get(attribute, ' (a NaN or an infinity)')}"
+                )
+
+
 def _compile(path: Path):
-    """MuJoCo's model of the MJCF at ``path``."""
+    """MuJoCo's model of the MJCF at ``path``, its numbers checked first (:func:`_refuse_non_finite`)."""
     try:
         import mujoco
     except ImportError:  # pragma: no cover - mujoco is a core dependency
@@ -69,6 +165,7 @@ def _compile(path: Path):
     path = Path(path).expanduser().resolve()
     if not path.is_file():
         raise RobotError(f"{path}: no such MJCF file")
+    _refuse_non_finite(path, path.parent)
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
@@ -243,13 +340,17 @@ def _joints(
         xyz, rpy = _vec(body.pos), _rpy(body.quat)
         jid = moving.get(b)
         if jid is None or model.joint(jid).name not in driven:
-            if jid is not None:
-                held.append((model.joint(jid).name, 0.0))
+            if jid is not None:  # welded as drawn: at qpos = ref, where MuJoCo's scene, its joint removed, has it
+                held.append((model.joint(jid).name, float(model.qpos0[int(model.jnt_qposadr[jid])])))
             weld = f"{body.name}_weld" if jid is None else model.joint(jid).name
             joints.append(Joint(weld, "fixed", parent, body.name, xyz, rpy))
             continue
         jnt = model.joint(jid)
         limited = bool(jnt.limited[0])
+        ref = float(model.qpos0[int(jnt.qposadr[0])])  # a driven joint is a hinge: its ref [rad]
+        if ref != 0.0:  # the body stands as drawn at qpos = ref: at qpos = 0 it is turned by -ref about the axis
+            turned = rpy_matrix(rpy) @ axis_angle_matrix(np.asarray(jnt.axis, dtype=float), -ref)
+            rpy = _matrix_rpy(turned)
         joints.append(
             Joint(
                 jnt.name,
@@ -267,6 +368,50 @@ def _joints(
             )
         )
     return joints, held
+
+
+def _warn_dropped_couplings(model, path: Path) -> None:
+    """One :class:`RobotWarning` naming the file's equality constraints and tendons (with the actuators on them):
+    the scene drops them, so the joints they couple move on their own in every engine."""
+    import mujoco
+
+    def joint_name(j: int) -> str:
+        return repr(model.joint(j).name or f"joint {j}")
+
+    dropped = []
+    for e in range(model.neq):
+        kind = mujoco.mjtEq(int(model.eq_type[e])).name[5:].lower()
+        what = f"equality <{kind}>" + (f" {model.eq(e).name!r}" if model.eq(e).name else "")
+        if kind == "joint":
+            second = int(model.eq_obj2id[e])
+            what += f" coupling {joint_name(int(model.eq_obj1id[e]))}" + (
+                f" to {joint_name(second)}" if second >= 0 else " to a constant"
+            )
+        dropped.append(what)
+    tendon_actuators = [a for a in range(model.nu) if int(model.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_TENDON)]
+    for t in range(model.ntendon):
+        first, count = int(model.tendon_adr[t]), int(model.tendon_num[t])
+        joints = [
+            joint_name(int(model.wrap_objid[w]))
+            for w in range(first, first + count)
+            if int(model.wrap_type[w]) == int(mujoco.mjtWrap.mjWRAP_JOINT)
+        ]
+        what = f"tendon {model.tendon(t).name or t!r}" + (f" on joints {', '.join(joints)}" if joints else "")
+        on_it = [
+            repr(model.actuator(a).name or f"actuator {a}")
+            for a in tendon_actuators
+            if int(model.actuator_trnid[a, 0]) == t
+        ]
+        if on_it:
+            what += f" with its actuator{'s' if len(on_it) > 1 else ''} {', '.join(on_it)}"
+        dropped.append(what)
+    if dropped:
+        warnings.warn(
+            f"{path}: {'; '.join(dropped)}: dropped (simtune drives each joint with its own servo), so the joints "
+            "they couple move on their own in every engine",
+            RobotWarning,
+            stacklevel=4,
+        )
 
 
 def _hinges_below(model, children: dict[int, list[int]], moving: dict[int, int]) -> dict[int, int]:
@@ -386,8 +531,12 @@ def load_mjcf(
     if gripper_links is None:
         notes.append(f"gripper links (the gripper's contact parameters): {', '.join(sorted(gripper))}")
     joints, held = _joints(model, order, moving, driven)
-    if held:
+    if held and all(position == 0.0 for _, position in held):
         notes.append(f"joints not driven, welded at 0: {', '.join(j for j, _ in held)}")
+    elif held:
+        welded = ", ".join(j if position == 0.0 else f"{j} (at its ref {position:g})" for j, position in held)
+        notes.append(f"joints not driven, welded as drawn: {welded}")
+    _warn_dropped_couplings(model, path)
     position, rpy = _base(model, root, _vec(base_position), _vec(base_rpy))
     links = (_link(model, root.id, gripper, notes), *(_link(model, b, gripper, notes) for b in order))
     description = RobotDescription(
