@@ -275,8 +275,13 @@ class DrakeEngine(Engine):
             assert s.object_body is not None, "built for a task with an object"
             values[obj.mass_parameter] = float(s.object_body.default_mass())
         inspector = s.scene_graph.model_inspector()
+        floor = s.geometries["floor"][0]  # made with the parser's default friction
         for group, ids in s.geometries.items():
-            friction = inspector.GetProximityProperties(ids[0]).GetProperty("material", "coulomb_friction")
+            # a group without a geometry (a gripper whose geoms all collide with nothing): the parser's default,
+            # which its parameter then changes on nothing
+            friction = inspector.GetProximityProperties(ids[0] if ids else floor).GetProperty(
+                "material", "coulomb_friction"
+            )
             values[f"lateral_friction_{group}"] = float(friction.dynamic_friction())
         return values | self.drive_defaults()
 
