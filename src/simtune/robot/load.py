@@ -79,7 +79,8 @@ def load_robot(
         held: positions of joints held at a fixed pose (a URDF only: an MJCF's undriven joints are welded at 0).
         gripper_links: the links with the gripper's contact parameters.
         name: the robot's name (default: the file's).
-        package_path: folders for a URDF's ``package://`` names (a URDF only; ``NAME=DIR`` names a package's folder).
+        package_path: folders for a URDF's ``package://`` names (a URDF only, refused with an MJCF; ``NAME=DIR``
+            names a package's folder).
         density: [kg/m^3] of a URDF's links without an ``<inertial>``, whose masses come from their geometry.
         total_mass: [kg] spread over those links by volume instead (not with ``density``).
 
@@ -97,6 +98,12 @@ def load_robot(
             raise RobotError(
                 f"{path}: held positions are for a URDF: an MJCF's joints that are not driven are welded at 0 "
                 f"(held {', '.join(map(repr, held))})"
+            )
+        package_path = [str(entry) for entry in package_path]
+        if package_path:
+            raise RobotError(
+                f"{path}: package_path {package_path} is for a URDF's package:// names: MuJoCo finds an MJCF's "
+                "meshes itself (its compiler's meshdir); leave package_path out"
             )
         return load_mjcf(
             path,

@@ -28,7 +28,7 @@ from simtune.data.formats import recording_kinds
 from simtune.errors import ProjectError, RobotWarning
 from simtune.robot.description import ZERO3, RobotDescription
 from simtune.robot.inertia import DEFAULT_DENSITY
-from simtune.robot.load import load_robot
+from simtune.robot.load import load_robot, robot_format
 from simtune.robot.mjcf import home_pose
 from simtune.robot.urdf import package_entry
 from simtune.tasks.project import load_project
@@ -392,7 +392,14 @@ def init_project(
     out = Path(out).expanduser().absolute()
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise ProjectError(f"{out}: exists and is not an empty folder: choose a new --out (nothing was written)")
+    _check_driven_joints(driven_joints)
     package_path = tuple(_package_entry(p) for p in package_path)
+    if package_path and robot_format(urdf) == "mjcf":
+        # refused, not dropped: a user who gives the option means the robot's meshes to be found through it
+        raise ProjectError(
+            f"--package-path: {urdf} is an MJCF, whose meshes MuJoCo finds (its compiler's meshdir): package "
+            "folders are for a URDF's package:// names; leave the option out (nothing was written)"
+        )
     _check_mass_options(density, total_mass)
     robot = load_robot(
         urdf,
@@ -446,6 +453,20 @@ def _package_entry(entry: str | Path) -> str:
     if not folder.is_dir():
         raise ProjectError(f"--package-path {entry}: no folder {folder} for package {name!r}")
     return f"{name}={folder}"
+
+
+def _check_driven_joints(driven_joints: Sequence[str] | None) -> None:
+    """One line for ``--driven-joints`` naming a joint twice (the task file written would refuse it, naming init's
+    temporary folder)."""
+    if not isinstance(driven_joints, list | tuple):
+        return  # none given (or not a list of names, which the loader names)
+    given = ",".join(map(str, driven_joints))
+    twice = sorted({name for name in driven_joints if driven_joints.count(name) > 1}, key=driven_joints.index)
+    if twice:
+        raise ProjectError(
+            f"--driven-joints {given}: joint {', '.join(map(repr, twice))} named twice (each driven joint once; "
+            "nothing was written)"
+        )
 
 
 def _check_mass_options(density: float | None, total_mass: float | None) -> None:
