@@ -80,8 +80,8 @@ def weak_directions(names: Sequence[str], jacobian: np.ndarray) -> tuple[list[st
     Returns:
         ``(flat, groups, condition)``: the parameters whose column is (near) zero; for each weak direction among the
         others (singular value below ``1 / CONDITION`` of the largest, weakest first, at most :data:`MOST`), the
-        parameters that make it up; and the ratio of the largest to the smallest singular value of the others
-        (``inf`` where one is zero).
+        parameters that make it up (a set of parameters once, at its weakest direction); and the ratio of the
+        largest to the smallest singular value of the others (``inf`` where one is zero).
     """
     jacobian = np.asarray(jacobian, dtype=float)
     if jacobian.ndim != 2 or jacobian.size == 0 or not np.all(np.isfinite(jacobian)):
@@ -101,7 +101,9 @@ def weak_directions(names: Sequence[str], jacobian: np.ndarray) -> tuple[list[st
             break
         share = np.abs(vt[k])
         members = [kept[i] for i in np.argsort(-share) if share[i] >= SHARE]
-        if members:
+        # two weak directions among the same parameters name one group, once (probe 5: "a with b with c; d; a with
+        # c with b"): the set is what the user learns, the order within it only which weighs most
+        if members and set(members) not in [set(group) for group in groups]:
             groups.append(members)
     return flat, groups, condition
 
