@@ -194,7 +194,9 @@ SPACE_HELP = (
     "Parameter space: shared (31, the paper's), individual (57, the paper's), extended (individual + command delay "
     "and marker offset; for an own robot also each joint's armature, Coulomb friction, controller gain and servo "
     "gain), calibrated (extended + encoder offsets and joint compliance), gains (calibrated + the MICO's controller "
-    "and servo gains) or drivetrain (gains + the MICO's armature and friction); an engine's lacks what it cannot map."
+    "and servo gains) or drivetrain (gains + the MICO's armature and friction); for an own robot gains and drivetrain "
+    "are its calibrated, whose extended holds the whole drive train (armature, friction and both gains: 4 per "
+    "joint); an engine's lacks what it cannot map."
 )
 SpaceOpt = Annotated[str, typer.Option("--space", "-s", help=SPACE_HELP)]
 #: ``tune``'s: its default depends on --paper-exact
