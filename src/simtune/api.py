@@ -806,7 +806,8 @@ def check(
 
     Returns:
         The check's findings as ``simtune check --json`` prints them; ``written_task`` names the file written
-        (None where no rest lies far off: nothing is written).
+        (None where no rest lies far off, or none that targets place: nothing is written) and
+        ``written_task_notes`` says where a comment of a corrected phase names a value it replaced.
     """
     kind = _reference(reference)
     selection = _repeats(repeats)
@@ -831,7 +832,10 @@ def check(
     )
     result["targets"] = _targets(targets, "targets")
     if out is not None:
-        result["written_task"] = _write_corrected_task(proj, specs[0], result["data_quality"][0], out)
+        result["written_task_notes"] = []
+        result["written_task"] = _write_corrected_task(
+            proj, specs[0], result["data_quality"][0], out, result["written_task_notes"]
+        )
     return result
 
 
@@ -851,8 +855,10 @@ def _evidence(row: dict, proposal: dict) -> str:
     )
 
 
-def _write_corrected_task(proj: Project, task, quality: dict, out: Path) -> str | None:
-    """Write ``task``'s file corrected by the check's proposals (``quality``: its data-quality part) to ``out``."""
+def _write_corrected_task(proj: Project, task, quality: dict, out: Path, notes: list[str]) -> str | None:
+    """Write ``task``'s file corrected by the check's proposals (``quality``: its data-quality part) to ``out``;
+    ``notes`` gets a line per phase whose comments name a value the correction replaced.  A far rest that no
+    targets place (``out_of_reach``) has no proposal and is not written."""
     from simtune.tasks.correct import Correction, write_corrected_task
 
     corrections, previous = {}, {}
@@ -864,7 +870,7 @@ def _write_corrected_task(proj: Project, task, quality: dict, out: Path) -> str 
         previous[row["phase"]] = tuple(row["targets_deg"])
     if not corrections:
         return None
-    return str(write_corrected_task(proj.task_files[task.name], out, corrections, previous))
+    return str(write_corrected_task(proj.task_files[task.name], out, corrections, previous, notes))
 
 
 def synth(

@@ -104,6 +104,38 @@ def _repeat_rows(task: TaskSpec, aligned: TaskData, plain_agreement: np.ndarray,
     return rows
 
 
+def onset_summary(rows: list[dict]) -> dict:
+    """The repeats' motion onsets summed up so that one odd repeat does not carry them (probe 5: the real `single`'s
+    Single0010's onset is read at 0.04 s, the others' at 1.0-1.45 s: it pulled the mean from 1.27 to 1.21 s, the
+    std from 0.12 to 0.28 s and the command delay from 1.25 to 1.19 s): the median, and the mean and std of the
+    onsets within :func:`~simtune.data.clock.outlier_limit` of it (the limit the clock shifts' outliers are found
+    by, :data:`~simtune.data.clock.OUTLIER_MIN_REPEATS` repeats at the fewest).
+
+    Args:
+        rows: the repeats' rows (:func:`_repeat_rows`: each one's ``file`` and ``onset_s``, None where it never moves).
+    Returns:
+        ``onset_median_s`` (what the command delay is estimated from, as the tune's clock alignment does),
+        ``onset_mean_s`` and ``onset_std_s`` (of the onsets kept; None where none, the std where fewer than two),
+        and ``onset_outliers``: per onset left out, its ``file``, ``onset_s``, ``from_median_s`` and ``shift_s`` (its
+        clock shift, which the alignment refines past the onset).
+    """
+    timed = [(r["file"], float(r["onset_s"]), r["shift_s"]) for r in rows if r["onset_s"] is not None]
+    onsets = np.array([t for _, t, _ in timed])
+    odd = set(outlying_shifts(onsets)) if len(onsets) else set()
+    median = float(np.median(onsets)) if len(onsets) else None
+    kept = np.array([t for i, t in enumerate(onsets) if i not in odd])
+    return {
+        "onset_median_s": median,
+        "onset_mean_s": float(np.mean(kept)) if len(kept) else None,
+        "onset_std_s": float(np.std(kept, ddof=1)) if len(kept) > 1 else None,
+        "onset_outliers": [
+            {"file": timed[i][0], "onset_s": timed[i][1], "from_median_s": timed[i][1] - median, "shift_s": timed[i][2]}
+            for i in sorted(odd)
+            if median is not None
+        ],
+    }
+
+
 #: the stretch of each phase's end compared as its rest pose: from this long before the end ... [s]
 REST_WINDOW_S = (1.0, 0.2)  # ... to this long before it (the arm has settled; the next command not yet arrived)
 
@@ -122,6 +154,10 @@ ORIENTATION_TOL_DEG = 2.0
 #: a rest turned more than this [deg] from the simulated one is far by its orientation, whatever its position: the rests
 #: that lie near agree to 0.8-1.8 deg; the `cube`'s phase-2 joint 3 at its published 65 deg turns the wrist 10 deg
 ORIENTATION_WARN_DEG = 5.0
+#: a proposal that leaves more than this of a far rest's position [m] (and more than START_WARN_M and than
+#: SINGLE_JOINT_SHARE of its gap) does not place it: no joint targets reach the recorded rest (probe 5 #14: a wrist
+#: recorded 1.7 m off was 'proposed' six new targets that left 1.4 m), so nothing is proposed for it
+UNREACHED_M = 0.1
 
 
 def moved_joints(proposal: dict) -> str:
@@ -133,6 +169,21 @@ def moved_joints(proposal: dict) -> str:
         One phrase per moved joint, joined by commas.
     """
     return ", ".join(f"{name} {a:g} -> {b:g} deg" for name, (a, b) in proposal["changed"].items())
+
+
+def out_of_reach(proposal: dict) -> bool:
+    """Whether a :func:`propose_targets` proposal leaves the far rest's position far: more than
+    :data:`~simtune.objective.START_WARN_M` and more than the lesser of :data:`SINGLE_JOINT_SHARE` of its gap and
+    :data:`UNREACHED_M`: no joint targets place that rest (it lies out of the arm's reach, or the recordings are in
+    another frame or unit than the robot).
+
+    Args:
+        proposal: a proposal as :func:`propose_targets` returns it.
+    Returns:
+        True where the proposal does not place the rest.
+    """
+    left, gap = proposal["residual_after_m"], proposal["residual_before_m"]
+    return bool(left > START_WARN_M and left > min(SINGLE_JOINT_SHARE * gap, UNREACHED_M))
 
 
 def _joint_range(task: TaskSpec, index: int, around: float) -> tuple[float, float]:
@@ -479,7 +530,11 @@ def _rests(task: TaskSpec, reference: TaskData, rollout, marker: np.ndarray, del
         gap = np.asarray(entry["recorded_m"]) - np.asarray(entry["simulated_m"])
         if turn is not None and offset is not None:  # measured from the marker's point, not the link's origin
             gap = gap - sim @ offset
-        entry["proposal"] = propose_targets(task, targets, gap, turn, None if turn is None else offset)
+        proposal = propose_targets(task, targets, gap, turn, None if turn is None else offset)
+        if out_of_reach(proposal):  # said, never proposed nor written: no targets place it
+            entry["out_of_reach"] = {k: proposal[k] for k in ("residual_before_m", "residual_after_m", "fit")}
+        else:
+            entry["proposal"] = proposal
     return rows, start or {}, orientation
 
 
@@ -525,8 +580,9 @@ def task_quality(
     plain_agreement = np.linalg.norm(plain.wrist_repeats - plain.wrist_mean[None], axis=2).mean(axis=1)
     rows = _repeat_rows(task, aligned, plain_agreement, sim_marker[0])
     chosen = aligned if reference == "aligned" else plain
-    onsets = [float(r["onset_s"]) for r in rows if r["onset_s"] is not None]
-    delay = float(np.mean(onsets) - sim_onset) if onsets and sim_onset is not None else None
+    onsets = onset_summary(rows)
+    median = onsets["onset_median_s"]
+    delay = float(median - sim_onset) if median is not None and sim_onset is not None else None
     floor = reference_floor(aligned)
     summary = {
         "task": task.name,
@@ -545,8 +601,7 @@ def task_quality(
             r["distance_to_mean_m" if chosen is aligned else "distance_to_mean_unaligned_m"] for r in rows
         ),
         "start_distance_m": float(np.linalg.norm(chosen.wrist_mean[0] - sim_marker[0])),  # type: ignore[index]
-        "onset_mean_s": float(np.mean(onsets)) if onsets else None,
-        "onset_std_s": float(np.std(onsets, ddof=1)) if len(onsets) > 1 else None,
+        **onsets,
         "simulated_onset_s": sim_onset,
         "implied_command_delay_s": delay,
         "floor_touches_s": touches,

@@ -64,11 +64,7 @@ def print_data_quality(parts: list[dict]) -> None:
                 "tuned simulation compares with"
             )
         )
-        out.print(
-            f"  motion onset {fmt_g(part['onset_mean_s'])} s (std {fmt_g(part['onset_std_s'])} s); the generic "
-            f"simulation moves at {fmt_g(part['simulated_onset_s'])} s: command delay about "
-            f"{fmt_g(part['implied_command_delay_s'])} s"
-        )
+        _print_onset(part)
         if touches := part.get("floor_touches_s"):
             from simtune.engines.contact import FLOOR_TOUCH_CONSEQUENCE, touch_spans_text
 
@@ -79,6 +75,30 @@ def print_data_quality(parts: list[dict]) -> None:
                 soft_wrap=True,
             )
         _print_rest_poses(part)
+
+
+def _print_onset(part: dict) -> None:
+    """The motion onset: the repeats' median (what the command delay is estimated from), the mean and std of those
+    near it, and a line per repeat whose onset lies far from the others' (left out of the mean and std)."""
+    odd = part.get("onset_outliers") or []
+    median = part.get("onset_median_s", part["onset_mean_s"])  # a check stored before the median was: its mean
+    kept = f" of the {len(part['repeats']) - len(odd)} near it" if odd else ""
+    out.print(
+        f"  motion onset {fmt_g(median)} s (median; mean {fmt_g(part['onset_mean_s'])} s, std "
+        f"{fmt_g(part['onset_std_s'])} s{kept}); the generic simulation moves at {fmt_g(part['simulated_onset_s'])} "
+        f"s: command delay about {fmt_g(part['implied_command_delay_s'])} s",
+        highlight=False,
+        soft_wrap=True,
+    )
+    for row in odd:
+        out.print(
+            f"  left out of the onset's mean and std: {escape(row['file'])} moves at {row['onset_s']:.3f} s, "
+            f"{row['from_median_s']:+.3f} s from the median (a glitch the onset is read at, or a recording started "
+            f"late; its clock shift onto the others' is {row['shift_s']:+.3f} s): the median and the delay are not "
+            "carried by it",
+            highlight=False,
+            soft_wrap=True,
+        )
 
 
 def _residuals(proposal: dict) -> str:
@@ -119,6 +139,7 @@ def _print_rest_poses(part: dict) -> None:
     if orientation:
         out.print(f"  {escape(orientation['note'])}", highlight=False, soft_wrap=True)
     for r in part["rest_poses"]:
+        _print_out_of_reach(r)
         proposal = r.get("proposal")
         if proposal is None:
             continue
@@ -141,7 +162,25 @@ def _print_rest_poses(part: dict) -> None:
         )
 
 
+def _print_out_of_reach(row: dict) -> None:
+    """One warning for a far rest that no joint targets place (JSON ``out_of_reach``): nothing is proposed for it,
+    and ``--write-task`` leaves its targets as they are."""
+    left = row.get("out_of_reach")
+    if not left:
+        return
+    out.print(
+        f"  warning: {row['stretch']}: no joint targets place the recorded rest (the inverse kinematics of the "
+        f"wrist's {left['fit']} leave {1000 * left['residual_after_m']:.1f} of its "
+        f"{1000 * left['residual_before_m']:.1f} mm): it lies out of the arm's reach - the recordings may be in "
+        "another frame or unit than the robot, or the marker on another body; nothing proposed, and --write-task "
+        "leaves its targets",
+        highlight=False,
+        soft_wrap=True,
+    )
+
+
 def _print_start_pose(start: dict) -> None:
+    _print_out_of_reach(start)
     if not start.get("proposal"):
         return
     from simtune.check.task import moved_joints  # on use: the check module brings the engines

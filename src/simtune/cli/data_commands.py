@@ -105,12 +105,23 @@ def check(
     print_data_quality(result["data_quality"])
     print_informed(result)
     if write_task is not None:
-        written = result["written_task"]
-        out.print(
-            f"corrected task file: {written}" if written else "no rest lies far from its targets: no task file written",
-            highlight=False,
-            soft_wrap=True,
-        )
+        _print_written_task(result)
+
+
+def _print_written_task(result: dict) -> None:
+    """What ``check --write-task`` wrote (``result``: :func:`simtune.api.check`'s), or why it wrote nothing, and
+    each note on a comment of a corrected phase that names a value the correction replaced."""
+    written = result["written_task"]
+    unplaced = [r["stretch"] for r in result["data_quality"][0]["rest_poses"] if r.get("out_of_reach")]
+    if written:
+        said = f"corrected task file: {written}"
+    elif unplaced:  # far, but no targets place it: the warning above says why
+        said = f"no task file written: no joint targets place the rest of {', '.join(unplaced)} (above)"
+    else:
+        said = "no rest lies far from its targets: no task file written"
+    out.print(said, highlight=False, soft_wrap=True)
+    for note in result.get("written_task_notes", []):
+        out.print(f"  note: {escape(note)}", highlight=False, soft_wrap=True)
 
 
 def _check_project(project_dir: Path, data: Path | None) -> None:

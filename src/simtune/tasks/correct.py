@@ -21,7 +21,8 @@ from simtune.errors import SimtuneError
 
 _PHASES = re.compile(r"^\s*\[\[\s*phases\s*\]\]\s*(#.*)?$")
 _TABLE = re.compile(r"^\s*\[")
-_TARGETS = re.compile(r"^(\s*)targets_deg\s*=\s*\[[^\]]*\]\s*(#.*)?$")
+_TARGETS = re.compile(r"^(\s*)targets_deg\s*=\s*(\[[^\]]*\])\s*(#.*)?$")
+_COMMENT = re.compile(r"^\s*#")
 _PUBLISHED = re.compile(r"^\s*published_targets_deg\s*=")
 
 
@@ -37,17 +38,85 @@ def _numbers(values) -> str:
     return "[" + ", ".join(f"{v:g}" for v in values) + "]"
 
 
+def _no_phase_tables(text: str, source: Path) -> SimtuneError:
+    """The error for a task file without ``[[phases]]`` tables: its phases an inline array (``phases = [{...}]``,
+    which the text cannot be edited line for line in), or a schedule that is data."""
+    try:
+        inline = isinstance(tomllib.loads(text).get("phases"), list)
+    except tomllib.TOMLDecodeError:
+        inline = False
+    if inline:
+        return SimtuneError(
+            f"{source}: its phases are an inline array (`phases = [{{...}}, ...]`); --write-task corrects only "
+            "[[phases]] tables: write each phase as a [[phases]] table, or edit its targets_deg by hand"
+        )
+    return SimtuneError(f"{source}: no [[phases]] tables to correct (a schedule_csv or a LeRobot schedule is data)")
+
+
+def _published(text: str, phase: int) -> tuple | None:
+    """The ``published_targets_deg`` that phase ``phase`` of the TOML ``text`` names already; None where none."""
+    try:
+        phases = tomllib.loads(text).get("phases")
+    except tomllib.TOMLDecodeError:
+        return None  # the task loaded, so this cannot be
+    named = phases[phase].get("published_targets_deg") if isinstance(phases, list) and phase < len(phases) else None
+    return tuple(named) if isinstance(named, list) else None
+
+
+def _stale_comments(
+    lines: list[str], header: int, table: range, before: list, after: tuple, published: tuple
+) -> str | None:
+    """Where a comment of one phase (the block of comment lines right above its ``[[phases]]`` header, and those in
+    its table) names a former value of a joint the correction changes and the file no longer holds (probe 5:
+    "Phase 2: joint 3 at 74 deg" kept above the 75.1 that replaced it; a value kept as the published one stays
+    true): a phrase naming the values and quoting the comments; None where none does."""
+    changed = {
+        f"{old:g}": f"{new:g}"
+        for old, new, kept in zip(before, after, published)
+        if float(old) != float(new) and float(old) != float(kept)
+    }
+    if not changed:
+        return None
+    above = header
+    while above > 0 and _COMMENT.match(lines[above - 1]):
+        above -= 1
+    end = table.stop
+    if end < len(lines):  # the comments right above the next table's header are that table's
+        while end > table.start and (_COMMENT.match(lines[end - 1]) or not lines[end - 1].strip()):
+            end -= 1
+    named, quoted = [], []
+    for k in [*range(above, header), *range(table.start, end)]:
+        comment = lines[k].strip().lstrip("#").strip() if _COMMENT.match(lines[k]) else ""
+        values = [old for old in changed if re.search(rf"(?<![\d.]){re.escape(old)}(?![\d.])", comment)]
+        if values:
+            named += [v for v in values if v not in named]
+            quoted.append(comment if len(comment) <= 60 else comment[:57] + "...")
+    if not quoted:
+        return None
+    former = ", ".join(f"{old} (now {changed[old]})" for old in named)
+    return f"a comment of this phase names the former {former}: " + "; ".join(f'"{q}"' for q in quoted)
+
+
 def corrected_text(
-    text: str, source: Path, corrections: Mapping[int, Correction], previous: Mapping[int, tuple]
+    text: str,
+    source: Path,
+    corrections: Mapping[int, Correction],
+    previous: Mapping[int, tuple],
+    notes: list[str] | None = None,
 ) -> str:
     """``text`` (a TOML task file) with the phases of ``corrections`` (by index, from 0) given their new targets.
+
+    A targets line's own trailing comment stays on it.  Where the file's targets differ from those the check ran
+    (``previous``: ``--targets published``), the comment says both.  A comment of the phase that names a former
+    value of a changed joint is flagged in the comment and in ``notes``.
 
     Args:
         text: the task file's text.
         source: its path (named in errors).
         corrections: phase index -> its new targets and the evidence for them.
-        previous: phase index -> the targets the file gives it now [deg], kept as its published ones unless the
-            phase already names published targets.
+        previous: phase index -> the targets the check ran for it [deg] (the file's own, or its published ones),
+            kept as its published ones unless the phase already names published targets.
+        notes: where given, one line is appended per phase whose comments name a value the correction replaced.
     Returns:
         The corrected text.
     Raises:
@@ -56,7 +125,7 @@ def corrected_text(
     lines = text.splitlines(keepends=True)
     starts = [i for i, line in enumerate(lines) if _PHASES.match(line)]
     if not starts:
-        raise SimtuneError(f"{source}: no [[phases]] tables to correct (a schedule_csv or a LeRobot schedule is data)")
+        raise _no_phase_tables(text, source)
     ends = [*starts[1:], len(lines)]
     for i, (first, end) in enumerate(zip(starts, ends)):
         for j in range(first + 1, end):  # a phase table ends at the next table header
@@ -76,10 +145,27 @@ def corrected_text(
         j = found[0]
         match = _TARGETS.match(lines[j])
         assert match is not None
-        indent = match.group(1)
+        indent, own_comment = match.group(1), match.group(3)
+        try:
+            own = tuple(tomllib.loads(f"t = {match.group(2)}")["t"])
+        except tomllib.TOMLDecodeError:
+            own = tuple(previous[phase])  # the task loaded, so this cannot be
         newline = "\n" if lines[j].endswith("\n") else ""
-        replacement = [f"{indent}# {line}\n" for line in correction.evidence.splitlines()]
-        replacement.append(f"{indent}targets_deg = {_numbers(correction.targets_deg)}{newline or chr(10)}")
+        evidence = correction.evidence.splitlines()
+        if len(own) != len(previous[phase]) or any(float(a) != float(b) for a, b in zip(own, previous[phase])):
+            evidence.append(
+                f"(checked with the targets {_numbers(previous[phase])}, not this file's: its targets_deg "
+                f"{_numbers(own)} -> {_numbers(correction.targets_deg)})"
+            )
+        published = _published(text, phase) or tuple(previous[phase])  # what the file will say was published
+        stale = _stale_comments(lines, starts[phase], table, list(own), correction.targets_deg, published)
+        if stale:
+            evidence.append(f"note: {stale}; update it")
+            if notes is not None:
+                notes.append(f"phases[{phase}] (phase {phase + 1}): {stale}; update it in the file written")
+        replacement = [f"{indent}# {line}\n" for line in evidence]
+        kept = "" if own_comment is None else f"  {own_comment}"  # the user's comment on the line stays on it
+        replacement.append(f"{indent}targets_deg = {_numbers(correction.targets_deg)}{kept}{newline or chr(10)}")
         if not any(_PUBLISHED.match(lines[k]) for k in table):
             replacement.append(f"{indent}published_targets_deg = {_numbers(previous[phase])}{newline}")
         edits[j] = replacement
@@ -131,12 +217,17 @@ def check_task_out(source: Path, out: Path) -> None:
         raise SimtuneError(f"--write-task {out}: the folder {out.parent} cannot be written; name a file elsewhere")
     if source.suffix.lower() != ".toml":
         raise SimtuneError(f"{source}: only TOML task files are corrected here; edit its targets_deg by hand")
-    if not any(_PHASES.match(line) for line in source.read_text(encoding="utf-8").splitlines()):
-        raise SimtuneError(f"{source}: no [[phases]] tables to correct (a schedule_csv or a LeRobot schedule is data)")
+    text = source.read_text(encoding="utf-8")
+    if not any(_PHASES.match(line) for line in text.splitlines()):
+        raise _no_phase_tables(text, source)
 
 
 def write_corrected_task(
-    source: Path, out: Path, corrections: Mapping[int, Correction], previous: Mapping[int, tuple]
+    source: Path,
+    out: Path,
+    corrections: Mapping[int, Correction],
+    previous: Mapping[int, tuple],
+    notes: list[str] | None = None,
 ) -> Path:
     """Write ``source`` corrected by ``corrections`` (:func:`corrected_text`) to the new file ``out``.
 
@@ -144,7 +235,8 @@ def write_corrected_task(
         source: the task file as it is (never written).
         out: where the corrected file goes: a new file, not ``source``.
         corrections: phase index -> new targets and evidence.
-        previous: phase index -> the targets ``source`` gives it [deg].
+        previous: phase index -> the targets the check ran for it [deg] (``source``'s, or its published ones).
+        notes: where given, :func:`corrected_text`'s notes (a comment naming a replaced value) are appended.
     Returns:
         ``out``.
     Raises:
@@ -154,7 +246,7 @@ def write_corrected_task(
     check_task_out(source, out)
     text = source.read_text(encoding="utf-8")
     corrections, previous = _before_offset(text, corrections, previous)
-    text = corrected_text(text, source, corrections, previous)
+    text = corrected_text(text, source, corrections, previous, notes)
     try:
         with open(out, "x", encoding="utf-8") as fh:  # "x": never over a file that appeared meanwhile
             fh.write(text)
