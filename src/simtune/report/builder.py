@@ -11,6 +11,7 @@ import warnings
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
+import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
 
@@ -26,7 +27,7 @@ from simtune.report.folder import INDEX, SUBFOLDERS, install, owned_files
 from simtune.report.html import render
 from simtune.report.published import PublishedSim, find_published, score_published
 from simtune.report.sections import ReportData, ReportOutput, make_sections
-from simtune.report.simulate import GroupSimulation, References, nominal_values, simulate_group
+from simtune.report.simulate import GroupSimulation, References, nominal_values, run_weights, simulate_group
 from simtune.tasks import TaskSpec
 
 Warn = Callable[[str], None]
@@ -156,6 +157,7 @@ def _draw(
         progress.step()
         progress.describe("nominal parameter values")
         nominal, tasks_by_engine = _nominal_values(groups, warn, progress.step)
+        floors, joint_spreads = _floors(groups, references, warn)
         data = ReportData(
             paths=inputs,
             groups=groups,
@@ -167,7 +169,8 @@ def _draw(
             sims=_resimulate(groups, references, warn, progress),
             figure4_parameter=figure4_parameter,
             contacts=_probe_contacts(groups, warn, progress),
-            floors=_floors(groups, references, warn),
+            floors=floors,
+            joint_spreads=joint_spreads,
             references=sorted({references.label(r) for g in groups for r in g.runs}),
         )
 
@@ -196,10 +199,13 @@ def _generic_entries(
     return entries, published
 
 
-def _floors(groups: list[Group], references: References, warn: Warn) -> list[RepeatFloor]:
-    """Each task's repeats against their aligned mean (:func:`simtune.fitness.reference_floor`), from the data of
-    the first run that has it; a task whose recordings cannot be read is named in a warning and left out."""
-    floors = []
+def _floors(groups: list[Group], references: References, warn: Warn) -> tuple[list[RepeatFloor], dict[str, float]]:
+    """Each task's repeats against their aligned mean (:func:`simtune.fitness.reference_floor`, with the fitness
+    weights of the first run that has it, from its data), as ReportData's ``floors``; and, as its
+    ``joint_spreads``, each joint-log task's mean absolute angle difference of an aligned repeat from the aligned
+    mean [deg].  A task whose recordings cannot be read is named in a warning and left out."""
+    floors: list[RepeatFloor] = []
+    joint_spreads: dict[str, float] = {}
     for name in dict.fromkeys(t for g in groups for t in g.task_names):
         run = next(r for g in groups if name in g.task_names for r in g.runs)
         try:
@@ -211,8 +217,10 @@ def _floors(groups: list[Group], references: References, warn: Warn) -> list[Rep
         except SimtuneError as exc:
             warn(f"task {name}: no floor: its recordings are unavailable ({exc})")
             continue
-        floors.append(reference_floor(aligned))
-    return floors
+        floors.append(reference_floor(aligned, run_weights(run)))
+        if aligned.joint_mean is not None and aligned.joint_repeats is not None:
+            joint_spreads[name] = float(np.degrees(np.abs(aligned.joint_repeats - aligned.joint_mean[None]).mean()))
+    return floors, joint_spreads
 
 
 def _read_runs(run_dirs: list[Path], warn: Warn, step: Callable[[], None], project: str | None) -> list[Group]:
@@ -349,6 +357,6 @@ def _meta(data: ReportData) -> list[str]:
         f"{len(data.runs)} run{'s' * (len(data.runs) != 1)} in {len(data.groups)} group{'s' * (len(data.groups) != 1)} "
         "(engine x tasks x space; repeats = seeds): engines "
         f"{', '.join(data.engines)}; tasks {', '.join(sorted({g.tasks for g in data.groups}))}; spaces "
-        f"{', '.join(sorted({g.space for g in data.groups}))}. Fitness is in metres (lower is better).",
+        f"{', '.join(sorted({g.space for g in data.groups}))}. {T.fitness_unit(data.runs)}",
         search,
     ]

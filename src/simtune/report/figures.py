@@ -451,6 +451,70 @@ def trajectory_figure(sim: GroupSimulation, task: str) -> Figure:
     return fig
 
 
+# --- 6b. joint logs: each joint's angle against time ------------------------------------------------------------
+def joint_figure(sim: GroupSimulation, task: str) -> Figure:
+    """Each logged joint's angle against time [deg]: the recorded repeats' min-max and mean, the untuned and the
+    tuned simulation, one panel per joint; under them the mean absolute joint error against time over the repeats'
+    own spread about their mean, with the schedule's phase starts (the joint-log counterpart of
+    :func:`trajectory_figure`).
+
+    Args:
+        sim: the group's best run re-simulated (:func:`simtune.report.simulate.simulate_group`).
+        task: one of its tasks whose recordings log joint angles.
+    Returns:
+        The figure.
+    """
+    traj = sim.tasks[task]
+    ref = traj.reference
+    if ref.joint_mean is None or ref.joint_repeats is None or traj.untuned_joints is None or traj.tuned_joints is None:
+        raise ValueError(f"task {task}: the recordings log no joint angles to draw")
+    t = ref.times
+    n = len(t)
+    mean, repeats = np.degrees(ref.joint_mean), np.degrees(ref.joint_repeats)
+    lines = (("untuned", np.degrees(traj.untuned_joints[:n]), UNTUNED, "--"),
+             ("tuned", np.degrees(traj.tuned_joints[:n]), TUNED, "-"))  # fmt: skip
+    joints = ref.joint_names
+    rows, ncols = _grid(len(joints), 3)
+    fig = new_figure(4.6 * ncols, 2.5 * (rows + 1) + 0.8)
+    gs = fig.add_gridspec(rows + 1, ncols)
+    lo, hi = repeats.min(axis=0), repeats.max(axis=0)
+    for k, name in enumerate(joints):
+        ax = fig.add_subplot(gs[k // ncols, k % ncols])
+        ax.fill_between(t, lo[:, k], hi[:, k], color="#999999", alpha=0.35, linewidth=0, label="recorded min-max")
+        ax.plot(t, mean[:, k], color=RECORDED, linewidth=1.6, label="recorded mean")
+        for label, angles, color, style in lines:
+            ax.plot(t, angles[:, k], color=color, linestyle=style, linewidth=1.3, label=label)
+        ax.set_ylabel("angle [deg]")
+        ax.grid(alpha=0.3)
+        panel_title(ax, name, ncols)
+        if k == 0:
+            ax.legend(fontsize="x-small", ncols=2)
+    ax = fig.add_subplot(gs[rows, :])
+    # on a log scale, as the wrist error: the untuned error is often far above the tuned one and the repeats' spread
+    floor = 0.01  # deg: the scale's bottom, below a servo encoder's resolution
+    spread = np.abs(repeats - mean[None]).mean(axis=(0, 2))
+    ax.fill_between(t, floor, np.maximum(spread, floor), color="#999999", alpha=0.35, linewidth=0)
+    ax.plot([], [], color="#999999", alpha=0.6, linewidth=6, label="repeat spread")
+    for label, angles, color, style in lines:
+        error = np.abs(angles - mean).mean(axis=1)
+        ax.plot(t, np.maximum(error, floor), color=color, linestyle=style, linewidth=1.3, label=label)
+    for _, start, _ in traj.spans[1:]:
+        ax.axvline(start, color="#555555", linestyle=":", linewidth=0.9)
+    ax.set_yscale("log")
+    ax.set_ylim(bottom=floor)
+    ax.set_ylabel("mean joint error [deg]")
+    ax.set_xlabel("time [s]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="x-small", ncols=3)
+    g = sim.group
+    suptitle(
+        fig,
+        f"{g.engine} on {task} (space {g.space}): joint angles; fitness untuned {traj.untuned_score.fitness:.4g}, "
+        f"tuned {traj.tuned_score.fitness:.4g} (best repeat: seed {sim.run.config.seed})",
+    )
+    return fig
+
+
 # --- the paper's Figure 4: one parameter's tuned values, raw, engines x experiments ------------------------
 def figure4(groups: list[Group], parameter: str) -> Figure:
     """The tuned values of ``parameter`` in its own units: one panel per space, the experiments along x,

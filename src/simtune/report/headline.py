@@ -13,7 +13,7 @@ from __future__ import annotations
 from simtune.common.table import Column, Table
 from simtune.fitness import RepeatFloor
 from simtune.report.collect import Group
-from simtune.report.tables import interval_texts
+from simtune.report.tables import NO_FLOOR, fitness_definition, interval_texts, joint_log_runs
 
 
 def headline_table(groups: list[Group], floors: list[RepeatFloor]) -> Table:
@@ -26,6 +26,9 @@ def headline_table(groups: list[Group], floors: list[RepeatFloor]) -> Table:
         The table ``headline``.
     """
     floor_of = {f.task: f.floor for f in floors}
+    runs = [r for g in groups for r in g.runs]
+    # a joint log's fitness is a fraction of a degree times 0.5 m/rad: significant digits, not four decimals
+    fitness_format = ".3g" if joint_log_runs(runs) else ".4f"
     rows = []
     for g in groups:
         best = g.best_run
@@ -43,7 +46,7 @@ def headline_table(groups: list[Group], floors: list[RepeatFloor]) -> Table:
                     generic_fit,
                     tuned_fit,
                     None if not (generic_fit and tuned_fit is not None) else 100.0 * (1.0 - tuned_fit / generic_fit),
-                    floor,
+                    NO_FLOOR if floor is None and task in floor_of else floor,
                     None if not (floor and tuned_fit is not None) else tuned_fit / floor,
                 ]
             )
@@ -55,17 +58,18 @@ def headline_table(groups: list[Group], floors: list[RepeatFloor]) -> Table:
             Column("space"),
             Column("task"),
             Column("runs", "d"),
-            Column("generic fitness", ".4f"),
-            Column("tuned fitness", ".4f"),
+            Column("generic fitness", fitness_format),
+            Column("tuned fitness", fitness_format),
             Column("lower than generic [%]", ".0f"),
-            Column("floor", ".4f"),
+            Column("floor", fitness_format),
             Column("tuned / floor", ".1f"),
         ],
         rows,
-        note="Fitness = mean wrist error + final object error [m] (lower is better) of each task, for the best run of "
+        note=f"Fitness = {fitness_definition(runs)} (lower is better) of each task, for the best run of "
         "its engine, tasks and space (its tasks tuned together). Floor: the real arm's repeats against their own "
         "aligned mean, scored as a simulation is: a tuned fitness near it is as close as the recordings can tell "
-        "(tuned / floor = 1); '-' where the recordings have no floor (one repeat, or joint logs alone).",
+        f"(tuned / floor = 1); '{NO_FLOOR}' where a task has one repeat, which scores 0 against itself; '-' where "
+        "its recordings could not be read.",
     )
 
 

@@ -51,6 +51,8 @@ class ReportData:
     figure4_parameter: str = "timestep"  # the parameter of the paper's Figure 4
     contacts: list[ContactProbe] = field(default_factory=list)  # each engine's generic contact with each object
     floors: list[RepeatFloor] = field(default_factory=list)  # each task's repeats against their aligned mean
+    #: task -> mean absolute angle difference of an aligned repeat's logged joints from the aligned mean [deg]
+    joint_spreads: dict[str, float] = field(default_factory=dict)
     references: list[str] = field(default_factory=list)  # what the runs were re-scored against
 
     @property
@@ -123,9 +125,13 @@ def headline_section(data: ReportData, out: ReportOutput) -> Section:
         for task in sim.group.task_names
         if sim.tasks[task].reference.wrist_mean is not None
     ]
+    joint_drawable = [(sim, task) for sim in data.sims for task in sim.group.task_names if _has_joints(sim, task)]
     if drawable:
         sim, task = min(drawable, key=lambda pair: pair[0].group.best_run.best_fitness)
         items.append(_trajectory_figure(sim, task, out))
+    elif joint_drawable:  # joint logs alone: the joint angles are the trajectory
+        sim, task = min(joint_drawable, key=lambda pair: pair[0].group.best_run.best_fitness)
+        items.append(_joint_figure(sim, task, out))
     items.append(out.table(moved_parameters_table(data.groups, data.nominal)))
     return Section(
         "headline",
@@ -142,6 +148,26 @@ def _trajectory_figure(sim: GroupSimulation, task: str, out: ReportOutput) -> Fi
         slug("trajectory", sim.group.engine, sim.group.tasks, sim.group.space, task),
         lambda: F.trajectory_figure(sim, task),
         _trajectory_caption(sim, task),
+    )
+
+
+def _has_joints(sim: GroupSimulation, task: str) -> bool:
+    """Whether the recordings of ``task`` log joint angles, and the re-simulation has the angles to draw."""
+    traj = sim.tasks[task]
+    return traj.reference.joint_mean is not None and traj.tuned_joints is not None
+
+
+def _joint_figure(sim: GroupSimulation, task: str, out: ReportOutput) -> FigureRef:
+    g, traj = sim.group, sim.tasks[task]
+    repeats = len(traj.reference.sources)
+    return out.figure_once(
+        slug("joints", g.engine, g.tasks, g.space, task),
+        lambda: F.joint_figure(sim, task),
+        f"{g.engine} on {task} (space {g.space}), joint logs: each logged joint's recorded angle (mean of "
+        f"{repeats} repeat{'s' * (repeats != 1)}, and their min-max band) against the untuned simulation (generic "
+        f"parameters) and the tuned one (best repeat, {sim.run.label}) over time, in degrees; under them the mean "
+        "absolute joint error of each against time (grey: the repeats' own spread about their mean; dotted: the "
+        "schedule's phases).",
     )
 
 
@@ -169,7 +195,7 @@ def generic_section(data: ReportData, out: ReportOutput) -> Section:
         "How far each engine with its own default parameters is from the recordings (the paper's Table II)." + hint,
         [
             out.table(T.paper_generic_table(data.entries, data.task_names)),
-            out.table(T.generic_table(data.entries, data.task_names)),
+            out.table(T.generic_table(data.entries, data.task_names, T.fitness_definition(data.runs))),
         ],
     )
 
@@ -193,8 +219,35 @@ def tuned_section(data: ReportData, out: ReportOutput) -> Section:
             out.table(T.best_tuned_table(data.groups, data.entries)),
             overview,
             out.table(T.tuned_by_group_table(data.groups)),
-            *([out.table(T.floor_table(data.floors, data.references))] if data.floors else []),
+            *([out.table(T.floor_table(data.floors, data.references, data.joint_spreads))] if data.floors else []),
+            _held_out_item(data, out),
         ],
+    )
+
+
+def _held_out_item(data: ReportData, out: ReportOutput) -> Table | str:
+    """The held-out table where a run was tuned on some repeats (``--repeats even``/``odd``), else a line saying how
+    to score the tuned parameters on recordings the runs did not see."""
+    held = [s for s in data.sims if s.held_out is not None]
+    for sim in held:
+        if sim.held_out is not None and sim.held_out.score is None:
+            what = f"its held-out {sim.held_out.selection} repeats"
+            out.warn(f"{sim.run.label}: not scored on {what} ({sim.held_out.message})")
+    table = T.held_out_table(held)
+    if table.rows:
+        return out.table(table)
+    run = min(data.runs, key=lambda r: r.best_fitness)
+    data_option = "" if run.config.data is None else " --data OTHER"
+    command = (
+        f"simtune evaluate --engine {run.engine} --task {run.tasks}{data_option} "
+        f"--params-file {run.path / 'best_params.json'}"
+    )
+    return (
+        '<p class="note"><strong>Held-out results:</strong> none: every run here was tuned on all the repeats of '
+        "its tasks, so its tuned fitness is measured on the recordings it was fitted to. To score the tuned "
+        f"parameters on recordings they were not fitted to, run <code>{html.escape(command)}</code> on other "
+        "recordings (OTHER: a folder of them, one sub-folder per task), or tune with <code>--repeats even</code>: "
+        "the report then scores each such run on the held-out odd repeats here.</p>"
     )
 
 
@@ -329,23 +382,57 @@ def _phase_errors(data: ReportData) -> list[T.PhaseError]:
     return entries
 
 
+def _joint_errors(data: ReportData) -> list[T.JointError]:
+    """Per group and task whose recordings log joint angles: each joint's angle error per stretch of the task."""
+    entries: list[T.JointError] = []
+    for sim in data.sims:
+        for task, traj in sim.tasks.items():
+            ref = traj.reference
+            if ref.joint_mean is None or ref.joint_repeats is None:
+                continue
+            if traj.untuned_joints is None or traj.tuned_joints is None:
+                continue
+            entries += T.joint_errors(
+                sim.group,
+                task,
+                traj.spans,
+                ref.times,
+                (ref.joint_names, ref.joint_mean, ref.joint_repeats),
+                (traj.untuned_joints, traj.tuned_joints),
+            )
+    return entries
+
+
 def trajectories_section(data: ReportData, out: ReportOutput) -> Section:
-    figures = [
-        _trajectory_figure(sim, task, out)
-        for sim in data.sims
-        for task in sim.group.task_names
-        if sim.tasks[task].reference.wrist_mean is not None  # joint logs alone: no marker to draw
+    figures: list[FigureRef] = []
+    for sim in data.sims:
+        for task in sim.group.task_names:
+            if sim.tasks[task].reference.wrist_mean is not None:
+                figures.append(_trajectory_figure(sim, task, out))
+            if _has_joints(sim, task):
+                figures.append(_joint_figure(sim, task, out))
+    # a table with nothing to show (no task with an object; joint logs alone: no wrist) is left out and said so
+    tables = [
+        T.object_final_table(_final_positions(data)),
+        T.phase_error_table(_phase_errors(data)),
+        T.joint_error_table(_joint_errors(data)),
     ]
+    shown = [t for t in tables if t.rows]
+    left_out = {  # joint_errors is left out silently: motion capture alone logs no joint angles
+        "object_final": "no task has an object whose final position was recorded",
+        "phase_errors": "no recording tracks the wrist marker",
+    }
+    missing = [f"{t.title.split('.')[0]} ({left_out[t.name]})" for t in tables if not t.rows and t.name in left_out]
+    joints = any(t.name == "joint_errors" for t in shown)
     return Section(
         "trajectories",
         "Trajectories",
         "The recorded end-effector path against the untuned and the tuned simulation (the paper's "
-        "Figure 1), re-simulated for the best repeat of each engine, tasks and space.",
-        [
-            *figures,
-            out.table(T.object_final_table(_final_positions(data))),
-            out.table(T.phase_error_table(_phase_errors(data))),
-        ],
+        "Figure 1), re-simulated for the best repeat of each engine, tasks and space"
+        + ("; for joint logs, each joint's recorded and simulated angle against time" if joints else "")
+        + "."
+        + (f" Left out: {'; '.join(missing)}." if missing else ""),
+        [*figures, *(out.table(t) for t in shown)],
     )
 
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +11,15 @@ from simtune.data import TaskData
 from simtune.engines import make_engine
 from simtune.engines.controller import JointController
 from simtune.errors import SimtuneError
-from simtune.fitness import TaskScore, marker_positions, rollout_joint_names, score_rollout
+from simtune.fitness import (
+    FitnessWeights,
+    Score,
+    TaskScore,
+    joint_columns,
+    marker_positions,
+    rollout_joint_names,
+    score_rollout,
+)
 from simtune.objective import Objective, load_references, recordings_folder
 from simtune.params.kinds import outside_generics
 from simtune.report.collect import Group, ReportedRun
@@ -84,6 +92,19 @@ class TaskTrajectory:
     untuned_score: TaskScore
     tuned_score: TaskScore
     spans: list[tuple[str, float, float]]  # the schedule's stretches as the tuned simulation runs them
+    #: the logged joints' simulated angles (n, logged joints) [rad], in the recordings' order; None: no joint logs
+    untuned_joints: np.ndarray | None = None
+    tuned_joints: np.ndarray | None = None
+
+
+@dataclass
+class HeldOut:
+    """The best parameters of a run tuned on some repeats (``--repeats even`` or ``odd``), scored on the others."""
+
+    selection: str  # the repeats scored: "odd" for a run tuned on the even ones
+    score: Score | None  # None: not scored (``message`` says why)
+    repeats: dict[str, int] = field(default_factory=dict)  # task -> held-out repeats scored
+    message: str = ""
 
 
 @dataclass
@@ -92,18 +113,30 @@ class GroupSimulation:
     run: ReportedRun  # the group's best run, whose parameters are simulated
     params: dict[str, float]
     tasks: dict[str, TaskTrajectory]
+    held_out: HeldOut | None = None  # None: the run was tuned on all its tasks' repeats
 
     @property
     def tuned_fitness(self) -> float:
         return float(sum(t.tuned_score.fitness for t in self.tasks.values()))
 
 
+def run_weights(run: ReportedRun) -> FitnessWeights:
+    """The weights of the fitness's parts ``run`` was tuned with (``--weights``; the defaults where it gave none)."""
+    return FitnessWeights() if run.config.weights is None else FitnessWeights.from_mapping(run.config.weights)
+
+
+#: the repeats a run tuned on some of them did not see
+OTHER_REPEATS = {"even": "odd", "odd": "even"}
+
+
 def simulate_group(group: Group, references: References) -> GroupSimulation:
-    """Re-simulate the group's best run with generic and with its tuned parameters, on each of its tasks."""
+    """Re-simulate the group's best run with generic and with its tuned parameters, on each of its tasks (scored
+    with the run's own weights); a run tuned on the even or odd repeats is also scored on the others."""
     run = group.best_run
     refs = references.for_run(run)
     tasks = [run.task(t) for t in run.task_names]
-    objective = Objective(run.engine, tasks, refs)
+    weights = run_weights(run)
+    objective = Objective(run.engine, tasks, refs, weights=weights)
     params = run.best_params
     try:
         untuned = objective.rollouts({})
@@ -114,6 +147,7 @@ def simulate_group(group: Group, references: References) -> GroupSimulation:
     for task in run.task_names:
         ref = refs[task]
         joints = rollout_joint_names(run.task(task))
+        columns = None if ref.joint_mean is None else joint_columns(ref, joints)
         out[task] = TaskTrajectory(
             task=task,
             reference=ref,
@@ -121,11 +155,37 @@ def simulate_group(group: Group, references: References) -> GroupSimulation:
             tuned_marker=marker_positions(tuned[task], params),
             untuned_object=untuned[task].object_pos,
             tuned_object=tuned[task].object_pos,
-            untuned_score=score_rollout(untuned[task], ref, {}, joint_names=joints),
-            tuned_score=score_rollout(tuned[task], ref, params, joint_names=joints),
+            untuned_score=score_rollout(untuned[task], ref, {}, weights=weights, joint_names=joints),
+            tuned_score=score_rollout(tuned[task], ref, params, weights=weights, joint_names=joints),
             spans=run.task(task).stretches(JointController(run.task(task), params).delay),
+            untuned_joints=None if columns is None else untuned[task].joint_angles[:, columns],
+            tuned_joints=None if columns is None else tuned[task].joint_angles[:, columns],
         )
-    return GroupSimulation(group, run, params, out)
+    return GroupSimulation(group, run, params, out, held_out=_held_out(run, tasks, references, weights))
+
+
+def _held_out(
+    run: ReportedRun, tasks: list[TaskSpec], references: References, weights: FitnessWeights
+) -> HeldOut | None:
+    """``run``'s best parameters scored on the repeats it was not tuned on; None where it was tuned on all of them
+    (or the report re-scores it on other repeats than its own: its fitness there is already a held-out one)."""
+    tuned_on = run.config.repeats
+    if tuned_on not in OTHER_REPEATS or references.selection(run) != tuned_on:
+        return None
+    other = OTHER_REPEATS[tuned_on]
+    try:
+        held = {
+            t.name: references.get(run.config.data, t, references.kind(run), other, run.config.keep_repeats)
+            for t in tasks
+        }
+    except SimtuneError as exc:
+        return HeldOut(other, None, message=str(exc))
+    objective = Objective(run.engine, tasks, held, weights=weights)
+    try:
+        score = objective.score(run.best_params)
+    finally:
+        objective.close()
+    return HeldOut(other, score, {name: len(ref.sources) for name, ref in held.items()})
 
 
 def nominal_values(engine: str, tasks: list[TaskSpec]) -> dict[str, float]:

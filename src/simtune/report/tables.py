@@ -11,11 +11,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simtune.check.project import floor_words
 from simtune.common.table import Column, Table
 from simtune.data.clock import spread_per_sample
+from simtune.data.screen import JOINT_WEIGHT
 from simtune.fitness import RepeatFloor
 from simtune.params.space import PARAMETERS
 from simtune.report.collect import Group, ReportedRun
+from simtune.report.simulate import GroupSimulation
 
 #: q below which the report calls a parameter's narrowing by tuning significant
 SIGNIFICANCE = 0.05
@@ -25,9 +28,57 @@ def _f(x) -> float | None:
     return None if x is None else float(x)
 
 
+def _degrees(radians) -> float | None:
+    return None if radians is None else math.degrees(float(radians))
+
+
 def _stats(values: list[float]) -> tuple[float, float, float, float | None]:
     a = np.asarray(values, dtype=float)
     return float(a.min()), float(a.mean()), float(a.max()), float(a.std(ddof=1)) if a.size > 1 else None
+
+
+# --- what the fitness is measured in --------------------------------------------------------------------
+#: the motion-capture fitness, in words
+MOCAP_FITNESS = "mean wrist error + final object error [m]"
+
+
+def joint_log_runs(runs: list[ReportedRun]) -> list[ReportedRun]:
+    """The runs whose recordings log joint angles (their fitness has a joint term)."""
+    return [r for r in runs if r.best_score.get("joint_error") is not None]
+
+
+def fitness_definition(runs: list[ReportedRun]) -> str:
+    """What the runs' fitness is, with its unit, in words: the motion-capture sum in metres and, for joint logs, the
+    joint weight [m/rad] times the mean absolute joint-angle error [rad] (:mod:`simtune.fitness`).
+
+    Args:
+        runs: the report's runs.
+    Returns:
+        A phrase such as ``"mean wrist error + final object error [m]"``.
+    """
+    joints = joint_log_runs(runs)
+    if not joints:
+        return MOCAP_FITNESS
+    weights = sorted({float((r.config.weights or {}).get("joint", JOINT_WEIGHT)) for r in joints})
+    if weights == [1.0]:
+        joint = "the mean absolute joint-angle error of the logged joints [rad] (--weights joint=1)"
+    else:
+        joint = (
+            f"{' or '.join(f'{w:g}' for w in weights)} m/rad (the joint weight, --weights joint=W) x the mean "
+            "absolute joint-angle error of the logged joints [rad]"
+        )
+    if len(weights) == 1:
+        joint += f" (a fitness of 0.01 is a mean joint error of {math.degrees(0.01 / weights[0]):.2f} deg)"
+    if all(r.best_score.get("wrist_error") is None for r in joints) and len(joints) == len(runs):
+        return joint
+    return f"{MOCAP_FITNESS}, plus for joint logs {joint}"
+
+
+def fitness_unit(runs: list[ReportedRun]) -> str:
+    """The sentence under the report's title that says what the fitness is measured in."""
+    if not joint_log_runs(runs):
+        return "Fitness is in metres (lower is better)."
+    return f"Fitness = {fitness_definition(runs)} (lower is better)."
 
 
 # --- 1. generic fitness (the paper's Table II) -------------------------------------------------
@@ -43,6 +94,7 @@ class GenericEntry:
     wrist_error: float | None
     object_error: float | None
     stable: bool = True
+    joint_error: float | None = None  # [rad]; None: the recordings log no joint angles
 
 
 def generic_entries(groups: list[Group]) -> tuple[list[GenericEntry], list[str]]:
@@ -64,6 +116,7 @@ def generic_entries(groups: list[Group]) -> tuple[list[GenericEntry], list[str]]
                     _f(part.get("wrist_error")),
                     _f(part.get("object_error")),
                     bool(part.get("stable", True)),
+                    _f(part.get("joint_error")),
                 )
                 key = (run.engine, task)
                 if key not in seen:
@@ -79,17 +132,22 @@ def generic_entries(groups: list[Group]) -> tuple[list[GenericEntry], list[str]]
     return list(seen.values()), notes
 
 
-def generic_table(entries: list[GenericEntry], tasks: list[str]) -> Table:
+def generic_table(entries: list[GenericEntry], tasks: list[str], fitness: str = MOCAP_FITNESS) -> Table:
+    """Each engine's generic fitness and its parts per task; ``fitness``: what the fitness is, in words
+    (:func:`fitness_definition`).  A joint error column per task is there where the recordings log joint angles."""
     engines: list[tuple[str, str, str]] = []
     for e in entries:
         if (e.engine, e.source, e.version) not in engines:
             engines.append((e.engine, e.source, e.version))
+    with_joints = any(e.joint_error is not None for e in entries)
+    width = 4 if with_joints else 3  # columns per task
     columns = [Column("engine"), Column("source"), Column("version")]
     for task in tasks:
         columns += [
             Column(f"{task} fitness", ".4f"),
             Column(f"{task} wrist error [m]", ".4f"),
             Column(f"{task} object error [m]", ".4f"),
+            *([Column(f"{task} joint error [deg]", ".2f")] if with_joints else []),
         ]
     index = {(e.engine, e.source, e.task): e for e in entries}
     rows = []
@@ -97,20 +155,25 @@ def generic_table(entries: list[GenericEntry], tasks: list[str]) -> Table:
         row: list = [engine, source, version]
         for task in tasks:
             found = index.get((engine, source, task))
-            row += [None, None, None] if found is None else [found.fitness, found.wrist_error, found.object_error]
+            parts: list[float | None] = [None] * width
+            if found is not None:
+                joint = None if found.joint_error is None else math.degrees(found.joint_error)
+                parts = [found.fitness, found.wrist_error, found.object_error, joint][:width]
+            row += parts
         rows.append(row)
     table = Table(
         "generic_fitness",
         "Table 1. Generic (untuned) fitness per engine and task",
         columns,
         rows,
-        note="Fitness = mean wrist error + final object error [m] (lower is better), simtune's fitness "
+        note=f"Fitness = {fitness} (lower is better), simtune's fitness "
         "for every row. simtune rows: the engine with its generic parameters, as stored by each "
         "run. Published rows: the data set authors' own untuned simulations, read from files and "
-        "scored against the same recordings.",
+        "scored against the same recordings."
+        + (" Joint error: the mean absolute joint-angle error of the logged joints." if with_joints else ""),
     )
     for t in range(len(tasks)):
-        col = 3 + 3 * t
+        col = 3 + width * t
         values = [(r[col], i) for i, r in enumerate(rows) if r[col] is not None]
         if values:
             table.highlight.add((min(values)[1], col))
@@ -749,6 +812,133 @@ def phase_error_table(entries: list[PhaseError]) -> Table:
     )
 
 
+# --- 6b. joint-angle error per joint and stretch (joint logs) -------------------------------------------------
+@dataclass
+class JointError:
+    """The angle error of one logged joint of one group's best run over one stretch of one task [deg]."""
+
+    engine: str
+    tasks: str
+    space: str
+    task: str
+    joint: str
+    stretch: str  # "whole task" or a stretch of the schedule
+    start: float
+    end: float
+    samples: int
+    untuned: float  # mean |simulated - recorded mean| [deg]
+    tuned: float
+    tuned_max: float  # largest |tuned - recorded mean| [deg]
+    tuned_offset: float  # mean signed tuned - recorded mean [deg]
+    repeat_spread: float | None  # mean |recorded repeat - recorded mean| [deg]; None: one repeat
+
+
+WHOLE_TASK = "whole task"
+
+
+def joint_errors(
+    group: Group,
+    task: str,
+    spans: list[tuple[str, float, float]],
+    times: np.ndarray,
+    recorded: tuple[list[str], np.ndarray, np.ndarray],
+    simulated: tuple[np.ndarray, np.ndarray],
+) -> list[JointError]:
+    """Per logged joint of ``task``: its angle error over the whole task, then over each stretch of its schedule.
+
+    Args:
+        group: the group whose best run was re-simulated.
+        task: the task's name.
+        spans: label, start and end [s] of each stretch (:meth:`simtune.tasks.TaskSpec.stretches`).
+        times: the recordings' sample times [s].
+        recorded: the logged joints' names, their mean angles (n, J) and the repeats (r, n, J) [rad].
+        simulated: the untuned and the tuned simulation's angles of those joints (n, J) or longer [rad].
+    Returns:
+        One entry per joint and stretch, in degrees, the whole task first for each joint.
+    """
+    names, mean, repeats = recorded
+    n = len(times)
+    untuned, tuned = (np.degrees(np.asarray(a)[:n]) for a in simulated)
+    mean, repeats = np.degrees(mean), np.degrees(repeats)
+    spread = np.abs(repeats - mean[None]).mean(axis=0) if len(repeats) > 1 else None
+    stretches = [(WHOLE_TASK, float(times[0]), float(times[-1]), np.ones(n, dtype=bool))]
+    for i, (label, start, end) in enumerate(spans):
+        last = i == len(spans) - 1
+        stretches.append((label, start, end, (times >= start) & ((times <= end) if last else (times < end))))
+    out = []
+    for k, joint in enumerate(names):
+        for label, start, end, inside in stretches:
+            if not inside.any():
+                continue
+            tuned_d = tuned[inside, k] - mean[inside, k]
+            out.append(
+                JointError(
+                    group.engine,
+                    group.tasks,
+                    group.space,
+                    task,
+                    joint,
+                    label,
+                    start,
+                    end,
+                    int(inside.sum()),
+                    float(np.abs(untuned[inside, k] - mean[inside, k]).mean()),
+                    float(np.abs(tuned_d).mean()),
+                    float(np.abs(tuned_d).max()),
+                    float(tuned_d.mean()),
+                    None if spread is None else float(spread[inside, k].mean()),
+                )
+            )
+    return out
+
+
+def joint_error_table(entries: list[JointError]) -> Table:
+    """The table ``joint_errors``: one row per group, task, logged joint and stretch, in degrees."""
+    columns = [
+        *(Column(name) for name in ("engine", "tasks", "space", "task", "joint", "stretch")),
+        Column("from [s]", ".2f"),
+        Column("to [s]", ".2f"),
+        Column("samples", "d"),
+        Column("untuned [deg]", ".2f"),
+        Column("tuned [deg]", ".2f"),
+        Column("tuned largest [deg]", ".2f"),
+        Column("tuned - recorded [deg]", "+.2f"),
+        Column("repeat spread [deg]", ".2f"),
+    ]
+    rows = [
+        [
+            e.engine,
+            e.tasks,
+            e.space,
+            e.task,
+            e.joint,
+            e.stretch,
+            e.start,
+            e.end,
+            e.samples,
+            e.untuned,
+            e.tuned,
+            e.tuned_max,
+            e.tuned_offset,
+            e.repeat_spread,
+        ]
+        for e in entries
+    ]
+    return Table(
+        "joint_errors",
+        "Table 6b. Where the joint error sits: per logged joint and stretch of each task's schedule",
+        columns,
+        rows,
+        note="Joint logs: the best run of each engine, tasks and space, re-simulated (as the joint-angle figures): "
+        "the mean absolute difference between each simulated joint angle and the recorded mean angle, in degrees, "
+        "over the whole task and over each stretch of the schedule as the tuned simulation runs it, untuned and "
+        "tuned; the tuned one's largest difference and its mean signed offset. Repeat spread: the mean absolute "
+        "difference of a recorded repeat from the recorded mean there ('-' with one repeat), how closely the real "
+        "arm repeats itself. Averaged over the joints, the whole-task tuned column is the joint error of the tuned "
+        "fitness (there in radians).",
+    )
+
+
 # --- contact ---------------------------------------------------------------------------------------------
 def contact_table(probes) -> Table:
     """One row per engine and task with an object: ``simtune tasks --contact``'s fields."""
@@ -862,17 +1052,36 @@ def dr_table(ranges: dict[str, dict[str, dict]]) -> Table:
     )
 
 
-def floor_table(floors: list[RepeatFloor], references: list[str]) -> Table:
-    """Each task's repeat spread with and without the clocks aligned, and the floor of its fitness."""
+#: a floor cell where a task has one repeat (``simtune check``'s words: :func:`simtune.check.project.floor_words`)
+NO_FLOOR = "no floor: one repeat"
+
+
+def floor_table(
+    floors: list[RepeatFloor], references: list[str], joint_spreads: dict[str, float] | None = None
+) -> Table:
+    """Each task's repeat spread with and without the clocks aligned, and the floor of its fitness.
+
+    Args:
+        floors: each task's :class:`RepeatFloor` (:func:`simtune.fitness.reference_floor`).
+        references: what the runs were re-scored against, as the report names it.
+        joint_spreads: task -> the mean absolute angle difference [deg] of an aligned repeat's logged joints from
+            the aligned mean, for the tasks whose recordings log joint angles (None or empty: none do).
+    Returns:
+        The table ``floor``.
+    """
+    joint_spreads = joint_spreads or {}
+    # a joint log's floor is a fraction of a degree times 0.5 m/rad: significant digits, not four decimals
+    floor_format = ".3g" if joint_spreads else ".4f"
     columns = [
         Column("task"),
         Column("repeats", "d"),
         Column("spread as recorded [mm]", ".1f"),
         Column("spread aligned [mm]", ".1f"),
+        *([Column("joint spread aligned [deg]", ".3f")] if joint_spreads else []),
         Column("shifts from [s]", "+.3f"),
         Column("shifts to [s]", "+.3f"),
         Column("outlying shifts"),
-        Column("floor (aligned mean vs repeats)", ".4f"),
+        Column("floor (aligned mean vs repeats)", floor_format),
     ]
     rows = [
         [
@@ -880,13 +1089,21 @@ def floor_table(floors: list[RepeatFloor], references: list[str]) -> Table:
             f.repeats,
             None if f.spread_unaligned_m is None else 1000 * f.spread_unaligned_m,
             None if f.spread_aligned_m is None else 1000 * f.spread_aligned_m,
+            *([joint_spreads.get(f.task) if f.repeats > 1 else None] if joint_spreads else []),
             f.shift_min_s,
             f.shift_max_s,
             ", ".join(f.outliers) or "none",
-            f.floor,
+            NO_FLOOR if f.floor is None else f.floor,
         ]
         for f in floors
     ]
+    joints = (
+        " Joint spread: the mean absolute difference of a repeat's logged joint angles from the aligned mean; a joint "
+        "log's floor is its joint term, the joint weight x that difference in radians."
+        if joint_spreads
+        else ""
+    )
+    single = f" {floor_words(None).capitalize()}." if any(f.floor is None for f in floors) else ""
     return Table(
         "floor",
         "The floor: the real arm against itself",
@@ -895,12 +1112,68 @@ def floor_table(floors: list[RepeatFloor], references: list[str]) -> Table:
         note="Spread: the mean distance of a repeat's wrist from the repeats' mean, on the repeats' own clocks and "
         "with each repeat's clock shifted onto the task's (its motion onset, refined against the other repeats). "
         "Floor: the fitness of the aligned mean against each repeat, as a simulation is scored: what a simulation "
-        f"as good as the arm's own repeats scores. The runs here were scored against: {', '.join(references)}.",
+        f"as good as the arm's own repeats scores.{joints}{single} The runs here were scored against: "
+        f"{', '.join(references)}.",
+    )
+
+
+# --- held-out repeats ---------------------------------------------------------------------------------------
+def held_out_table(sims: list[GroupSimulation]) -> Table:
+    """Each best run tuned on some repeats (``--repeats even``/``odd``): its tuned fitness per task on those and on
+    the held-out others (``sims``: re-simulated groups; those without a held-out score give no row).
+
+    Args:
+        sims: the report's re-simulated groups (:class:`simtune.report.simulate.GroupSimulation`).
+    Returns:
+        The table ``held_out``.
+    """
+    rows = []
+    for sim in sims:
+        held = sim.held_out
+        if held is None or held.score is None:
+            continue
+        for part in held.score.tasks:
+            tuned = sim.tasks[part.task].tuned_score.fitness if part.task in sim.tasks else None
+            rows.append(
+                [
+                    sim.group.engine,
+                    sim.group.tasks,
+                    sim.group.space,
+                    part.task,
+                    sim.run.label,
+                    sim.run.config.repeats,
+                    held.selection,
+                    held.repeats.get(part.task),
+                    tuned,
+                    part.fitness,
+                    None if not tuned else part.fitness / tuned,
+                    None if part.wrist_error is None else 1000.0 * part.wrist_error,
+                    None if part.joint_error is None else math.degrees(part.joint_error),
+                ]
+            )
+    return Table(
+        "held_out",
+        "Held-out repeats: the tuned parameters scored on repeats they were not fitted to",
+        [
+            *(Column(name) for name in ("engine", "tasks", "space", "task", "run", "tuned on", "scored on")),
+            Column("held-out repeats", "d"),
+            Column("tuned fitness", ".4g"),
+            Column("held-out fitness", ".4g"),
+            Column("held-out / tuned", ".2f"),
+            Column("held-out wrist error [mm]", ".1f"),
+            Column("held-out joint error [deg]", ".2f"),
+        ],
+        rows,
+        note="The best run of each engine, tasks and space tuned with --repeats even (or odd): its best parameters "
+        "scored on the repeats it was tuned on (tuned fitness) and on the others (held-out fitness), with the same "
+        "weights; held-out / tuned near 1: the tuning fits the arm, not the noise of the repeats it saw. The same "
+        "as `simtune evaluate --params-file RUN/best_params.json --repeats odd` (docs/tuning.md, held-out repeats).",
     )
 
 
 # --- appendix: every run ---------------------------------------------------------------------------------
 def runs_table(runs: list[ReportedRun]) -> Table:
+    with_joints = bool(joint_log_runs(runs))  # a joint error column where recordings log joint angles
     columns = [
         Column("run"),
         Column("engine"),
@@ -912,6 +1185,7 @@ def runs_table(runs: list[ReportedRun]) -> Table:
         Column("best fitness", ".4f"),
         Column("wrist error [m]", ".4f"),
         Column("object error [m]", ".4f"),
+        *([Column("joint error [deg]", ".2f")] if with_joints else []),
         Column("generations", "d"),
         Column("evaluations", "d"),
         Column("wall time [s]", ".1f"),
@@ -930,6 +1204,7 @@ def runs_table(runs: list[ReportedRun]) -> Table:
             r.best_fitness,
             _f(r.best_score.get("wrist_error")),
             _f(r.best_score.get("object_error")),
+            *([_degrees(r.best_score.get("joint_error"))] if with_joints else []),
             len(r.record.generations),
             r.record.evaluations,
             r.record.elapsed_s,
