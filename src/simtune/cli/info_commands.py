@@ -229,8 +229,8 @@ def params(
     table = text_table(title, headers)
     for p in sp.parameters:
         if task is None:
-            table.add_row(p.name, f"{p.low:g}", f"{p.high:g}", p.unit, p.description)
+            table.add_row(p.name, *p.shown_bounds(), p.unit, p.description)
         else:
             why = inactive.get(p.name)
-            table.add_row(p.name, f"{p.low:g}", f"{p.high:g}", p.unit, "no" if why else "yes", why or p.description)
+            table.add_row(p.name, *p.shown_bounds(), p.unit, "no" if why else "yes", why or p.description)
     out.print(table)

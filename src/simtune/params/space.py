@@ -77,11 +77,45 @@ class Parameter:
             raise ConfigError(f"{at}parameter {self.name!r}: {shown} is not a number")
         v = float(value)
         if not math.isfinite(v) or v < self.low or v > self.high:
+            low, high = self.shown_bounds()
+            # the bound crossed in as many digits as show that it is (0.00938381 past 0.009383807, not 0.00938381)
+            if v < self.low:
+                low = _apart_text(self.low, v)
+            elif v > self.high:
+                high = _apart_text(self.high, v)
             raise ConfigError(
-                f"{at}parameter {self.name!r} = {value!r} is outside its range "
-                f"[{self.low:g}, {self.high:g}] {self.unit}"
+                f"{at}parameter {self.name!r} = {value!r} is outside its range [{low}, {high}] {self.unit}"
             )
         return v
+
+    def shown_bounds(self) -> tuple[str, str]:
+        """The range's bounds as text, each in the fewest significant digits (6 or more) whose value lies in the
+        range: a bound copied from ``simtune params`` into a parameter file is accepted.
+
+        Returns:
+            The low and the high bound's text.
+        """
+        return _bound_text(self.low, self.low, self.high), _bound_text(self.high, self.low, self.high)
+
+
+def _bound_text(bound: float, low: float, high: float) -> str:
+    """``bound`` in the fewest significant digits, 6 or more, that read back lie in [``low``, ``high``] (17 always do:
+    they are its exact value)."""
+    for digits in range(6, 17):
+        text = f"{bound:.{digits}g}"
+        if low <= float(text) <= high:
+            return text
+    return repr(float(bound))
+
+
+def _apart_text(bound: float, value: float) -> str:
+    """``bound`` in the fewest significant digits, 6 or more, that read back lie on its side of ``value`` (a value
+    past it)."""
+    for digits in range(6, 17):
+        text = f"{bound:.{digits}g}"
+        if (float(text) < value) == (bound < value) and float(text) != value:
+            return text
+    return repr(float(bound))
 
 
 def _kind_parameters(kind: Kind, robot: RobotDescription) -> list[Parameter]:
