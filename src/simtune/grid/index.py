@@ -165,10 +165,14 @@ class SQLiteGridIndex(GridIndex):
         super().__init__(grid_dir)
         self.location = str(self.grid_dir / INDEX_FILE)
         self.key = ""
-        # autocommit: a statement outside _transaction() is committed at once
-        self.db = sqlite3.connect(self.location, timeout=30, isolation_level=None)
-        self.db.execute("PRAGMA journal_mode=WAL")
-        self._create_schema()
+        check_index_file(Path(self.location))  # read-only: a user's file of that name is never written
+        try:
+            # autocommit: a statement outside _transaction() is committed at once
+            self.db = sqlite3.connect(self.location, timeout=30, isolation_level=None)
+            self.db.execute("PRAGMA journal_mode=WAL")
+            self._create_schema()
+        except sqlite3.DatabaseError as exc:
+            raise SimtuneError(f"cannot open grid index {self.location}: {exc}") from None
 
     def _execute(self, sql: str, params: tuple = ()) -> sqlite3.Cursor:
         return self.db.execute(sql, params)
@@ -185,6 +189,37 @@ class SQLiteGridIndex(GridIndex):
 
     def close(self) -> None:
         self.db.close()
+
+
+def check_index_file(path: Path) -> None:
+    """Refuse a ``grid.sqlite`` that is not a grid index (one line naming it), reading it only.
+
+    A missing or empty file, or a SQLite database holding no tables or the index's own, is an index (to be set up);
+    anything else (a file that is not a database, a database of other tables) is someone's own and is left exactly as
+    it was.
+
+    Args:
+        path: the index file.
+    """
+    if not path.exists() or (path.is_file() and path.stat().st_size == 0):
+        return
+    if not path.is_file():
+        raise SimtuneError(f"{path} is not a grid index (not a file): move it away or choose another grid folder")
+    try:
+        db = sqlite3.connect(path.resolve().as_uri() + "?mode=ro", uri=True)
+        try:
+            tables = {row[0] for row in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        finally:
+            db.close()
+    except sqlite3.DatabaseError as exc:
+        raise SimtuneError(
+            f"{path} is not a grid index ({exc}); it was left unchanged: move it away or choose another grid folder"
+        ) from None
+    if tables and "grid_units" not in tables:
+        raise SimtuneError(
+            f"{path} is not a grid index (a SQLite database without its table grid_units); it was left unchanged: "
+            "move it away or choose another grid folder"
+        )
 
 
 class PostgresGridIndex(GridIndex):
