@@ -223,7 +223,13 @@ def test_the_progress_line_counts_what_the_summary_counts(tmp_path, monitor_prog
     progress = monitor_progress[-1]
     assert progress.stored == 0 and progress.stored + progress.simulated == first.evaluations
     assert progress.reused > 0  # the search did ask for some points twice: they are not counted again
-    resumed = resume_run(tmp_path / "run", show_progress=False)  # finished: replayed from the store
+    from simtune.store import RunStore
+
+    # as if killed after its last evaluation: replayed from the store (a finished run is given back as stored)
+    store = RunStore(tmp_path / "run")
+    store.set(status="running")
+    store.close()
+    resumed = resume_run(tmp_path / "run", show_progress=False)
     progress = monitor_progress[-1]
     assert progress.stored == first.evaluations and progress.simulated == 0
     assert progress.stored + progress.simulated == resumed.evaluations

@@ -384,18 +384,21 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
             if stored is None:
                 raise never_set_up(run_dir)
             config = RunConfig.from_stored(stored, f"{path}")
-            if config.worker_processes:
-                start_worker_server()  # its imports run while this process reads the recordings
-            plan = plan_run(config)
-            check_data_found(run_dir, plan)
-            stored_fingerprint = store.get("fingerprint")
-            changes = []  # a run from before fingerprints has nothing to compare with
-            if stored_fingerprint is not None:
-                changes = fingerprint_differences(stored_fingerprint, run_fingerprint(plan, screened=False))
-                if not changes:  # the data as it was: the repeats left out of it must be the same
-                    changes = left_out_changes(stored_fingerprint.get("left_out", {}), left_out_repeats(plan))
-                if not rescore:  # another engine version that replays the stored evaluations goes on, saying so
-                    changes = replays_under_this_engine(run_dir, plan, store, changes)
+            # a finished run is checked as any other (its data, tasks and engine as they were), then given back as
+            # it was: the warnings of reading its recordings again were printed when it was tuned
+            done = None if rescore else finished_result(store)
+            with warnings.catch_warnings(record=done is not None) as held:
+                if done is not None:
+                    warnings.simplefilter("always")  # held, each of them: the filters apply when said below
+                elif config.worker_processes:
+                    start_worker_server()  # its imports run while this process reads the recordings
+                plan = plan_run(config)
+                check_data_found(run_dir, plan)
+                changes = _changes_since_start(run_dir, plan, store, rescore)
+            if done is not None and not changes:
+                return done  # nothing to resume: the store, its wall time and best_params.json stay as they are
+            for caught in held or []:  # what the checks said, said now that the run goes on or is refused
+                warnings.warn_explicit(caught.message, caught.category, caught.filename, caught.lineno)
             if rescore:
                 return _rescore(run_dir, store, plan, changes, show_progress)
             if changes:
@@ -412,6 +415,20 @@ def resume_run(run_dir: Path, show_progress: bool = True, rescore: bool = False)
             raise SimtuneError(f"{path} is damaged ({exc})") from None
         finally:
             store.close()
+
+
+def _changes_since_start(run_dir: Path, plan: RunPlan, store: RunStore, rescore: bool) -> list[str]:
+    """What changed since the run started (its data, the repeats left out, tasks, robot, engine), one phrase each;
+    without ``rescore``, less an engine version that replays the stored evaluations (saying so)."""
+    stored_fingerprint = store.get("fingerprint")
+    if stored_fingerprint is None:  # a run from before fingerprints has nothing to compare with
+        return []
+    changes = fingerprint_differences(stored_fingerprint, run_fingerprint(plan, screened=False))
+    if not changes:  # the data as it was: the repeats left out of it must be the same
+        changes = left_out_changes(stored_fingerprint.get("left_out", {}), left_out_repeats(plan))
+    if not rescore:  # another engine version that replays the stored evaluations goes on, saying so
+        changes = replays_under_this_engine(run_dir, plan, store, changes)
+    return changes
 
 
 def check_data_found(run_dir: Path, plan: RunPlan) -> None:
@@ -599,8 +616,14 @@ def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bo
     )
     if finished:
         result.wall_s = elapsed_at_start
-        store.set(elapsed_s=elapsed_at_start)
-    store.set(status="finished", message=result.message, best_fitness=result.score.fitness)
+    # the wall time the command prints is the one stored, to the last digit (the last checkpoint's was a little less)
+    store.set(elapsed_s=result.wall_s)
+    store.set(
+        status="finished",
+        message=result.message,
+        best_fitness=result.score.fitness,
+        result=_result_record(result),
+    )
     # after the run is finished: a kill meanwhile loses only this summary (`simtune uncertainty RUN` redoes it)
     if stored_uncertainty is None:
         store.set(uncertainty=_uncertainty_or_reason(objective, plan, store, result))
@@ -612,6 +635,72 @@ def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bo
             store.set(verdict={"error": str(exc), "floor": None, "over_floor": None, "moved": []})
     store.close()
     return result
+
+
+def _result_record(result: TuneResult) -> dict:
+    """What a finished run's :class:`TuneResult` holds beyond its store's evaluations (store meta ``result``), so
+    that resuming the run gives it back as it was (:func:`finished_result`) rather than replaying the run."""
+    return {
+        "x": [float(v) for v in result.x],
+        "generations": result.generations,
+        "used_evaluations": result.used_evaluations,
+        "message": result.message,
+        "converged": bool(result.converged),
+        "stop_reason": result.stop_reason,
+        "history": [float(v) for v in result.history],
+    }
+
+
+def finished_result(store: RunStore) -> TuneResult | None:
+    """The result of a finished run as its last session stored it, without a replay; None where the run is not
+    finished, or its store lacks what the result needs (a store from before the result was kept, or one killed
+    before its uncertainty or verdict was stored: a replay finishes those).
+
+    Args:
+        store: the run's store, open.
+
+    Returns:
+        Its result (no new evaluations, its stored wall time), or None.
+    """
+    record = store.get("result")
+    if store.get("status") != "finished" or not isinstance(record, dict):
+        return None
+    if store.get("uncertainty") is None or store.get("verdict") is None:
+        return None
+    names = store.get("parameters") or []
+    x = np.asarray(record.get("x", []), dtype=float)
+    score = store.lookup(x) if len(x) == len(names) else None
+    if score is None:
+        return None
+    return TuneResult(
+        x,
+        dict(zip(names, (float(v) for v in x), strict=True)),
+        score,
+        int(record["generations"]),
+        store.count_evaluations(),
+        0,
+        float(store.get("elapsed_s", 0.0)),
+        str(record["message"]),
+        bool(record["converged"]),
+        [float(v) for v in record.get("history", [])],
+        used_evaluations=int(record["used_evaluations"]),
+        stop_reason=str(record["stop_reason"]),
+    )
+
+
+def is_finished(run_dir: Path) -> bool:
+    """Whether ``run_dir`` holds a finished run, read without writing; False for anything that cannot be read as
+    one (what reads it next says why)."""
+    try:
+        store = RunStore.open_read_only(Path(run_dir))
+    except (SimtuneError, sqlite3.Error):
+        return False
+    try:
+        return store.get("status") == "finished"
+    except (sqlite3.Error, ValueError):
+        return False
+    finally:
+        store.close()
 
 
 def _uncertainty_or_reason(objective: Objective, plan: RunPlan, store: RunStore, result: TuneResult) -> dict:
@@ -653,6 +742,8 @@ def run_uncertainty(run_dir: Path, workers: int = 1, bootstrap: int = 0) -> dict
     with run_lock(run_dir):
         store = RunStore(run_dir)
         try:
+            # as resume, report and export do: intervals read from a damaged store would be garbage said calmly
+            store.verify()
             stored = store.get("config")
             if stored is None:
                 raise never_set_up(run_dir)

@@ -285,10 +285,19 @@ def resume(
     """
     from simtune import api
     from simtune.activity import announcing
-    from simtune.runs import read_run_record
+    from simtune.runs import is_finished, read_run_record
 
+    finished = not rescore and is_finished(run_dir)
     with announcing(not quiet and not as_json and sys.stderr.isatty()):
         result = api.resume(run_dir, show_progress=not quiet and not as_json, rescore=rescore)
+    if finished and not as_json:
+        err.print(
+            f"{run_dir} is already finished ({result.message}): nothing to resume; "
+            f"`simtune resume {run_dir} --rescore` starts a new run from its last population",
+            markup=False,
+            highlight=False,
+            soft_wrap=True,
+        )
     record = read_run_record(run_dir)
     config = record.settings
     rescored = record.rescored_from
