@@ -19,6 +19,7 @@ import pytest
 from test_lerobot import FPS, STEPS, make_project, write_raw
 from test_lerobot_units import episode, one_line, phases, project
 
+import simtune
 import simtune.api as st
 from simtune.errors import ProjectError, RecordingError, RecordingWarning, SimtuneError
 from simtune.objective import load_task_recordings
@@ -224,3 +225,37 @@ def test_a_one_frame_episode_beside_good_ones_is_left_out_with_a_warning(tmp_pat
     alone = project(tmp_path / "alone", phases(STEPS), "deg", [single])
     with pytest.raises(RecordingError, match="episode_000000 frame 1: only 1 valid frame"):
         load_task_recordings(alone / "recordings" / "wave", load_project(alone).task("wave"))
+
+
+# --- the task check's journey on recordings a task file names ------------------------------------------------------
+
+
+def test_the_task_check_on_a_task_files_lerobot_folder_says_what_it_reads_the_first_time(tmp_path):
+    """No data root in simtune.toml; the task file's [recordings] folder is a LeRobot dataset: the check said the
+    project 'names no data root' (it needs none), then, given --data, that it reads marker tracks only."""
+    root = make_project(tmp_path / "proj", schedule="phases", extra='folder = "lerobot/wave"')
+    (root / "simtune.toml").write_text('robot = "mico"\ntasks = ["tasks/wave.toml"]\n')
+    write_raw(root / "lerobot" / "wave", "v3.0", [episode(), episode()])
+    with pytest.raises(SimtuneError) as info:
+        st.check("mujoco", "wave", project=root, space="calibrated")
+    one_line(
+        str(info.value),
+        f"check --task wave: its recordings ({root / 'lerobot' / 'wave'}) hold joint angles and no wrist marker",
+        "`simtune check` on the project folder checks joint logs",
+    )
+    assert "data root" not in str(info.value)
+
+
+def test_the_task_check_reads_a_task_files_own_marker_folder_without_a_data_root(tmp_path):
+    make_synthetic("mujoco", "single", tmp_path / "data", truth={"command_delay": 1.2}, repeats=2, noise_m=0.001)
+    root = tmp_path / "proj"
+    (root / "tasks").mkdir(parents=True)
+    (root / "simtune.toml").write_text('robot = "mico"\ntasks = ["tasks/single.toml"]\n')
+    bundled = (Path(simtune.__file__).parent / "projects" / "mico" / "tasks" / "single.toml").read_text()
+    (root / "tasks" / "single.toml").write_text(
+        bundled.replace("public_recordings = true", 'recordings = "../data/single"')
+    )
+    result = st.check("mujoco", "single", project=root, space="calibrated")
+    assert result["data"] is None  # each task's own folder
+    (quality,) = result["data_quality"]
+    assert len(quality["repeats"]) == 2 and quality["implied_command_delay_s"] == pytest.approx(1.2, abs=0.1)

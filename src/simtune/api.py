@@ -812,9 +812,7 @@ def check(
     kind = _reference(reference)
     selection = _repeats(repeats)
     proj = _project(project)
-    root = _root(data, proj)
-    if root is None:
-        raise SimtuneError(f"check: the project {project} names no data root: give the recordings with --data")
+    root = _root(data, proj)  # None: each task's own recordings folder (its task file's, else the project's)
     specs = with_targets(proj.parse_tasks(_task_spec(tasks)), _targets(targets, "targets"))
     if write_task is not None and len(specs) != 1:
         raise ConfigError(f"--write-task writes one task's file: check one task, not {len(specs)}")

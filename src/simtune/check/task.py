@@ -47,7 +47,7 @@ from simtune.engines import engine_class, make_engine
 from simtune.engines.contact import floor_touches
 from simtune.errors import SimtuneError
 from simtune.fitness import NOISE_UNIT_M, marker_positions, reference_floor, repeat_floor
-from simtune.objective import START_WARN_M, Objective, generic_values, load_references
+from simtune.objective import START_WARN_M, Objective, generic_values, load_references, recordings_folder
 from simtune.params import get_space
 from simtune.params.kinds import FIXED_BOUNDS
 from simtune.tasks import TaskSpec
@@ -550,20 +550,27 @@ def _floor_touches(sim) -> list[list[float]] | None:
 
 
 def task_quality(
-    engine: str, task: TaskSpec, root: Path, reference: str = "aligned", repeats: str = "all", keep: bool = False
+    engine: str,
+    task: TaskSpec,
+    root: Path | None,
+    reference: str = "aligned",
+    repeats: str = "all",
+    keep: bool = False,
 ) -> tuple[dict, TaskData]:
-    """The data-quality and onset part of the check for one task, and its loaded reference (``reference``: aligned
-    or mean; ``repeats``: all, even or odd of the repeats).  The repeats are aligned either way, to report their
-    clock shifts and their spread with and without alignment: the floor a tuned simulation should be compared
-    with."""
+    """The data-quality and onset part of the check for one task (its recordings under ``root``; None: in its own
+    folder), and its loaded reference (``reference``: aligned or mean; ``repeats``: all, even or odd of the
+    repeats).  The repeats are aligned either way, to report their clock shifts and their spread with and without
+    alignment: the floor a tuned simulation should be compared with."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         aligned = load_references(root, [task], reference="aligned", repeats=repeats, keep_repeats=keep)[task.name]
         plain = load_references(root, [task], reference="mean", repeats=repeats, keep_repeats=keep)[task.name]
     if aligned.wrist_repeats is None or aligned.wrist_mean is None or plain.wrist_repeats is None:
         raise SimtuneError(
-            f"check --task {task.name}: its recordings hold no wrist marker (joint logs only); this check reads "
-            "the marker track - simtune check DIR checks joint logs against the start pose"
+            f"check --task {task.name}: its recordings ({recordings_folder(root, task)}) hold joint angles and no "
+            "wrist marker; this check reads the marker track (each repeat's onset and rest poses): `simtune check` "
+            "on the project folder checks joint logs (the repeats' clock shifts and floor, their first angles "
+            "against the start pose), and `simtune tune` warns at its start of parameters they hardly tell apart"
         )
     sim = make_engine(engine, task)
     try:
@@ -643,7 +650,7 @@ def repeat_noise(references: list[TaskData], noise_weighted: bool = False) -> tu
 def check(
     engine: str,
     tasks: list[TaskSpec],
-    root: Path,
+    root: Path | None,
     space_name: str = "extended",
     workers: int = 1,
     *,
@@ -651,13 +658,13 @@ def check(
     repeats: str = "all",
     keep_repeats: bool = False,
 ) -> dict:
-    """Every part of the check for ``tasks`` on ``engine`` with the recordings under ``root`` (the repeats
-    ``repeats`` selects: all, even or odd; one far from the others left out unless ``keep_repeats``), the
-    Jacobian's residuals against ``reference`` (aligned or mean)."""
+    """Every part of the check for ``tasks`` on ``engine`` with the recordings under ``root`` (None: each task's own
+    folder; the repeats ``repeats`` selects: all, even or odd; one far from the others left out unless
+    ``keep_repeats``), the Jacobian's residuals against ``reference`` (aligned or mean)."""
     cls = engine_class(engine)
     per_task, references = [], {}
     for task in tasks:
-        summary, reference_data = task_quality(engine, task, Path(root), reference, repeats, keep_repeats)
+        summary, reference_data = task_quality(engine, task, root, reference, repeats, keep_repeats)
         per_task.append(summary)
         references[task.name] = reference_data
     full = get_space(space_name, cls.supported())
@@ -688,7 +695,7 @@ def check(
     return {
         "engine": engine,
         "tasks": [t.name for t in tasks],
-        "data": str(root),
+        "data": str(root) if root is not None else None,  # None: each task's own folder
         "space": space_name,
         "reference": reference,
         **({"repeats": repeats} if repeats != "all" else {}),
