@@ -149,8 +149,8 @@ def make_synthetic(
             delays=delays,
         )
         files[spec.name] = write.write(folder, recordings, spec)
-        names = [f"episode_{k:06d}" if write.dataset else rec.source.name for k, rec in enumerate(recordings)]
-        starts[spec.name] = repeat_starts(names, delays, truth.get("command_delay", 0.0))
+        repeat_names = [f"episode_{k:06d}" if write.dataset else rec.source.name for k, rec in enumerate(recordings)]
+        starts[spec.name] = repeat_starts(repeat_names, delays, truth.get("command_delay", 0.0))
     _write_truths(out, meta, force, starts)
     return SynthResult(out, truth, files, joint_noise_rad)
 
