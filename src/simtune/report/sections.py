@@ -237,9 +237,8 @@ def _held_out_item(data: ReportData, out: ReportOutput) -> Table | str:
     if table.rows:
         return out.table(table)
     run = min(data.runs, key=lambda r: r.best_fitness)
-    data_option = "" if run.config.data is None else " --data OTHER"
     command = (
-        f"simtune evaluate --engine {run.engine} --task {run.tasks}{data_option} "
+        f"simtune evaluate --engine {run.engine} --task {run.tasks} --data OTHER "
         f"--params-file {run.path / 'best_params.json'}"
     )
     return (
