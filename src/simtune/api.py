@@ -20,17 +20,18 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Callable, Collection, Mapping
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import date
 from pathlib import Path
 from typing import Any
 
 from simtune.alignment import DelayEstimate, aligned, estimate_delay
-from simtune.check.project import check_project
+from simtune.check.project import Finding
+from simtune.check.project import check_project as _check_project
 from simtune.check.task import check as run_check
 from simtune.check.task import moved_joints
-from simtune.common.limits import MAX_BOOTSTRAP, MAX_SEED, MAX_WORKERS
+from simtune.common.limits import MAX_BOOTSTRAP, MAX_SEED, MAX_SYNTH_REPEATS, MAX_WORKERS
 from simtune.data.clock import DEFAULT_REFERENCE, check_reference, default_reference
 from simtune.data.task import DEFAULT_REPEATS, check_repeats
 from simtune.engines import engine_class
@@ -51,11 +52,11 @@ from simtune.run_plan import RunConfig, new_run_config
 from simtune.runs import read_run_record, resume_run, run_uncertainty, start_run
 from simtune.studies.compare import run_compare
 from simtune.studies.generalise import run_generalisation
-from simtune.studies.sensitivity import evaluation_count, run_sensitivity
-from simtune.studies.synth import SynthResult, load_truth, make_synthetic
+from simtune.studies.sensitivity import METHODS, evaluation_count, run_sensitivity
+from simtune.studies.synth import API_NAMES, DEFAULT_JOINT_NOISE_DEG, SynthResult, run_synth
 from simtune.studies.transfer import run_transfer
 from simtune.tasks import check_targets, with_targets
-from simtune.tasks.init_project import init_project
+from simtune.tasks.init_project import init_project as _init_project
 from simtune.tasks.spec import common_robot
 
 
@@ -135,13 +136,46 @@ def load_project(path: Path | str | None = None) -> Project:
 # --- the arguments, each checked where it enters: a ConfigError naming it, never a TypeError deep inside ------------
 
 
+def _shown(value: object) -> str:
+    """``value`` as an error message shows it: its repr, but an integer past any float by its length (10**5000's
+    digits are more than a line, and more than python prints)."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 64:
+        return f"an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _is_finite(value: object) -> bool:
+    """``value`` is a real number (not a bool: True is no count or size the user meant) that a float holds."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an integer past any float
+        return False
+
+
 def _count(name: str, value: object, low: int = 1, high: int | None = None) -> int:
     """``value`` if it is an integer from ``low`` to ``high`` (None: no upper limit); a ConfigError naming ``name``
     otherwise (a bool, a float, a string or None included: a count the user typed wrongly is not guessed)."""
     if isinstance(value, bool) or not isinstance(value, int) or value < low or (high is not None and value > high):
         span = f"from {low} to {high}" if high is not None else f"of at least {low}"
-        raise ConfigError(f"{name} must be an integer {span}, got {value!r}")
+        raise ConfigError(f"{name} must be an integer {span}, got {_shown(value)}")
     return value
+
+
+def _number(name: str, value: object) -> float:
+    """A finite number, whose range the function it is passed to checks (naming ``name``)."""
+    if not _is_finite(value):
+        raise ConfigError(f"{name} must be a finite number, got {_shown(value)}")
+    return float(value)  # type: ignore[arg-type]
+
+
+def _positive(name: str, value: object, of: str = "") -> float:
+    """A finite number above 0 (``of``: what it counts, for the message)."""
+    if not _is_finite(value) or not value > 0:  # type: ignore[operator]
+        raise ConfigError(f"{name} must be a finite number{of} above 0, got {_shown(value)}")
+    return float(value)  # type: ignore[arg-type]
 
 
 def _workers(value: object) -> int:
@@ -151,27 +185,43 @@ def _workers(value: object) -> int:
 
 def _seconds(name: str, value: object) -> float:
     """A budget in seconds: a finite number above 0."""
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
-        raise ConfigError(f"{name} must be a finite number of seconds above 0, got {value!r}")
-    return float(value)
+    return _positive(name, value, " of seconds")
 
 
 def _path(name: str, value: object) -> Path:
     """A file or folder given as a str or a Path."""
     if isinstance(value, str | os.PathLike) and not isinstance(value, bytes):
         return Path(value)
-    raise ConfigError(f"{name}: expected a file or folder (a str or a Path), got {value!r}")
+    raise ConfigError(f"{name}: expected a file or folder (a str or a Path), got {_shown(value)}")
+
+
+def _paths(name: str, value: object, what: str = "a file or folder") -> list[Path]:
+    """Files or folders given as one str or Path, or a list of them."""
+    if isinstance(value, str | os.PathLike) and not isinstance(value, bytes):
+        return [Path(value)]
+    if (
+        not isinstance(value, Collection)
+        or isinstance(value, Mapping | bytes)
+        or not all(isinstance(v, str | os.PathLike) and not isinstance(v, bytes) for v in value)
+    ):
+        raise ConfigError(f"{name}: expected {what} (a str or a Path, or a list of them), got {_shown(value)}")
+    return [Path(v) for v in value]
 
 
 def _names(name: str, value: object, example: str) -> list[str]:
-    """Names given as one string (comma-separated) or as a list of strings; at least one."""
+    """Names given as one string (comma-separated, blank ones dropped) or as a list of strings; at least one."""
     if isinstance(value, str):
         names = [part.strip() for part in value.split(",") if part.strip()]
     elif isinstance(value, Collection) and not isinstance(value, Mapping) and all(isinstance(v, str) for v in value):
         names = [v.strip() for v in value]
+        for index, given in enumerate(names):
+            if not given:  # a list is what the caller built: a blank item in it is a slip, not a separator
+                raise ConfigError(f"{name}: the name at index {index} of {_shown(value)} is empty")
     else:
-        raise ConfigError(f"{name}: expected names (a string such as {example!r}, or a list of them), got {value!r}")
-    if not names or not all(names):
+        raise ConfigError(
+            f"{name}: expected names (a string such as {example!r}, or a list of them), got {_shown(value)}"
+        )
+    if not names:
         raise ConfigError(f"{name}: names nothing ({value!r}): give one or more, e.g. {example!r}")
     return names
 
@@ -236,8 +286,19 @@ def _repeats(repeats: object) -> str:
 def _flag(name: str, value: object) -> bool:
     """A switch: True or False (not 1, "yes" or None)."""
     if not isinstance(value, bool):
-        raise ConfigError(f"{name} must be True or False, got {value!r}")
+        raise ConfigError(f"{name} must be True or False, got {_shown(value)}")
     return value
+
+
+def _sampling(method: object, samples: object) -> tuple[str, int]:
+    """A sensitivity method (:data:`~simtune.studies.sensitivity.METHODS`) and its sample count: at least 2, a power
+    of two for Sobol's (Saltelli) sampling."""
+    if not isinstance(method, str) or method not in METHODS:
+        raise ConfigError(f"method: unknown sensitivity method {_shown(method)} (known: {', '.join(METHODS)})")
+    count = _count("samples", samples, 2)
+    if method == "sobol" and count & (count - 1):
+        raise ConfigError(f"samples: Sobol sampling needs a power of two (e.g. 64, 128, 256), got {count}")
+    return method, count
 
 
 def _aligned(align_clock: object, specs) -> set[str]:
@@ -252,6 +313,75 @@ def _aligned(align_clock: object, specs) -> set[str]:
         if name not in known:
             raise ConfigError(f"align_clock: unknown task {name!r} (the tasks evaluated: {', '.join(RUN_DEFAULTS)})")
     return set(names)
+
+
+def init_project(
+    urdf: Path | str,
+    out: Path | str,
+    *,
+    tracked_link: str | None = None,
+    driven_joints: str | Collection[str] | None = None,
+    package_path: Path | str | Sequence[str | Path] = (),
+    loaded: list | None = None,
+    density: float | None = None,
+    total_mass: float | None = None,
+) -> Path:
+    """A new project for a robot given as a URDF or an MJCF file (``simtune init``; docs/own-robot.md).
+
+    Args:
+        urdf: the robot file, named in place by the project (never copied); an MJCF is told by its root element.
+        out: the new project folder (absent, or empty).
+        tracked_link: the link whose pose the recordings track; None: the loader's choice.
+        driven_joints: the joints that drive the arm, joined by commas (as ``--driven-joints``) or a list; None:
+            the loader's choice.
+        package_path: a folder for a URDF's ``package://`` names, or ``NAME=DIR`` (package NAME is folder DIR), or
+            a list of them (written into the project).
+        loaded: a list that receives the robot as loaded (its ``choices`` say what was chosen and why).
+        density: [kg/m^3] of the links without an ``<inertial>`` (default aluminium's).
+        total_mass: [kg] spread over those links by volume instead (not with ``density``).
+
+    Returns:
+        The project file (``OUT/simtune.toml``).
+
+    Raises:
+        ConfigError: an argument of the wrong type or value, named; ProjectError or RobotError: an ``out`` that
+            holds anything, or a robot file that cannot be used (then nothing is written).
+    """
+    if tracked_link is not None and not isinstance(tracked_link, str):
+        raise ConfigError(f"tracked_link: expected a link name (a string) or None, got {_shown(tracked_link)}")
+    if loaded is not None and not isinstance(loaded, list):
+        raise ConfigError(f"loaded: expected a list to receive the robot, or None, got {_shown(loaded)}")
+    return _init_project(
+        _path("urdf", urdf),
+        _path("out", out),
+        tracked_link=tracked_link,
+        driven_joints=None if driven_joints is None else _names("driven_joints", driven_joints, "joint_1,joint_2"),
+        package_path=_paths("package_path", package_path, "folders or NAME=DIR"),
+        loaded=loaded,
+        # their range is init's own check (naming the command line's --density, which calls this)
+        density=None if density is None else _number("density", density),
+        total_mass=None if total_mass is None else _number("total_mass", total_mass),
+    )
+
+
+def check_project(
+    path: Path | str, engines: str | Collection[str] | None = None, data: Path | str | None = None
+) -> list[Finding]:
+    """Everything ``simtune check PROJECT`` reports on a project: problems, warnings and notes.
+
+    Args:
+        path: the project folder or its simtune.toml.
+        engines: the engines to load the robot in, comma-separated or a list; None: every engine simtune knows.
+        data: a data root (``DATA/<task>/``) whose recordings are checked instead of the project's own.
+
+    Returns:
+        The findings, each a problem, a warning or a note.
+    """
+    return _check_project(
+        _path("path", path),
+        None if engines is None else tuple(_names("engines", engines, "mujoco,pybullet")),
+        None if data is None else _path("data", data),
+    )
 
 
 def evaluate(
@@ -439,7 +569,8 @@ def tune(
         The finished run, read back (:func:`read_run`).
     """
     out_dir = _path("out", out)
-    start_run(run_config(engine, tasks, **settings), out_dir, show_progress=show_progress)
+    progress = _flag("show_progress", show_progress)
+    start_run(run_config(engine, tasks, **settings), out_dir, show_progress=progress)
     return read_run(out_dir)
 
 
@@ -454,7 +585,9 @@ def start(config: RunConfig, out: Path | str, *, show_progress: bool = False) ->
     Returns:
         The optimiser's TuneResult (what ``simtune tune`` prints).
     """
-    return start_run(config, _path("out", out), show_progress=show_progress)
+    if not isinstance(config, RunConfig):
+        raise ConfigError(f"config: expected a RunConfig (simtune.api.run_config makes one), got {_shown(config)}")
+    return start_run(config, _path("out", out), show_progress=_flag("show_progress", show_progress))
 
 
 def resume(run_dir: Path | str, *, rescore: bool = False, show_progress: bool = False) -> TuneResult:
@@ -468,7 +601,11 @@ def resume(run_dir: Path | str, *, rescore: bool = False, show_progress: bool = 
     Returns:
         The optimiser's TuneResult.
     """
-    return resume_run(_path("run_dir", run_dir), show_progress=show_progress, rescore=rescore)
+    return resume_run(
+        _path("run_dir", run_dir),
+        show_progress=_flag("show_progress", show_progress),
+        rescore=_flag("rescore", rescore),
+    )
 
 
 def uncertainty(run_dir: Path | str, workers: int = 1, bootstrap: int = 0) -> dict:
@@ -640,13 +777,14 @@ def sensitivity(
     Returns:
         The result (each parameter's indices), as written into ``out``.
     """
+    method, samples = _sampling(method, samples)
     return run_sensitivity(
         engine,
         _task_spec(tasks),
         _study_root(data),
         space,
         _path("out", out),
-        samples=_count("samples", samples),
+        samples=samples,
         method=method,
         only=None if only is None else _names("only", only, "command_delay"),
         seed=_count("seed", seed, 0, MAX_SEED),
@@ -672,7 +810,7 @@ def sensitivity_evaluations(
         The number of evaluations.
     """
     names = None if only is None else _names("only", only, "command_delay")
-    samples = _count("samples", samples)
+    method, samples = _sampling(method, samples)
     return evaluation_count(method, samples, len(get_space(space, engine_class(engine).supported(), names)))
 
 
@@ -731,12 +869,14 @@ def grid_spec(
         engines=_listed(engines, "engines"),
         tasks=_listed(tasks, "tasks"),
         spaces=_listed(spaces, "spaces"),
-        repeats=repeats,
+        repeats=_count("repeats", repeats),
         data=str(_study_root(data)),
-        max_seconds_per_run=max_seconds_per_run,
-        max_generations=max_generations,
+        max_seconds_per_run=None
+        if max_seconds_per_run is None
+        else _seconds("max_seconds_per_run", max_seconds_per_run),
+        max_generations=_count("max_generations", max_generations),
         only=None if only is None else _names("only", only, "command_delay"),
-        keep_inactive=keep_inactive,
+        keep_inactive=_flag("keep_inactive", keep_inactive),
         reference=_reference(reference),
         repeat_set=_repeats(repeat_set),
     )
@@ -753,7 +893,7 @@ def grid(spec: GridSpec, out: Path | str, **execution) -> GridIndex:
     Returns:
         The grid's index.
     """
-    return run_grid(spec, _path("out", out), **execution)
+    return run_grid(_grid_spec(spec), _path("out", out), **execution)
 
 
 def plan_grid(spec: GridSpec) -> list[dict]:
@@ -765,7 +905,13 @@ def plan_grid(spec: GridSpec) -> list[dict]:
     Returns:
         One row per engine x experiment x space.
     """
-    return _plan_grid(spec)
+    return _plan_grid(_grid_spec(spec))
+
+
+def _grid_spec(spec: object) -> GridSpec:
+    if not isinstance(spec, GridSpec):
+        raise ConfigError(f"spec: expected a GridSpec (simtune.api.grid_spec makes one), got {_shown(spec)}")
+    return spec
 
 
 def check(
@@ -879,7 +1025,13 @@ def synth(
     truth: Path | str | None = None,
     delay_s: float | None = None,
     project: Project | Path | str | None = None,
-    **recording,
+    noise_m: float = 0.002,
+    repeats: int = 10,
+    seed: int = 0,
+    jitter_s: float = 0.05,
+    fmt: str = "tsv",
+    joint_noise_rad: float = math.radians(DEFAULT_JOINT_NOISE_DEG),
+    force: bool = False,
 ) -> SynthResult:
     """Recordings with a known ground truth (``simtune synth``).
 
@@ -890,15 +1042,44 @@ def synth(
         truth: a params file of the true values; None: the engine's generic values.
         delay_s: the true command delay [s]; None: the truth's.
         project: a Project or its folder; None: the bundled MICO project.
-        recording: :func:`simtune.studies.synth.make_synthetic`'s noise_m, repeats, seed, jitter_s, fmt,
-            joint_noise_rad and force.
+        noise_m: the motion-capture noise [m]: Gaussian, per axis, on every sample of the wrist marker (a quarter
+            of it on base and object).
+        repeats: recordings per task, 1 to :data:`~simtune.common.limits.MAX_SYNTH_REPEATS`.
+        seed: of the noise (same seed, same files), 0 to 2^32 - 1.
+        jitter_s: each repeat's start moves by a uniform jitter within +- this [s].
+        fmt: what each recording holds: a key of :data:`simtune.data.formats.WRITERS` (``tsv``: Qualisys 6D).
+        joint_noise_rad: the encoder noise of joint logs [rad] per sample.
+        force: replace the truth files of an earlier synth into ``out`` that holds another truth.
 
     Returns:
         The SynthResult: the data root, the truth and the recordings written per task.
+
+    Raises:
+        ConfigError: an argument of the wrong type or value, named (before anything is simulated).
     """
-    robot = _project(project).robot.description  # a truth is checked against its robot's ranges (None: the MICO)
-    values = load_truth(None if truth is None else _path("truth", truth), engine, delay_s, robot)
-    return make_synthetic(engine, _task_spec(tasks), _path("out", out), truth=values, project=project, **recording)
+    from simtune.data.formats import WRITERS
+
+    if not isinstance(fmt, str) or fmt not in WRITERS:
+        raise ConfigError(f"fmt: unknown format {_shown(fmt)} (known: {', '.join(WRITERS)})")
+    recording = {
+        "noise_m": _number("noise_m", noise_m),
+        "repeats": _count("repeats", repeats, 1, MAX_SYNTH_REPEATS),
+        "seed": _count("seed", seed, 0, MAX_SEED),
+        "jitter_s": _number("jitter_s", jitter_s),
+        "fmt": fmt,
+        "joint_noise_rad": _number("joint_noise_rad", joint_noise_rad),
+        "force": _flag("force", force),
+    }
+    return run_synth(
+        engine,
+        _task_spec(tasks),
+        _path("out", out),
+        truth_file=None if truth is None else _path("truth", truth),
+        delay_s=delay_s,
+        project=_project(project),
+        names=API_NAMES,
+        **recording,
+    )
 
 
 def export(
@@ -923,14 +1104,18 @@ def export(
     Returns:
         The exports, and the folders skipped with the reason.
     """
-    runs = [run_dirs] if isinstance(run_dirs, str | os.PathLike) else list(run_dirs)
+    runs = _paths("run_dirs", run_dirs, "a run folder")
+    out_dir = _path("out", out)
+    if engine is not None and not isinstance(engine, str):
+        raise ConfigError(f"engine: expected an engine name (a string) or None, got {_shown(engine)}")
+    all_engines, dr, force = _flag("all_engines", all_engines), _flag("dr", dr), _flag("force", force)
     if all_engines and engine is not None:
         raise SimtuneError("--all-engines exports each run with its own engine: leave out --engine")
     if all_engines:
-        return export_runs(runs, out, dr=dr, force=force)
+        return export_runs(runs, out_dir, dr=dr, force=force)
     if len(runs) != 1:
         raise SimtuneError(f"give one run folder (got {len(runs)}), or --all-engines for several")
-    return [export_run(runs[0], out, engine=engine, dr=dr, force=force)], []
+    return [export_run(runs[0], out_dir, engine=engine, dr=dr, force=force)], []
 
 
 def report(

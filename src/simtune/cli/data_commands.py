@@ -29,6 +29,7 @@ from simtune.cli.options import (
     seed_option,
 )
 from simtune.cli.output import err, out, print_json, split
+from simtune.common.limits import MAX_SYNTH_REPEATS
 from simtune.data.formats import FORMATS, WRITERS
 from simtune.errors import SimtuneError
 
@@ -217,7 +218,7 @@ def synth(
     noise_mm: NoiseMmOpt = 2.0,
     delay_s: DelayOpt = None,
     jitter_s: JitterOpt = 0.05,
-    repeats: Annotated[int, typer.Option(min=1, help="Recordings per task.")] = 10,
+    repeats: Annotated[int, typer.Option(min=1, max=MAX_SYNTH_REPEATS, help="Recordings per task.")] = 10,
     seed: Annotated[int, seed_option("Seed of the noise (same seed, same files).")] = 0,
     fmt: FormatOpt = "tsv",
     joint_noise_deg: JointNoiseOpt = None,
@@ -236,14 +237,14 @@ def synth(
 
     Example: simtune synth --engine mujoco --task single,cube,double --delay-s 1.5 --out data/synthetic
     """
-    from simtune import api
-    from simtune.studies.synth import DEFAULT_JOINT_NOISE_DEG, TRUTH_FILE, truth_file
+    from simtune.studies.synth import DEFAULT_JOINT_NOISE_DEG, TRUTH_FILE, run_synth, truth_file
 
-    result = api.synth(
+    # api.synth's own run, its errors naming the options typed here (--noise-mm, not the API's noise_m)
+    result = run_synth(
         engine,
         task,
-        out=out_dir,
-        truth=truth,
+        out_dir,
+        truth_file=truth,
         delay_s=delay_s,
         project=project,
         noise_m=noise_mm / 1000.0,

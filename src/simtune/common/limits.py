@@ -12,3 +12,7 @@ MAX_WORKERS = 256
 MAX_BOOTSTRAP = 1000
 #: ... and at least this many where any: a 95 % interval from the scatter of two or three draws is noise (probe 5)
 MIN_BOOTSTRAP = 10
+
+#: recordings per task `simtune synth --repeats` writes: each one a simulation of the task (a second or more), so a
+#: mistyped count is refused rather than simulating for hours; real datasets hold tens of repeats
+MAX_SYNTH_REPEATS = 1000

@@ -75,7 +75,14 @@ class Parameter:
         if isinstance(value, bool | str) or not isinstance(value, int | float | np.integer | np.floating):
             shown = json.dumps(value) if isinstance(value, bool | str | None) else repr(value)
             raise ConfigError(f"{at}parameter {self.name!r}: {shown} is not a number")
-        v = float(value)
+        try:
+            v = float(value)
+        except OverflowError:  # an integer past any float (10**400): out of every range, and too long to print
+            digits = int(int(value).bit_length() * math.log10(2)) + 1
+            raise ConfigError(
+                f"{at}parameter {self.name!r} = an integer of about {digits} digits is outside its range "
+                f"[{self.low:g}, {self.high:g}] {self.unit}"
+            ) from None
         if not math.isfinite(v) or v < self.low or v > self.high:
             low, high = self.shown_bounds()
             # the bound crossed in as many digits as show that it is (0.00938381 past 0.009383807, not 0.00938381)

@@ -21,17 +21,19 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 import simtune
+from simtune.common.limits import MAX_SYNTH_REPEATS
 from simtune.data.fingerprint import task_files
 from simtune.data.formats import writer
 from simtune.engines import engine_class
 from simtune.errors import ConfigError, SimtuneError
 from simtune.fitness import rollout_joint_names
 from simtune.params import read_params_file, validate_params
-from simtune.project import Project
+from simtune.project import Project, get_project
 from simtune.reference.make import RATE, synthesize
 from simtune.robot.description import RobotDescription
 from simtune.tasks import parse_tasks
@@ -44,6 +46,16 @@ MAX_JOINT_NOISE_DEG = 2.0
 DEFAULT_DELAY_S = 1.5  # the real qrg2019 recordings start 1.2-2.3 s before the arm moves
 #: encoder noise of synthetic joint logs [deg]: an arm's encoders read to about a tenth of a degree
 DEFAULT_JOINT_NOISE_DEG = 0.05
+#: how synth's one-line errors name its settings: the command line's options (the Python API passes its own
+#: argument names, :data:`API_NAMES`, so that each caller reads the name it typed)
+OPTION_NAMES = {
+    "noise_m": "--noise-mm",
+    "jitter_s": "--jitter-s",
+    "joint_noise_rad": "--joint-noise-deg",
+    "repeats": "--repeats",
+    "delay_s": "--delay-s",
+}
+API_NAMES = {key: key for key in OPTION_NAMES}
 
 
 @dataclass
@@ -55,10 +67,14 @@ class SynthResult:
 
 
 def load_truth(
-    path: Path | None, engine: str, delay_s: float | None, robot: RobotDescription | None = None
+    path: Path | None,
+    engine: str,
+    delay_s: float | None,
+    robot: RobotDescription | None = None,
+    delay_name: str = OPTION_NAMES["delay_s"],
 ) -> dict[str, float]:
     """The true parameter values: the file's (validated for ``engine`` and ``robot``, default the MICO),
-    with ``delay_s`` as command delay.
+    with ``delay_s`` as command delay (named ``delay_name`` where out of range).
 
     No file: the engine's generic values and a command delay (``delay_s`` or
     :data:`DEFAULT_DELAY_S`).
@@ -72,7 +88,27 @@ def load_truth(
         truth["command_delay"] = delay_s
     elif path is None:
         truth["command_delay"] = DEFAULT_DELAY_S
-    return validate_params(truth, supported, engine, where="--delay-s", robot=robot)
+    return validate_params(truth, supported, engine, where=delay_name, robot=robot)
+
+
+def run_synth(
+    engine: str,
+    tasks: str,
+    out: Path,
+    *,
+    truth_file: Path | None,
+    delay_s: float | None,
+    project: Project | Path | None = None,
+    names: Mapping[str, str] = OPTION_NAMES,
+    **settings,
+) -> SynthResult:
+    """``simtune synth`` and :func:`simtune.api.synth`: the truth of ``truth_file`` and ``delay_s``
+    (:func:`load_truth`), checked against the ranges of ``project``'s robot, recorded by :func:`make_synthetic`
+    with ``settings``; errors of range name the settings as ``names`` does (the command line's options or the API's
+    arguments)."""
+    robot = get_project(project).robot.description
+    truth = load_truth(truth_file, engine, delay_s, robot, delay_name=names["delay_s"])
+    return make_synthetic(engine, tasks, out, truth=truth, project=project, names=names, **settings)
 
 
 def make_synthetic(
@@ -89,18 +125,20 @@ def make_synthetic(
     joint_noise_rad: float = math.radians(DEFAULT_JOINT_NOISE_DEG),
     project: Project | Path | str | None = None,
     force: bool = False,
+    names: Mapping[str, str] = OPTION_NAMES,
 ) -> SynthResult:
     """Write ``repeats`` synthetic recordings of each task in ``tasks`` (names, groups, comma-separated) of
     ``project`` (default: the bundled MICO project), and each task's truth (:func:`truth_file`).
 
     ``fmt`` is a key of :data:`simtune.data.formats.WRITERS`; joint angles get Gaussian noise of
     ``joint_noise_rad`` per sample.  ``OUT/truth.json`` holding another truth is refused unless ``force``.
+    A setting out of range is a ConfigError naming it as ``names`` does (default: the command line's options).
     """
     specs = parse_tasks(tasks, project)
     write = writer(fmt)  # a known --format, checked first
-    _check_settings(joint_noise_rad, repeats, noise_m, jitter_s)
+    _check_settings(joint_noise_rad, repeats, noise_m, jitter_s, names)
     for spec in specs:
-        _check_delay(spec.name, spec.duration, truth.get("command_delay", 0.0), jitter_s)
+        _check_delay(spec.name, spec.duration, truth.get("command_delay", 0.0), jitter_s, names)
     out = Path(out)
     meta = {
         "engine": engine,
@@ -155,17 +193,20 @@ def make_synthetic(
     return SynthResult(out, truth, files, joint_noise_rad)
 
 
-def _check_settings(joint_noise_rad: float, repeats: int, noise_m: float, jitter_s: float) -> None:
-    """One line naming the option for a noise, jitter or repeat count no recording can hold."""
+def _check_settings(
+    joint_noise_rad: float, repeats: int, noise_m: float, jitter_s: float, names: Mapping[str, str]
+) -> None:
+    """One line naming the setting (as ``names`` calls it) for a noise, jitter or repeat count no recording can
+    hold, or a repeat count that would simulate for hours."""
     if not joint_noise_rad >= 0:
-        raise ConfigError(f"--joint-noise-deg must be zero or more, got {joint_noise_rad:g} rad")
-    if repeats < 1:
-        raise ConfigError(f"--repeats must be at least 1, got {repeats}")
+        raise ConfigError(f"{names['joint_noise_rad']} must be zero or more, got {joint_noise_rad:g} rad")
+    if not 1 <= repeats <= MAX_SYNTH_REPEATS:
+        raise ConfigError(f"{names['repeats']} must be from 1 to {MAX_SYNTH_REPEATS}, got {repeats}")
     if not noise_m >= 0:
-        raise ConfigError(f"--noise-mm must be zero or more, got {noise_m * 1000:g}")
+        raise ConfigError(f"{names['noise_m']} must be zero or more, got {noise_m * 1000:g} mm")
     if not jitter_s >= 0:
-        raise ConfigError(f"--jitter-s must be zero or more, got {jitter_s:g}")
-    _check_noise(noise_m, joint_noise_rad)
+        raise ConfigError(f"{names['jitter_s']} must be zero or more, got {jitter_s:g} s")
+    _check_noise(noise_m, joint_noise_rad, names)
 
 
 def truth_file(task: str) -> str:
@@ -173,32 +214,32 @@ def truth_file(task: str) -> str:
     return f"truth-{task}.json"
 
 
-def _check_noise(noise_m: float, joint_noise_rad: float) -> None:
+def _check_noise(noise_m: float, joint_noise_rad: float, names: Mapping[str, str]) -> None:
     """Noise the recordings' own checks would refuse (markers beyond 10 m, angles beyond two turns) is refused
     before anything is simulated."""
     if noise_m > MAX_NOISE_M:
         raise ConfigError(
-            f"--noise-mm: {noise_m * 1000:g} mm of marker noise would put the markers where the recordings' checks "
-            f"refuse them (and no motion capture is that far off): at most {MAX_NOISE_M * 1000:g} mm"
+            f"{names['noise_m']}: {noise_m * 1000:g} mm of marker noise would put the markers where the recordings' "
+            f"checks refuse them (and no motion capture is that far off): at most {MAX_NOISE_M * 1000:g} mm"
         )
     if math.degrees(joint_noise_rad) > MAX_JOINT_NOISE_DEG:
         raise ConfigError(
-            f"--joint-noise-deg: {math.degrees(joint_noise_rad):g} deg of encoder noise would make joint logs the "
-            f"recordings' checks refuse (no encoder is that far off): at most {MAX_JOINT_NOISE_DEG:g} deg"
+            f"{names['joint_noise_rad']}: {math.degrees(joint_noise_rad):g} deg of encoder noise would make joint logs "
+            f"the recordings' checks refuse (no encoder is that far off): at most {MAX_JOINT_NOISE_DEG:g} deg"
         )
 
 
-def _check_delay(task: str, duration: float, delay: float, jitter_s: float) -> None:
+def _check_delay(task: str, duration: float, delay: float, jitter_s: float, names: Mapping[str, str]) -> None:
     """Every repeat's command delay (the truth's, moved by up to the jitter) must start the motion within the task."""
     if delay >= duration:
         raise ConfigError(
-            f"--delay-s: a command delay of {delay:g} s starts the motion after the task's end ({task} lasts "
+            f"{names['delay_s']}: a command delay of {delay:g} s starts the motion after the task's end ({task} lasts "
             f"{duration:g} s): the recordings would hold no motion"
         )
     if delay + jitter_s >= duration:
         raise ConfigError(
-            f"--jitter-s: {jitter_s:g} s of jitter on the command delay of {delay:g} s starts some repeats' motion "
-            f"after the task's end ({task} lasts {duration:g} s): at most {duration - delay:.3g} s"
+            f"{names['jitter_s']}: {jitter_s:g} s of jitter on the command delay of {delay:g} s starts some repeats' "
+            f"motion after the task's end ({task} lasts {duration:g} s): at most {duration - delay:.3g} s"
         )
 
 
