@@ -324,10 +324,47 @@ def _check_engines(project: Project, engines: tuple[str, ...]) -> list[Finding]:
             )
         loaded.append(name)
     findings.append(Finding("note", f"engines that load the robot: {', '.join(loaded) or 'none'}"))
+    findings += _floor_findings(project, loaded)
     findings += _servo_findings(task.robot, loaded)
     findings += _bullet_damping_findings(task.robot, loaded)
     if task.robot.mjcf is not None:
         findings.append(Finding("note", _mjcf_engines_line(task.robot.mjcf, loaded)))
+    return findings
+
+
+#: the engine whose generic simulation the project check runs for floor touches (the default engine)
+FLOOR_ENGINE = "mujoco"
+
+
+def _floor_findings(project: Project, loaded: list[str]) -> list[Finding]:
+    """A warning per task without an object whose generic simulation in :data:`FLOOR_ENGINE` lays the arm on the
+    floor (an example reach of a long chain, a sagging arm): such a task is tuned as if it never touched it."""
+    from simtune.engines.contact import FLOOR_TOUCH_CONSEQUENCE, floor_touches, touch_spans_text
+
+    if FLOOR_ENGINE not in loaded:
+        return []
+    findings = []
+    for name, task in project.tasks.items():
+        if task.object is not None:
+            continue
+        try:
+            with _engine_chatter_silenced():
+                sim = engine_class(FLOOR_ENGINE)(task)
+                try:
+                    spans = floor_touches(sim)
+                finally:
+                    sim.close()
+        except Exception as exc:  # the engine's load was checked above; a task it cannot run is the task check's
+            findings.append(Finding("note", f"task {name}: floor contact not checked ({exc})"))
+            continue
+        if spans:
+            findings.append(
+                Finding(
+                    "warning",
+                    f"task {name}: the generic {FLOOR_ENGINE} simulation's arm touches the floor "
+                    f"({touch_spans_text(spans, most=3)}): {FLOOR_TOUCH_CONSEQUENCE}",
+                )
+            )
     return findings
 
 

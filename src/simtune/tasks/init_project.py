@@ -206,14 +206,54 @@ def reach_poses(robot: RobotDescription) -> tuple[list[float], list[float]]:
         low, high = _room(robot, name)
         room_up, room_down = high - angle, angle - low
         turn.append(min(REACH_DEG, room_up) if room_up >= room_down else -min(REACH_DEG, room_down))
+    heights = _ChainHeights(robot)
+    # no frame the joints move may go lower on the way than the floor's clearance (or the start's, where the start
+    # pose itself is lower): a long chain whose end stays clear may swing its middle links through the floor
+    floor = min(CLEARANCE_M, heights.lowest(start))
+
+    def clear(target: list[float]) -> bool:
+        return (
+            _lowest_carried(robot, np.radians(target)) >= CLEARANCE_M
+            and _lowest_on_the_way(heights, start, target) >= floor - 1e-9
+        )
+
     scale = 1.0
     for _ in range(4):
         target = [a + scale * t for a, t in zip(start, turn)]
-        if _lowest_carried(robot, np.radians(target)) >= CLEARANCE_M:
+        if clear(target):
             break
         scale /= 2
+    else:
+        # every joint turned at once still reaches the floor (a long chain): turn the joints nearest the tip one
+        # by one, each kept where the way stays clear
+        kept = list(start)
+        for i in reversed(range(len(turn))[-START_SEARCH_JOINTS:]):
+            trial = [*kept[:i], start[i] + turn[i], *kept[i + 1 :]]
+            if clear(trial):
+                kept = trial
+        if kept != start:
+            target = kept
     rooms = [_room(robot, name) for name in robot.arm_joints]
     return _deg(start, rooms), _deg(target, rooms)
+
+
+#: How many poses of the way from the reach's start to its target are checked against the floor.
+WAY_POSES = 8
+
+
+def _lowest_on_the_way(heights: _ChainHeights, start: list[float], target: list[float]) -> float:
+    """The height [m] of the lowest moving link frame on the way from ``start`` to ``target`` [deg]: the joints
+    turned as the velocity clamp turns them, each at the same speed until it reaches its target."""
+    turns = [b - a for a, b in zip(start, target)]
+    largest = max((abs(t) for t in turns), default=0.0)
+    if largest == 0.0:
+        return heights.lowest(start)
+    lowest = math.inf
+    for k in range(1, WAY_POSES + 1):
+        moved = largest * k / WAY_POSES
+        pose = [a + math.copysign(min(abs(t), moved), t) for a, t in zip(start, turns)]
+        lowest = min(lowest, heights.lowest(pose))
+    return lowest
 
 
 def _lowest_carried(robot: RobotDescription, q: np.ndarray) -> float:
