@@ -289,3 +289,22 @@ def test_a_project_naming_a_package_path_for_an_mjcf_names_the_key(tmp_path):
     result = cli("params", "--project", tmp_path / "project")
     assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
     assert "robot.package_path: " in result.stderr and "is for a URDF's package:// names" in result.stderr
+
+
+def test_a_urdfs_mass_options_are_refused_for_an_mjcf_with_the_key_named(tmp_path):
+    """load_robot takes load_urdf's keywords (one signature, load_urdf's); a density or total mass given for an MJCF,
+    whose bodies carry their masses, used to be dropped without a word: now one line names the key."""
+    import inspect
+
+    from simtune.robot.urdf import load_urdf
+
+    assert inspect.signature(load_robot) == inspect.signature(load_urdf)
+    for key in ("density", "total_mass"):
+        with pytest.raises(RobotError, match=rf": {key} is for a URDF's links without an <inertial>"):
+            load_robot(arm(tmp_path), **{key: 1000.0})
+    init_project(arm(tmp_path), tmp_path / "project")
+    project_file = tmp_path / "project" / "simtune.toml"
+    project_file.write_text(project_file.read_text().replace("[robot]\n", "[robot]\ndensity = 900.0\n", 1))
+    result = cli("params", "--project", tmp_path / "project")
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    assert "robot.density: " in result.stderr and "is for a URDF's links" in result.stderr

@@ -7,17 +7,22 @@ through :func:`load_robot`, so that a file starts a project exactly as the proje
 from __future__ import annotations
 
 import hashlib
+import inspect
 import os
 import re
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
+from typing import Any, ParamSpec
 
 from simtune.errors import RobotError
-from simtune.robot.description import Mesh, RobotDescription, Vec3
+from simtune.robot import urdf  # called as urdf.load_urdf: a test may wrap the module's loader
+from simtune.robot.description import Mesh, RobotDescription
 
 #: The robot file formats: the root element that names each.
 ROOT_ELEMENTS = {"robot": "urdf", "mujoco": "mjcf"}
+
+P = ParamSpec("P")
 
 
 def robot_format(path: str | Path) -> str:
@@ -54,35 +59,32 @@ def robot_format(path: str | Path) -> str:
     return ROOT_ELEMENTS[tag]
 
 
-def load_robot(
-    path: str | Path,
-    *,
-    arm_joints: Iterable[str] | None = None,
-    tracked_link: str | None = None,
-    base_position: Vec3 = (0.0, 0.0, 0.0),
-    base_rpy: Vec3 = (0.0, 0.0, 0.0),
-    held: Mapping[str, float] | None = None,
-    gripper_links: Iterable[str] | None = None,
-    name: str | None = None,
-    package_path: Iterable[str | Path] = (),
-    density: float | None = None,
-    total_mass: float | None = None,
-) -> RobotDescription:
+def _keywords_of(
+    loader: Callable[P, RobotDescription],
+) -> Callable[[Callable[..., RobotDescription]], Callable[P, RobotDescription]]:
+    """Gives the decorated loader ``loader``'s signature, for mypy, ``help()`` and :mod:`inspect` alike: the
+    keywords, their defaults and their documentation have one home, ``loader``."""
+
+    def take(function: Callable[..., RobotDescription]) -> Callable[P, RobotDescription]:
+        function.__signature__ = inspect.signature(loader)  # type: ignore[attr-defined]
+        return function
+
+    return take
+
+
+#: load_robot's keywords: load_urdf's
+_SIGNATURE = inspect.signature(urdf.load_urdf)
+
+
+@_keywords_of(urdf.load_urdf)
+def load_robot(path: str | Path, **options: Any) -> RobotDescription:
     """The robot of the URDF or MJCF file at ``path`` (:func:`robot_format` tells which).
 
     Args:
         path: the robot file.
-        arm_joints: the driven joints in order (default: the loader's choice).
-        tracked_link: the link (an MJCF's body) the motion capture follows (default: the loader's choice).
-        base_position: where the root stands [m], added to the file's own placement.
-        base_rpy: how the root is turned [rad].
-        held: positions of joints held at a fixed pose (a URDF only: an MJCF's undriven joints are welded at 0).
-        gripper_links: the links with the gripper's contact parameters.
-        name: the robot's name (default: the file's).
-        package_path: folders for a URDF's ``package://`` names (a URDF only, refused with an MJCF; ``NAME=DIR``
-            names a package's folder).
-        density: [kg/m^3] of a URDF's links without an ``<inertial>``, whose masses come from their geometry.
-        total_mass: [kg] spread over those links by volume instead (not with ``density``).
+        **options: :func:`~simtune.robot.urdf.load_urdf`'s keywords, which say what each is.  With an MJCF, the
+            URDF's own (``held``: an MJCF's undriven joints are welded at 0; ``package_path``: MuJoCo finds an
+            MJCF's meshes; ``density``/``total_mass``: an MJCF's bodies have their masses) are refused when given.
 
     Returns:
         The description; :attr:`RobotDescription.choices` says what the loader chose and why.
@@ -91,42 +93,43 @@ def load_robot(
         RobotError: one line naming the file and element, if the file cannot be used.
     """
     path = Path(path).expanduser().resolve()
+    bound = _SIGNATURE.bind(path, **options)
+    bound.apply_defaults()
+    given = {key: _plain(value) for key, value in bound.arguments.items() if key != "path"}
     if robot_format(path) == "mjcf":
         from simtune.robot.mjcf import load_mjcf
 
-        if held:
+        if given["held"]:
             raise RobotError(
                 f"{path}: held positions are for a URDF: an MJCF's joints that are not driven are welded at 0 "
-                f"(held {', '.join(map(repr, held))})"
+                f"(held {', '.join(map(repr, given['held']))})"
             )
-        package_path = [str(entry) for entry in package_path]
-        if package_path:
+        if given["package_path"]:
             raise RobotError(
-                f"{path}: package_path {package_path} is for a URDF's package:// names: MuJoCo finds an MJCF's "
-                "meshes itself (its compiler's meshdir); leave package_path out"
+                f"{path}: package_path {given['package_path']} is for a URDF's package:// names: MuJoCo finds an "
+                "MJCF's meshes itself (its compiler's meshdir); leave package_path out"
             )
-        return load_mjcf(
-            path,
-            arm_joints=arm_joints,
-            tracked_link=tracked_link,
-            gripper_links=gripper_links,
-            name=name,
-            base_position=base_position,
-            base_rpy=base_rpy,
-        )
-    options = {
-        "arm_joints": None if arm_joints is None else list(arm_joints),
-        "tracked_link": tracked_link,
-        "base_position": tuple(base_position),
-        "base_rpy": tuple(base_rpy),
-        "held": dict(held or {}),
-        "gripper_links": None if gripper_links is None else list(gripper_links),
-        "name": name,
-        "package_path": [str(entry) for entry in package_path],
-        "density": density,
-        "total_mass": total_mass,
-    }
-    return _cached_urdf(path, options)
+        for mass_key in ("density", "total_mass"):
+            if given[mass_key] is not None:
+                raise RobotError(
+                    f"{path}: {mass_key} is for a URDF's links without an <inertial>: an MJCF's bodies have their "
+                    f"masses (MuJoCo's compiler infers any from the geoms); leave {mass_key} out"
+                )
+        mjcf_keys = inspect.signature(load_mjcf).parameters.keys() - {"path"}
+        return load_mjcf(path, **{key: value for key, value in given.items() if key in mjcf_keys})
+    return _cached_urdf(path, given)
+
+
+def _plain(value: Any) -> Any:
+    """A keyword's value as plain data, read once (an iterator would be spent by the cache key): a mapping as
+    a dict, a path as its string, any other iterable but a string as a list."""
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, Mapping):
+        return dict(value)
+    if isinstance(value, Iterable) and not isinstance(value, str):
+        return [_plain(item) for item in value]
+    return value
 
 
 #: a ``<mesh filename="...">`` of a URDF (either quote), for the files a description depends on
@@ -143,17 +146,16 @@ def _cached_urdf(path: Path, options: dict) -> RobotDescription:
     modification time; an entry is used only while the meshes it points to (converted ones in the mesh cache)
     still exist.  The load's warnings are raised again on every read."""
     from simtune.data.cache import cached
-    from simtune.robot.urdf import load_urdf, resolve_mesh
 
     try:
         text = path.read_bytes()
     except OSError:
-        return load_urdf(path, **options)  # the reader names what is wrong with the file
+        return urdf.load_urdf(path, **options)  # the reader names what is wrong with the file
     # by pattern, not by parsing: a file the strict parse refuses (undeclared prefixes) is read all the same
     meshes = sorted({m.decode(errors="replace") for m in _MESH_FILENAME.findall(text)} - {""})
     resolved = {}
     for filename in meshes:
-        found = resolve_mesh(filename, path, options["package_path"])
+        found = urdf.resolve_mesh(filename, path, options["package_path"])
         stat = None if found is None else found.stat()
         resolved[filename] = None if stat is None else (str(found), stat.st_size, stat.st_mtime_ns)
     what = {
@@ -163,7 +165,7 @@ def _cached_urdf(path: Path, options: dict) -> RobotDescription:
         "meshes": resolved,
         "environment": {v: os.environ.get(v, "") for v in ("SIMTUNE_PACKAGE_PATH", "ROS_PACKAGE_PATH")},
     }
-    return cached("robots", what, lambda: load_urdf(path, **options), valid=_meshes_exist)
+    return cached("robots", what, lambda: urdf.load_urdf(path, **options), valid=_meshes_exist)
 
 
 def _meshes_exist(robot: RobotDescription) -> bool:

@@ -207,6 +207,7 @@ def _file_robot(keys: Keys, folder: Path) -> RobotDescription:
         named = {"joints": joints or (), "tracked_link": (tracked_link,), "held": held, "gripper_links": gripper_links}
         key = next((k for k, names in named.items() if any(f"{n!r}" in message for n in names or ())), file_key)
         key = "total_mass" if ": total_mass " in message else key
+        key = "density" if ": density " in message else key
         key = "package_path" if ": package_path " in message else key
         raise table.error(key, message) from None
     if servo_gain is not None:
