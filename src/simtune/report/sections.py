@@ -31,6 +31,7 @@ from simtune.report.dr import dr_ranges, write_dr_yaml
 from simtune.report.folder import DR_FILE
 from simtune.report.headline import headline_table, moved_parameters_table
 from simtune.report.html import FigureRef, Section
+from simtune.report.joint_fit import alone_bests, joint_fit_table, read_studies, study_table
 from simtune.report.published import PublishedSim
 from simtune.report.simulate import GroupSimulation
 from simtune.tasks import TaskSpec
@@ -247,6 +248,31 @@ def _held_out_item(data: ReportData, out: ReportOutput) -> Table | str:
         f"parameters on recordings they were not fitted to, run <code>{html.escape(command)}</code> on other "
         "recordings (OTHER: a folder of them, one sub-folder per task), or tune with <code>--repeats even</code>: "
         "the report then scores each such run on the held-out odd repeats here.</p>"
+    )
+
+
+def joint_fit_section(data: ReportData, out: ReportOutput) -> Section | None:
+    """Each task of a multi-task run against its floor and its alone-best, and the table of each ``simtune
+    generalise`` study found with the runs; None where there is neither."""
+    studies = read_studies(data.paths, out.warn)
+    joint = joint_fit_table(data.groups, data.floors, alone_bests(data.groups, studies, out.warn))
+    items: list[Table | FigureRef] = [out.table(joint)] if joint.rows else []
+    items += [out.table(study_table(study, f"generalise_{k}")) for k, study in enumerate(studies, start=1)]
+    if not items:
+        return None
+    return Section(
+        "joint_fit",
+        "Joint fit and generalisation",
+        "One simulator for every task: each task's part of a fit tuned on several tasks together beside its floor "
+        "and the best it reaches tuned alone (joint / alone, the joint-fit penalty: 1 where one parameter set is "
+        "right for every task)"
+        + (
+            ", and each <code>simtune generalise</code> study found with the runs, with each task held out"
+            if studies
+            else ""
+        )
+        + ".",
+        items,
     )
 
 
@@ -516,6 +542,7 @@ SECTIONS: tuple[SectionMaker, ...] = (
     headline_section,
     generic_section,
     tuned_section,
+    joint_fit_section,
     convergence_section,
     parameters_section,
     importance_section,
