@@ -211,3 +211,29 @@ def test_study_arguments_out_of_range_are_refused_naming_them(call, message):
 def test_an_empty_task_name_in_a_list_is_named_by_its_position():
     with pytest.raises(ConfigError, match=r"^tasks: the name at index 1 of \['single', ''\] is empty"):
         st.evaluate("mujoco", ["single", ""])
+
+
+@pytest.mark.parametrize(
+    ("settings", "message"),
+    [
+        (
+            {"max_seconds": 10**400},
+            "run.sqlite: max_seconds must be a finite number of seconds above 0, got an integer of about 401 digits",
+        ),
+        ({"seed": 10**5000}, "run.sqlite: seed must be an integer from 0 to 4294967295, got an integer of about 5001"),
+        ({"workers": True}, f"run.sqlite: workers must be an integer from 1 to {MAX_WORKERS}, got True"),
+        (
+            {"target_fitness": 10**400},
+            "run.sqlite: target_fitness must be a finite number of at least 0, got an integer of about 401 digits",
+        ),
+    ],
+)
+def test_a_stored_runs_settings_are_checked_as_the_apis_arguments_are(settings, message):
+    """A run's settings (RunConfig.check: a stored run, a grid's cell) and the API's arguments share one set of
+    checks (simtune.common.checks): 10**400 seconds used to raise OverflowError from math.isfinite, a seed of
+    10**5000 a ValueError from its repr, instead of the one line the API gives."""
+    from simtune.run_config import RunConfig
+
+    with pytest.raises(ConfigError, match=message.replace("(", r"\(")) as refused:
+        RunConfig(engine="mujoco", tasks="cube", **settings).check("run.sqlite")
+    assert len(str(refused.value)) < 200

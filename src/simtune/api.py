@@ -31,6 +31,7 @@ from simtune.check.project import Finding
 from simtune.check.project import check_project as _check_project
 from simtune.check.task import check as run_check
 from simtune.check.task import moved_joints
+from simtune.common import checks
 from simtune.common.limits import MAX_BOOTSTRAP, MAX_SEED, MAX_SYNTH_REPEATS, MAX_WORKERS
 from simtune.data.clock import DEFAULT_REFERENCE, check_reference, default_reference
 from simtune.data.task import DEFAULT_REPEATS, check_repeats
@@ -55,7 +56,7 @@ from simtune.studies.generalise import run_generalisation
 from simtune.studies.sensitivity import METHODS, evaluation_count, run_sensitivity
 from simtune.studies.synth import API_NAMES, DEFAULT_JOINT_NOISE_DEG, SynthResult, run_synth
 from simtune.studies.transfer import run_transfer
-from simtune.tasks import check_targets, with_targets
+from simtune.tasks import check_loading, check_targets, with_loading, with_targets
 from simtune.tasks.init_project import init_project as _init_project
 from simtune.tasks.spec import common_robot
 
@@ -136,63 +137,16 @@ def load_project(path: Path | str | None = None) -> Project:
 # --- the arguments, each checked where it enters: a ConfigError naming it, never a TypeError deep inside ------------
 
 
-def _shown(value: object) -> str:
-    """``value`` as an error message shows it: its repr, but an integer past any float by its length (10**5000's
-    digits are more than a line, and more than python prints)."""
-    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 64:
-        return f"an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
-    text = repr(value)
-    return text if len(text) <= 80 else text[:77] + "..."
-
-
-def _is_finite(value: object) -> bool:
-    """``value`` is a real number (not a bool: True is no count or size the user meant) that a float holds."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        return False
-    try:
-        return math.isfinite(value)
-    except OverflowError:  # an integer past any float
-        return False
-
-
-def _count(name: str, value: object, low: int = 1, high: int | None = None) -> int:
-    """``value`` if it is an integer from ``low`` to ``high`` (None: no upper limit); a ConfigError naming ``name``
-    otherwise (a bool, a float, a string or None included: a count the user typed wrongly is not guessed)."""
-    if isinstance(value, bool) or not isinstance(value, int) or value < low or (high is not None and value > high):
-        span = f"from {low} to {high}" if high is not None else f"of at least {low}"
-        raise ConfigError(f"{name} must be an integer {span}, got {_shown(value)}")
-    return value
-
-
-def _number(name: str, value: object) -> float:
-    """A finite number, whose range the function it is passed to checks (naming ``name``)."""
-    if not _is_finite(value):
-        raise ConfigError(f"{name} must be a finite number, got {_shown(value)}")
-    return float(value)  # type: ignore[arg-type]
-
-
-def _positive(name: str, value: object, of: str = "") -> float:
-    """A finite number above 0 (``of``: what it counts, for the message)."""
-    if not _is_finite(value) or not value > 0:  # type: ignore[operator]
-        raise ConfigError(f"{name} must be a finite number{of} above 0, got {_shown(value)}")
-    return float(value)  # type: ignore[arg-type]
-
-
 def _workers(value: object) -> int:
     """A worker count: 1 to :data:`~simtune.common.limits.MAX_WORKERS`."""
-    return _count("workers", value, 1, MAX_WORKERS)
-
-
-def _seconds(name: str, value: object) -> float:
-    """A budget in seconds: a finite number above 0."""
-    return _positive(name, value, " of seconds")
+    return checks.count("workers", value, 1, MAX_WORKERS)
 
 
 def _path(name: str, value: object) -> Path:
     """A file or folder given as a str or a Path."""
     if isinstance(value, str | os.PathLike) and not isinstance(value, bytes):
         return Path(value)
-    raise ConfigError(f"{name}: expected a file or folder (a str or a Path), got {_shown(value)}")
+    raise ConfigError(f"{name}: expected a file or folder (a str or a Path), got {checks.shown(value)}")
 
 
 def _paths(name: str, value: object, what: str = "a file or folder") -> list[Path]:
@@ -204,7 +158,7 @@ def _paths(name: str, value: object, what: str = "a file or folder") -> list[Pat
         or isinstance(value, Mapping | bytes)
         or not all(isinstance(v, str | os.PathLike) and not isinstance(v, bytes) for v in value)
     ):
-        raise ConfigError(f"{name}: expected {what} (a str or a Path, or a list of them), got {_shown(value)}")
+        raise ConfigError(f"{name}: expected {what} (a str or a Path, or a list of them), got {checks.shown(value)}")
     return [Path(v) for v in value]
 
 
@@ -216,10 +170,10 @@ def _names(name: str, value: object, example: str) -> list[str]:
         names = [v.strip() for v in value]
         for index, given in enumerate(names):
             if not given:  # a list is what the caller built: a blank item in it is a slip, not a separator
-                raise ConfigError(f"{name}: the name at index {index} of {_shown(value)} is empty")
+                raise ConfigError(f"{name}: the name at index {index} of {checks.shown(value)} is empty")
     else:
         raise ConfigError(
-            f"{name}: expected names (a string such as {example!r}, or a list of them), got {_shown(value)}"
+            f"{name}: expected names (a string such as {example!r}, or a list of them), got {checks.shown(value)}"
         )
     if not names:
         raise ConfigError(f"{name}: names nothing ({value!r}): give one or more, e.g. {example!r}")
@@ -286,7 +240,7 @@ def _repeats(repeats: object) -> str:
 def _flag(name: str, value: object) -> bool:
     """A switch: True or False (not 1, "yes" or None)."""
     if not isinstance(value, bool):
-        raise ConfigError(f"{name} must be True or False, got {_shown(value)}")
+        raise ConfigError(f"{name} must be True or False, got {checks.shown(value)}")
     return value
 
 
@@ -294,8 +248,8 @@ def _sampling(method: object, samples: object) -> tuple[str, int]:
     """A sensitivity method (:data:`~simtune.studies.sensitivity.METHODS`) and its sample count: at least 2, a power
     of two for Sobol's (Saltelli) sampling."""
     if not isinstance(method, str) or method not in METHODS:
-        raise ConfigError(f"method: unknown sensitivity method {_shown(method)} (known: {', '.join(METHODS)})")
-    count = _count("samples", samples, 2)
+        raise ConfigError(f"method: unknown sensitivity method {checks.shown(method)} (known: {', '.join(METHODS)})")
+    count = checks.count("samples", samples, 2)
     if method == "sobol" and count & (count - 1):
         raise ConfigError(f"samples: Sobol sampling needs a power of two (e.g. 64, 128, 256), got {count}")
     return method, count
@@ -348,9 +302,9 @@ def init_project(
             holds anything, or a robot file that cannot be used (then nothing is written).
     """
     if tracked_link is not None and not isinstance(tracked_link, str):
-        raise ConfigError(f"tracked_link: expected a link name (a string) or None, got {_shown(tracked_link)}")
+        raise ConfigError(f"tracked_link: expected a link name (a string) or None, got {checks.shown(tracked_link)}")
     if loaded is not None and not isinstance(loaded, list):
-        raise ConfigError(f"loaded: expected a list to receive the robot, or None, got {_shown(loaded)}")
+        raise ConfigError(f"loaded: expected a list to receive the robot, or None, got {checks.shown(loaded)}")
     return _init_project(
         _path("urdf", urdf),
         _path("out", out),
@@ -359,8 +313,8 @@ def init_project(
         package_path=_paths("package_path", package_path, "folders or NAME=DIR"),
         loaded=loaded,
         # their range is init's own check (naming the command line's --density, which calls this)
-        density=None if density is None else _number("density", density),
-        total_mass=None if total_mass is None else _number("total_mass", total_mass),
+        density=None if density is None else checks.number("density", density),
+        total_mass=None if total_mass is None else checks.number("total_mass", total_mass),
     )
 
 
@@ -398,6 +352,7 @@ def evaluate(
     repeats: str | None = None,
     targets: str | None = None,
     keep_repeats: bool = False,
+    loading: str | None = None,
 ) -> Result:
     """The fitness of parameter values for an engine on tasks (``simtune evaluate``).
 
@@ -421,6 +376,8 @@ def evaluate(
             (where a task file corrects the published ones: :data:`simtune.tasks.TARGETS`).
         keep_repeats: keep a repeat far from the others, which the repeat check (:mod:`simtune.data.screen`)
             otherwise leaves out with a warning naming its file.
+        loading: how the engine loads the robot: ``description`` (None, the default: as its file says) or
+            ``paper`` (as the seed paper loaded it: :data:`simtune.tasks.LOADINGS`; only PyBullet differs).
 
     Returns:
         A Result: the fitness and its parts per task; ``fitness_unaligned`` the fitness without the clock
@@ -434,8 +391,9 @@ def evaluate(
     selection = _repeats(repeats)
     fitness_weights = _weights(weights)
     proj = _project(project)
-    specs = with_targets(
-        proj.parse_tasks(",".join(_names("tasks", tasks, "single,cube"))), _targets(targets, "targets")
+    specs = with_loading(
+        with_targets(proj.parse_tasks(",".join(_names("tasks", tasks, "single,cube"))), _targets(targets, "targets")),
+        "description" if loading is None else check_loading(loading),
     )
     names = _aligned(align_clock, specs)
     given = _params(params)
@@ -586,7 +544,9 @@ def start(config: RunConfig, out: Path | str, *, show_progress: bool = False) ->
         The optimiser's TuneResult (what ``simtune tune`` prints).
     """
     if not isinstance(config, RunConfig):
-        raise ConfigError(f"config: expected a RunConfig (simtune.api.run_config makes one), got {_shown(config)}")
+        raise ConfigError(
+            f"config: expected a RunConfig (simtune.api.run_config makes one), got {checks.shown(config)}"
+        )
     return start_run(config, _path("out", out), show_progress=_flag("show_progress", show_progress))
 
 
@@ -620,7 +580,7 @@ def uncertainty(run_dir: Path | str, workers: int = 1, bootstrap: int = 0) -> di
     Returns:
         The summary stored in the run: rank, condition number, a 95 % interval per parameter, correlated pairs.
     """
-    draws = _count("bootstrap", bootstrap, 0, MAX_BOOTSTRAP)
+    draws = checks.count("bootstrap", bootstrap, 0, MAX_BOOTSTRAP)
     return run_uncertainty(_path("run_dir", run_dir), _workers(workers), draws)
 
 
@@ -673,7 +633,7 @@ def compare(
             raise ConfigError(f"compare sets {key} for each run itself: leave it out")
     base = run_config(engine, tasks, **_study_settings(COMPARE_DEFAULTS, settings))
     # none named: run_compare says to name at least one
-    seeds, budget = _count("seeds", seeds), _count("budget", budget)
+    seeds, budget = checks.count("seeds", seeds), checks.count("budget", budget)
     return run_compare(base, _listed(optimizers), seeds, budget, _path("out", out), target, on_run=on_run)
 
 
@@ -787,9 +747,9 @@ def sensitivity(
         samples=samples,
         method=method,
         only=None if only is None else _names("only", only, "command_delay"),
-        seed=_count("seed", seed, 0, MAX_SEED),
+        seed=checks.count("seed", seed, 0, MAX_SEED),
         workers=_workers(workers),
-        eval_timeout=None if eval_timeout is None else _seconds("eval_timeout", eval_timeout),
+        eval_timeout=None if eval_timeout is None else checks.seconds("eval_timeout", eval_timeout),
         on_evaluation=on_evaluation,
     )
 
@@ -827,7 +787,10 @@ def demo(out: Path | str = "runs/demo", workers: int = 2, max_seconds: float = 1
         The generic and the tuned fitness (``generic``, ``tuned``).
     """
     return run_demo(
-        _path("out", out), workers=_workers(workers), max_seconds=_seconds("max_seconds", max_seconds), console=console
+        _path("out", out),
+        workers=_workers(workers),
+        max_seconds=checks.seconds("max_seconds", max_seconds),
+        console=console,
     )
 
 
@@ -869,12 +832,12 @@ def grid_spec(
         engines=_listed(engines, "engines"),
         tasks=_listed(tasks, "tasks"),
         spaces=_listed(spaces, "spaces"),
-        repeats=_count("repeats", repeats),
+        repeats=checks.count("repeats", repeats),
         data=str(_study_root(data)),
         max_seconds_per_run=None
         if max_seconds_per_run is None
-        else _seconds("max_seconds_per_run", max_seconds_per_run),
-        max_generations=_count("max_generations", max_generations),
+        else checks.seconds("max_seconds_per_run", max_seconds_per_run),
+        max_generations=checks.count("max_generations", max_generations),
         only=None if only is None else _names("only", only, "command_delay"),
         keep_inactive=_flag("keep_inactive", keep_inactive),
         reference=_reference(reference),
@@ -910,7 +873,7 @@ def plan_grid(spec: GridSpec) -> list[dict]:
 
 def _grid_spec(spec: object) -> GridSpec:
     if not isinstance(spec, GridSpec):
-        raise ConfigError(f"spec: expected a GridSpec (simtune.api.grid_spec makes one), got {_shown(spec)}")
+        raise ConfigError(f"spec: expected a GridSpec (simtune.api.grid_spec makes one), got {checks.shown(spec)}")
     return spec
 
 
@@ -927,6 +890,8 @@ def check(
     write_task: Path | str | None = None,
     keep_repeats: bool = False,
     targets: str | None = None,
+    only: str | Collection[str] | None = None,
+    params: Mapping[str, float] | Path | str | None = None,
 ) -> dict:
     """Before tuning (``simtune check --task``): the recordings' quality and what they can inform.
 
@@ -949,11 +914,15 @@ def check(
         keep_repeats: keep a repeat far from the others (else left out with a warning, named in each task's
             ``repeat_check_left_out``).
         targets: the tasks' targets checked (:data:`simtune.tasks.TARGETS`; None: the task files' own).
+        only: the parameters of ``space`` whose identifiability is checked (comma-separated or a list); None: all.
+        params: the point the Jacobian is taken at: values (a mapping, or a params file such as a run's
+            best_params.json or a synth's truth.json) in place of the generic ones; None: the generic point.
 
     Returns:
-        The check's findings as ``simtune check --json`` prints them; ``written_task`` names the file written
-        (None where no rest lies far off, or none that targets place: nothing is written) and
-        ``written_task_notes`` says where a comment of a corrected phase names a value it replaced.
+        The check's findings as ``simtune check --json`` prints them (``identifiability``: the combinations of
+        parameters the recordings cannot tell apart and the motion that would, docs/tuning.md); ``written_task``
+        names the file written (None where no rest lies far off, or none that targets place: nothing is written)
+        and ``written_task_notes`` says where a comment of a corrected phase names a value it replaced.
     """
     kind = _reference(reference)
     selection = _repeats(repeats)
@@ -971,8 +940,32 @@ def check(
             raise SimtuneError(f"--write-task: task {specs[0].name!r} has no task file to correct")
         check_task_out(source, out)
     keep = _flag("keep_repeats", keep_repeats)
+    names = None if only is None else _names("only", only, "armature_joint_6,servo_gain_joint_6")
+    given = _params(params)
+    robot = common_robot(specs)
+    if isinstance(given, Path):
+        at_name = str(given)
+        file_values = read_params_file(given, engine, robot)
+        values = validate_params(
+            file_values, engine_class(engine).supported(robot), engine, where=str(given), robot=robot
+        )
+    else:
+        at_name = "generic" if not given else "params"
+        values = validate_params(
+            dict(given), engine_class(engine).supported(robot), engine, where="params", robot=robot
+        )
     result = run_check(
-        engine, specs, root, space, _workers(workers), reference=kind, repeats=selection, keep_repeats=keep
+        engine,
+        specs,
+        root,
+        space,
+        _workers(workers),
+        reference=kind,
+        repeats=selection,
+        keep_repeats=keep,
+        only=names,
+        at=values,
+        at_name=at_name,
     )
     result["targets"] = _targets(targets, "targets")
     if out is not None:
@@ -1060,14 +1053,14 @@ def synth(
     from simtune.data.formats import WRITERS
 
     if not isinstance(fmt, str) or fmt not in WRITERS:
-        raise ConfigError(f"fmt: unknown format {_shown(fmt)} (known: {', '.join(WRITERS)})")
+        raise ConfigError(f"fmt: unknown format {checks.shown(fmt)} (known: {', '.join(WRITERS)})")
     recording = {
-        "noise_m": _number("noise_m", noise_m),
-        "repeats": _count("repeats", repeats, 1, MAX_SYNTH_REPEATS),
-        "seed": _count("seed", seed, 0, MAX_SEED),
-        "jitter_s": _number("jitter_s", jitter_s),
+        "noise_m": checks.number("noise_m", noise_m),
+        "repeats": checks.count("repeats", repeats, 1, MAX_SYNTH_REPEATS),
+        "seed": checks.count("seed", seed, 0, MAX_SEED),
+        "jitter_s": checks.number("jitter_s", jitter_s),
         "fmt": fmt,
-        "joint_noise_rad": _number("joint_noise_rad", joint_noise_rad),
+        "joint_noise_rad": checks.number("joint_noise_rad", joint_noise_rad),
         "force": _flag("force", force),
     }
     return run_synth(
@@ -1107,7 +1100,7 @@ def export(
     runs = _paths("run_dirs", run_dirs, "a run folder")
     out_dir = _path("out", out)
     if engine is not None and not isinstance(engine, str):
-        raise ConfigError(f"engine: expected an engine name (a string) or None, got {_shown(engine)}")
+        raise ConfigError(f"engine: expected an engine name (a string) or None, got {checks.shown(engine)}")
     all_engines, dr, force = _flag("all_engines", all_engines), _flag("dr", dr), _flag("force", force)
     if all_engines and engine is not None:
         raise SimtuneError("--all-engines exports each run with its own engine: leave out --engine")

@@ -7,9 +7,9 @@ what they need when they run.
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, fields
 
+from simtune.common import checks
 from simtune.common.limits import MAX_SEED, MAX_WORKERS
 from simtune.data import check_repeats
 from simtune.data.clock import check_reference, default_reference
@@ -41,14 +41,6 @@ TRANSFER_DEFAULTS = {"space": "extended", "optimizer": "de"}
 def default_space(paper_exact: bool) -> str:
     """The space a tune runs in when none is named: :data:`DEFAULT_SPACE`, or ``shared`` for a paper-exact run."""
     return "shared" if paper_exact else DEFAULT_SPACE
-
-
-def _is_int(value) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
 #: evaluations one run may be given: far above any search that ends (a day of MuJoCo rollouts is about 10^6), low
@@ -196,7 +188,7 @@ class RunConfig:
         at = f"{where}: " if where else ""
 
         def bad(key: str, what: str) -> ConfigError:
-            return ConfigError(f"{at}{key} must be {what}, got {getattr(self, key)!r}")
+            return ConfigError(f"{at}{key} must be {what}, got {checks.shown(getattr(self, key))}")
 
         for key in ("engine", "tasks", "space", "optimizer"):
             if not isinstance(getattr(self, key), str):
@@ -204,21 +196,17 @@ class RunConfig:
         for key in ("data", "project"):
             if getattr(self, key) is not None and not isinstance(getattr(self, key), str):
                 raise bad(key, "a string or null")
-        if not _is_int(self.seed) or not 0 <= self.seed <= MAX_SEED:
-            raise bad("seed", f"an integer from 0 to {MAX_SEED}")
-        if not _is_int(self.workers) or not 1 <= self.workers <= MAX_WORKERS:
-            raise bad("workers", f"an integer from 1 to {MAX_WORKERS}")
-        if not _is_int(self.max_generations) or self.max_generations < 1:
-            raise bad("max_generations", "an integer of at least 1")
-        if self.max_evaluations is not None and (not _is_int(self.max_evaluations) or self.max_evaluations < 1):
-            raise bad("max_evaluations", "an integer of at least 1")
-        if self.max_evaluations is not None and self.max_evaluations > MAX_EVALUATIONS:
-            raise bad("max_evaluations", f"at most {MAX_EVALUATIONS} (a budget, not 'never stop')")
+        checks.count(f"{at}seed", self.seed, 0, MAX_SEED)
+        checks.count(f"{at}workers", self.workers, 1, MAX_WORKERS)
+        checks.count(f"{at}max_generations", self.max_generations)
+        if self.max_evaluations is not None:
+            checks.count(f"{at}max_evaluations", self.max_evaluations)
+            if self.max_evaluations > MAX_EVALUATIONS:
+                raise bad("max_evaluations", f"at most {MAX_EVALUATIONS} (a budget, not 'never stop')")
         for key in ("max_seconds", "eval_timeout"):
-            value = getattr(self, key)
-            if value is not None and (not _is_number(value) or value <= 0):
-                raise bad(key, "a finite number of seconds above 0")
-        if self.target_fitness is not None and (not _is_number(self.target_fitness) or self.target_fitness < 0):
+            if getattr(self, key) is not None:
+                checks.seconds(f"{at}{key}", getattr(self, key))
+        if self.target_fitness is not None and (not checks.is_finite(self.target_fitness) or self.target_fitness < 0):
             raise bad("target_fitness", "a finite number of at least 0")
         for key in ("prune", "refine", "paper_exact", "keep_inactive", "task_delays", "threads", "keep_repeats"):
             if not isinstance(getattr(self, key), bool):
