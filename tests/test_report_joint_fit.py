@@ -106,6 +106,8 @@ def test_a_broken_generalise_json_is_named_in_a_warning_and_left_out(tmp_path):
     said: list[str] = []
     assert read_studies([tmp_path], said.append) == []
     assert len(said) == 1 and "generalise.json: skipped: not a readable `simtune generalise` result" in said[0]
+    (tmp_path / "generalise.json").write_text(json.dumps({**STUDY, "data": 5}))
+    assert read_studies([tmp_path], said.append) == [] and "data: expected a folder or null, got 5" in said[1]
 
 
 @pytest.fixture(scope="module")

@@ -107,6 +107,8 @@ def load_study(path: Path) -> Study:
     result = json.loads(Path(path).read_text())
     if not isinstance(result, dict) or not isinstance(result.get("rows"), list) or not result["rows"]:
         raise ValueError("no rows")
+    if not (result.get("data") is None or isinstance(result["data"], str)):
+        raise TypeError(f"data: expected a folder or null, got {result['data']!r}")
     for row in result["rows"]:
         for key in ("alone", "joint", "held_out"):
             float(row[key]["fitness"])
