@@ -4,6 +4,7 @@ import json
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -131,7 +132,7 @@ def test_a_finished_run_stores_its_uncertainty_and_keeps_its_evaluations(short_r
     )
     assert proc.returncode == 0, proc.stderr
     printed = json.loads(proc.stdout)
-    assert [set(e) - {"cut"} for e in printed["parameters"]] == [CONTRACT] * 4
+    assert [set(e) - {"cut", "remaining_step"} for e in printed["parameters"]] == [CONTRACT] * 4
     assert [e["name"] for e in printed["parameters"]] == names
     store = RunStore(short_run)
     assert store.count_evaluations() == evaluations
@@ -153,7 +154,8 @@ def test_the_bootstrap_refits_a_run_and_stores_what_it_says(short_run, tmp_path)
     )
     assert proc.returncode == 0, proc.stderr
     printed = json.loads(proc.stdout)
-    assert printed["bootstrap_draws"] == 10 and [set(e) - {"cut"} for e in printed["parameters"]] == [CONTRACT] * 4
+    assert printed["bootstrap_draws"] == 10
+    assert [set(e) - {"cut", "remaining_step"} for e in printed["parameters"]] == [CONTRACT] * 4
     store = RunStore(run)
     assert store.get("uncertainty") == printed
     assert store.count_evaluations() == evaluations
@@ -350,3 +352,128 @@ def test_the_clock_column_is_the_references_velocity_in_residual_units():
     per_sample = column.reshape(60, 3)
     np.testing.assert_allclose(per_sample[1:-1, 0], 0.1 / np.sqrt(60), rtol=1e-9)
     assert per_sample[0, 0] == pytest.approx(0.05 / np.sqrt(60)) and not per_sample[:, 1:].any()
+
+
+def _stopped_short(J: np.ndarray, offset: np.ndarray, scale: float, seed: int) -> np.ndarray:
+    """Residuals at a point ``offset`` (unit coordinates) past the least-squares minimum of a linear model ``J``: the
+    noise at the minimum is orthogonal to every column (a converged fit's), plus what the offset moves."""
+    noise = np.random.default_rng(seed).normal(scale=scale, size=J.shape[0])
+    at_minimum = noise - J @ np.linalg.lstsq(J, noise, rcond=None)[0]
+    return at_minimum + J @ offset
+
+
+def test_a_fit_stopped_short_is_widened_by_its_remaining_step_toward_the_minimum():
+    """Issue 71 item 3: a run stopped before the data's minimum. The step left, -(J^T J)^+ J^T r, points from the
+    best point to the minimum; the interval is widened by it (it holds the minimum) and names it; a converged point's
+    step is ~0 and its intervals are those of the noise alone."""
+    space = get_space("extended", only=["command_delay", "marker_offset_x"])
+    width = np.array([p.high - p.low for p in space.parameters])
+    low = np.array([p.low for p in space.parameters])
+    J = np.random.default_rng(7).normal(size=(300, 2))
+    x = np.array([1.5, 0.0])
+    short = np.array([-0.02, 0.0])  # the fit stopped 2 % of the delay's range below its minimum
+    minimum = x - short * width
+    noise_only = analyse(space, x, Jacobian(_stopped_short(J, short, 1e-3, 1), J, True))
+    result = analyse(space, x, Jacobian(_stopped_short(J, short, 1e-3, 1), J, True), at_fit=True)
+    before = noise_only["parameters"][0]
+    delay, offset = result["parameters"]
+    assert not before["low"] <= minimum[0] <= before["high"]  # the noise's interval misses the minimum
+    assert result["remaining_steps"]["command_delay"] == pytest.approx(-short[0] * width[0], rel=1e-6)
+    assert delay["remaining_step"] == pytest.approx(minimum[0] - x[0], rel=1e-6) and delay["remaining_step"] > 0
+    assert delay["low"] == pytest.approx(before["low"]) and delay["high"] == pytest.approx(before["high"] + 0.06)
+    assert delay["low"] < minimum[0] < delay["high"]
+    assert "remaining_step" not in offset and offset["high"] == noise_only["parameters"][1]["high"]
+    assert "stopped short of the data's minimum" in result["method"]
+    # converged: the residuals orthogonal to the columns, no step, the noise's intervals unchanged
+    converged = _stopped_short(J, np.zeros(2), 1e-3, 1)
+    plain = analyse(space, x, Jacobian(converged, J, True))
+    fitted = analyse(space, x, Jacobian(converged, J, True), at_fit=True)
+    assert max(abs(v) for v in fitted["remaining_steps"].values()) < 1e-12
+    assert fitted["parameters"] == plain["parameters"]
+    # a minimum past the range: the step is cut at the bound (the delay's upper end, 3 s), as intervals are
+    past = analyse(space, np.array([2.9, 0.0]), Jacobian(_stopped_short(J, short * 10, 1e-3, 1), J, True), at_fit=True)
+    assert past["remaining_steps"]["command_delay"] == pytest.approx(low[0] + width[0] - 2.9)
+
+
+def test_a_parameter_on_its_bound_whose_step_points_out_is_held_there():
+    """The bounded minimum lies on the bound: the step holds that parameter and is taken again over the others."""
+    from simtune.uncertainty import remaining_step
+
+    rng = np.random.default_rng(8)
+    J = rng.normal(size=(200, 2))
+    r = _stopped_short(J, np.array([0.05, 0.03]), 1e-3, 2)  # the unbounded minimum: both 5 % and 3 % lower
+    step = remaining_step(J, r, np.array([0.0, 0.5]))  # the first parameter already at its lower bound
+    assert step[0] == 0.0
+    expected = -np.linalg.lstsq(J[:, 1:], r, rcond=None)[0][0]  # the second alone, the first held
+    assert step[1] == pytest.approx(expected)
+
+
+def _damping_run(tmp_path, max_evaluations: int):
+    """A MICO `single` tune of joint 2's damping and the delay on synthetic recordings (truth 0.4, 1.5 s; 3 repeats,
+    no start jitter, so the delay's interval is narrow) with ``max_evaluations``; its stored uncertainty."""
+    from simtune import api
+
+    data = tmp_path / "rec"
+    if not data.exists():
+        truth = tmp_path / "truth.json"
+        truth.write_text(json.dumps({"joint_damping_2": 0.4, "command_delay": 1.5}))
+        api.synth("mujoco", "single", out=data, truth=truth, repeats=3, jitter_s=0.0)
+    run = tmp_path / f"run{max_evaluations}"
+    config = RunConfig(
+        engine="mujoco",
+        tasks="single",
+        space="extended",
+        data=str(data),
+        only=["joint_damping_2", "command_delay"],
+        max_evaluations=max_evaluations,
+        workers=1,
+    )
+    start_run(config, run, show_progress=False)
+    store = RunStore(run)
+    try:
+        summary = store.get("uncertainty")
+    finally:
+        store.close()
+    return {e["name"]: e for e in summary["parameters"]}, summary
+
+
+def test_a_short_tune_interval_holds_the_true_damping_and_a_converged_ones_is_unchanged(tmp_path):
+    """Issue 71 item 3 on the MICO: 6 evaluations stop the damping at about 0.31 with a noise interval of about
+    0.24-0.38 (the truth 0.4 outside it); the step left points up to the truth and the widened interval holds it. A
+    tune of 40 evaluations converges: its step is a small share of the half-width and the interval the noise's."""
+    entries, summary = _damping_run(tmp_path, 6)
+    damping = entries["joint_damping_2"]
+    assert damping["value"] < 0.35  # stopped short
+    assert damping["remaining_step"] > 0 and abs(damping["value"] + damping["remaining_step"] - 0.4) < 0.03
+    assert damping["low"] < 0.4 < damping["high"]
+    noise_high = damping["high"] - damping["remaining_step"]  # the interval of the noise alone
+    assert noise_high < 0.4
+    entries, summary = _damping_run(tmp_path, 40)
+    damping = entries["joint_damping_2"]
+    half = (damping["high"] - damping["low"]) / 2
+    assert "remaining_step" not in damping and abs(summary["remaining_steps"]["joint_damping_2"]) < 0.2 * half
+    assert damping["low"] < 0.4 < damping["high"]
+
+
+def test_the_printed_summary_names_a_parameter_the_fit_has_not_converged_in(monkeypatch):
+    """`simtune uncertainty RUN` (and tune's closing summary) says where the data's minimum lies for a parameter whose
+    interval the remaining step widened, and says nothing of it for the others."""
+    from rich.console import Console
+
+    from simtune.cli import output
+
+    console = Console(width=80, record=True)
+    monkeypatch.setattr(output, "out", console)
+    entries = [
+        {"name": "joint_damping_2", "value": 0.3085, "low": 0.2356, "high": 0.4703, "active": True,
+         "identifiable": True, "remaining_step": 0.0889},
+        {"name": "command_delay", "value": 1.501, "low": 1.496, "high": 1.506, "active": True, "identifiable": True},
+    ]  # fmt: skip
+    summary = {"parameters": entries, "rank": 2, "searched": 2, "condition_number": 172.5}
+    output.print_uncertainty(summary, short=True, run_dir=Path("runs/x"))
+    words = " ".join(console.export_text().split())
+    assert (
+        "joint_damping_2: the fit has not converged in this parameter: the data's minimum lies about +0.089 away"
+        in words
+    )
+    assert "its interval is widened to hold it" in words and "command_delay: the fit" not in words

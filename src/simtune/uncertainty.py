@@ -26,6 +26,12 @@ its other minima), its direction lies in the span the retained singular vectors 
 component in the discarded ones below :data:`NULL_SHARE`), and its 95 % interval (value +-
 1.96 standard deviations, not clipped to the bounds) is no wider than the parameter's range;
 otherwise its interval is unbounded (``low``/``high`` null).
+
+The noise is not the only error of a run's best point: a run stopped by its budget (a small ``--max-evaluations``)
+before it reached the data's minimum sits off it by more than the noise allows (issue 71 item 3: a damping's interval
+0.236-0.381 about a tuned 0.308, the truth 0.4).  The Gauss-Newton step still left there, ``-(J^T J)^+ J^T r``
+(:func:`remaining_step`), is zero at a converged fit and points toward the minimum otherwise; where it is more than
+:data:`UNCONVERGED_SHARE` of an interval's half-width, the interval is widened by it and names it.
 """
 
 from __future__ import annotations
@@ -64,6 +70,12 @@ WINDOW = 5.0
 KINK = 0.5
 #: Most correlated pairs listed.
 TOP_PAIRS = 5
+#: A remaining Gauss-Newton step larger than this share of a parameter's 95 % half-width says the fit stopped short of
+#: the data's minimum in that parameter: the interval is widened by it and the summary names it.  Below it the step is
+#: within what the interval's own width is known to (a converged fit's finite-difference step is a few hundredths).
+UNCONVERGED_SHARE = 0.5
+#: A parameter this close to a bound (share of its range) counts as on it for the remaining step's bounds.
+ON_BOUND = 1e-9
 
 
 @dataclass
@@ -233,6 +245,43 @@ def _solver(J: np.ndarray, keep: np.ndarray, s: np.ndarray, vt: np.ndarray) -> n
     return (v_kept / s[keep] ** 2) @ v_kept.T @ J.T
 
 
+def remaining_step(J: np.ndarray, r: np.ndarray, u: np.ndarray, held: np.ndarray | None = None) -> np.ndarray:
+    """The Gauss-Newton step ``-(J^T J)^+ J^T r`` that is left at a point (unit coordinates, as ``J``): zero where a fit
+    converged, toward the data's minimum where it stopped short (a small ``--max-evaluations``).
+
+    The same pseudo-inverse as the intervals (singular values above :data:`RCOND` x the largest).  A parameter on a
+    bound whose step points out of its range is held there and the step taken again over the others (the bounded
+    least-squares minimum lies on that bound); what is left is cut at each range, as the intervals are.
+
+    Args:
+        J: the residuals' Jacobian in unit coordinates (m, D).
+        r: the residuals at the point (m,).
+        u: the point in unit coordinates (D,): ``(x - low) / width``.
+        held: (D,) parameters the step leaves where they are (the simulation is not smooth in them, or they move
+            nothing): their columns say nothing of where the minimum is.
+    Returns:
+        The step (D,) in unit coordinates; ``u + step`` lies within [0, 1].
+    """
+    d = J.shape[1]
+    free = np.ones(d, dtype=bool) if held is None else ~np.asarray(held, dtype=bool)
+    step = np.zeros(d)
+    for _ in range(d):  # each pass holds one more parameter or ends
+        columns = np.flatnonzero(free)
+        step = np.zeros(d)
+        if columns.size == 0:
+            break
+        _, s, vt = np.linalg.svd(J[:, columns], full_matrices=False)
+        keep = s > RCOND * float(s.max()) if s.size and s.max() > 0 else np.zeros(len(s), dtype=bool)
+        if not keep.any():
+            break
+        step[columns] = -_solver(J[:, columns], keep, s, vt) @ r
+        outward = free & (((u <= ON_BOUND) & (step < 0)) | ((u >= 1.0 - ON_BOUND) & (step > 0)))
+        if not outward.any():
+            break
+        free &= ~outward
+    return np.clip(u + step, 0.0, 1.0) - u
+
+
 def repeat_covariance(J: np.ndarray, spread: RepeatSpread, keep: np.ndarray, s: np.ndarray, vt: np.ndarray):
     """The covariance of the parameters (unit coordinates) that the repeats' own scatter gives the mean they are fitted
     to, and the smallest repeat count: ``A (Sum_k d_k d_k^T / (R (R - 1))) A^T`` per task, summed, with ``A`` the
@@ -264,6 +313,7 @@ def analyse(
     variance: float | None = None,
     spread: RepeatSpread | None = None,
     refits: np.ndarray | None = None,
+    at_fit: bool = False,
 ) -> dict:
     """The uncertainty summary of the searched parameters (``space``, values ``x``) from ``jac``.
 
@@ -273,7 +323,19 @@ def analyse(
     and the repeats' (at Student's t for their count), and a command delay's adds the aligned clock's origin.
     ``refits``: the point refitted against bootstrap draws of the repeats (:func:`bootstrap_refits`, (draws, D)):
     their standard deviation is a parameter's where the simulation is not smooth in it (no Gauss-Newton there), and
-    its least elsewhere.
+    its least elsewhere.  ``at_fit``: ``x`` is where a fit stopped (a run's best point; the check's generic values are
+    none): the noise says nothing of how far the optimiser stopped from the data's minimum, so the Gauss-Newton step
+    still left there (:func:`remaining_step`, in each parameter's units) is given for every searched parameter
+    (``remaining_steps``), and an identified parameter's interval whose step is more than :data:`UNCONVERGED_SHARE`
+    of its half-width is widened by it toward the minimum (its entry's ``remaining_step``): the interval then holds
+    the noise and the optimiser's remaining error.
+
+    Returns:
+        The summary: ``parameters`` (per parameter its ``name``, ``value``, 95 % ``low``/``high`` (None where not
+        identifiable), ``active``, ``identifiable``, ``cut`` where cut at its range, ``remaining_step`` where the
+        fit has not converged in it), the Jacobian's rank, singular values and condition number, the residuals'
+        variance and correlation time, the non-smooth parameters, the most correlated pairs, the method in words;
+        with ``at_fit``, ``remaining_steps`` (name -> the step left, 0 where held).
     """
     inactive = inactive or {}
     width = np.array([p.high - p.low for p in space.parameters])
@@ -298,6 +360,12 @@ def analyse(
         drawn[drawn == 0.0] = np.inf  # refits that never moved it say the fit is stuck there, not that it is exact
         sds = np.where(kinked, drawn, np.maximum(sds, np.where(np.isinf(drawn), 0.0, drawn)))
         smooth = np.ones(d, dtype=bool)
+    steps = np.zeros(d)
+    if at_fit:
+        low = np.array([p.low for p in space.parameters])
+        held = kinked | np.array([p.name in inactive for p in space.parameters], dtype=bool)
+        u = np.clip((np.asarray(x, dtype=float) - low) / width, 0.0, 1.0)
+        steps = remaining_step(J, r, u, held) * width
     entries = []
     for i, p in enumerate(space.parameters):
         sd = float(sds[i])
@@ -311,6 +379,12 @@ def analyse(
             "active": active,
             "identifiable": identifiable,
         }
+        if identifiable and abs(steps[i]) > UNCONVERGED_SHARE * Z95 * sd:
+            # the interval about where the minimum lies, joined to the one about where the fit stopped
+            step = float(steps[i])
+            entry["low"] = float(x[i] - Z95 * sd + min(step, 0.0))
+            entry["high"] = float(x[i] + Z95 * sd + max(step, 0.0))
+            entry["remaining_step"] = step
         entries.append(_cut_to_range(entry, p.low, p.high))
     pairs = []
     ident = [i for i, e in enumerate(entries) if e["identifiable"]]  # correlations: Gauss-Newton's
@@ -321,7 +395,7 @@ def analyse(
                 pairs.append((space.names[a], space.names[b], float(cov[a, b] / denom)))
     pairs.sort(key=lambda t: -abs(t[2]))
     kept_s = s[keep]
-    return {
+    summary = {
         "parameters": entries,
         "residuals": m,
         "rank": rank,
@@ -343,15 +417,26 @@ def analyse(
             "95 % = value +- "
             f"{Z95:.2f} sd; a parameter whose forward and backward differences disagree is not identifiable"
             + ("" if refits is None else _BOOTSTRAP_WORDS.format(draws=len(refits), steps=LOCAL_NFEV))
+            + ("" if not at_fit else _STEP_WORDS.format(share=UNCONVERGED_SHARE))
         ),
         "bootstrap_draws": 0 if refits is None else len(refits),
     }
+    if at_fit:
+        summary["remaining_steps"] = {name: float(step) for name, step in zip(space.names, steps)}
+    return summary
 
 
 _BOOTSTRAP_WORDS = (
     " - unless the best point's refits against {draws} bootstrap draws of the recordings' repeats (each task's "
     "repeats drawn with replacement, its aligned clock on the draw's median shift; at most {steps} least-squares "
     "steps each) give it a standard deviation: then that one where the differences disagree, and at least it elsewhere"
+)
+
+
+_STEP_WORDS = (
+    "; where the Gauss-Newton step left at the best point (-(J^T J)^+ J^T r, bounded by the ranges) is more than "
+    "{share:g} of a half-width, the fit stopped short of the data's minimum: that interval is widened by the step "
+    "toward it (`remaining_step`)"
 )
 
 
@@ -487,7 +572,9 @@ def uncertainty(
     inflation = correlation_time(wrist_tracks(jac.residuals, objective))
     values = space.to_dict(np.asarray(x, dtype=float))
     spread = repeat_spread(objective, values.get("timestep"))
-    result = analyse(space, np.asarray(x, dtype=float), jac, inflation, inactive, spread=spread, refits=refits)
+    result = analyse(
+        space, np.asarray(x, dtype=float), jac, inflation, inactive, spread=spread, refits=refits, at_fit=True
+    )
     searched = {e["name"]: e for e in result["parameters"]}
     left_out = [n for n in full.names if n not in searched]
     generic = generic_values(objective, left_out) if left_out else {}

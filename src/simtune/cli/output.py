@@ -207,6 +207,14 @@ def print_uncertainty(summary: dict, short: bool, run_dir: Path) -> None:
                 _say(f"{name} = {value}, 95 % {interval}, +-{tightness}", 4)
     else:
         _say(f"identified: none of the {searched} searched parameters (why: below)")
+    for e in identified:
+        if e.get("remaining_step") is not None:
+            _say(
+                f"{e['name']}: the fit has not converged in this parameter: the data's minimum lies about "
+                f"{e['remaining_step']:+.2g} away (Gauss-Newton's step left at the best point); its interval is "
+                "widened to hold it, and a longer tune (a larger --max-evaluations) would move it there",
+                4,
+            )
     _say(_rank_in_words(summary))
     # with draws, a non-smooth parameter has the draws' interval: one still unbounded is too wide
     non_smooth = set() if draws else set(summary.get("non_smooth") or ())
