@@ -19,12 +19,13 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
+from simtune.engines.registry import ENGINES
 from simtune.robot.description import RobotDescription
 from simtune.robot.generate import servo_gains
 from simtune.tasks.spec import CONTACT_GROUPS, MATERIALS, SHAPES
 
-#: Every engine of the registry (``simtune engines``), by name.
-ALL_ENGINES = frozenset({"mujoco", "mujoco-warp", "pybullet", "ode", "dart", "drake"})
+#: Every engine of the registry (``simtune engines``), by name: the registry's, below this table.
+ALL_ENGINES = frozenset(ENGINES)
 #: The scopes of a kind: once per driven joint, per driven link, per material group, per object,
 #: per axis of the marker offset, or once.
 JOINT, LINK, MATERIAL, OBJECT, AXIS, GLOBAL = "joint", "link", "material", "object", "axis", "global"
