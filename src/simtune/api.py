@@ -103,6 +103,9 @@ class Result:
     #: why a tuning run's search stopped (``converged``, ``max-seconds`` ...: simtune.optimize.base.STOP_REASONS);
     #: None for an evaluation and for runs stored before it was kept
     stop_reason: str | None = None
+    #: what a run's prior (``prior``: simtune.objective.Prior) added to the fitness it minimised; ``fitness`` is the
+    #: data's fit without it.  0 without a prior, and for an evaluation
+    prior_penalty: float = 0.0
 
     @classmethod
     def from_score(cls, engine: str, x: Mapping[str, float], score: Score, generic: Score | dict, **more) -> Result:
@@ -111,7 +114,8 @@ class Result:
             engine=engine,
             tasks=tuple(t.task for t in score.tasks),
             x=dict(x),
-            fitness=score.fitness,
+            fitness=score.data_fitness,
+            prior_penalty=score.prior_penalty,
             wrist_error=score.wrist_error,
             object_error=score.object_error,
             joint_error=score.joint_error,

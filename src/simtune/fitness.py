@@ -121,6 +121,19 @@ class Score:
     def pruned(self) -> bool:
         return any(t.pruned for t in self.tasks)
 
+    @property
+    def data_fitness(self) -> float:
+        """The fit to the recordings alone: the tasks' fitness summed, without a prior's penalty (``--prior``:
+        :attr:`fitness` is what the search minimises, this plus :attr:`prior_penalty`).  Without a prior, exactly
+        :attr:`fitness`."""
+        return float(sum(t.fitness for t in self.tasks)) if self.tasks else self.fitness
+
+    @property
+    def prior_penalty(self) -> float:
+        """What a prior (``--prior``) adds to the fitness for the parameters' distance from their generic values;
+        0 without one."""
+        return self.fitness - self.data_fitness
+
     @classmethod
     def combine(cls, scores: list[TaskScore]) -> Score:
         return cls(
@@ -411,6 +424,42 @@ def residuals(
             per_joint = scale["joint"] * NOISE_UNIT_M / np.array(noise.joints_rad)
             parts.append((joints * per_joint).ravel() / np.sqrt(n))
     return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def noise_floor(
+    reference: TaskData, weights: FitnessWeights, noise: SignalNoise, weighted: bool, with_object: bool
+) -> tuple[float, float]:
+    """What a simulation scores whose every recorded signal is off by that signal's noise (a repeat's spread about the
+    repeats' mean, :func:`signal_noise`) in every component: about the fitness of the real arm against its own mean,
+    the data's noise floor.  A prior (``--prior``) is measured in it.
+
+    Args:
+        reference: the task's recordings.
+        weights: the fitness's weights.
+        noise: the task's signal noise.
+        weighted: whether the residuals are weighed by noise (RunConfig ``residuals = "noise"``) or plain.
+        with_object: whether the task's fitness has an object part (a task with an object, recordings that track it).
+
+    Returns:
+        ``(fitness, sum of squares of the residuals)``: the wrist's and object's 3-D offsets of sqrt(3) noises, the
+        joints' of one, weighted as :func:`score_rollout` and :func:`residuals` weigh them.
+    """
+    scale = _noise_scales(noise if weighted else None, weights)
+    fitness = squares = 0.0
+    if reference.wrist_mean is not None and noise.wrist_m is not None:
+        fitness += weights.wrist * math.sqrt(3.0) * noise.wrist_m
+        squares += scale["wrist"] ** 2 * 3.0 * noise.wrist_m**2
+    if with_object and noise.object_m is not None:
+        fitness += weights.object * math.sqrt(3.0) * noise.object_m
+        squares += scale["object"] ** 2 * 3.0 * noise.object_m**2
+    if noise.joints_rad:
+        joints = np.square(noise.joints_rad)
+        fitness += weights.joint * math.sqrt(float(joints.mean()))
+        if weighted:
+            squares += scale["joint"] ** 2 * NOISE_UNIT_M**2 * len(joints)
+        else:
+            squares += weights.joint * float(joints.mean())
+    return fitness, squares
 
 
 def _noise_scales(noise: SignalNoise | None, weights: FitnessWeights) -> dict[str, float]:

@@ -9,8 +9,10 @@ evaluations instead of rebuilding.
 from __future__ import annotations
 
 import copy
+import math
 import warnings
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TypeVar
 
@@ -31,13 +33,14 @@ from simtune.fitness import (
     Score,
     SignalNoise,
     TaskScore,
+    noise_floor,
     rollout_joint_names,
     score_rollout,
     signal_noise,
 )
 from simtune.fitness import residuals as task_residuals
 from simtune.params import ParameterSpace
-from simtune.params.kinds import MARKER, applied_outside, outside_generics
+from simtune.params.kinds import MARKER, applied_outside, kind_of, outside_generics, prior_width
 from simtune.tasks import TaskSpec
 from simtune.tasks.lerobot import reading_for
 
@@ -108,7 +111,7 @@ def simulation_content(engine: str, tasks: Sequence[TaskSpec], references: dict[
     content (:func:`simtune.activity.task_content`), each task's reference by value."""
     return {
         "engine": f"{engine} {engine_class(engine).version()}",
-        "tasks": [task_content(t) for t in tasks],
+        "tasks": [task_content(t, engine) for t in tasks],
         "references": [value_digest(references[t.name]) for t in tasks],
     }
 
@@ -219,8 +222,69 @@ def recordings_folder(root: Path | str | None, task: TaskSpec) -> Path:
     return Path(task.recordings)
 
 
+@dataclass(frozen=True)
+class Prior:
+    """A prior on the tuned parameters (``--prior STRENGTH``: a maximum a posteriori fit): each parameter's distance
+    from its generic value, over its width, costs ``strength`` noise floors per width squared.
+
+    In the residual vector least squares fits each parameter adds ``sqrt(strength) * (x - centre) / width *
+    sqrt(floor's sum of squares)``; to the scalar fitness the other optimisers minimise, ``strength * floor's fitness
+    * sum((x - centre) / width)^2`` (:meth:`Objective.prior_penalty`): at strength 1 a parameter one width off costs
+    each of them what the data's noise floor scores (:func:`simtune.fitness.noise_floor`), a tenth of a width a
+    hundredth of it.  The widths are the kinds' (:data:`simtune.params.kinds.PRIOR_WIDTHS`).
+
+    ``centres`` and ``widths`` hold the parameters the prior holds, by name: those of the space with a generic value
+    (the encoders' offsets and compliance: 0, their kinds' generic value) and a width (a command delay has none: it is
+    the recording's clock, not the arm's).
+    """
+
+    strength: float
+    centres: dict[str, float]
+    widths: dict[str, float]
+
+    @property
+    def names(self) -> list[str]:
+        return list(self.centres)
+
+    def deviations(self, params: dict[str, float]) -> np.ndarray:
+        """Each held parameter's distance from its centre in widths, in :attr:`names`' order (a parameter missing
+        from ``params``: at its generic value, 0)."""
+        return np.array(
+            [(params.get(name, centre) - centre) / self.widths[name] for name, centre in self.centres.items()]
+        )
+
+
+def make_prior(objective: Objective, strength: float) -> Prior:
+    """The prior of ``strength`` on ``objective``'s space: each parameter centred on its generic value
+    (:func:`generic_values`; one without: 0 where its range holds 0, else no prior on it), its width its kind's
+    (:func:`simtune.params.kinds.prior_width`); a name of no kind, and a command delay, have none.
+
+    Args:
+        objective: the run's objective (its engine, tasks and space).
+        strength: the prior's strength, above 0 (1: one width off costs a noise floor).
+    Returns:
+        The prior.
+    """
+    space = objective.vector_space()
+    generic = generic_values(objective, space.names)
+    centres: dict[str, float] = {}
+    widths: dict[str, float] = {}
+    for p in space.parameters:
+        centre = generic.get(p.name)
+        if centre is None and p.low <= 0.0 <= p.high:
+            centre = 0.0
+        width = None if centre is None or kind_of(p.name) is None else prior_width(p.name, p.low, p.high, centre)
+        if centre is None or width is None:
+            continue
+        centres[p.name] = float(centre)
+        widths[p.name] = width
+    return Prior(float(strength), centres, widths)
+
+
 class Objective:
-    """Scores parameter dicts (or vectors of a space) for ``engine`` on ``tasks``, its parts weighted by ``weights``."""
+    """Scores parameter dicts (or vectors of a space) for ``engine`` on ``tasks``, its parts weighted by ``weights``;
+    with ``prior_strength`` (``--prior``), the parameters' distance from their generic values costs too (:class:`Prior`:
+    a score's :attr:`~simtune.fitness.Score.fitness` then holds it, its ``data_fitness`` and the tasks' parts not)."""
 
     def __init__(
         self,
@@ -230,6 +294,7 @@ class Objective:
         space: ParameterSpace | None = None,
         weights: FitnessWeights | None = None,
         noise_weighted: bool = False,
+        prior_strength: float | None = None,
     ):
         engine_class(engine)  # fail early on an unknown or missing engine
         self.engine = engine
@@ -249,6 +314,24 @@ class Objective:
         self.marker_names = applied_outside(self.tasks[0].robot.n_joints, (MARKER,))
         #: per task, the last rollouts simulated here, by what they simulated (:meth:`_rollout_batch`)
         self._recent: dict[str, dict[tuple, Rollout]] = {}
+        #: the prior (``--prior``), None without one (or at strength 0: plain least squares)
+        self.prior: Prior | None = None
+        #: what one width off costs at strength 1: the tasks' noise floors, in the fitness and in the residuals'
+        #: sum of squares (:func:`simtune.fitness.noise_floor`)
+        self.prior_floor = (0.0, 0.0)
+        if prior_strength:
+            floors = [
+                noise_floor(
+                    references[t.name],
+                    self.weights,
+                    signal_noise(references[t.name]) if self.noise is None else self.noise[t.name],
+                    self.noise is not None,
+                    _has_object_residual(t, references),
+                )
+                for t in self.tasks
+            ]
+            self.prior_floor = (sum(f for f, _ in floors), sum(q for _, q in floors))
+            self.prior = make_prior(self, prior_strength)
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
@@ -275,6 +358,30 @@ class Objective:
         if task.name not in self._engines:
             self._engines[task.name] = make_engine(self.engine, started_as_recorded(task, self.references[task.name]))
         return self._engines[task.name]
+
+    def prior_penalty(self, params: dict[str, float]) -> float:
+        """What the prior adds to the fitness of ``params`` (:class:`Prior`); 0 without one."""
+        if self.prior is None:
+            return 0.0
+        return self.prior.strength * self.prior_floor[0] * float(np.sum(np.square(self.prior.deviations(params))))
+
+    def prior_residuals(self, params: dict[str, float]) -> np.ndarray:
+        """The prior's rows of the residual vector of ``params``, one per parameter it holds (none without one):
+        their sum of squares is ``strength`` floors' sum of squares per width squared."""
+        if self.prior is None:
+            return np.zeros(0)
+        return math.sqrt(self.prior.strength * self.prior_floor[1]) * self.prior.deviations(params)
+
+    def _with_prior(self, parts: list[TaskScore], penalty: float) -> Score:
+        """The score of a member's task parts, its fitness the prior's ``penalty`` plus the parts in the tasks'
+        order (as the pruning sums them: a pruned score still exceeds its bound)."""
+        score = Score.combine(parts)
+        if self.prior is None:
+            return score
+        total = penalty
+        for part in parts:
+            total += part.fitness
+        return replace(score, fitness=float(total))
 
     def rollouts(self, params: dict[str, float]) -> dict:
         """Each task's rollout for ``params``, as long as its recordings."""
@@ -303,7 +410,9 @@ class Objective:
         Each task runs the whole batch through its engine's :meth:`~simtune.engines.Engine.rollout_batch`
         (on up to ``threads`` threads where the engine can); a member pruned on one task skips the rest.
         """
-        spent = [0.0] * len(params)
+        # the prior's part is known before simulating: a trial whose penalty alone exceeds its bound prunes at once
+        penalties = [self.prior_penalty(p) for p in params]
+        spent = list(penalties)
         parts: list[list[TaskScore]] = [[] for _ in params]
         members = list(range(len(params)))
         for t, task in enumerate(self.tasks):
@@ -328,7 +437,7 @@ class Objective:
                 spent[i] += parts[i][-1].fitness
                 bound = None if bounds is None else bounds[i]
                 if t == len(self.tasks) - 1 or (bound is not None and spent[i] > bound):
-                    yield i, Score.combine(parts[i])  # the remaining tasks cannot lower the sum
+                    yield i, self._with_prior(parts[i], penalties[i])  # the remaining tasks cannot lower the sum
                 else:
                     going_on.append(i)
             members = sorted(going_on)
@@ -399,8 +508,8 @@ class Objective:
     @property
     def residual_size(self) -> int:
         """Length of :meth:`residuals`: per task 3 per 20 Hz sample with a wrist marker, 3 with an object, and
-        one per sample and logged joint."""
-        return sum(self.residual_counts())
+        one per sample and logged joint; then one per parameter the prior holds."""
+        return sum(self.residual_counts()) + (0 if self.prior is None else len(self.prior.centres))
 
     def penalty_residuals(self) -> np.ndarray:
         """The residuals of a simulation that blew up or failed: their squares sum to ``PENALTY**2`` (times the
@@ -474,7 +583,8 @@ class Objective:
         recorded final object position, and the simulated minus the mean recorded joint angles, divided
         by sqrt(samples x joints); each part times the square root of its weight.  Their sum of squares is
         the weighted mean squared marker error plus squared object error plus mean squared joint error,
-        summed over the tasks: the fitness with squared instead of plain distances.  A simulation that
+        summed over the tasks: the fitness with squared instead of plain distances.  With a prior, its rows
+        follow (:meth:`prior_residuals`), and the score's fitness holds its penalty.  A simulation that
         blew up gets :meth:`penalty_residuals`.
         """
         return _one(self.residuals_batch([params]))
@@ -515,8 +625,8 @@ class Objective:
                 if t < len(self.tasks) - 1:
                     going_on.append(i)
                     continue
-                score = Score.combine(scores[i])
-                residuals = np.concatenate(parts[i])
+                score = self._with_prior(scores[i], self.prior_penalty(params[i]))
+                residuals = np.concatenate([*parts[i], self.prior_residuals(params[i])])
                 if not score.stable or not np.all(np.isfinite(residuals)):
                     residuals = self.penalty_residuals()
                 yield i, (residuals, score)

@@ -109,6 +109,10 @@ class RunConfig:
     #: keep a repeat far from the others (the repeat check, simtune.data.screen, leaves it out with a warning);
     #: runs stored before the check kept every repeat, and their fingerprints say which it now leaves out
     keep_repeats: bool = False
+    #: the prior's strength (a maximum a posteriori fit: simtune.objective.Prior): each tuned parameter's distance
+    #: from its generic value, over its kind's width (simtune.params.kinds.PRIOR_WIDTHS), costs this many noise
+    #: floors per width squared; None or 0: plain least squares.  Runs stored before this setting had none
+    prior: float | None = None
 
     def __post_init__(self) -> None:
         if self.space == "":
@@ -130,11 +134,11 @@ class RunConfig:
 
     def record(self) -> dict:
         """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
-        ``weights`` and ``joint_topic`` at their defaults (None), ``threads`` when off, ``repeats`` when
+        ``weights``, ``joint_topic`` and ``prior`` at their defaults (None), ``threads`` when off, ``repeats`` when
         ``all`` and ``targets`` when ``published``, so that the stores of runs made before projects, joint logs,
         the batch path, the choice of repeats and the corrected targets and of new MICO runs compare equal."""
         values = asdict(self)
-        for key in ("project", "weights", "joint_topic"):
+        for key in ("project", "weights", "joint_topic", "prior"):
             if values[key] is None:
                 del values[key]
         for key in ("threads", "keep_repeats"):
@@ -208,6 +212,9 @@ class RunConfig:
                 checks.seconds(f"{at}{key}", getattr(self, key))
         if self.target_fitness is not None and (not checks.is_finite(self.target_fitness) or self.target_fitness < 0):
             raise bad("target_fitness", "a finite number of at least 0")
+        number = isinstance(self.prior, int | float) and not isinstance(self.prior, bool)
+        if self.prior is not None and (not number or not 0 <= self.prior < float("inf")):
+            raise bad("prior", "a finite number of at least 0 (0: no prior)")
         for key in ("prune", "refine", "paper_exact", "keep_inactive", "task_delays", "threads", "keep_repeats"):
             if not isinstance(getattr(self, key), bool):
                 raise bad(key, "true or false")
@@ -254,6 +261,8 @@ class RunConfig:
                 raise ConfigError(f"{at}--paper-exact runs the published targets: drop --targets {self.targets}")
             if self.residuals != "plain":
                 raise ConfigError(f"{at}--paper-exact fits the plain residuals: drop residuals={self.residuals!r}")
+            if self.prior:
+                raise ConfigError(f"{at}--paper-exact minimises the paper's fitness alone: drop --prior {self.prior:g}")
 
 
 #: every run setting's default, by name: a new run's (an empty string: resolved in ``__post_init__``)

@@ -147,6 +147,7 @@ class RunPlan:
             space,
             fitness_weights,
             noise_weighted=self.config.residuals == "noise",
+            prior_strength=self.config.prior,
         )
 
     def stored_space(self, space: ParameterSpace, stored: list[str]) -> ParameterSpace:

@@ -605,7 +605,9 @@ def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bo
             "engine": config.engine,
             "tasks": config.tasks,
             "space": config.space,
-            "fitness": result.score.fitness,
+            # the data's fit, comparable with a plain run's; a prior's part beside it (--prior)
+            "fitness": result.score.data_fitness,
+            **({"prior": config.prior, "prior_penalty": result.score.prior_penalty} if config.prior else {}),
             "wrist_error": result.score.wrist_error,
             "object_error": result.score.object_error,
             "joint_error": result.score.joint_error,
@@ -621,7 +623,7 @@ def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bo
     store.set(
         status="finished",
         message=result.message,
-        best_fitness=result.score.fitness,
+        best_fitness=result.score.data_fitness,
         result=_result_record(result),
     )
     # after the run is finished: a kill meanwhile loses only this summary (`simtune uncertainty RUN` redoes it)
@@ -630,7 +632,7 @@ def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bo
     if store.get("verdict") is None:  # cheap: the floor of the loaded references and the generic values
         try:
             summary = store.get("uncertainty")
-            store.set(verdict=verdict(objective, plan.references, result.params, result.score.fitness, summary))
+            store.set(verdict=verdict(objective, plan.references, result.params, result.score.data_fitness, summary))
         except SimtuneError as exc:  # the run stands without it
             store.set(verdict={"error": str(exc), "floor": None, "over_floor": None, "moved": []})
     store.close()

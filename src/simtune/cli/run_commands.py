@@ -158,7 +158,9 @@ def report_tune(result, run_dir: Path, config, as_json: bool, command_s: float |
         "reference": config.reference,
         **({"repeats": config.repeats} if config.repeats != "all" else {}),
         "targets": config.targets,
-        "fitness": result.score.fitness,
+        # the data's fit, comparable with a plain run's; a prior's part beside it (--prior)
+        "fitness": result.score.data_fitness,
+        **({"prior": config.prior, "prior_penalty": result.score.prior_penalty} if config.prior else {}),
         "wrist_error": result.score.wrist_error,
         "object_error": result.score.object_error,
         "joint_error": result.score.joint_error,
@@ -180,7 +182,8 @@ def report_tune(result, run_dir: Path, config, as_json: bool, command_s: float |
         f"[bold]{config.engine}[/] on [bold]{config.tasks}[/], space {config.space}, optimizer "
         f"{config.optimizer}{' + least squares' if config.refine else ''}, reference {config.reference}"
         f"{'' if config.repeats == 'all' else f' of the {config.repeats} repeats'}: "
-        f"fitness {store_generic['fitness']:.4f} (generic) -> [bold green]{result.score.fitness:.4f}[/] (tuned)"
+        f"fitness {store_generic['fitness']:.4f} (generic) -> [bold green]{result.score.data_fitness:.4f}[/] (tuned)"
+        + (f", prior {config.prior:g}'s penalty {fmt(result.score.prior_penalty)} besides" if config.prior else "")
     )
     joint = "" if result.score.joint_error is None else f", joint error {fmt(result.score.joint_error)} rad"
     out.print(

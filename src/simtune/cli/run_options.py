@@ -96,6 +96,18 @@ PruneOpt = Annotated[
         show_default=False,
     ),
 ]
+PriorOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--prior",
+        help="Prior strength (a maximum a posteriori fit): each tuned parameter's distance from its generic value, "
+        "over its kind's width (docs/parameters.md, Priors), costs this many noise floors per width squared, so that "
+        "a task cannot bend what it barely sees. Default none (0 too): plain least squares. The fitness shown is "
+        "the data's, the prior's part beside it.",
+        callback=not_negative,
+        show_default=False,
+    ),
+]
 PaperExactOpt = Annotated[
     bool,
     typer.Option(
@@ -133,6 +145,7 @@ def _run_settings(
     repeats: RepeatsOpt,
     keep_repeats: KeepRepeatsOpt,
     targets: TargetsOpt,
+    prior: PriorOpt,
 ) -> None:
     """Every run setting's option, in the order ``--help`` lists them (the signature is the table)."""
 

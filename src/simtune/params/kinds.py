@@ -404,6 +404,77 @@ FIXED_BOUNDS = {
 }
 
 
+#: The prior's width of each kind (``simtune tune --prior``: :func:`prior_width`), beside its range rule: ``("generic",
+#: f)``, f x the parameter's generic value (a described mass is known to about 20 %: the seed paper's ranges span
+#: +-30 %); ``("range", f)``, f x its range's width (a damping, a friction, an armature: a description rarely knows
+#: them, so a quarter of the range; the encoders' and the marker's offsets: half the range, wide, the data set them).
+#: A generic value of 0 (or none) takes the range's rule at the same f: its width is never 0.  None: no prior - a
+#: command delay is the recording's clock (when its operator pressed record), not the arm's, and has no generic value.
+PRIOR_WIDTHS: dict[str, tuple[str, float] | None] = {
+    "timestep": ("generic", 1.0),  # a numerical choice, not the arm's: 2 ms is a width from 4 ms
+    "mass_link": ("generic", 0.2),
+    "mass": ("generic", 0.2),
+    "max_torque_joint": ("generic", 0.2),
+    "max_velocity_joint": ("range", 0.25),
+    "lateral_friction": ("range", 0.25),
+    "joint_damping": ("range", 0.25),
+    "rolling_friction": ("range", 0.25),
+    "spinning_friction": ("range", 0.25),
+    "restitution": ("range", 0.25),
+    "linear_damping": ("range", 0.25),
+    "angular_damping": ("range", 0.25),
+    "command_delay": None,
+    "marker_offset": ("range", 0.5),
+    "armature_joint": ("range", 0.25),
+    "friction_joint": ("range", 0.25),
+    "kp_joint": ("range", 0.25),
+    "servo_gain_joint": ("generic", 0.5),
+    "joint_offset": ("range", 0.5),
+    "compliance_joint": ("range", 0.5),
+}
+
+
+def kind_of(name: str) -> Kind | None:
+    """The kind of parameter ``name`` (``joint_damping_3``: ``joint_damping``; ``command_delay_cube``: the command
+    delay's), the longest kind name it starts with; None for a name of no kind.
+
+    Args:
+        name: a parameter name.
+
+    Returns:
+        The kind, or None.
+    """
+    kinds = [kind for kind in BY_NAME if name == kind or name.startswith(f"{kind}_")]
+    return BY_NAME[max(kinds, key=len)] if kinds else None
+
+
+def prior_width(name: str, low: float, high: float, generic: float) -> float | None:
+    """The prior's width of parameter ``name`` (its kind's :data:`PRIOR_WIDTHS` rule): how far from its generic
+    value a tuned value may go at the cost of one noise floor (:class:`simtune.objective.Prior`).
+
+    Args:
+        name: a parameter name of a kind.
+        low: its range's low end.
+        high: its range's high end.
+        generic: its generic value (the prior's centre).
+
+    Returns:
+        The width, in the parameter's unit, above 0; None for a kind the prior holds not (a command delay).
+
+    Raises:
+        KeyError: for a name of no kind.
+    """
+    kind = kind_of(name)
+    if kind is None:
+        raise KeyError(f"parameter {name!r} is of no kind")
+    if (width_rule := PRIOR_WIDTHS[kind.name]) is None:
+        return None
+    rule, factor = width_rule
+    if rule == "generic" and generic != 0 and math.isfinite(generic):
+        return factor * abs(generic)
+    return factor * (high - low)
+
+
 #: the velocity clamp's range [deg/s] of an own robot's joint without a velocity limit in its description: from a
 #: slow arm's to about what industrial arms' joints turn at (the MICO keeps the seed paper's 10-40)
 OPEN_VELOCITY_RANGE = (10.0, 180.0)

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from simtune.errors import SimtuneError
+from simtune.fitness import Score
 from simtune.optimize.pipeline import global_population_size, random_start
 from simtune.run_plan import RunConfig
 from simtune.runs import read_run_record
@@ -102,7 +103,8 @@ class ReportedRun(RunView[RunConfig]):
 
     @property
     def best_fitness(self) -> float:
-        return float(self.best_score["fitness"])
+        """The best evaluation's fit to the data: without a prior's penalty (``--prior``), comparable across runs."""
+        return Score.from_dict(self.best_score).data_fitness
 
     @property
     def best_params(self) -> dict[str, float]:
