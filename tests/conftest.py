@@ -15,6 +15,9 @@ SLOWEST_ENGINES = frozenset({"drake"})
 #: Engines every test of which is slow without a GPU: MuJoCo Warp builds its kernels for about a minute on first
 #: use and steps one world 20-50 times slower than MuJoCo on Warp's CPU device.
 GPU_ENGINES = frozenset({"mujoco-warp"})
+#: The engines of the registry that run on a CPU (all but the GPU's), in the registry's order: those every robot
+#: must load in.
+CPU_ENGINES = tuple(name for name in ENGINES if name not in GPU_ENGINES)
 
 
 def engine_or_skip(name: str) -> type[Engine]:

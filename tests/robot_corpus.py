@@ -25,12 +25,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from conftest import CPU_ENGINES
 
 #: The true command delay ``synth`` records with by default [s], and how close tuning must come to it.
 TRUE_DELAY_S = 1.5
 DELAY_TOLERANCE_S = 0.05
-#: The engines every corpus robot must load in, and those ``tune --only command_delay`` runs in.
-ENGINES = ("mujoco", "pybullet", "ode", "dart", "drake")
+#: The engines every corpus robot must load in (the registry's CPU engines), and those ``tune --only command_delay``
+#: runs in.
+ENGINES = CPU_ENGINES
 TUNED_IN = ("mujoco", "pybullet")
 #: Forward kinematics of an engine against the description's own [m].
 FK_TOLERANCE_M = 1e-6

@@ -14,6 +14,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from conftest import CPU_ENGINES
 
 from simtune.engines import engine_class
 from simtune.errors import EngineUnavailable, RobotError, RobotWarning
@@ -91,7 +92,7 @@ def test_a_joint_ref_is_the_file_s_own_coordinate_in_the_description(tmp_path):
         np.testing.assert_allclose(robot.forward_kinematics(q)[0], mujoco_tracked_position(path, q), atol=1e-9)
 
 
-@pytest.mark.parametrize("engine", ["mujoco", "pybullet", "ode", "dart", "drake"])
+@pytest.mark.parametrize("engine", CPU_ENGINES)
 def test_a_joint_ref_puts_the_arm_in_the_same_place_in_every_engine(tmp_path, engine):
     """MuJoCo from the file, the others from the URDF: the tracked link within a micrometre of the description at
     the start pose (the probe: 247 mm apart in MuJoCo, 25 cm between MuJoCo and PyBullet)."""

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import CPU_ENGINES
 
 import simtune.api as st
 from simtune.check.project import check_project
@@ -145,7 +146,7 @@ def test_check_says_which_engines_run_it(fixture_project):
     assert all(name in mjcf_line for name in engines)
 
 
-@pytest.mark.parametrize("engine", ["mujoco", "pybullet", "ode", "dart", "drake"])
+@pytest.mark.parametrize("engine", CPU_ENGINES)
 def test_every_engine_puts_the_tracked_link_where_the_description_does(fixture_project, tmp_path, engine):
     """With the project's base pose added to the file's: MuJoCo from the file, the others from the URDF."""
     try:

@@ -4,8 +4,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import engine_or_skip, every_engine
+from conftest import CPU_ENGINES, engine_or_skip, every_engine
 
+from simtune.engines import ENGINES
 from simtune.errors import ConfigError, RobotError
 from simtune.params.space import SPACES, get_space, robot_spaces
 from simtune.robot.generate import robot_urdf_file
@@ -274,7 +275,7 @@ def test_mjcf_robot_in_mujoco(arm_mjcf):
     assert sim.defaults()["mass_link_3"] == pytest.approx(0.3)
 
 
-@pytest.mark.parametrize("engine", ["pybullet", "ode", "dart", "drake"])
+@pytest.mark.parametrize("engine", [e for e in CPU_ENGINES if not ENGINES[e].engine_class().reads_mjcf])
 def test_mjcf_robot_elsewhere_from_its_generated_urdf(arm_mjcf, engine):
     """The other engines build an MJCF's robot from the URDF of its description: its collision geoms as shapes
     (a capsule as a cylinder and two spheres, a mesh as MuJoCo's hull of it), the same kinematics."""
