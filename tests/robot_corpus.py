@@ -43,24 +43,10 @@ AGREE_M = 0.005
 
 #: Robot-engine pairs that may not agree within :data:`AGREE_M`, with why (an engine's own behaviour, not simtune's
 #: translation), each a cause ``simtune check`` detects from the description and warns of (docs/robots.md, "The
-#: engines agree").  Measured 2026-11-27 with each engine's trajectories beside MuJoCo's (only joint_1 differs).
-_HEAVY_PYBULLET = (
-    "PyBullet on the {robot}: {mm} mm from MuJoCo (ODE, DART, Drake within 5 mm), all of it joint_1, which turns "
-    "{deg} deg behind at worst: the joint carries no gravity load, so its generic force limit is 100 N m, and Bullet's "
-    "own link damping (0.04 of each link's momentum, linear and quadratic in speed; no other engine has any) takes "
-    "{share} of it at 40 deg/s on links of up to 2.7 t, while PyBullet's loadURDF takes each link's inertia from its "
-    "collision shape (the IRB 140's 1.3-1.9 times the description's).  Measured: damping 0 -> {nodamp} mm, the "
-    "file's inertias -> {inertia} mm, both -> {both} mm; both are PyBullet's own generic behaviour, with which the "
-    "MICO's PyBullet results were made ('simtune check' warns: Bullet damping over 10 % of a force limit)"
-)
-DISAGREE: dict[tuple[str, str], str] = {
-    ("ABB IRB 140", "pybullet"): _HEAVY_PYBULLET.format(
-        robot="ABB IRB 140", mm=108, deg=10.3, share="105 %", nodamp=62, inertia=57, both=4.5
-    ),
-    ("KUKA KR 210 L150", "pybullet"): _HEAVY_PYBULLET.format(
-        robot="KUKA KR 210 L150", mm=151, deg=12.9, share="73 %", nodamp=58, inertia=102, both=1.8
-    ),
-}
+#: engines agree").  None is left: the ABB IRB 140 and the KUKA KR 210 L150 were 108 and 151 mm from MuJoCo in
+#: PyBullet loaded as the paper did (Bullet's link damping and inertias from the collision shapes); loaded as their
+#: descriptions say, the default since issue 69, they are 4.5 and 1.8 mm (measured 2026-12-04).
+DISAGREE: dict[tuple[str, str], str] = {}
 
 
 @dataclass(frozen=True)

@@ -299,27 +299,31 @@ def cache_key(engine: str, task: TaskSpec, space: ParameterSpace, points: int, e
     what = {
         "simtune": simtune.__version__,
         "engine": f"{engine} {engine_class(engine).version()}" if engine_version else engine,
-        "task": task_content(task),
+        "task": task_content(task, engine),
         "space": [space.name, space.names, space.bounds],
         "probe": [PROBE_VERSION, TOLERANCE, points, PROBE_SEED],
     }
     return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
 
-def task_content(task: TaskSpec) -> dict:
+def task_content(task: TaskSpec, engine: str) -> dict:
     """The task as the engine runs it, as plain values: its fields without the catalogue entries that change no
-    simulation (description, recordings folder ...: ``tasks.spec.FINGERPRINT`` "never"), its robot by content
+    simulation (description, recordings folder ...: ``tasks.spec.FINGERPRINT`` "never") and without the run
+    settings it carries ("run": its loading) where ``engine`` does not read them, its robot by content
     (:func:`robot_content`).
 
     Args:
         task: any task.
+        engine: the engine's registry name (its content differs by the loading where it reads it: PyBullet).
 
     Returns:
         A JSON-serialisable dict (tuples as lists) that holds no file path.
     """
     content = asdict(task)
+    reads_loading = engine_class(engine).reads_loading
     for f in fields(task):
-        if f.metadata.get(FINGERPRINT) == "never":
+        kind = f.metadata.get(FINGERPRINT)
+        if kind == "never" or (kind == "run" and not reads_loading):
             content.pop(f.name)
     content["robot"] = robot_content(task.robot)
     return content

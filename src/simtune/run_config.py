@@ -14,7 +14,7 @@ from simtune.common.limits import MAX_SEED, MAX_WORKERS
 from simtune.data import check_repeats
 from simtune.data.clock import check_reference, default_reference
 from simtune.errors import ConfigError, check_choice
-from simtune.tasks import check_targets
+from simtune.tasks import check_loading, check_targets
 
 #: ``simtune tune``'s space where none is given: ``calibrated`` fits both real tasks better and sooner than
 #: ``extended`` (docs/tuning.md "The default space", measured 2026-11-26); a paper-exact run takes ``shared``, the
@@ -113,6 +113,11 @@ class RunConfig:
     #: from its generic value, over its kind's width (simtune.params.kinds.PRIOR_WIDTHS), costs this many noise
     #: floors per width squared; None or 0: plain least squares.  Runs stored before this setting had none
     prior: float | None = None
+    #: how the engines load the robot (simtune.tasks.LOADINGS): ``description``, as its description says
+    #: (PyBullet: the file's inertias, no link damping of Bullet's own), or ``paper``, as the seed paper loaded it
+    #: (PyBullet: inertias from the collision shapes, link damping 0.04); left empty: description, or paper with
+    #: paper_exact.  Runs stored before this setting loaded as the paper did.
+    loading: str = ""
 
     def __post_init__(self) -> None:
         if self.space == "":
@@ -125,6 +130,8 @@ class RunConfig:
             self.targets = "published" if self.paper_exact is True else "task"
         if self.residuals == "":
             self.residuals = "plain" if self.paper_exact is True else "noise"
+        if self.loading == "":
+            self.loading = "paper" if self.paper_exact is True else "description"
 
     @property
     def worker_processes(self) -> bool:
@@ -135,8 +142,9 @@ class RunConfig:
     def record(self) -> dict:
         """The configuration as a run store keeps it: ``project`` left out for the bundled MICO project (None),
         ``weights``, ``joint_topic`` and ``prior`` at their defaults (None), ``threads`` when off, ``repeats`` when
-        ``all`` and ``targets`` when ``published``, so that the stores of runs made before projects, joint logs,
-        the batch path, the choice of repeats and the corrected targets and of new MICO runs compare equal."""
+        ``all``, ``targets`` when ``published`` and ``loading`` when ``paper``, so that the stores of runs made
+        before projects, joint logs, the batch path, the choice of repeats, the corrected targets and the loading
+        and of new MICO runs compare equal."""
         values = asdict(self)
         for key in ("project", "weights", "joint_topic", "prior"):
             if values[key] is None:
@@ -150,6 +158,8 @@ class RunConfig:
             del values["targets"]
         if values["residuals"] == "plain":
             del values["residuals"]
+        if values["loading"] == "paper":
+            del values["loading"]
         return values
 
     @classmethod
@@ -165,7 +175,7 @@ class RunConfig:
                 )
         # a run from before these settings ran DE without a time-out, searched every parameter, with one shared
         # command delay, and scored against the plain mean of the repeats, on the targets as published (before the
-        # task files corrected them)
+        # task files corrected them), with PyBullet loading the robot as the paper did
         values = {
             "optimizer": "de",
             "eval_timeout": None,
@@ -174,6 +184,7 @@ class RunConfig:
             "reference": "mean",
             "targets": "published",
             "residuals": "plain",
+            "loading": "paper",
             **values,
         }
         for key in STORED_ALWAYS:
@@ -237,6 +248,7 @@ class RunConfig:
         check_repeats(self.repeats, f"{at}repeats")
         check_targets(self.targets, f"{at}targets")
         check_choice(self.residuals, RESIDUALS, f"{at}residuals", "weighed by each signal's noise, or plain")
+        check_loading(self.loading, f"{at}loading")
         if self.paper_exact:
             if self.reference != "mean":
                 raise ConfigError(
@@ -263,6 +275,8 @@ class RunConfig:
                 raise ConfigError(f"{at}--paper-exact fits the plain residuals: drop residuals={self.residuals!r}")
             if self.prior:
                 raise ConfigError(f"{at}--paper-exact minimises the paper's fitness alone: drop --prior {self.prior:g}")
+            if self.loading != "paper":
+                raise ConfigError(f"{at}--paper-exact loads the robot as the paper did: drop --loading {self.loading}")
 
 
 #: every run setting's default, by name: a new run's (an empty string: resolved in ``__post_init__``)

@@ -174,7 +174,7 @@ class RunPlan:
 
 def plan_run(config: RunConfig) -> RunPlan:
     """Resolve ``config`` once: its tasks (of its project), their robot, the engine class and the full space."""
-    tasks = parse_tasks(config.tasks, config.project, config.targets)
+    tasks = parse_tasks(config.tasks, config.project, config.targets, config.loading)
     robot = common_robot(tasks)
     engine = engine_class(config.engine)
     # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not

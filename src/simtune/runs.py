@@ -89,7 +89,8 @@ def task_fingerprint(task: TaskSpec) -> str:
     spec = asdict(task)
     for f in fields(task):
         omit = f.metadata.get(FINGERPRINT)
-        if omit == "never" or (omit == "default" and getattr(task, f.name) == f.default):
+        # a run setting the task carries (its loading) is the run's fingerprint's, beside the tasks
+        if omit in ("never", "run") or (omit == "default" and getattr(task, f.name) == f.default):
             spec.pop(f.name)
     return _digest(spec)
 
@@ -103,7 +104,8 @@ def run_fingerprint(plan: RunPlan, screened: bool = True) -> dict:
     """What the fitness of a run depends on besides its parameters: data files, the reference made of them (aligned
     or mean) and which repeats build it (left out when all: the fingerprints of runs stored before the choice
     stay), task definitions, the robot, engine version; with ``screened``, the repeats the repeat check left out
-    (:func:`left_out_repeats`, left out when none: every run stored before the check)."""
+    (:func:`left_out_repeats`, left out when none: every run stored before the check); how the robot was loaded
+    (left out when as the paper did: every run stored before the choice)."""
     fingerprint = {
         "data": folders_fingerprint({t.name: recordings_folder(plan.config.data, t) for t in plan.tasks}),
         "reference": plan.config.reference,
@@ -112,6 +114,8 @@ def run_fingerprint(plan: RunPlan, screened: bool = True) -> dict:
     }
     if plan.config.repeats != "all":
         fingerprint["repeats"] = plan.config.repeats
+    if plan.config.loading != "paper":  # left out as the paper's: the fingerprints of runs stored before the choice
+        fingerprint["loading"] = plan.config.loading
     # the robot on its own (its content, not its path), so that a changed URDF is named as such on resume rather than
     # as a changed task (the robot is part of each task's definition)
     fingerprint["robot"] = _digest(robot_content(plan.robot))
@@ -164,6 +168,10 @@ def fingerprint_differences(stored: dict, now: dict) -> list[str]:
     was, now_kind = stored.get("repeats", "all"), now.get("repeats", "all")
     if was != now_kind:
         changes.append(f"the repeats changed from {was} to {now_kind}")
+    # a fingerprint without the loading: the paper's (every run stored before the choice)
+    was, now_kind = stored.get("loading", "paper"), now.get("loading", "paper")
+    if was != now_kind:
+        changes.append(f"the robot's loading changed from {was} to {now_kind}")
     # a fingerprint without the robot's: a run stored before it was kept (its tasks' fingerprints cover the robot)
     robot_changed = "robot" in stored and "robot" in now and stored["robot"] != now["robot"]
     if robot_changed:

@@ -390,13 +390,16 @@ def _servo_findings(robot, loaded: list[str]) -> list[Finding]:
 #: Above this share of a joint's force limit, the torque Bullet's own link damping opposes the joint with at the
 #: fastest command (:func:`simtune.engines.pybullet.mapping.link_damping_torques`) holds PyBullet's arm back where no
 #: other engine's is: measured, the ABB IRB 140 (105 % on joint_1) and KUKA KR 210 L150 (73 %) were 108 and 151 mm
-#: from MuJoCo in PyBullet alone; every other corpus arm stays under 4 % (the MICO 0.02 %).
+#: from MuJoCo in PyBullet alone; every other corpus arm stays under 4 % (the MICO 0.02 %).  Only a robot loaded as
+#: the paper did has that damping (``--loading paper``, ``--paper-exact``): loaded as its description says (the
+#: default), its links have none and both arms agree within 5 mm.
 BULLET_DAMPING_SHARE = 0.1
 
 
 def _bullet_damping_findings(robot, loaded: list[str]) -> list[Finding]:
-    """One warning where PyBullet loads ``robot`` and Bullet's link damping takes more than
-    :data:`BULLET_DAMPING_SHARE` of a joint's force limit: a heavy arm's PyBullet motion lags the other engines'."""
+    """One note where PyBullet loads ``robot`` and Bullet's link damping, loaded as the paper did, takes more than
+    :data:`BULLET_DAMPING_SHARE` of a joint's force limit: a heavy arm's paper-exact PyBullet motion lags the other
+    engines' (loaded as its description says, the default, it has no such damping)."""
     from simtune.engines.pybullet.mapping import BULLET_LINK_DAMPING, link_damping_torques
     from simtune.robot.generate import FASTEST_COMMAND
 
@@ -409,12 +412,12 @@ def _bullet_damping_findings(robot, loaded: list[str]) -> list[Finding]:
         return []
     return [
         Finding(
-            "warning",
-            f"engine pybullet and mujoco may disagree on robot {robot.name}: Bullet damps every link by "
-            f"{BULLET_LINK_DAMPING:g} of its momentum (linear and quadratic in speed; no other engine does), "
-            f"{torques[index]:.3g} N m on {robot.arm_joints[index]} at {np.degrees(FASTEST_COMMAND):.0f} deg/s, "
-            f"{100 * share:.0f} % of its force limit, and PyBullet takes link inertias from the collision shapes; "
-            "docs/robots.md, 'The engines agree'",
+            "note",
+            f"with --paper-exact (--loading paper) engine pybullet and mujoco may disagree on robot {robot.name}: "
+            f"loaded as the paper did, Bullet damps every link by {BULLET_LINK_DAMPING:g} of its momentum (linear "
+            f"and quadratic in speed; no other engine does), {torques[index]:.3g} N m on {robot.arm_joints[index]} "
+            f"at {np.degrees(FASTEST_COMMAND):.0f} deg/s, {100 * share:.0f} % of its force limit, and takes link "
+            "inertias from the collision shapes; docs/robots.md, 'The engines agree'",
         )
     ]
 

@@ -18,7 +18,7 @@ from simtune.common.limits import MAX_SEED, MAX_WORKERS
 from simtune.data import REPEATS
 from simtune.data.clock import REFERENCES
 from simtune.data.formats import recording_kinds
-from simtune.tasks import TARGETS
+from simtune.tasks import LOADINGS, TARGETS
 
 #: the longest file or folder name common file systems allow [bytes]
 NAME_MAX = 255
@@ -172,6 +172,14 @@ TARGETS_HELP = (
     "bundled cube's phase 2: docs/calibration.md). Default: task; published with --paper-exact."
 )
 TargetsOpt = Annotated[str | None, typer.Option("--targets", help=TARGETS_HELP, callback=one_of(TARGETS))]
+
+#: what ``--loading`` is, said once for every command that simulates a run's tasks
+LOADING_HELP = (
+    "How the engines load the robot: description (as its file says: in PyBullet the file's inertias and no link "
+    "damping of Bullet's own) or paper (as the seed paper loaded it: PyBullet's inertias from the collision shapes "
+    "and link damping 0.04). Only PyBullet loads the two differently. Default: description; paper with --paper-exact."
+)
+LoadingOpt = Annotated[str | None, typer.Option("--loading", help=LOADING_HELP, callback=one_of(LOADINGS))]
 
 
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]

@@ -18,6 +18,7 @@ from simtune.cli.options import (
     JointTopicOpt,
     JsonOpt,
     KeepRepeatsOpt,
+    LoadingOpt,
     ProjectOpt,
     QuietOpt,
     ReferenceOpt,
@@ -80,6 +81,7 @@ def evaluate(
     repeats: RepeatsOpt = None,
     keep_repeats: KeepRepeatsOpt = False,
     targets: TargetsOpt = None,
+    loading: LoadingOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Fitness of an engine's generic parameters (or of --params-file) on recorded tasks.
@@ -106,6 +108,7 @@ def evaluate(
             repeats=repeats,
             targets=targets,
             keep_repeats=keep_repeats,
+            loading=loading,
         )
     if as_json:
         print_json(evaluation_json(engine, task, score))
@@ -158,6 +161,7 @@ def report_tune(result, run_dir: Path, config, as_json: bool, command_s: float |
         "reference": config.reference,
         **({"repeats": config.repeats} if config.repeats != "all" else {}),
         "targets": config.targets,
+        "loading": config.loading,
         # the data's fit, comparable with a plain run's; a prior's part beside it (--prior)
         "fitness": result.score.data_fitness,
         **({"prior": config.prior, "prior_penalty": result.score.prior_penalty} if config.prior else {}),

@@ -24,6 +24,7 @@ from simtune.cli.options import (
     JointTopicOpt,
     KeepInactiveOpt,
     KeepRepeatsOpt,
+    LoadingOpt,
     MaxEvalsOpt,
     OnlyOpt,
     ProjectOpt,
@@ -146,6 +147,7 @@ def _run_settings(
     keep_repeats: KeepRepeatsOpt,
     targets: TargetsOpt,
     prior: PriorOpt,
+    loading: LoadingOpt,
 ) -> None:
     """Every run setting's option, in the order ``--help`` lists them (the signature is the table)."""
 

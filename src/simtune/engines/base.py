@@ -237,6 +237,9 @@ class Engine(ABC):
     #: build it from the URDF its description generates (``robot_urdf``: its collision geoms, without armature,
     #: joint friction or springs)
     reads_mjcf: ClassVar[bool] = False
+    #: whether the task's loading (:attr:`TaskSpec.loading`: as the description says, or as the paper loaded the
+    #: robot) changes what this engine simulates: only then does it enter a probe's and a start-up cache's key
+    reads_loading: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)

@@ -58,7 +58,7 @@ class ReportedRun(RunView[RunConfig]):
     def task(self, name: str) -> TaskSpec:
         """The definition of the run's task ``name``, from the run's project, with the targets the run ran."""
         found = next((t for t in self.task_specs if t.name == name), None)
-        return get_task(name, self.project, self.config.targets) if found is None else found
+        return get_task(name, self.project, self.config.targets, self.config.loading) if found is None else found
 
     @cached_property
     def parameters(self) -> list[str]:

@@ -39,6 +39,8 @@ class StoredConfig(Protocol):
     def project(self) -> str | None: ...
     @property
     def targets(self) -> str: ...
+    @property
+    def loading(self) -> str: ...
 
 
 ConfigT = TypeVar("ConfigT", bound=StoredConfig)
@@ -133,10 +135,10 @@ class RunRecord(Generic[ConfigT]):
         return self.resolve_tasks()
 
     def resolve_tasks(self, project: str | None = None) -> list[TaskSpec]:
-        """The run's tasks, with its targets, from ``project`` where given (its project moved since), else from the
-        run's own project."""
+        """The run's tasks, with its targets and loading, from ``project`` where given (its project moved since),
+        else from the run's own project."""
         config = self.settings
-        return parse_tasks(config.tasks, project or config.project, config.targets)
+        return parse_tasks(config.tasks, project or config.project, config.targets, config.loading)
 
     @property
     def data_fingerprint(self) -> dict | None:

@@ -92,7 +92,7 @@ class TaskGeneralisation:
 def study_runs(config: RunConfig, out: Path) -> dict[str, tuple[RunConfig, Path]]:
     """The runs the study needs, by label: ``alone/<task>``, ``joint`` and (three tasks or more)
     ``without/<task>``, each its settings (``config`` with its tasks replaced) and folder under ``out``."""
-    names = [t.name for t in parse_tasks(config.tasks, config.project, config.targets)]
+    names = [t.name for t in parse_tasks(config.tasks, config.project, config.targets, config.loading)]
     if len(names) < 2:
         raise ConfigError(
             f"tasks: generalise needs two tasks or more to tune together and leave out, got {config.tasks!r}"
@@ -127,7 +127,7 @@ def run_generalisation(
         (:meth:`TaskGeneralisation.to_json`), the runs' folders and their evaluations.
     """
     out = Path(out)
-    tasks = parse_tasks(config.tasks, config.project, config.targets)
+    tasks = parse_tasks(config.tasks, config.project, config.targets, config.loading)
     runs = study_runs(config, out)
     root = None if config.data is None else Path(config.data)
     # every recording is read (and refused) before the first run is tuned

@@ -60,8 +60,8 @@ def run_transfer(
     align_clock: bool = True,
 ) -> dict:
     """Tune on ``config.tasks``, score on them and on ``test``; the result as a dict (also OUT/transfer.json)."""
-    train_tasks = parse_tasks(config.tasks, config.project, config.targets)
-    test_tasks = parse_tasks(test, config.project, config.targets)
+    train_tasks = parse_tasks(config.tasks, config.project, config.targets, config.loading)
+    test_tasks = parse_tasks(test, config.project, config.targets, config.loading)
     overlap = {t.name for t in train_tasks} & {t.name for t in test_tasks}
     if overlap:
         raise ConfigError(f"--test: {', '.join(sorted(overlap))} also in --train: a transfer test needs unseen tasks")

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from simtune.errors import ConfigError
-from simtune.tasks.spec import MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
+from simtune.tasks.spec import LOADINGS, MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
 
 if TYPE_CHECKING:
     from simtune.tasks.project import Project
@@ -41,20 +41,40 @@ def with_targets(tasks: list[TaskSpec], targets: str) -> list[TaskSpec]:
     return [t.as_published() for t in tasks] if check_targets(targets) == "published" else list(tasks)
 
 
-def get_task(name: str, project: Project | Path | str | None = None, targets: str = "task") -> TaskSpec:
+def check_loading(loading: object, where: str = "loading") -> str:
+    """``loading`` if it is one of :data:`LOADINGS`; a one-line ConfigError naming ``where`` otherwise."""
+    if loading not in LOADINGS:
+        raise ConfigError(
+            f"{where} must be one of {', '.join(LOADINGS)} (the robot as its description says, or as the paper "
+            f"loaded it), got {loading!r}"
+        )
+    return str(loading)
+
+
+def with_loading(tasks: list[TaskSpec], loading: str) -> list[TaskSpec]:
+    """``tasks`` with the robot loaded as ``loading`` says (:data:`LOADINGS`)."""
+    return [t.loaded_as(check_loading(loading)) for t in tasks]
+
+
+def get_task(
+    name: str, project: Project | Path | str | None = None, targets: str = "task", loading: str = "description"
+) -> TaskSpec:
     """The task ``name`` of ``project`` (a Project, its folder, or None: the bundled MICO project), carrying
-    ``targets`` (:data:`TARGETS`)."""
-    return with_targets([_project(project).task(name)], targets)[0]
+    ``targets`` (:data:`TARGETS`) and ``loading`` (:data:`LOADINGS`)."""
+    return with_loading(with_targets([_project(project).task(name)], targets), loading)[0]
 
 
 def all_task_names(project: Project | Path | str | None = None) -> list[str]:
     return _project(project).task_names()
 
 
-def parse_tasks(spec: str, project: Project | Path | str | None = None, targets: str = "task") -> list[TaskSpec]:
+def parse_tasks(
+    spec: str, project: Project | Path | str | None = None, targets: str = "task", loading: str = "description"
+) -> list[TaskSpec]:
     """Tasks named by ``spec``: one name, a group, or a comma-separated list of them, carrying ``targets``
-    (:data:`TARGETS`: the task files' targets, or the published ones where a file corrects them)."""
-    return with_targets(_project(project).parse_tasks(spec), targets)
+    (:data:`TARGETS`: the task files' targets, or the published ones where a file corrects them) and ``loading``
+    (:data:`LOADINGS`: the robot as its description says, or as the paper loaded it)."""
+    return with_loading(with_targets(_project(project).parse_tasks(spec), targets), loading)
 
 
 def __getattr__(name: str) -> Any:
@@ -68,6 +88,7 @@ def __getattr__(name: str) -> Any:
 
 __all__ = [
     "GROUPS",
+    "LOADINGS",
     "MATERIALS",
     "SHAPES",
     "TARGETS",
@@ -76,8 +97,10 @@ __all__ = [
     "Phase",
     "TaskSpec",
     "all_task_names",
+    "check_loading",
     "check_targets",
     "get_task",
     "parse_tasks",
+    "with_loading",
     "with_targets",
 ]

@@ -158,7 +158,7 @@ def load_task_file(
     start_from_recordings = keys.flag("start_from_recordings", False)
     if start_from_recordings and obj is None:
         raise keys.error("start_from_recordings", "the task has no object to start where the recordings put it")
-    carried = {} if robot is None or robot.description is None else {"robot": robot.description}
+    carried: dict[str, Any] = {} if robot is None or robot.description is None else {"robot": robot.description}
     return TaskSpec(
         name=name,
         description=keys.string("description", default="") or "",

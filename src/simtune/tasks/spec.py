@@ -102,8 +102,15 @@ class Phase:
 
 #: Field metadata of what a task's fingerprint (``simtune.runs.task_fingerprint``) leaves out: ``"never"``
 #: (catalogue entries that change no simulation), ``"default"`` (fields added after runs were stored: left out
-#: at their default value, so that those runs still resume).
+#: at their default value, so that those runs still resume), ``"run"`` (a run setting the task carries to the
+#: engines: the run's configuration and fingerprint record it, a probe's key where the engine reads it).
 FINGERPRINT = "fingerprint"
+
+#: How an engine loads the robot (:attr:`TaskSpec.loading`, ``RunConfig.loading``): ``description``, as its
+#: description says (PyBullet: the file's inertias, no link damping of Bullet's own); ``paper``, as the seed paper
+#: loaded it (PyBullet: inertias computed from the collision shapes, Bullet's default link damping 0.04).  Every other
+#: engine loads both alike.
+LOADINGS = ("description", "paper")
 
 
 @dataclass(frozen=True)
@@ -140,8 +147,13 @@ class TaskSpec:
     #: the schedule as first published, where the task file corrects it (a phase's ``published_targets_deg``):
     #: what ``--paper-exact`` and ``--targets published`` run (:meth:`as_published`); None: ``phases`` is it
     published_phases: tuple[Phase, ...] | None = field(default=None, metadata={FINGERPRINT: "default"})
+    #: how the engines load the robot (:data:`LOADINGS`): a run setting (``RunConfig.loading``) the task carries to
+    #: every engine built for it; :meth:`loaded_as` sets it
+    loading: str = field(default="description", metadata={FINGERPRINT: "run"})
 
     def __post_init__(self) -> None:
+        if self.loading not in LOADINGS:
+            raise ConfigError(f"task {self.name!r}: loading must be one of {', '.join(LOADINGS)}, got {self.loading!r}")
         robot = self.robot
         n = robot.n_joints
         # the MICO's names are the fields' defaults: for another robot, left at them, they follow the robot
@@ -181,6 +193,10 @@ class TaskSpec:
         if self.published_phases is None:
             return self
         return replace(self, phases=self.published_phases, published_phases=None)
+
+    def loaded_as(self, loading: str) -> TaskSpec:
+        """The task with the robot loaded as ``loading`` says (:data:`LOADINGS`)."""
+        return self if loading == self.loading else replace(self, loading=loading)
 
     def started_at(self, xy: tuple[float, float]) -> TaskSpec:
         """The task with its object starting at ``xy`` [m] (resting on the floor, turned as before)."""

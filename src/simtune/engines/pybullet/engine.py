@@ -11,6 +11,11 @@ much as its 8-s reach.  A scene with an object is loaded again at each reset (``
 ``restoreState`` does not restore a body's sleep, so an object that came to rest and fell asleep at the end of one
 rollout started the next asleep (the MICO's cube 1.8 mm off over its task); the fixed-base arm does not sleep.
 
+The robot is loaded as its description says (``TaskSpec.loading`` "description", the default): each link's inertia
+the file's (``URDF_USE_INERTIA_FROM_FILE``), no link velocity damping (Bullet gives every multibody link 0.04 of its
+own, which no other engine has), a tuned mass scaling the file's inertia.  As the seed paper loaded it ("paper",
+``--paper-exact``): inertias computed from the collision shapes (a tuned mass recomputing them) and Bullet's damping.
+
 Mapping (docs/parameters.md has the full table): timestep -> ``setTimeStep``;
 masses -> ``changeDynamics(mass=...)``; frictions, restitution and velocity damping
 -> ``changeDynamics`` on each material group's bodies/links (:mod:`.mapping`, which
@@ -61,13 +66,21 @@ def _stdout_silenced():
 NAME = "pybullet"
 
 #: the velocity damping a loaded multibody link has (``btMultiBody``'s ``0.04f``, a float: as a double 0.0399999991),
-#: which getDynamicsInfo does not report; :meth:`PybulletEngine._restore` sets it back exactly
+#: which getDynamicsInfo does not report; :meth:`PybulletEngine._restore` sets it back exactly.  The robot keeps it
+#: loaded as the paper did (``TaskSpec.loading`` "paper"); as its description says, its links have none
 LOADED_LINK_DAMPING = float(np.float32(0.04))
+
+
+def robot_link_damping(loading: str) -> float:
+    """The linear and angular velocity damping of every robot link as loaded ``loading`` (``TaskSpec.loading``):
+    Bullet's own (:data:`LOADED_LINK_DAMPING`) as the paper loaded the robot, none as its description says."""
+    return LOADED_LINK_DAMPING if loading == "paper" else 0.0
 
 
 class PybulletEngine(Engine):
     name = NAME
     engine_parameters = kinds_of_engine(NAME, 6)  # its kinds in simtune.params.kinds
+    reads_loading = True  # the file's inertias and no link damping, or the paper's loading (module docstring)
 
     @classmethod
     def version(cls) -> str:
@@ -90,6 +103,8 @@ class PybulletEngine(Engine):
         self._urdf = robot_urdf_file(robot, hulls=True)
         self._generic_forces = [robot.generic_effort(i) for i in range(robot.n_joints)]
         self._timestep = DEFAULT_TIMESTEP
+        self._paper_loading = task.loading == "paper"
+        self._link_damping = robot_link_damping(task.loading)
         self._load()
         self._defaults = self._read_defaults()
         self._loaded_state: int | None = None  # the snapshot _restore puts back; None: each reset loads again
@@ -110,12 +125,19 @@ class PybulletEngine(Engine):
             robot.base_position,
             p.getQuaternionFromEuler(robot.base_rpy),
             useFixedBase=True,
+            # as the paper loaded it, Bullet computes each link's inertia from its collision shapes
+            flags=0 if self._paper_loading else p.URDF_USE_INERTIA_FROM_FILE,
             physicsClientId=c,
         )
+        n_links = p.getNumJoints(self.robot, physicsClientId=c)
+        if not self._paper_loading:  # as the description says: no velocity damping the file does not give
+            for link in range(-1, n_links):
+                p.changeDynamics(self.robot, link, linearDamping=0.0, angularDamping=0.0, physicsClientId=c)
         index = {
-            p.getJointInfo(self.robot, j, physicsClientId=c)[12].decode(): j
-            for j in range(p.getNumJoints(self.robot, physicsClientId=c))
+            p.getJointInfo(self.robot, j, physicsClientId=c)[12].decode(): j for j in range(n_links)
         }  # child link name -> index
+        # each driven link's inertia as loaded: a tuned mass scales the file's (loaded as the description says)
+        self._loaded_inertias = {j: p.getDynamicsInfo(self.robot, j, physicsClientId=c)[2] for j in index.values()}
         self._arm = [index[link] for link in robot.driven_links]
         self._wrist = index[robot.tracked_link]
         self._gripper_links = {  # name -> index
@@ -153,7 +175,8 @@ class PybulletEngine(Engine):
                 values |= {"rollingFriction": info[6], "spinningFriction": info[7]}
                 if body != self.floor:  # static: no mass, inertia or velocity damping to set
                     values |= {"mass": info[0], "localInertiaDiagonal": info[2]}
-                    values |= {"linearDamping": LOADED_LINK_DAMPING, "angularDamping": LOADED_LINK_DAMPING}
+                    damping = self._link_damping if body == self.robot else LOADED_LINK_DAMPING
+                    values |= {"linearDamping": damping, "angularDamping": damping}
                 self._loaded_dynamics[(body, link)] = values
         self._loaded_joint_damping = [p.getJointInfo(self.robot, j, physicsClientId=c)[6] for j in self._arm]
 
@@ -200,9 +223,11 @@ class PybulletEngine(Engine):
             values[f"rolling_friction_{group}"] = info[6]
             values[f"spinning_friction_{group}"] = info[7]
             if group != "floor":
-                # Bullet's default body damping (0.04); getDynamicsInfo does not report it
-                values[f"linear_damping_{group}"] = 0.04
-                values[f"angular_damping_{group}"] = 0.04
+                # Bullet's default body damping (0.04), which getDynamicsInfo does not report; none on the robot's
+                # links loaded as its description says
+                damping = 0.0 if group == "gripper" and not self._paper_loading else 0.04
+                values[f"linear_damping_{group}"] = damping
+                values[f"angular_damping_{group}"] = damping
         return values
 
     # --- interface ------------------------------------------------------------------
@@ -223,7 +248,14 @@ class PybulletEngine(Engine):
             self._load()
         for i, link in enumerate(self._arm, start=1):
             if f"mass_link_{i}" in params:
-                p.changeDynamics(self.robot, link, mass=params[f"mass_link_{i}"], physicsClientId=c)
+                mass = params[f"mass_link_{i}"]
+                if self._paper_loading:  # Bullet computes the inertia for the new mass from the collision shape
+                    p.changeDynamics(self.robot, link, mass=mass, physicsClientId=c)
+                else:  # the file's inertia, scaled with the mass (as a change of density would)
+                    loaded = self._defaults[f"mass_link_{i}"]
+                    scale = mass / loaded if loaded > 0 else 1.0
+                    inertia = [v * scale for v in self._loaded_inertias[link]]
+                    p.changeDynamics(self.robot, link, mass=mass, localInertiaDiagonal=inertia, physicsClientId=c)
             if f"joint_damping_{i}" in params:
                 p.changeDynamics(self.robot, link, jointDamping=params[f"joint_damping_{i}"], physicsClientId=c)
         self._forces = [params.get(f"max_torque_joint_{i}", f) for i, f in enumerate(self._generic_forces, start=1)]
