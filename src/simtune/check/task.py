@@ -47,11 +47,13 @@ from simtune.engines import engine_class, make_engine
 from simtune.engines.contact import floor_touches
 from simtune.errors import SimtuneError
 from simtune.fitness import NOISE_UNIT_M, marker_positions, reference_floor, repeat_floor
+from simtune.identifiability import identifiability
 from simtune.objective import START_WARN_M, Objective, generic_values, load_references, recordings_folder
 from simtune.params import get_space
 from simtune.params.kinds import FIXED_BOUNDS
 from simtune.tasks import TaskSpec
-from simtune.uncertainty import RCOND, analyse, correlation_time, jacobian
+from simtune.tasks.spec import common_robot
+from simtune.uncertainty import RCOND, Z95, analyse, correlation_time, jacobian
 
 #: A repeat whose mean distance from the mean track exceeds this multiple of the median repeat's is flagged.
 OUTLIER_FACTOR = 3.0
@@ -657,26 +659,42 @@ def check(
     reference: str = "aligned",
     repeats: str = "all",
     keep_repeats: bool = False,
+    only: list[str] | None = None,
+    at: dict[str, float] | None = None,
+    at_name: str = "generic",
 ) -> dict:
     """Every part of the check for ``tasks`` on ``engine`` with the recordings under ``root`` (None: each task's own
     folder; the repeats ``repeats`` selects: all, even or odd; one far from the others left out unless
-    ``keep_repeats``), the Jacobian's residuals against ``reference`` (aligned or mean)."""
+    ``keep_repeats``), the Jacobian's residuals against ``reference`` (aligned or mean), over the parameters of
+    ``space_name`` (those of ``only`` alone, where given), at the generic point with the values of ``at`` in place
+    (``at_name``: what the point is, in the result)."""
     cls = engine_class(engine)
     per_task, references = [], {}
     for task in tasks:
         summary, reference_data = task_quality(engine, task, root, reference, repeats, keep_repeats)
         per_task.append(summary)
         references[task.name] = reference_data
-    full = get_space(space_name, cls.supported())
+    robot = common_robot(tasks)
+    full = get_space(space_name, cls.supported(robot), only, robot=robot)
     inactive = inactive_parameters(engine, tasks, full)
     space = active_space(full, inactive)
     # every signal weighed by its own noise, as new runs' least squares and intervals are (RunConfig.residuals)
     objective = Objective(engine, tasks, references, space, noise_weighted=True)
-    generic = generic_values(objective, space.names)
-    x = space.vector_within_bounds(generic)
+    every = {**generic_values(objective, sorted(cls.supported(robot))), **(at or {})}
+    x = space.vector_within_bounds({n: every[n] for n in space.names if n in every})
     jac = jacobian(objective, x, workers)
     variance, inflation = repeat_noise(list(references.values()), noise_weighted=True)
     verdict = analyse(space, x, jac, inflation, inactive, variance)
+    widths = np.array([p.high - p.low for p in space.parameters])
+    # the weak combinations by the rule tune's start check warns by, with the noise the repeats put on their mean
+    section = identifiability(
+        space.names,
+        jac.unit,
+        x,
+        widths,
+        Z95 * float(np.sqrt(variance * inflation)),
+        {**every, **dict(zip(space.names, x))},
+    )
     s = np.asarray(verdict["singular_values"])
     parameters = []
     for i, (p, entry) in enumerate(zip(space.parameters, verdict["parameters"])):
@@ -701,7 +719,7 @@ def check(
         **({"repeats": repeats} if repeats != "all" else {}),
         "data_quality": per_task,
         "jacobian": {
-            "point": "generic",
+            "point": at_name,
             "searched": len(space),
             "rank": verdict["rank"],
             "singular_values": [float(v) for v in s],
@@ -711,4 +729,5 @@ def check(
             "stable": jac.stable,
         },
         "parameters": parameters,
+        "identifiability": {"point": at_name, **section},
     }

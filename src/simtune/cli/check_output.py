@@ -212,3 +212,26 @@ def print_informed(result: dict) -> None:
             f"inactive: {p['inactive']}" if "inactive" in p else "",
         )
     out.print(table)
+
+
+def print_identifiability(section: dict) -> None:
+    """The check's identifiability section (``section``: the result's ``identifiability``): each combination of
+    parameters the recordings cannot tell apart, its sensitivity and the motion that would separate it."""
+    directions = section["directions"]
+    where = "the generic point" if section["point"] == "generic" else section["point"]
+    if not directions:
+        out.print(f"identifiability at {where}: the recordings tell every searched parameter apart", highlight=False)
+        return
+    out.print(
+        f"identifiability at {where}: the recordings cannot tell apart ({section['rule']}):",
+        highlight=False,
+        soft_wrap=True,
+    )
+    for d in directions:
+        if d["flat"]:
+            how = "moves no residual"
+        else:
+            width = "" if d["interval_share"] is None else f", 95 % interval {d['interval_share']:.2g} x the ranges"
+            how = f"relative sensitivity {d['relative_sensitivity']:.2g}{width}"
+        out.print(f"  {escape(d['combination'])} ({how})", highlight=False, soft_wrap=True)
+        out.print(f"    would separate them: {escape(d['separate_by'])}", highlight=False, soft_wrap=True)

@@ -10,12 +10,13 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from simtune.cli.check_output import print_data_quality, print_informed
+from simtune.cli.check_output import print_data_quality, print_identifiability, print_informed
 from simtune.cli.options import (
     DataOpt,
     EngineOpt,
     JsonOpt,
     KeepRepeatsOpt,
+    OnlyOpt,
     ProjectOpt,
     ReferenceOpt,
     RepeatsOpt,
@@ -53,6 +54,17 @@ def check(
     repeats: RepeatsOpt = None,
     keep_repeats: KeepRepeatsOpt = False,
     targets: TargetsOpt = None,
+    only: OnlyOpt = None,
+    params_file: Annotated[
+        Path | None,
+        typer.Option(
+            "--params-file",
+            "-p",
+            help="JSON of parameter values (a run's best_params.json, a synth's truth.json): the point the "
+            "Jacobian is taken at; default: the generic values.",
+            callback=path,
+        ),
+    ] = None,
     write_task: Annotated[
         Path | None,
         typer.Option(
@@ -72,8 +84,9 @@ def check(
     from the simulated arm, each repeat's motion onset (and the command delay it implies), each phase's rest
     against where its targets put the arm, in position and (where the recordings give it) orientation, with
     proposed targets where it lies far off; then the rank
-    and singular values of the residuals' Jacobian at the generic point and, per active parameter,
-    whether the recordings can inform it.
+    and singular values of the residuals' Jacobian at the generic point (or --params-file's) and, per active
+    parameter, whether the recordings can inform it; and the combinations of parameters they cannot tell apart,
+    each with the motion that would (over --space, or --only's parameters of it).
     """
     from simtune import api
 
@@ -99,12 +112,15 @@ def check(
         write_task=write_task,
         keep_repeats=keep_repeats,
         targets=targets,
+        only=only,
+        params=params_file,
     )
     if as_json:
         print_json(result)
         return
     print_data_quality(result["data_quality"])
     print_informed(result)
+    print_identifiability(result["identifiability"])
     if write_task is not None:
         _print_written_task(result)
 
