@@ -18,6 +18,7 @@ from simtune.common.limits import MAX_SEED, MAX_WORKERS
 from simtune.data import REPEATS
 from simtune.data.clock import REFERENCES
 from simtune.data.formats import recording_kinds
+from simtune.optimizers import optimizer_help
 from simtune.tasks import LOADINGS, TARGETS
 
 #: the longest file or folder name common file systems allow [bytes]
@@ -267,13 +268,8 @@ WorkersOpt = Annotated[
         "--workers", "-w", min=1, max=MAX_WORKERS, help=f"Processes evaluating in parallel (1-{MAX_WORKERS})."
     ),
 ]
-#: what each optimiser is, said once for every command's --optimizer
-OPTIMIZER_HELP = (
-    "auto: a least-squares opening from the generic point with each task's clock aligned to its recordings, then "
-    "rounds of a short DE and least squares on the residuals (see the README's Speed); de: differential evolution "
-    "as in the paper; cmaes: CMA-ES with restarts; bo: Bayesian optimisation (Optuna TPE, batches of --workers "
-    "trials); random: uniform random search. cmaes and bo need `pip install 'simtune[opt]'`."
-)
+#: what each optimiser is, said once for every command's --optimizer (from the optimisers' table)
+OPTIMIZER_HELP = optimizer_help()
 OptimizerOpt = Annotated[str, typer.Option("--optimizer", help=OPTIMIZER_HELP)]
 MaxEvalsOpt = Annotated[
     int | None,

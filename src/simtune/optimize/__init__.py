@@ -6,11 +6,8 @@ store cache, process pool) and keeps its budgets with
 :class:`~simtune.optimize.base.BatchSearch`.  Each is deterministic given its
 seed and the fitness values, so ``simtune resume`` replays it with every stored evaluation reused.
 
-- ``auto``: rounds of a short differential evolution then least squares on the residuals (:mod:`.pipeline`);
-- ``de``: the seed paper's differential evolution (SciPy), unchanged;
-- ``cmaes``: CMA-ES with restarts (``cmaes`` package);
-- ``bo``: Bayesian optimisation, Optuna's seeded TPE sampler;
-- ``random``: uniform random search.
+:data:`simtune.optimizers.OPTIMIZER_TABLE` names and describes each (``auto``, ``de``, ``cmaes``, ``bo``,
+``random``) and the package it needs; :data:`OPTIMIZERS` holds their functions.
 
 Only DE prunes (a trial stops once it cannot beat its parent); the others
 have no parent to compare with.  :func:`least_squares_refine` polishes a
@@ -23,24 +20,24 @@ import importlib
 from collections.abc import Callable
 
 from simtune.errors import ConfigError, SimtuneError
-from simtune.optimize.bayes import bayesian_tune
-from simtune.optimize.cmaes_search import cmaes_tune
-from simtune.optimize.de import differential_evolution_tune
 from simtune.optimize.evaluator import Evaluator, TuneResult, TuneSettings
-from simtune.optimize.pipeline import global_local_tune
-from simtune.optimize.random_search import random_search_tune
 from simtune.optimize.refine import least_squares_refine
+from simtune.optimizers import OPTIMIZER_TABLE
 
+
+def _function(path: str) -> Callable[..., TuneResult]:
+    """The function a table entry names as ``module:function``, imported now."""
+    module, name = path.split(":")
+    return getattr(importlib.import_module(module), name)
+
+
+#: Every optimiser's function, by name (:data:`~simtune.optimizers.OPTIMIZER_TABLE` says what each is).
 OPTIMIZERS: dict[str, Callable[..., TuneResult]] = {
-    "de": differential_evolution_tune,
-    "cmaes": cmaes_tune,
-    "bo": bayesian_tune,
-    "random": random_search_tune,
-    "auto": global_local_tune,
+    name: _function(entry.function) for name, entry in OPTIMIZER_TABLE.items()
 }
 
 #: The package an optimiser needs beyond simtune's core dependencies.
-REQUIRES = {"cmaes": "cmaes", "bo": "optuna"}
+REQUIRES = {name: entry.requires for name, entry in OPTIMIZER_TABLE.items() if entry.requires}
 
 
 def get_optimizer(name: str) -> Callable[..., TuneResult]:
