@@ -198,3 +198,18 @@ def test_a_warning_that_names_the_computations_caller_names_the_caller_of_cached
         with pytest.warns(RecordingWarning) as said:
             cached("test", "warned", compute)
         assert [w.filename for w in said] == [__file__]
+
+
+def test_the_former_cache_variable_is_read_with_a_warning_naming_the_documented_one(tmp_path, monkeypatch):
+    """One cache, one documented variable (SIMTUNE_CACHE_DIR); the mesh cache's former SIMTUNE_CACHE is still
+    read where it is not set, but no longer silently: a FutureWarning says which name to set."""
+    from simtune.common.cache import FORMER_CACHE_ENV, cache_root
+
+    monkeypatch.delenv(CACHE_ENV, raising=False)
+    monkeypatch.setenv(FORMER_CACHE_ENV, str(tmp_path / "former"))
+    with pytest.warns(FutureWarning, match=rf"^SIMTUNE_CACHE is deprecated: set SIMTUNE_CACHE_DIR={tmp_path}/former"):
+        assert cache_root() == tmp_path / "former"
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "documented"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert cache_root() == tmp_path / "documented"
