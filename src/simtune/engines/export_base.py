@@ -9,7 +9,10 @@ scripts in a header comment (:func:`header_lines`), JSON sidecars in a ``provena
 
 from __future__ import annotations
 
+import hashlib
 import json
+import re
+import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -107,6 +110,14 @@ def hash_comment(lines: list[str]) -> str:
     return "".join(f"# {line}\n" if line else "#\n" for line in lines)
 
 
+#: the model files whose referenced files an export carries with it
+MODEL_SUFFIXES = (".xml", ".urdf", ".sdf")
+#: the export's folder of the files its model files name (meshes)
+CARRIED_FOLDER = "meshes"
+#: a file-naming attribute of MJCF (``file``), URDF and SDF (``filename``), its value in double quotes
+_FILE_ATTRIBUTE = re.compile(r'\b(file|filename)="([^"]+)"')
+
+
 @dataclass
 class ExportContext:
     """One export in progress, as plain values: the tuned parameters, the run's tasks, the robot, the folder, one
@@ -126,9 +137,33 @@ class ExportContext:
         return header_lines(self.provenance, what)
 
     def write(self, name: str, text: str) -> Path:
+        """Write the export's file ``name``; a model file (MJCF, URDF, SDF) first gets the files it names by absolute
+        path (meshes) copied into ``meshes/`` and named relative to it, so the export travels to another machine."""
         path = self.claim(name)
+        if Path(name).suffix in MODEL_SUFFIXES:
+            text = self._carry_files(text)
         path.write_text(text)
         return path
+
+    def _carry_files(self, text: str) -> str:
+        """``text`` with every ``file=``/``filename=`` attribute that names an existing file by absolute path (a
+        mesh in the robot's package, a convex hull in simtune's cache) copied into :data:`CARRIED_FOLDER` once and
+        named there, relative to the export's folder where every model file lies."""
+
+        def carried(match: re.Match) -> str:
+            source = Path(match.group(2).removeprefix("file://"))
+            if not source.is_absolute() or not source.is_file():
+                return match.group(0)
+            # the folder's hash keeps two meshes of one name (collision/link0.obj, visual/link0.obj) apart
+            tag = hashlib.sha256(str(source.parent).encode()).hexdigest()[:8]
+            name = f"{CARRIED_FOLDER}/{source.stem}-{tag}{source.suffix}"
+            if name not in self.files:
+                target = self.claim(name)
+                target.parent.mkdir(exist_ok=True)
+                shutil.copyfile(source, target)
+            return f'{match.group(1)}="{name}"'
+
+        return _FILE_ATTRIBUTE.sub(carried, text)
 
     def claim(self, name: str) -> Path:
         """The path of the export's file ``name``, listed; a file there that this export did not write (one a

@@ -28,6 +28,7 @@ import numpy as np
 
 from simtune.engines import urdf_edit as urdf
 from simtune.engines.export_base import ExportContext, hash_comment, num, write_cone_mesh
+from simtune.engines.pybullet.engine import LOADED_LINK_DAMPING, robot_link_damping
 from simtune.engines.pybullet.mapping import dynamics_changes, material_groups
 from simtune.tasks.spec import ObjectSpec
 
@@ -57,7 +58,11 @@ def write(ctx: ExportContext) -> list[str]:
             "fixed": True,
         },
     ]
+    # loaded as its description says, no robot link has Bullet's own velocity damping: undone first, before the
+    # run's material values (a tuned gripper damping) are applied over it
     changes: list[dict] = []
+    if robot_link_damping(ctx.tasks[0].loading) != LOADED_LINK_DAMPING:
+        changes += _undamped_links(p, first.client, first.robot)  # type: ignore[attr-defined]
     for task in ctx.tasks:
         if task.object is not None:
             bodies.append(_write_object(ctx, p, task.name, task.object))
@@ -161,6 +166,19 @@ def _geometry(ctx: ExportContext, obj: ObjectSpec, task: str) -> ET.Element:
         return ET.Element("cylinder", radius=num(obj.size[0]), length=num(obj.size[1]))
     name = write_cone_mesh(ctx, obj, task)
     return ET.Element("mesh", filename=name)
+
+
+def _undamped_links(p, client: int, body: int) -> list[dict]:
+    """changeDynamics calls that take Bullet's default link damping off every link of the robot (base included)."""
+    values = {"linearDamping": 0.0, "angularDamping": 0.0}
+    links = [
+        None,
+        *(
+            p.getJointInfo(body, j, physicsClientId=client)[12].decode()
+            for j in range(p.getNumJoints(body, physicsClientId=client))
+        ),
+    ]
+    return [{"body": "robot", "link": link, "task": None, "values": dict(values)} for link in links]
 
 
 def _changes(ctx: ExportContext, task) -> list[dict]:
