@@ -41,6 +41,26 @@ CheckTaskOpt = Annotated[
     typer.Option("--task", "-t", help="Task name, or several joined by commas (checked together)."),
 ]
 
+CheckParamsFileOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--params-file",
+        "-p",
+        help="JSON of parameter values (a run's best_params.json, a synth's truth.json): the point the "
+        "Jacobian is taken at; default: the generic values.",
+        callback=path,
+    ),
+]
+WriteTaskOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--write-task",
+        help="With --task T (one task): write T's task file, each phase whose rest lies far from its targets "
+        "given the proposed ones (the former kept as published_targets_deg, the evidence in a comment), to this "
+        "new file; never over the original or any file.",
+    ),
+]
+
 
 def check(
     project_dir: ProjectDirArg = None,
@@ -55,25 +75,8 @@ def check(
     keep_repeats: KeepRepeatsOpt = False,
     targets: TargetsOpt = None,
     only: OnlyOpt = None,
-    params_file: Annotated[
-        Path | None,
-        typer.Option(
-            "--params-file",
-            "-p",
-            help="JSON of parameter values (a run's best_params.json, a synth's truth.json): the point the "
-            "Jacobian is taken at; default: the generic values.",
-            callback=path,
-        ),
-    ] = None,
-    write_task: Annotated[
-        Path | None,
-        typer.Option(
-            "--write-task",
-            help="With --task T (one task): write T's task file, each phase whose rest lies far from its targets "
-            "given the proposed ones (the former kept as published_targets_deg, the evidence in a comment), to this "
-            "new file; never over the original or any file.",
-        ),
-    ] = None,
+    params_file: CheckParamsFileOpt = None,
+    write_task: WriteTaskOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Before tuning: a project's files (simtune check DIR), or a task's data and what it can inform (--task).
