@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import CPU_ENGINES, engine_or_skip
 
 import simtune.api as st
 from simtune.params.space import SPACES
@@ -114,3 +115,29 @@ def test_transfer_carries_an_own_robots_tasks(own_project, tmp_path):
     result = json.loads((out / "transfer.json").read_text())
     assert [(r["task"], r["role"]) for r in result["tasks"]] == [("reach", "train"), ("back", "test")]
     assert all(r["stable"] and r["tuned"] > 0 for r in result["tasks"])
+
+
+@pytest.mark.slow  # a short run in each engine, its export loaded by the export's own script
+@pytest.mark.parametrize("engine", CPU_ENGINES)
+def test_an_own_robots_run_reads_back_in_every_engine(engine, own_project, tmp_path):
+    """The same read-back in each CPU engine, the default space: evaluated in that engine on the task tuned on
+    (its stored fitness) and on another task, exported (loaded by the export's own script where it has one) and
+    reported."""
+    engine_or_skip(engine)
+    run = tmp_path / "run"
+    st.tune(engine, "reach", project=own_project, out=run, optimizer="random", max_evaluations=2, workers=1)
+    best = run / "best_params.json"
+    stored = json.loads(best.read_text())
+    assert st.evaluate(engine, "reach", params=best, project=own_project).fitness == pytest.approx(
+        stored["fitness"], rel=1e-9, abs=1e-12
+    )
+    assert st.evaluate(engine, "back", params=best, project=own_project).stable
+    exports, _ = st.export(run, tmp_path / "export")
+    assert exports and (tmp_path / "export" / "provenance.json").is_file()
+    script = tmp_path / "export" / f"load_{engine}.py"
+    if engine != "ode":  # ODE's export is its sidecar alone (docs/export.md)
+        loaded = subprocess.run(
+            [sys.executable, script.name, "reach"], cwd=script.parent, capture_output=True, text=True, timeout=300
+        )
+        assert loaded.returncode == 0 and loaded.stdout.startswith("reach wrist at"), loaded.stderr
+    assert st.report(run, tmp_path / "report").is_file()
