@@ -663,7 +663,7 @@ def _result_record(result: TuneResult) -> dict:
 
 def finished_result(store: RunStore) -> TuneResult | None:
     """The result of a finished run as its last session stored it, without a replay; None where the run is not
-    finished, or its store lacks what the result needs (a store from before the result was kept, or one killed
+    finished, holds an evaluation that timed out and was never retried, or its store lacks what the result needs (a store from before the result was kept, or one killed
     before its uncertainty or verdict was stored: a replay finishes those).
 
     Args:
@@ -676,6 +676,8 @@ def finished_result(store: RunStore) -> TuneResult | None:
     if store.get("status") != "finished" or not isinstance(record, dict):
         return None
     if store.get("uncertainty") is None or store.get("verdict") is None:
+        return None
+    if store.has_failures_to_retry(timed_out):  # an evaluation that timed out gets its one retry: a replay
         return None
     names = store.get("parameters") or []
     x = np.asarray(record.get("x", []), dtype=float)

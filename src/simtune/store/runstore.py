@@ -220,16 +220,24 @@ class RunStore:
                 "INSERT OR IGNORE INTO residuals VALUES (?, ?)", (self.codec.key(x), float_bytes(residuals))
             )
 
+    def _unretried_failures(self, retry: Callable[[Score], bool]) -> list[tuple]:
+        """The keys of the failed evaluations ``retry`` picks that were never retried."""
+        rows = self.db.execute(
+            "SELECT key, fitness, wrist_error, object_error, score FROM evaluations"
+            " WHERE stable = 0 AND key NOT IN (SELECT key FROM retried)"
+        ).fetchall()
+        return [(row[0],) for row in rows if retry(self.codec.score_in(row[1:]))]
+
+    def has_failures_to_retry(self, retry: Callable[[Score], bool]) -> bool:
+        """Whether :meth:`release_failures` would release any (a finished run with one is resumed, not given back)."""
+        return bool(self._unretried_failures(retry))
+
     def release_failures(self, retry: Callable[[Score], bool]) -> int:
         """Forget the failed evaluations ``retry`` picks that were never retried, so that a replay runs them again.
 
         Each is remembered in ``retried``: a failure is given one retry, never more.  Returns how many.
         """
-        rows = self.db.execute(
-            "SELECT key, fitness, wrist_error, object_error, score FROM evaluations"
-            " WHERE stable = 0 AND key NOT IN (SELECT key FROM retried)"
-        ).fetchall()
-        keys = [(row[0],) for row in rows if retry(self.codec.score_in(row[1:]))]
+        keys = self._unretried_failures(retry)
         with self._writing():
             self.db.executemany("INSERT OR IGNORE INTO retried VALUES (?)", keys)
             self.db.executemany("DELETE FROM evaluations WHERE key = ?", keys)
