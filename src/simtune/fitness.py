@@ -149,10 +149,10 @@ class Score:
 
     @classmethod
     def from_dict(cls, data: dict) -> Score:
-        return cls(
+        return cls(  # a score's parts are None where its recordings lack them, and may be left out
             data["fitness"],
-            data["wrist_error"],
-            data["object_error"],
+            data.get("wrist_error"),
+            data.get("object_error"),
             [TaskScore(**t) for t in data.get("tasks", [])],
             data.get("joint_error"),
         )

@@ -105,7 +105,7 @@ def run_fingerprint(plan: RunPlan, screened: bool = True) -> dict:
     or mean) and which repeats build it (left out when all: the fingerprints of runs stored before the choice
     stay), task definitions, the robot, engine version; with ``screened``, the repeats the repeat check left out
     (:func:`left_out_repeats`, left out when none: every run stored before the check); how the robot was loaded
-    (left out when as the paper did: every run stored before the choice)."""
+    (left out when as the paper did, every run stored before the choice, and in an engine whose loading is one)."""
     fingerprint = {
         "data": folders_fingerprint({t.name: recordings_folder(plan.config.data, t) for t in plan.tasks}),
         "reference": plan.config.reference,
@@ -114,7 +114,8 @@ def run_fingerprint(plan: RunPlan, screened: bool = True) -> dict:
     }
     if plan.config.repeats != "all":
         fingerprint["repeats"] = plan.config.repeats
-    if plan.config.loading != "paper":  # left out as the paper's: the fingerprints of runs stored before the choice
+    # left out as the paper's (the fingerprints of runs stored before the choice), and for an engine it changes nothing
+    if plan.config.loading != "paper" and plan.engine.reads_loading:
         fingerprint["loading"] = plan.config.loading
     # the robot on its own (its content, not its path), so that a changed URDF is named as such on resume rather than
     # as a changed task (the robot is part of each task's definition)
@@ -663,8 +664,9 @@ def _result_record(result: TuneResult) -> dict:
 
 def finished_result(store: RunStore) -> TuneResult | None:
     """The result of a finished run as its last session stored it, without a replay; None where the run is not
-    finished, holds an evaluation that timed out and was never retried, or its store lacks what the result needs (a store from before the result was kept, or one killed
-    before its uncertainty or verdict was stored: a replay finishes those).
+    finished, holds an evaluation that timed out and was never retried, or its store lacks what the result needs
+    (a store from before the result was kept, or one killed before its uncertainty or verdict was stored: a replay
+    finishes those).
 
     Args:
         store: the run's store, open.

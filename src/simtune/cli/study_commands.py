@@ -220,7 +220,7 @@ def _transfer_table(result: dict, title: str):
 GeneraliseOutOpt = Annotated[
     Path,
     out_option(
-        "Folder for the study's runs (OUT/alone/<task>, OUT/joint, OUT/without/<task>) and generalise.json; "
+        "Folder for the study's runs (`OUT/alone/<task>`, `OUT/joint`, `OUT/without/<task>`) and generalise.json; "
         "finished runs are reused, unfinished ones resumed."
     ),
 ]
