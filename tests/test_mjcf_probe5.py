@@ -174,6 +174,7 @@ def test_a_name_that_reads_as_a_number_is_a_name(tmp_path):
     assert robot.tracked_link == "inf"
 
 
+@pytest.mark.slow  # the default tier's 4 minutes
 def test_init_and_check_refuse_a_non_finite_number_in_one_line(tmp_path):
     """init writes nothing; a project whose file was edited after init is refused by check, as by every command."""
     bad = arm(tmp_path, ('range="-2 2"/>', 'range="-2 2" damping="inf"/>'), name="bad.xml")
@@ -275,6 +276,7 @@ def test_init_refuses_a_driven_joint_named_twice_naming_the_option(tmp_path):
     assert not (tmp_path / "new").exists() and not list(tmp_path.glob(".new.*"))
 
 
+@pytest.mark.slow  # the default tier's 4 minutes
 def test_init_refuses_a_package_path_for_an_mjcf(tmp_path):
     result = cli("init", "--robot", arm(tmp_path), "--out", tmp_path / "new", "--package-path", tmp_path)
     assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr

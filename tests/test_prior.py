@@ -95,6 +95,7 @@ def run_config(**settings) -> RunConfig:
     return RunConfig(**{**base, "max_evaluations": 12, **settings})
 
 
+@pytest.mark.slow  # the default tier's 4 minutes
 def test_a_prior_of_0_is_a_plain_run_to_the_last_digit(tmp_path):
     plain = start_run(run_config(), tmp_path / "plain", show_progress=False)
     zero = start_run(run_config(prior=0.0), tmp_path / "zero", show_progress=False)

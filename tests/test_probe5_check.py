@@ -40,6 +40,7 @@ def _printed(capsys, part: dict) -> str:
     return " ".join(capsys.readouterr().out.split())  # one line: the console wraps to its width
 
 
+@pytest.mark.slow  # the default tier's 4 minutes
 def test_a_rest_no_targets_reach_is_said_and_neither_proposed_nor_written(tmp_path, capsys):
     """Row 5 (#14): a wrist recorded 1.7 m off in phase 2 got six new targets that left 1.4 m ("1700.0 -> 1433.5
     mm"), written to the task file, rc 0.  Now one warning names the phase and the residual, nothing is proposed
@@ -82,6 +83,7 @@ def test_the_users_comment_on_a_corrected_targets_line_stays(tmp_path):
     assert "published_targets_deg = [0, -60, 65, 90, 0, 0]\n" in fixed
 
 
+@pytest.mark.slow  # the default tier's 4 minutes
 @needs_mocap
 def test_published_targets_corrected_say_the_files_own_value_and_flag_a_comment_naming_it(tmp_path, capsys):
     """Row 34: the bundled cube checked with --targets published: the file's 74 was replaced by 75.1 while the
@@ -183,6 +185,7 @@ def test_one_odd_onset_carries_neither_the_onset_nor_the_delay():
     assert onset_summary(rows[:5])["onset_outliers"] == []
 
 
+@pytest.mark.slow  # the default tier's 4 minutes
 @needs_mocap
 def test_the_real_single_onset_and_delay_are_not_carried_by_single0010(capsys):
     """Row 14: the real Single0010_6D.tsv's onset is read at 0.040 s (the others' 1.0-1.45 s); the mean 1.215 s,

@@ -22,6 +22,7 @@ def test_a_long_chains_example_reach_keeps_every_link_clear_of_the_floor_on_the_
     assert _lowest_on_the_way(heights, start, target) >= CLEARANCE_M
 
 
+@pytest.mark.slow  # the default tier's 4 minutes
 def test_the_project_check_warns_of_a_task_whose_arm_lies_on_the_floor(tmp_path):
     """synth warned of the 40-link chain's arm on the floor and `simtune check DIR` said nothing: it sags onto the
     floor under its own weight (2 m of 1-kg links against 5 N m motors) whatever the reach does.  The project check

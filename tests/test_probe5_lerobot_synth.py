@@ -246,6 +246,7 @@ def test_the_task_check_on_a_task_files_lerobot_folder_says_what_it_reads_the_fi
     assert "data root" not in str(info.value)
 
 
+@pytest.mark.slow  # the default tier's 4 minutes
 def test_the_task_check_reads_a_task_files_own_marker_folder_without_a_data_root(tmp_path):
     make_synthetic("mujoco", "single", tmp_path / "data", truth={"command_delay": 1.2}, repeats=2, noise_m=0.001)
     root = tmp_path / "proj"

@@ -77,6 +77,7 @@ def test_a_grid_index_that_is_not_a_database_is_one_line_and_left_unchanged(tmp_
     assert sorted(p.name for p in index.parent.iterdir()) == ["grid.sqlite"]  # no journal, no runs folder
 
 
+@pytest.mark.slow  # the default tier's 4 minutes
 def test_a_grid_index_that_is_a_database_of_other_tables_is_refused_unwritten(tmp_path):
     """A user's own SQLite file of that name: no grid tables are added to it."""
     index = tmp_path / "grid" / "grid.sqlite"
@@ -92,6 +93,7 @@ def test_a_grid_index_that_is_a_database_of_other_tables_is_refused_unwritten(tm
 
 
 # --- 2. uncertainty of a store with garbage in its middle --------------------------------------------------------
+@pytest.mark.slow  # the default tier's 4 minutes
 def test_uncertainty_refuses_a_store_with_garbage_in_its_middle_as_resume_does(finished, tmp_path):
     """Resume, report and export refused it; uncertainty read around the damage and printed intervals, exit 0."""
     run_dir = Path(shutil.copytree(finished[0], tmp_path / "run"))

@@ -26,6 +26,9 @@ from simtune.store import RunStore
 from simtune.studies.synth import make_synthetic
 from simtune.tasks import get_task
 
+#: a run and its report are built once for the file (about 5 s): the slow tier, for the default tier's 4 minutes
+pytestmark = pytest.mark.slow
+
 ONLY = ["command_delay", "max_velocity_joint_2"]
 TRUTH = {"command_delay": 1.2}
 JOINTS = [f"joint_{k}" for k in range(1, 7)]  # the MICO's six, each logged

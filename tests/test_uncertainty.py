@@ -437,6 +437,7 @@ def _damping_run(tmp_path, max_evaluations: int):
     return {e["name"]: e for e in summary["parameters"]}, summary
 
 
+@pytest.mark.slow  # the default tier's 4 minutes
 def test_a_short_tune_interval_holds_the_true_damping_and_a_converged_ones_is_unchanged(tmp_path):
     """Issue 71 item 3 on the MICO: 6 evaluations stop the damping at about 0.31 with a noise interval of about
     0.24-0.38 (the truth 0.4 outside it); the step left points up to the truth and the widened interval holds it. A
