@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import statistics
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -173,8 +174,8 @@ def run_generalisation(
         "runs": {label: str(folder) for label, (_, folder) in runs.items()},
         "evaluations": {label: r.evaluations for label, r in results.items()},
         "rows": [r.to_json() for r in rows],
-        "joint_penalty": _median([r.penalty for r in rows]),
-        "transfer": _median([r.transfer for r in rows]),
+        "joint_penalty": statistics.median(r.penalty for r in rows),
+        "transfer": statistics.median(r.transfer for r in rows),
     }
     out.mkdir(parents=True, exist_ok=True)
     (out / RESULT_FILE).write_text(json.dumps(result, indent=1) + "\n")
@@ -192,9 +193,3 @@ def _held_out_fit(objective: Objective, task: TaskSpec, params: dict[str, float]
     physics = {k: v for k, v in params.items() if k not in delay_names(task.name)}
     score = objective.score({**physics, task_delay_name(task.name): estimate.delay_s})
     return Fit(score.fitness, score.wrist_error, estimate.delay_s)
-
-
-def _median(values: list[float]) -> float:
-    ordered = sorted(values)
-    middle = len(ordered) // 2
-    return ordered[middle] if len(ordered) % 2 else (ordered[middle - 1] + ordered[middle]) / 2
