@@ -8,6 +8,7 @@ import sys
 
 import pytest
 from conftest import engine_or_skip
+from test_run_read_back import ARM_URDF as READ_BACK_ARM
 
 import simtune.api as st
 from simtune.tasks.init_project import init_project
@@ -18,29 +19,12 @@ CUBE_OBJ = "\n".join(
     + ["f 1 3 4 2", "f 5 6 8 7", "f 1 2 6 5", "f 3 7 8 4", "f 1 5 7 3", "f 2 4 8 6"]
 )
 
-ARM_URDF = """\
-<robot name="meshed">
-  <link name="base">
-    <inertial><mass value="2"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
-  </link>
-  <link name="upper">
-    <inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
-    <collision><origin xyz="0 0 0.15"/><geometry><box size="0.05 0.05 0.3"/></geometry></collision>
-  </link>
-  <link name="hand">
-    <inertial><mass value="0.5"/><inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>
-    <collision><geometry><mesh filename="meshes/hand.obj"/></geometry></collision>
-  </link>
-  <joint name="shoulder" type="revolute">
-    <parent link="base"/><child link="upper"/><origin xyz="0 0 0.5"/><axis xyz="0 1 0"/>
-    <limit lower="-1.5" upper="1.5" effort="20" velocity="1"/>
-  </joint>
-  <joint name="elbow" type="revolute">
-    <parent link="upper"/><child link="hand"/><origin xyz="0 0 0.3"/><axis xyz="0 1 0"/>
-    <limit lower="-1.5" upper="1.5" effort="20" velocity="1"/>
-  </joint>
-</robot>
-"""
+#: test_run_read_back's two-joint arm, its hand a mesh in a folder beside the URDF
+ARM_URDF = READ_BACK_ARM.replace(
+    '<collision><origin xyz="0 0 0.05"/><geometry><box size="0.04 0.04 0.1"/></geometry></collision>',
+    '<collision><geometry><mesh filename="meshes/hand.obj"/></geometry></collision>',
+)
+assert "hand.obj" in ARM_URDF
 
 
 @pytest.fixture(scope="module")
