@@ -2,7 +2,11 @@
 
     python benchmarks/qrg2019_tuning.py [--data ../shared/datasets/qrg2019/mocap] [--max-seconds 300]
         [--workers 2] [--engines mujoco,pybullet] [--tasks single,cube] [--spaces shared,individual,extended]
-        [--out runs/qrg2019]
+        [--out runs/qrg2019] [--reference mean|aligned] [--loading description|paper] [--max-evaluations N]
+
+``--reference mean`` scores as the table of docs/results.md was made (the paper's plain mean of the repeats);
+``--loading paper`` loads PyBullet's robot as the paper did (its default before issue 69); ``--max-evaluations``
+stops each run after that many evaluations, for a like-for-like rerun on a busy host.
 
 Each run is a normal run folder (resumable); a finished one is read, not redone.
 Prints a Markdown table of generic and tuned fitness (the table of docs/results.md).
@@ -29,6 +33,9 @@ def main() -> None:
     ap.add_argument("--spaces", default="shared,individual,extended")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default="runs/qrg2019")
+    ap.add_argument("--reference", default="", help="mean or aligned (default: simtune's, aligned)")
+    ap.add_argument("--loading", default="", help="description or paper (default: simtune's, description)")
+    ap.add_argument("--max-evaluations", type=int, default=None)
     args = ap.parse_args()
     rows = []
     for engine in args.engines.split(","):
@@ -51,6 +58,9 @@ def main() -> None:
                             seed=args.seed,
                             workers=args.workers,
                             max_seconds=args.max_seconds,
+                            max_evaluations=args.max_evaluations,
+                            reference=args.reference,
+                            loading=args.loading,
                         ),
                         run_dir,
                         show_progress=False,
