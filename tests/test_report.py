@@ -557,14 +557,14 @@ def test_compute_table_shows_blow_ups_and_pruning_from_the_stores(report, grid):
 
 def test_sections_are_numbered_in_order_and_skipped_ones_take_no_number(monkeypatch, tmp_path):
     from simtune.report import sections
-    from simtune.report.html import Section
 
-    def maker(anchor: str, shown: bool = True):
-        return lambda data, out: Section(anchor, anchor.title()) if shown else None
+    def entry(anchor: str, shown: bool = True):
+        return sections.ReportSection(anchor, anchor.title(), lambda data, out: ("", []) if shown else None)
 
-    monkeypatch.setattr(sections, "SECTIONS", (maker("first"), maker("absent", shown=False), maker("second")))
-    monkeypatch.setattr(sections, "APPENDICES", (maker("appendix"),))
+    monkeypatch.setattr(sections, "SECTIONS", (entry("first"), entry("absent", shown=False), entry("second")))
+    monkeypatch.setattr(sections, "APPENDICES", (entry("appendix"),))
     out = sections.ReportOutput(tmp_path, warn=lambda message: None)
     made = sections.make_sections(None, out)  # these makers read no data
     assert [s.title for s in made] == ["1. First", "2. Second", "Appendix"]
+    assert [s.anchor for s in made] == ["first", "second", "appendix"]
     assert out.numbers == {"first": 1, "second": 2}

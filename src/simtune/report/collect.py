@@ -265,7 +265,8 @@ MATCH_TOLERANCE = 1e-5
 
 def untuned_sample(stored: RunRecord[RunConfig]) -> tuple[list[list[float]], list[float]]:
     """The parameter sets ``stored`` drew at random over its whole box before any search step, and the fitness of
-    those it scored: the report's untuned baseline (the spread test of Table 4, the untuned sample of Table 5).
+    those it scored: the report's untuned baseline (the spread test of the parameter importance table, the untuned
+    sample of the Mann-Whitney table).
 
     - ``auto``: the latin-hypercube half of its first global phase, drawn again from the run's seed
       (:func:`simtune.optimize.pipeline.random_start`; its generation 0 is the opening's start and Jacobian, all

@@ -2,10 +2,12 @@
 
 Each section function takes the :class:`ReportData` (the runs and what was computed
 from them once) and the :class:`ReportOutput` (which writes its tables and figures
-into the report folder) and returns its :class:`~simtune.report.html.Section`, or
-None to leave it out.  The builder numbers the sections of :data:`SECTIONS` in order
-and appends those of :data:`APPENDICES` unnumbered: adding, removing or moving a
-section is one line there.
+into the report folder) and returns its :data:`Body` (introduction and items), or
+None to leave it out.  :data:`SECTIONS` names each with its anchor and title; the
+builder numbers them in order and appends those of :data:`APPENDICES` unnumbered:
+adding, removing or moving a section is one line there, and :func:`write_docs` writes
+docs/report.md's list of the sections from the same lines.  The tables are numbered as
+they are written, in the order the page shows them (:meth:`ReportOutput.table`).
 """
 
 from __future__ import annotations
@@ -13,8 +15,9 @@ from __future__ import annotations
 import html
 import json
 import re
-from collections.abc import Callable
-from dataclasses import dataclass, field
+import textwrap
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -90,9 +93,14 @@ class ReportOutput:
     on_figure: Callable[[], None] = lambda: None  # progress: one more figure drawn
     numbers: dict[str, int] = field(default_factory=dict)  # anchor -> number of the sections made so far
     drawn: dict[str, FigureRef] = field(default_factory=dict)  # stem -> a figure already drawn (figure_once)
+    tables: int = 0  # how many tables were written so far: the last one's number
 
     def table(self, table: Table) -> Table:
-        """Write ``tables/<name>.csv`` and ``.md``; return the table for the page."""
+        """Number ``table`` ("Table N. title": the next number, so the tables count up in the order the sections
+        write them, which is the order the page shows them), write ``tables/<name>.csv`` and ``.md``; return the
+        numbered table for the page."""
+        self.tables += 1
+        table = replace(table, title=f"Table {self.tables}. {table.title}")
         (self.folder / "tables" / f"{table.name}.csv").write_text(table.to_csv())
         (self.folder / "tables" / f"{table.name}.md").write_text(table.to_markdown())
         return table
@@ -111,12 +119,16 @@ class ReportOutput:
         return self.drawn[stem]
 
 
+#: what a section's function returns: the section's introduction (HTML) and its tables, figures and notes in order
+Body = tuple[str, Sequence[Table | FigureRef | str]]
+
+
 def slug(*parts: str) -> str:
     return "_".join(re.sub(r"[^A-Za-z0-9.-]+", "-", p).strip("-") for p in parts if p)
 
 
 # --- the sections ----------------------------------------------------------------------------------------
-def headline_section(data: ReportData, out: ReportOutput) -> Section:
+def headline_section(data: ReportData, out: ReportOutput) -> Body:
     """The first screen: the fitness against the untuned simulation and the floor, the best run's trajectory with
     its error against time, and what tuning changed."""
     items: list[Table | FigureRef] = [out.table(headline_table(data.groups, data.floors))]
@@ -134,9 +146,7 @@ def headline_section(data: ReportData, out: ReportOutput) -> Section:
         sim, task = min(joint_drawable, key=lambda pair: pair[0].group.best_run.best_fitness)
         items.append(_joint_figure(sim, task, out))
     items.append(out.table(moved_parameters_table(data.groups, data.nominal)))
-    return Section(
-        "headline",
-        "At a glance",
+    return (
         "How close tuning brought each simulation to the recordings, against the untuned simulation and the data's "
         "own floor; the best run's trajectory (recorded, untuned, tuned) with its error against time; and the "
         "parameters tuning moved, with how tightly the recordings pin them. The paper's tables follow.",
@@ -184,15 +194,13 @@ ONE_RUN = (
 )
 
 
-def generic_section(data: ReportData, out: ReportOutput) -> Section:
+def generic_section(data: ReportData, out: ReportOutput) -> Body:
     hint = (
         ""
         if data.published_folder is not None
         else " Run with <code>--published-sims DIR</code> to add the published simulations of the data set."
     )
-    return Section(
-        "generic",
-        "Generic (untuned) fitness",
+    return (
         "How far each engine with its own default parameters is from the recordings (the paper's Table II)." + hint,
         [
             out.table(T.paper_generic_table(data.entries, data.task_names)),
@@ -201,16 +209,14 @@ def generic_section(data: ReportData, out: ReportOutput) -> Section:
     )
 
 
-def tuned_section(data: ReportData, out: ReportOutput) -> Section:
+def tuned_section(data: ReportData, out: ReportOutput) -> Body:
     overview = out.figure(
         "fitness_overview",
         F.fitness_overview_figure(data.groups, data.entries),
         "Generic fitness (grey bars; hatched: published simulations) and tuned fitness of each repeat (dots) "
         "and their mean (line), per task and parameter space.",
     )
-    return Section(
-        "tuned",
-        "Tuned fitness",
+    return (
         "The best fitness tuning reached per task and parameter space, with the engine that reached it "
         "(the paper's Table III), every engine's tuned fitness over repeats, and the floor a tuned fitness "
         "compares with: the real arm's repeats against their own (aligned) mean.",
@@ -251,7 +257,7 @@ def _held_out_item(data: ReportData, out: ReportOutput) -> Table | str:
     )
 
 
-def joint_fit_section(data: ReportData, out: ReportOutput) -> Section | None:
+def joint_fit_section(data: ReportData, out: ReportOutput) -> Body | None:
     """Each task of a multi-task run against its floor and its alone-best, and the table of each ``simtune
     generalise`` study found with the runs; None where there is neither."""
     studies = read_studies(data.paths, out.warn)
@@ -260,9 +266,7 @@ def joint_fit_section(data: ReportData, out: ReportOutput) -> Section | None:
     items += [out.table(study_table(study, f"generalise_{k}")) for k, study in enumerate(studies, start=1)]
     if not items:
         return None
-    return Section(
-        "joint_fit",
-        "Joint fit and generalisation",
+    return (
         "One simulator for every task: each task's part of a fit tuned on several tasks together beside its floor "
         "and the best it reaches tuned alone (joint / alone, the joint-fit penalty: 1 where one parameter set is "
         "right for every task)"
@@ -276,7 +280,7 @@ def joint_fit_section(data: ReportData, out: ReportOutput) -> Section | None:
     )
 
 
-def convergence_section(data: ReportData, out: ReportOutput) -> Section:
+def convergence_section(data: ReportData, out: ReportOutput) -> Body:
     figures = [
         out.figure(
             f"convergence_{axis}",
@@ -291,10 +295,10 @@ def convergence_section(data: ReportData, out: ReportOutput) -> Section:
             ("time", "wall time"),
         )
     ]
-    return Section("convergence", "Convergence", "", figures)
+    return "", figures
 
 
-def parameters_section(data: ReportData, out: ReportOutput) -> Section:
+def parameters_section(data: ReportData, out: ReportOutput) -> Body:
     parameter = data.figure4_parameter
     figure4: list[FigureRef] = []
     if any(parameter in g.parameters for g in data.groups):
@@ -308,10 +312,9 @@ def parameters_section(data: ReportData, out: ReportOutput) -> Section:
             )
         )
     if _single_runs(data):  # one dot per box: the values are in the first screen's table
-        return Section(
-            "parameters",
-            "Parameter distributions",
-            ONE_RUN + " The tuned values are in section 1." + ("" if figure4 else f" No run tuned {parameter}."),
+        return (
+            f"{ONE_RUN} The tuned values are in section {out.numbers['headline']}."
+            + ("" if figure4 else f" No run tuned {parameter}."),
             figure4,
         )
     figures = figure4 + [
@@ -325,21 +328,17 @@ def parameters_section(data: ReportData, out: ReportOutput) -> Section:
         for tasks, space in data.experiments
     ]
     missing = "" if figure4 else f" No run tuned {parameter}: the paper's Figure 4 (--figure4-parameter) is left out."
-    return Section(
-        "parameters",
-        "Parameter distributions",
+    return (
         "Where the tuned values of each parameter fall in their range, across repeats." + missing,
         figures,
     )
 
 
-def importance_section(data: ReportData, out: ReportOutput) -> Section:
+def importance_section(data: ReportData, out: ReportOutput) -> Body:
     if _single_runs(data):
-        return Section("importance", "Parameter importance and significance", ONE_RUN, [])
+        return ONE_RUN, []
     importance = T.importance_table(data.groups)
-    return Section(
-        "importance",
-        "Parameter importance and significance",
+    return (
         "",
         [
             out.table(T.importance_top_table(importance)),
@@ -428,7 +427,7 @@ def _joint_errors(data: ReportData) -> list[T.JointError]:
     return entries
 
 
-def trajectories_section(data: ReportData, out: ReportOutput) -> Section:
+def trajectories_section(data: ReportData, out: ReportOutput) -> Body:
     figures: list[FigureRef] = []
     for sim in data.sims:
         for task in sim.group.task_names:
@@ -447,11 +446,9 @@ def trajectories_section(data: ReportData, out: ReportOutput) -> Section:
         "object_final": "no task has an object whose final position was recorded",
         "phase_errors": "no recording tracks the wrist marker",
     }
-    missing = [f"{t.title.split('.')[0]} ({left_out[t.name]})" for t in tables if not t.rows and t.name in left_out]
+    missing = [f"{t.title} ({left_out[t.name]})" for t in tables if not t.rows and t.name in left_out]
     joints = any(t.name == "joint_errors" for t in shown)
-    return Section(
-        "trajectories",
-        "Trajectories",
+    return (
         "The recorded end-effector path against the untuned and the tuned simulation (the paper's "
         "Figure 1), re-simulated for the best repeat of each engine, tasks and space"
         + ("; for joint logs, each joint's recorded and simulated angle against time" if joints else "")
@@ -461,7 +458,7 @@ def trajectories_section(data: ReportData, out: ReportOutput) -> Section:
     )
 
 
-def contact_section(data: ReportData, out: ReportOutput) -> Section | None:
+def contact_section(data: ReportData, out: ReportOutput) -> Body | None:
     """Whether each engine's generic simulation touches each task's object (``simtune tasks --contact``)."""
     if not data.contacts:
         return None
@@ -479,31 +476,27 @@ def contact_section(data: ReportData, out: ReportOutput) -> Section | None:
         )
         for engine in engines
     ]
-    return Section(
-        "contact",
-        "Contact with the objects",
+    return (
         "Whether the hand reaches each object in the engine's generic simulation, when, and how far the object "
         "moves: a task whose object is never touched is a kinematic task (see docs/seed-tasks.md).",
         [out.table(T.contact_table(data.contacts)), *figures],
     )
 
 
-def compute_section(data: ReportData, out: ReportOutput) -> Section:
-    return Section("compute", "Compute", "", [out.table(T.compute_table(data.groups))])
+def compute_section(data: ReportData, out: ReportOutput) -> Body:
+    return "", [out.table(T.compute_table(data.groups))]
 
 
-def dr_section(data: ReportData, out: ReportOutput) -> Section:
+def dr_section(data: ReportData, out: ReportOutput) -> Body:
     ranges = dr_ranges(data.groups, data.nominal)
     write_dr_yaml(out.folder / DR_FILE, ranges, data.tasks_by_engine)
-    return Section(
-        "dr",
-        "Domain-randomisation ranges",
+    return (
         f'Written as <a href="{DR_FILE}">{html.escape(DR_FILE)}</a>.',
         [out.table(T.dr_table(ranges))],
     )
 
 
-def sensitivity_section(data: ReportData, out: ReportOutput) -> Section | None:
+def sensitivity_section(data: ReportData, out: ReportOutput) -> Body | None:
     """Table and figure of each ``sensitivity.json`` under or next to the inputs; None when there is none."""
     from simtune.studies.sensitivity import find_results, sensitivity_figure, sensitivity_table
 
@@ -517,53 +510,125 @@ def sensitivity_section(data: ReportData, out: ReportOutput) -> Section | None:
             out.warn(f"{path}: skipped: not a readable sensitivity result ({type(exc).__name__}: {exc})")
             continue
         table.note = f"From {path}. " + table.note
-        items += [out.table(table), out.figure(table.name, fig, table.title + ".")]
+        caption = table.title + "."  # the figure's, without the table's number
+        items += [out.table(table), out.figure(table.name, fig, caption)]
     if not items:
         return None
     importance = out.numbers.get("importance")
     compare = f", to compare with the importance of section {importance}" if importance else ""
-    return Section(
-        "sensitivity",
-        "Global sensitivity",
+    return (
         "Results of <code>simtune sensitivity</code> found in or next to the input folders: how much the "
         f"fitness changes with each parameter over the whole space{compare}.",
         items,
     )
 
 
-def runs_appendix(data: ReportData, out: ReportOutput) -> Section:
-    return Section("runs", "Appendix: runs", "", [out.table(T.runs_table(data.runs))])
+def runs_appendix(data: ReportData, out: ReportOutput) -> Body:
+    return "", [out.table(T.runs_table(data.runs))]
 
 
-SectionMaker = Callable[[ReportData, ReportOutput], Section | None]
+SectionMaker = Callable[[ReportData, ReportOutput], Body | None]
+
+
+@dataclass(frozen=True)
+class ReportSection:
+    """One section of the report: its anchor in index.html (``#anchor``), its title, and the function that makes
+    its body (None: the section is left out). The one home of its title: the page and docs/report.md's list of
+    the sections (:func:`write_docs`) take it from here."""
+
+    anchor: str
+    title: str
+    make: SectionMaker
+
 
 #: The numbered sections, in order (numbers are given as they come: a section left out takes none).
-SECTIONS: tuple[SectionMaker, ...] = (
-    headline_section,
-    generic_section,
-    tuned_section,
-    joint_fit_section,
-    convergence_section,
-    parameters_section,
-    importance_section,
-    trajectories_section,
-    contact_section,
-    compute_section,
-    dr_section,
-    sensitivity_section,
+SECTIONS: tuple[ReportSection, ...] = (
+    ReportSection("headline", "At a glance", headline_section),
+    ReportSection("generic", "Generic (untuned) fitness", generic_section),
+    ReportSection("tuned", "Tuned fitness", tuned_section),
+    ReportSection("joint_fit", "Joint fit and generalisation", joint_fit_section),
+    ReportSection("convergence", "Convergence", convergence_section),
+    ReportSection("parameters", "Parameter distributions", parameters_section),
+    ReportSection("importance", "Parameter importance and significance", importance_section),
+    ReportSection("trajectories", "Trajectories", trajectories_section),
+    ReportSection("contact", "Contact with the objects", contact_section),
+    ReportSection("compute", "Compute", compute_section),
+    ReportSection("dr", "Domain-randomisation ranges", dr_section),
+    ReportSection("sensitivity", "Global sensitivity", sensitivity_section),
 )
 #: Unnumbered sections after them.
-APPENDICES: tuple[SectionMaker, ...] = (runs_appendix,)
+APPENDICES: tuple[ReportSection, ...] = (ReportSection("runs", "Appendix: runs", runs_appendix),)
 
 
 def make_sections(data: ReportData, out: ReportOutput) -> list[Section]:
     """Every section that has something to show, the numbered ones titled "N. title"."""
     sections: list[Section] = []
-    for make in SECTIONS:
-        section = make(data, out)
-        if section is not None:
-            out.numbers[section.anchor] = len(out.numbers) + 1
-            section.title = f"{out.numbers[section.anchor]}. {section.title}"
-            sections.append(section)
-    sections += [s for make in APPENDICES if (s := make(data, out)) is not None]
+    for entry in SECTIONS:
+        body = entry.make(data, out)
+        if body is not None:
+            out.numbers[entry.anchor] = len(out.numbers) + 1
+            intro, items = body
+            sections.append(Section(entry.anchor, f"{out.numbers[entry.anchor]}. {entry.title}", intro, list(items)))
+    for entry in APPENDICES:
+        if (body := entry.make(data, out)) is not None:
+            sections.append(Section(entry.anchor, entry.title, body[0], list(body[1])))
     return sections
+
+
+# --- docs/report.md's list of the sections ----------------------------------------------------------------
+_DOCS_BLOCK = re.compile(r"(<!-- sections: [^\n]*-->\n)(.*?)(?=<!-- end sections -->)", re.S)
+_DOCS_ITEM = re.compile(r"^(?:\d+\.|-) \*\*(.+?)\*\*", re.M)
+
+
+def docs_section_list(text: str) -> str:
+    """docs/report.md's list of the sections as :data:`SECTIONS` and :data:`APPENDICES` have them.
+
+    Each item is ``N. **title**`` (the numbered sections, numbered as when every one is shown) or ``- **title**``
+    (an appendix) followed by its description, kept from ``text``'s item of the same title (re-indented to its
+    number's width); a section the list lacks gets an item saying it is not described yet.
+
+    Args:
+        text: docs/report.md as it is, with its list between ``<!-- sections: ... -->`` and ``<!-- end sections -->``.
+
+    Returns:
+        The list, to stand between the two markers.
+
+    Raises:
+        ValueError: the markers are missing, or the list has an item whose title is no section's (renamed or
+            removed in the code: rename or remove the item, so that no description is dropped unseen).
+    """
+    block = _DOCS_BLOCK.search(text)
+    if block is None:
+        raise ValueError("no <!-- sections: ... --> ... <!-- end sections --> block")
+    starts = list(_DOCS_ITEM.finditer(block.group(2)))
+    bodies: dict[str, list[str]] = {}
+    for k, item in enumerate(starts):
+        end = starts[k + 1].start() if k + 1 < len(starts) else len(block.group(2))
+        first, _, rest = block.group(2)[item.end() : end].rstrip("\n").partition("\n")
+        bodies[item.group(1)] = [first, *textwrap.dedent(rest).split("\n")] if rest else [first]
+    titles = [entry.title for entry in (*SECTIONS, *APPENDICES)]
+    if unknown := [title for title in bodies if title not in titles]:
+        raise ValueError(f"docs/report.md lists sections the report has not: {', '.join(unknown)}")
+    markers = [f"{n}. " for n in range(1, len(SECTIONS) + 1)] + ["- "] * len(APPENDICES)
+    items = []
+    for marker, title in zip(markers, titles, strict=True):
+        first, *rest = bodies.get(title, [": not described yet."])
+        rest = [f"{' ' * len(marker)}{line}" if line else line for line in rest]
+        items.append("\n".join([f"{marker}**{title}**{first}", *rest]))
+    return "\n".join(items) + "\n"
+
+
+def write_docs(path: Path) -> bool:
+    """Rewrite the list of the sections in docs/report.md from :data:`SECTIONS` and :data:`APPENDICES`.
+
+    Args:
+        path: a Markdown file (docs/report.md) with the list between its two markers.
+
+    Returns:
+        Whether the file changed.
+    """
+    text = Path(path).read_text(encoding="utf-8")
+    new = _DOCS_BLOCK.sub(lambda m: m.group(1) + docs_section_list(text), text)
+    if new != text:
+        Path(path).write_text(new, encoding="utf-8")
+    return new != text

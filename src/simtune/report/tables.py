@@ -163,7 +163,7 @@ def generic_table(entries: list[GenericEntry], tasks: list[str], fitness: str = 
         rows.append(row)
     table = Table(
         "generic_fitness",
-        "Table 1. Generic (untuned) fitness per engine and task",
+        "Generic (untuned) fitness per engine and task",
         columns,
         rows,
         note=f"Fitness = {fitness} (lower is better), simtune's fitness "
@@ -224,7 +224,7 @@ def best_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table:
         rows.append(row)
     return Table(
         "best_tuned",
-        "Table 2. Best tuned fitness per task and parameter space",
+        "Best tuned fitness per task and parameter space",
         columns,
         rows,
         note="Best fitness over all engines and repeats, and its improvement over the best generic engine "
@@ -272,7 +272,7 @@ def tuned_by_group_table(groups: list[Group]) -> Table:
         )
     return Table(
         "tuned_by_group",
-        "Table 3. Tuned fitness per engine, tasks and space, over repeats",
+        "Tuned fitness per engine, tasks and space, over repeats",
         columns,
         rows,
         note="Tuned = the best evaluation of each repeat (seed); std is the sample standard deviation.",
@@ -316,7 +316,7 @@ def paper_generic_table(entries: list[GenericEntry], tasks: list[str]) -> Table:
         rows.append([label, *complete, ", ".join(unstable) or "-", best[1], best[0]])
     table = Table(
         "paper_table_ii",
-        "Table II (the paper's layout). Generic fitness per experiment and engine",
+        "The paper's Table II in its layout: generic fitness per experiment and engine",
         columns,
         rows,
         note="Rows: experiments (seed task N = the paper's experiment N; other tasks by name), the last row "
@@ -379,7 +379,7 @@ def paper_tuned_table(groups: list[Group], entries: list[GenericEntry]) -> Table
         )
     table = Table(
         "paper_table_iii",
-        "Table III (the paper's layout). Best tuned fitness per experiment, space and engine",
+        "The paper's Table III in its layout: best tuned fitness per experiment, space and engine",
         columns,
         rows,
         note="D: parameters in the search vector (the space as the engine maps it; --paper-exact keeps the "
@@ -539,7 +539,7 @@ def importance_table(groups: list[Group]) -> Table:
     rows = [row for g in groups for row in _importance_rows(g)]
     return Table(
         "parameter_importance",
-        "Table 4. Parameter importance: spread of tuned values across repeats, and its significance",
+        "Parameter importance: spread of tuned values across repeats, and its significance",
         columns,
         rows,
         note="The paper's measure: a parameter whose tuned value is tightly bounded across independent repeats "
@@ -593,10 +593,11 @@ def importance_top_table(full: Table, top: int = 5) -> Table:
     rows = [[row[i] for i in idx] for row in full.rows if row[3] is not None and row[3] <= top]
     return Table(
         "parameter_importance_top",
-        f"Table 4a. The {top} most influential parameters per engine, tasks and space",
+        f"The {top} most influential parameters per engine, tasks and space",
         [full.columns[i] for i in idx],
         rows,
-        note=f"The first {top} ranks of Table 4 (groups with at least two repeats); Table 4 has every parameter.",
+        note=f"The first {top} ranks of the parameter importance table (groups with at least two repeats); that table, "
+        "next, has every parameter.",
     )
 
 
@@ -642,7 +643,7 @@ def mann_whitney_table(groups: list[Group]) -> Table:
         )
     return Table(
         "mann_whitney",
-        "Table 5. Mann-Whitney U test: tuned vs untuned fitness",
+        "Mann-Whitney U test: tuned vs untuned fitness",
         columns,
         rows,
         note="Tuned sample: the best fitness of each repeat. The generic fitness is one deterministic "
@@ -684,7 +685,7 @@ def object_final_table(finals: list[FinalPosition]) -> Table:
         rows.append([f.task, f.source, f.engine, f.space, *(float(v) for v in f.position), dist, f.spread])
     return Table(
         "object_final",
-        "Table 6. Final object position: recorded vs simulated",
+        "Final object position: recorded vs simulated",
         columns,
         rows,
         note="Recorded: mean over the kept repeats of the last seen object position (spread = mean "
@@ -798,7 +799,7 @@ def phase_error_table(entries: list[PhaseError]) -> Table:
     ]
     return Table(
         "phase_errors",
-        "Table 6a. Where the wrist error sits: per stretch of each task's schedule",
+        "Where the wrist error sits: per stretch of each task's schedule",
         columns,
         rows,
         note="The best run of each engine, tasks and space, re-simulated (as the trajectory figures): the mean "
@@ -926,7 +927,7 @@ def joint_error_table(entries: list[JointError]) -> Table:
     ]
     return Table(
         "joint_errors",
-        "Table 6b. Where the joint error sits: per logged joint and stretch of each task's schedule",
+        "Where the joint error sits: per logged joint and stretch of each task's schedule",
         columns,
         rows,
         note="Joint logs: the best run of each engine, tasks and space, re-simulated (as the joint-angle figures): "
@@ -1013,7 +1014,7 @@ def compute_table(groups: list[Group]) -> Table:
         )
     return Table(
         "compute",
-        "Table 7. Compute per engine, tasks and space",
+        "Compute per engine, tasks and space",
         columns,
         rows,
         note="Wall time is the run's elapsed time over all its sessions (meta elapsed_s); evaluations "
@@ -1043,7 +1044,7 @@ def dr_table(ranges: dict[str, dict[str, dict]]) -> Table:
     ]
     return Table(
         "dr_ranges",
-        "Table 8. Domain-randomisation ranges (as in dr_ranges.yaml)",
+        "Domain-randomisation ranges (as in dr_ranges.yaml)",
         columns,
         rows,
         note="Per engine and parameter: the range the tuned values span across all its runs (every task "
@@ -1215,7 +1216,7 @@ def runs_table(runs: list[ReportedRun]) -> Table:
     ]
     return Table(
         "runs",
-        "Table 9. Every run in the report",
+        "Every run in the report",
         columns,
         rows,
         note="Best fitness = the run's best stored evaluation. Stopped: converged (the search met its own "
