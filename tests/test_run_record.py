@@ -5,6 +5,7 @@ stored configuration by key; a user's project is read once per process, again on
 import ast
 import os
 import shutil
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -13,7 +14,7 @@ import simtune.api as st
 from simtune.errors import ConfigError, SimtuneError
 from simtune.project import BUNDLED_DIR
 from simtune.report.collect import ReportedRun, load_run
-from simtune.run_plan import RunConfig
+from simtune.run_plan import RunConfig, new_run_config, plan_run
 from simtune.runs import read_run_record
 from simtune.store import RunStore
 from simtune.tasks import project as project_module
@@ -86,6 +87,22 @@ def test_no_keyed_read_of_a_stored_configuration_outside_the_store():
     assert found == []
 
 
+def test_a_run_plan_resolves_its_project_once_and_holds_it(tmp_path, monkeypatch):
+    """plan_run reads the run's project once (its file found once) and keeps it beside the tasks it gave."""
+    folder = tmp_path / "mico"
+    shutil.copytree(BUNDLED_DIR, folder)
+    reads, finds = [], []
+    read, find = project_module._read_project, project_module.find_project_file
+    monkeypatch.setattr(project_module, "_read_project", lambda file: reads.append(file) or read(file))
+    monkeypatch.setattr(project_module, "find_project_file", lambda path: finds.append(path) or find(path))
+    config = replace(new_run_config("mujoco", "single,cube", "calibrated", data=None), project=str(folder))
+    plan = plan_run(config)
+    assert reads == [folder / "simtune.toml"] and len(finds) == 1
+    assert plan.project is get_project(folder / "simtune.toml") and plan.project.file == folder / "simtune.toml"
+    assert [t.name for t in plan.tasks] == ["single", "cube"]
+    assert all(t.robot is plan.robot for t in plan.tasks)  # the one robot, from the tasks as before
+
+
 def test_a_users_project_is_read_once_and_again_once_edited(tmp_path, monkeypatch):
     folder = tmp_path / "mico"
     shutil.copytree(BUNDLED_DIR, folder)
@@ -94,10 +111,10 @@ def test_a_users_project_is_read_once_and_again_once_edited(tmp_path, monkeypatc
         toml.read_text().replace('data = "../../reference"', f'data = "{BUNDLED_DIR.parent.parent / "reference"}"')
     )
     reads = []
-    load = project_module.load_project
-    monkeypatch.setattr(project_module, "load_project", lambda path: reads.append(path) or load(path))
+    read = project_module._read_project  # what reads a project file once get_project has found it
+    monkeypatch.setattr(project_module, "_read_project", lambda file: reads.append(file) or read(file))
     first = get_project(folder)
-    assert get_project(folder) is first and get_project(str(folder)) is first and len(reads) == 1
+    assert get_project(folder) is first and get_project(str(folder)) is first and reads == [first.file]
     task_file = first.task_files["cube"]
     task_file.write_text(task_file.read_text() + "\n# edited\n")
     stat = task_file.stat()

@@ -2,8 +2,8 @@
 
 :class:`RunConfig` is what a run stores (``run.sqlite``'s ``config``, its JSON form kept as it was so that old
 runs resume) and :func:`new_run_config` the one place a new one is made, by the API, the grid, the studies and
-the demo alike.  :func:`plan_run` resolves a configuration once into a :class:`RunPlan`: the tasks, their robot,
-the engine class, the parameter space, the inactive parameters, the references and the objective; a run
+the demo alike.  :func:`plan_run` resolves a configuration once into a :class:`RunPlan`: its project, the tasks,
+their robot, the engine class, the parameter space, the inactive parameters, the references and the objective; a run
 (:mod:`simtune.runs`) passes the plan down instead of resolving its configuration again in every step.
 """
 
@@ -29,8 +29,7 @@ from simtune.run_config import (  # noqa: F401 (run_plan is its public home too:
     RunConfig,
     default_space,
 )
-from simtune.tasks import TaskSpec, parse_tasks
-from simtune.tasks.spec import common_robot
+from simtune.tasks import TaskSpec, select_tasks
 
 
 def new_run_config(
@@ -67,6 +66,8 @@ class RunPlan:
     """
 
     config: RunConfig
+    #: the project the tasks were looked up in (``config.project``, resolved once)
+    project: Project
     tasks: list[TaskSpec]
     robot: RobotDescription
     engine: type[Engine]
@@ -173,12 +174,13 @@ class RunPlan:
 
 
 def plan_run(config: RunConfig) -> RunPlan:
-    """Resolve ``config`` once: its tasks (of its project), their robot, the engine class and the full space."""
-    tasks = parse_tasks(config.tasks, config.project, config.targets, config.loading)
-    robot = common_robot(tasks)
+    """Resolve ``config`` once: its project, its tasks (of that project), their robot, the engine class and the full
+    space."""
+    selected = select_tasks(config.tasks, config.project, config.targets, config.loading)
+    tasks, robot = selected.tasks, selected.robot
     engine = engine_class(config.engine)
     # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
     supported = None if config.paper_exact else engine.supported(robot)
     names = [t.name for t in tasks] if config.task_delays else None
     space = get_space(config.space, supported, config.only, robot=robot, tasks=names)
-    return RunPlan(config, tasks, robot, engine, space)
+    return RunPlan(config, selected.project, tasks, robot, engine, space)

@@ -7,13 +7,15 @@ the bundled Kinova MICO project is meant.  ``TASKS`` and ``GROUPS`` are that pro
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from simtune.errors import ConfigError
-from simtune.tasks.spec import LOADINGS, MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
+from simtune.tasks.spec import LOADINGS, MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec, common_robot
 
 if TYPE_CHECKING:
+    from simtune.robot.description import RobotDescription
     from simtune.tasks.project import Project
 
 
@@ -77,6 +79,39 @@ def parse_tasks(
     return with_loading(with_targets(_project(project).parse_tasks(spec), targets), loading)
 
 
+@dataclass(frozen=True)
+class TaskSelection:
+    """Tasks named for a run, resolved once: the project they were looked up in, the tasks (carrying their targets
+    and loading) and the one robot they share."""
+
+    project: Project
+    tasks: list[TaskSpec]
+    robot: RobotDescription
+
+
+def select_tasks(
+    spec: str, project: Project | Path | str | None = None, targets: str = "task", loading: str = "description"
+) -> TaskSelection:
+    """The tasks named by ``spec`` as :func:`parse_tasks` gives them, with the project they come from and their one
+    robot: what a run's plan needs of ``tasks/``, in one call, the project resolved once.
+
+    Args:
+        spec: one task name, a group, or a comma-separated list of them.
+        project: a Project, its folder or file, or None: the bundled MICO project.
+        targets: which targets the phases carry (:data:`TARGETS`).
+        loading: how the robot is loaded (:data:`LOADINGS`).
+
+    Returns:
+        The selection.
+
+    Raises:
+        ConfigError: an unknown task, targets or loading, or tasks that do not share one robot.
+    """
+    # parse_tasks's steps in its order (the project, its tasks, their targets, their loading), the project kept
+    tasks = with_loading(with_targets((resolved := _project(project)).parse_tasks(spec), targets), loading)
+    return TaskSelection(resolved, tasks, common_robot(tasks))
+
+
 def __getattr__(name: str) -> Any:
     # read on first use: importing simtune.tasks reads no file
     if name == "TASKS":
@@ -95,12 +130,14 @@ __all__ = [
     "TASKS",
     "ObjectSpec",
     "Phase",
+    "TaskSelection",
     "TaskSpec",
     "all_task_names",
     "check_loading",
     "check_targets",
     "get_task",
     "parse_tasks",
+    "select_tasks",
     "with_loading",
     "with_targets",
 ]

@@ -235,7 +235,11 @@ def _package_path(table: Keys, folder: Path) -> list[str]:
 
 def load_project(path: Path | str) -> Project:
     """The project in folder ``path`` (or the project file ``path``), every task file read and checked."""
-    file = find_project_file(Path(path))
+    return _read_project(find_project_file(Path(path)))
+
+
+def _read_project(file: Path) -> Project:
+    """The project of project file ``file`` (found by :func:`find_project_file`), every task file read and checked."""
     folder = file.parent
     keys = Keys(file, read_document(file), PROJECT_KEYS)
     robot = resolve_robot(keys, folder)
@@ -326,6 +330,6 @@ def get_project(project: Project | Path | str | None) -> Project:
     # the same spelling as well: a project read through another path names its files by that path
     if cached is not None and cached[0].file == file and _files_state(cached[0]) == cached[1]:
         return cached[0]
-    loaded = load_project(project)
+    loaded = _read_project(file)  # the file just found: not looked for a second time
     _READ[key] = (loaded, _files_state(loaded))
     return loaded
