@@ -139,9 +139,10 @@ def test_an_engine_without_floor_contacts_says_so():
     """An engine that does not report floor contact raises rather than answering 'no touch'; the check then
     reports None (cannot tell), not an empty list."""
     from simtune.check.task import _floor_touches
+    from simtune.engines.contact import generic_floor_touches
 
     sim = engine_or_skip("ode")(get_task("single"))
     with pytest.raises(NotImplementedError):
         sim.arm_floor_contact()
-    assert _floor_touches(sim) is None
+    assert _floor_touches(sim) is None and generic_floor_touches(sim) is None
     assert _floor_touches(make_engine("mujoco", get_task("cube"))) == []  # a task with an object: not asked

@@ -339,25 +339,27 @@ FLOOR_ENGINE = "mujoco"
 def _floor_findings(project: Project, loaded: list[str]) -> list[Finding]:
     """A warning per task without an object whose generic simulation in :data:`FLOOR_ENGINE` lays the arm on the
     floor (an example reach of a long chain, a sagging arm): such a task is tuned as if it never touched it."""
-    from simtune.engines.contact import FLOOR_TOUCH_CONSEQUENCE, floor_touches, touch_spans_text
+    from simtune.engines.contact import FLOOR_TOUCH_CONSEQUENCE, generic_floor_touches, touch_spans_text
 
     if FLOOR_ENGINE not in loaded:
         return []
     findings = []
     for name, task in project.tasks.items():
-        if task.object is not None:
+        if task.object is not None:  # none asked (generic_floor_touches): no engine loaded for it
             continue
         try:
             with _engine_chatter_silenced():
                 sim = engine_class(FLOOR_ENGINE)(task)
                 try:
-                    spans = floor_touches(sim)
+                    spans = generic_floor_touches(sim)
                 finally:
                     sim.close()
         except Exception as exc:  # the engine's load was checked above; a task it cannot run is the task check's
             findings.append(Finding("note", f"task {name}: floor contact not checked ({exc})"))
             continue
-        if spans:
+        if spans is None:
+            findings.append(Finding("note", f"task {name}: floor contact not checked ({FLOOR_ENGINE} cannot tell)"))
+        elif spans:
             findings.append(
                 Finding(
                     "warning",

@@ -44,7 +44,7 @@ from simtune.data.clock import outlying_shifts
 from simtune.data.onset import motion_onset
 from simtune.data.orientation import RecordedRotations
 from simtune.engines import engine_class, make_engine
-from simtune.engines.contact import floor_touches
+from simtune.engines.contact import generic_floor_touches
 from simtune.errors import SimtuneError
 from simtune.fitness import NOISE_UNIT_M, marker_positions, reference_floor, repeat_floor
 from simtune.identifiability import identifiability
@@ -541,14 +541,9 @@ def _rests(task: TaskSpec, reference: TaskData, rollout, marker: np.ndarray, del
 
 
 def _floor_touches(sim) -> list[list[float]] | None:
-    """The spans [s] during which the generic simulation's arm touches the floor, for a task without an object
-    (with one, a touch may be the task's: none asked); None where the engine cannot tell."""
-    if sim.task.object is not None:
-        return []
-    try:
-        return [[round(a, 3), round(b, 3)] for a, b in floor_touches(sim)]
-    except NotImplementedError:
-        return None
+    """:func:`~simtune.engines.contact.generic_floor_touches` of ``sim``, rounded for the check's JSON."""
+    spans = generic_floor_touches(sim)
+    return None if spans is None else [[round(a, 3), round(b, 3)] for a, b in spans]
 
 
 def task_quality(

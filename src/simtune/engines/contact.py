@@ -100,6 +100,24 @@ def touch_spans_text(spans: list[tuple[float, float]] | list[list[float]], most:
     return ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in shown) + (" ..." if len(shown) < len(spans) else "")
 
 
+def generic_floor_touches(engine: Engine) -> list[tuple[float, float]] | None:
+    """What ``simtune check`` asks of a task's generic simulation: :func:`floor_touches` for a task without an
+    object, the one check of a task and of a project alike.
+
+    Args:
+        engine: an engine loaded for the task.
+    Returns:
+        The spans [s] during which the arm touches the floor; empty for a task with an object (a touch may be the
+        task's own: none asked); None where the engine cannot tell (no ``arm_floor_contact``).
+    """
+    if engine.task.object is not None:
+        return []
+    try:
+        return floor_touches(engine)
+    except NotImplementedError:
+        return None
+
+
 def floor_touches(engine: Engine, params: dict[str, float] | None = None) -> list[tuple[float, float]]:
     """When the arm touches the floor in ``engine``'s task with ``params`` (default: generic).
 
