@@ -46,11 +46,13 @@ def test_short_tune_improves_on_generic_and_stores_every_evaluation(tmp_path):
 
 
 def test_a_time_cap_reached_inside_a_batch_says_how_long_the_search_ran(tmp_path):
-    """Probe 5 #6: `--max-seconds 120` ran 323 s and said "stopped after 120 s". A batch is never cut (the first one
-    always runs): the reason gives the search's own seconds beside its cap."""
+    """Probe 5 #6: `--max-seconds 120` ran 323 s and said "stopped after 120 s". The cap cuts the first batch after
+    its first evaluation (which always runs): the reason gives the search's own seconds beside its cap, and how much
+    of the batch was done (tests/test_time_cap.py times the cut)."""
     result = start_run(config(max_seconds=0.01, max_generations=50), tmp_path / "run", show_progress=False)
     assert result.stop_reason == "max-seconds"
     assert result.message.startswith("stopped after ") and "its cap 0.01 s reached inside a batch" in result.message
+    assert f"(1 of its {len(ONLY)} evaluations done and stored)" in result.message and result.new_evaluations == 1
     ran = float(result.message.split()[2])
     assert ran == pytest.approx(result.wall_s, abs=1.0)
 

@@ -94,6 +94,9 @@ class BatchSearch:
         self.solver_steps = 0
         if deadline and settings.max_seconds is not None:
             self.evaluator.before_simulating = self._before_batch
+        # the cap reaches into a batch: the Evaluator cuts one whose next slice would end past it
+        self.evaluator.seconds_left = self._seconds_left
+        self.evaluator.on_cut = self._cut
 
     # --- context: the process pool -----------------------------------------------------------------
     def __enter__(self) -> BatchSearch:
@@ -140,13 +143,13 @@ class BatchSearch:
         """The budget that is spent, as its code (:data:`STOP_REASONS`) and in words; None while none is."""
         s = self.settings
         if s.max_seconds is not None and (elapsed := self.elapsed()) >= s.max_seconds:
-            # budgets are checked between batches: say how long it ran, not only the cap (probe 5: "stopped after
-            # 120 s" after 323 s)
+            # a batch's slice under way when the cap passed ran on to its end: say how long it ran, not only the cap
+            # (probe 5: "stopped after 120 s" after 323 s)
             if elapsed < s.max_seconds * 1.05 + 1:
                 return "max-seconds", f"stopped after {max(elapsed, s.max_seconds):.0f} s"
             return "max-seconds", (
-                f"stopped after {elapsed:.0f} s, its cap {s.max_seconds:g} s reached inside a batch that ran on to its "
-                "end (a batch is never cut: its evaluations are the search's next step)"
+                f"stopped after {elapsed:.0f} s, its cap {s.max_seconds:g} s reached inside a batch whose evaluations "
+                "under way ran on to their end"
             )
         if s.target_fitness is not None and self.best_fitness <= s.target_fitness:
             return "target-fitness", f"reached the target fitness {s.target_fitness:g}"
@@ -163,6 +166,30 @@ class BatchSearch:
             if self.generation_size and self.used >= s.max_generations * self.generation_size:
                 return "max-generations", f"used {s.max_generations} generations of {self.generation_size} evaluations"
         return None
+
+    def _seconds_left(self) -> float | None:
+        """Seconds before ``max_seconds`` (over all sessions of the run); None without a cap."""
+        cap = self.settings.max_seconds
+        return None if cap is None else cap - self.elapsed()
+
+    def _cut(self, vectors: list[np.ndarray], fitness: list[float], asked: int) -> None:
+        """Stop (:class:`BudgetSpent`) where the Evaluator cut a batch of ``asked`` vectors at the deadline: the
+        ``vectors`` of it that have their ``fitness`` (stored: a resumed search takes them from the store) count
+        towards the best point, as every point the run scored does at its end."""
+        if vectors:
+            self.track(np.array(vectors), np.array(fitness, dtype=float))
+        elapsed, cap = self.elapsed(), self.settings.max_seconds
+        assert cap is not None, "a cut needs a cap"
+        finished = f"{len(vectors)} of its {asked} evaluations done and stored"
+        self.stop_code = "max-seconds"
+        if elapsed >= cap:
+            self.stop_reason = f"stopped after {elapsed:.0f} s, its cap {cap:g} s reached inside a batch ({finished})"
+        else:
+            self.stop_reason = (
+                f"stopped at {elapsed:.0f} s inside a batch whose next evaluations would have run past its cap "
+                f"{cap:g} s ({finished})"
+            )
+        raise BudgetSpent
 
     def _before_batch(self, rollouts: int) -> None:
         """Stop (:class:`BudgetSpent`) before a batch that would run past ``max_seconds`` at this session's pace.

@@ -16,7 +16,7 @@ import numpy as np
 
 from simtune.errors import SimtuneError
 from simtune.objective import Objective
-from simtune.optimize.base import BatchSearch
+from simtune.optimize.base import BatchSearch, BudgetSpent
 from simtune.optimize.evaluator import TuneResult, TuneSettings
 from simtune.store import RunStore
 
@@ -47,15 +47,18 @@ def bayesian_tune(objective: Objective, store: RunStore, settings: TuneSettings)
         study.enqueue_trial(dict(zip(distributions, (float(v) for v in row))))
     size = max(1, int(settings.workers))
     with search:
-        while True:
-            left = search.remaining()
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-                trials = [study.ask(distributions) for _ in range(size if left is None else min(size, left))]
-            batch = np.array([[t.params[name] for name in space.names] for t in trials], dtype=np.float64)
-            fitness = search.evaluate(batch)
-            for trial, f in zip(trials, fitness):
-                study.tell(trial, float(f))
-            if search.checkpoint(batch, fitness):
-                break
+        try:
+            while True:
+                left = search.remaining()
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+                    trials = [study.ask(distributions) for _ in range(size if left is None else min(size, left))]
+                batch = np.array([[t.params[name] for name in space.names] for t in trials], dtype=np.float64)
+                fitness = search.evaluate(batch)
+                for trial, f in zip(trials, fitness):
+                    study.tell(trial, float(f))
+                if search.checkpoint(batch, fitness):
+                    break
+        except BudgetSpent:  # the time cap cut a batch
+            pass
         return search.result()

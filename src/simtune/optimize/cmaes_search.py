@@ -14,7 +14,7 @@ import numpy as np
 
 from simtune.errors import SimtuneError
 from simtune.objective import Objective
-from simtune.optimize.base import BatchSearch
+from simtune.optimize.base import BatchSearch, BudgetSpent
 from simtune.optimize.evaluator import TuneResult, TuneSettings
 from simtune.store import RunStore
 
@@ -39,30 +39,33 @@ def cmaes_tune(objective: Objective, store: RunStore, settings: TuneSettings) ->
     restarts = 0
     with search:
         mean = np.full(dim, 0.5)
-        first = search.initial_batch()
-        if first is not None:  # start from the best of the given points
-            batch, fitness, stop = first
-            if stop:
-                return search.result(search.stop_reason)
-            mean = np.clip(search.to_unit(batch[int(np.argmin(fitness))]), 0.0, 1.0)
-        optimizer = CMA(mean=mean, sigma=SIGMA0, bounds=bounds, seed=settings.seed)
-        while True:
-            u = np.array([optimizer.ask() for _ in range(optimizer.population_size)])
-            left = search.remaining()
-            batch = search.from_unit(u if left is None else u[:left])
-            fitness = search.evaluate(batch)
-            if search.checkpoint(batch, fitness):
-                break
-            optimizer.tell([(ui, float(f)) for ui, f in zip(u, fitness)])
-            if optimizer.should_stop():
-                restarts += 1
-                optimizer = CMA(
-                    mean=rng.random(dim),
-                    sigma=SIGMA0,
-                    bounds=bounds,
-                    seed=settings.seed + 1000 * restarts,
-                    population_size=optimizer.population_size * 2,
-                )
+        try:
+            first = search.initial_batch()
+            if first is not None:  # start from the best of the given points
+                batch, fitness, stop = first
+                if stop:
+                    return search.result(search.stop_reason)
+                mean = np.clip(search.to_unit(batch[int(np.argmin(fitness))]), 0.0, 1.0)
+            optimizer = CMA(mean=mean, sigma=SIGMA0, bounds=bounds, seed=settings.seed)
+            while True:
+                u = np.array([optimizer.ask() for _ in range(optimizer.population_size)])
+                left = search.remaining()
+                batch = search.from_unit(u if left is None else u[:left])
+                fitness = search.evaluate(batch)
+                if search.checkpoint(batch, fitness):
+                    break
+                optimizer.tell([(ui, float(f)) for ui, f in zip(u, fitness)])
+                if optimizer.should_stop():
+                    restarts += 1
+                    optimizer = CMA(
+                        mean=rng.random(dim),
+                        sigma=SIGMA0,
+                        bounds=bounds,
+                        seed=settings.seed + 1000 * restarts,
+                        population_size=optimizer.population_size * 2,
+                    )
+        except BudgetSpent:  # the time cap cut a batch
+            pass
         assert search.stop_reason is not None, "the loop ends only when a budget says stop"
         message = search.stop_reason + (f" ({restarts} restarts)" if restarts else "")
         return search.result(message)

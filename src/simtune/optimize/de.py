@@ -3,8 +3,9 @@
 best1bin, crossover 0.7, mutation dithered in [0.5, 1.0], population 1 x D,
 latin-hypercube start; stop when the population's fitness spread falls below
 1 % of its mean, or when a budget of the settings is spent (checked after
-each generation: a generation is never cut short, so ``max_evaluations`` can
-be overshot by up to one generation of D evaluations).
+each generation: a generation is never cut short by a budget of evaluations,
+so ``max_evaluations`` can be overshot by up to one generation of D
+evaluations; the time cap cuts one, its finished evaluations stored).
 
 By default the population is updated once per generation ("deferred"),
 whether one process evaluates it or many: the same seed then gives the same
@@ -26,7 +27,7 @@ import numpy as np
 from scipy.optimize import differential_evolution
 
 from simtune.objective import Objective
-from simtune.optimize.base import BatchSearch
+from simtune.optimize.base import BatchSearch, BudgetSpent
 from simtune.optimize.evaluator import TuneResult, TuneSettings
 from simtune.store import RunStore
 
@@ -77,17 +78,20 @@ def differential_evolution_tune(objective: Objective, store: RunStore, settings:
         return evaluator.score_one(x)
 
     with search:
-        result = differential_evolution(
-            # deferred: never called, the Evaluator is SciPy's ``workers`` map and does the work
-            score_one if exact else (lambda x: objective.score_vector(x).fitness),
-            bounds=search.space.bounds,
-            maxiter=settings.max_generations if settings.max_generations is not None else 10**9,
-            rng=np.random.default_rng(settings.seed),
-            workers=1 if exact else evaluator,
-            callback=checkpoint,
-            # a rescored DE run starts from its last population (it always has 5 members or more)
-            **{**de_settings, **({"init": init} if init is not None else {})},
-        )
+        try:
+            result = differential_evolution(
+                # deferred: never called, the Evaluator is SciPy's ``workers`` map and does the work
+                score_one if exact else (lambda x: objective.score_vector(x).fitness),
+                bounds=search.space.bounds,
+                maxiter=settings.max_generations if settings.max_generations is not None else 10**9,
+                rng=np.random.default_rng(settings.seed),
+                workers=1 if exact else evaluator,
+                callback=checkpoint,
+                # a rescored DE run starts from its last population (it always has 5 members or more)
+                **{**de_settings, **({"init": init} if init is not None else {})},
+            )
+        except BudgetSpent:  # the time cap cut a generation (or, one at a time, stopped before an evaluation)
+            return search.result()
         if exact and result.fun < search.best_fitness:  # the polish found a better point
             search.track(np.atleast_2d(result.x), np.array([result.fun]))
         return search.result(

@@ -31,6 +31,15 @@ does not turn the evaluations that were running meanwhile into failures.
 An evaluation that failed by time-out is retried once when the run is
 resumed (:func:`timed_out`, :meth:`simtune.store.RunStore.release_failures`).
 
+A search with a time cap (``--max-seconds``) hands the Evaluator its deadline (:attr:`Evaluator.seconds_left`):
+a batch then goes out in slices of about :data:`SLICE_S` seconds each at this session's pace (on threads a
+slice of the batch, in worker processes one chunk a worker at a time), and no slice starts that would end past
+the cap; the batch is cut there (:attr:`Evaluator.on_cut`, which stops the search).  Every evaluation that
+finished is in the store, so the search's path does not change: a slice's members are simulated as in the whole
+batch (the batch path's results do not depend on the batch), and a cut batch is asked for again, whole, by a
+resumed search.  Without a cap a batch goes out as one, as before.  A batch of one candidate's many tasks (or
+episodes) takes 9 s and more: before slices a cap of 120 s ended a run after 323 s (probe 5; docs/tuning.md).
+
 While it is open the Evaluator holds BLAS (OpenBLAS under NumPy and SciPy) to one thread in this process, and
 its worker processes do for their lifetime: the optimisers' linear algebra is small (a least-squares SVD,
 differential evolution's population, the replays of the least-squares solver), and BLAS's threads, left
@@ -43,6 +52,7 @@ from __future__ import annotations
 import os
 import signal
 import time
+from collections import deque
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, wait
 from dataclasses import dataclass, field
@@ -184,6 +194,9 @@ THREADS_FIRST_S = 2.0
 #: (2026-11-27: search 2.2-2.8 s against 3.0-5.7 s with the pool's start); `cube`'s 41-point Jacobians run faster
 #: on processes (a 14-member batch: 103.6 against 60.3 evaluations/s).
 POOL_BATCH = 4
+#: Seconds a slice of a batch runs at most, at this session's pace, where the search has a deadline (the module's
+#: text): what a cap may be passed by.  A slice holds at least one member a thread (or a worker's one chunk).
+SLICE_S = 3.0
 
 
 def batch_on_threads(engine: str, workers: int, threads: bool | None, eval_timeout: float | None) -> bool:
@@ -358,6 +371,18 @@ class Evaluator:
         #: wall time of this session's simulated batches and their rollouts: the pace a deadline predicts from
         self.simulated_seconds = 0.0
         self.simulated_jobs = 0
+        #: seconds left before the search's deadline (None: no deadline, or no cap): batches then go out in slices
+        #: checked against it (the module's text)
+        self.seconds_left: Callable[[], float | None] | None = None
+        #: called, where a deadline cut a batch, with the vectors of the batch that have their fitness (from the
+        #: store or simulated), that fitness, and the batch's size; it must raise to stop the search
+        self.on_cut: Callable[[list[np.ndarray], list[float], int], None] | None = None
+        #: results given in this session (from the store or simulated): the first is never cut away
+        self.answered = 0
+        self._cut = False
+        #: per mode (worker processes: True, this process: False), seconds and members simulated: the seconds one
+        #: member of a slice costs there (:meth:`_member_seconds`)
+        self._paced: dict[bool, list[float]] = {True: [0.0, 0], False: [0.0, 0]}
 
     def __enter__(self) -> Evaluator:
         self._blas_limit = threadpool_limits(1, user_api="blas")  # lifted on exit (see the module's text)
@@ -416,6 +441,7 @@ class Evaluator:
     def _record(self, x, score: Score, wall_s: float, residuals: np.ndarray | None = None) -> None:
         self.store.record_evaluation(x, score, self.generation, wall_s, residuals)
         self.new_evaluations += 1
+        self.answered += 1
         self.pruned_evaluations += score.pruned
         self.steps += sum(t.steps for t in score.tasks)
         if self.on_evaluation:
@@ -430,24 +456,94 @@ class Evaluator:
         objective as one batch (``work`` says which kind); with one, one chunk per
         worker where the engine has a batch path (:attr:`chunked`), else one job at
         a time.  A chunk that fails as a whole goes out again one job at a time.
+        With a deadline (:attr:`seconds_left`) the jobs go in slices, and where the
+        next slice would end past it the rest is left out (:attr:`_cut` set).
         """
         if not jobs:
             return
+        for i, payload, score, wall_s in self._run_units(work, jobs):
+            if score.stable or score.pruned:  # a failed evaluation's seconds are no pace
+                paced = self._paced[self._pool is not None]
+                paced[0] += wall_s
+                paced[1] += 1
+            yield i, payload, score, wall_s
+
+    def _deadline(self) -> bool:
+        """Whether the search has a deadline now (a cap, and seconds left to count)."""
+        return self.seconds_left is not None and self.seconds_left() is not None
+
+    def _member_seconds(self) -> float | None:
+        """Seconds a member of a slice has cost in this mode so far (in this process: a member of a batch on its
+        threads, in a worker: one member of its chunk); None before the first."""
+        seconds, members = self._paced[self._pool is not None]
+        return seconds / members if members else None
+
+    def _past_deadline(self, members: int) -> bool:
+        """Whether a slice of ``members`` would end past the deadline at this mode's pace (with no pace yet: whether
+        the deadline has passed); never before this session's first result."""
+        if self.seconds_left is None or not self.answered:
+            return False
+        left = self.seconds_left()
+        return left is not None and left < members * (self._member_seconds() or 0.0)
+
+    def _groups(self, jobs: dict[int, tuple]) -> list[list[int]]:
+        """The indices of ``jobs`` grouped by what they simulate (:meth:`_simulation_groups`)."""
+        indices = list(jobs)
+        return [[indices[j] for j in group] for group in self._simulation_groups([jobs[i][0] for i in indices])]
+
+    def _next_slice(self, groups: list[list[int]], least: int, take: bool = True) -> list[int]:
+        """The next slice of a batch under a deadline (on this process's threads, or a worker's chunk), from the
+        front of ``groups`` (taken off it with ``take``): about :data:`SLICE_S` seconds at this mode's pace, fewer
+        where the deadline is nearer (``least`` members at least; ``least`` before the pace is known), whole
+        groups."""
+        pace = self._member_seconds()
+        size = least
+        if pace is not None:
+            left = self.seconds_left() if self.seconds_left is not None else None
+            fits = SLICE_S if left is None else min(SLICE_S, left)
+            size = max(least, int(fits / pace))
+        part: list[int] = []
+        taken = 0
+        while taken < len(groups) and (not part or len(part) + len(groups[taken]) <= size):
+            part.extend(groups[taken])
+            taken += 1
+        if take:
+            del groups[:taken]
+        return sorted(part)
+
+    def _run_units(self, work: Callable, jobs: dict[int, tuple]) -> Iterator[tuple[int, object, Score, float]]:
+        """:meth:`_run`'s work, its results as they come."""
         pool = self._pool
+        deadline = self._deadline()
         if pool is None:
-            yield from self._run_batch(work, jobs)
+            if not deadline:
+                yield from self._run_batch(work, jobs)
+                return
+            groups = self._groups(jobs)
+            while groups:
+                part = self._next_slice(groups, self.workers if self.threads else 1)
+                if self._past_deadline(len(part)):
+                    self._cut = True
+                    return
+                yield from self._run_batch(work, {i: jobs[i] for i in part})
             return
         indices = list(jobs)
-        if self.chunked:
+        # under a deadline the units are cut from the batch's simulations as workers come free (:meth:`_next_slice`)
+        groups = self._groups(jobs) if deadline else []
+        if deadline:
+            units = []
+        elif self.chunked:
             # the members that share a simulation (they differ in the marker offset only: Objective._rollout_batch)
             # go to one worker together, the group weighing what one of them costs
-            groups = self._simulation_groups([jobs[i][0] for i in indices])
-            costs = self._costs([jobs[indices[group[0]]][0] for group in groups])
-            units = [sorted(indices[j] for g in part for j in groups[g]) for part in chunks(costs, self.workers)]
+            shared = self._simulation_groups([jobs[i][0] for i in indices])
+            costs = self._costs([jobs[indices[group[0]]][0] for group in shared])
+            units = [sorted(indices[j] for g in part for j in shared[g]) for part in chunks(costs, self.workers)]
         else:
             units = [[i] for i in indices]
         futures: dict[Future, list[int]] = {}
         pending: set[Future] = set()
+        waiting = deque(units)  # units to hand to the pool as they are (members of a failed chunk, one each, first)
+        flying = self.workers if deadline else float("inf")
 
         def schedule(unit: list[int]) -> None:
             future: Future
@@ -459,8 +555,19 @@ class Evaluator:
             futures[future] = unit
             pending.add(future)
 
-        for unit in units:
-            schedule(unit)
+        def feed(first: list[list[int]] | None = None) -> None:
+            """Hand the pool the units ``first`` (ahead of the others), then others while workers are free."""
+            waiting.extendleft(reversed(first or []))
+            while (waiting or groups) and len(pending) < flying:
+                unit = waiting[0] if waiting else self._next_slice(groups, 1, take=False)
+                if deadline and self._past_deadline(len(unit)):
+                    self._cut = True
+                    waiting.clear()
+                    groups.clear()
+                    return
+                schedule(waiting.popleft() if waiting else self._next_slice(groups, 1))
+
+        feed()
         clock, began = RunningClock(), time.perf_counter()
         started: dict = {}  # future -> running time of this process when its evaluation started
         while pending:
@@ -475,8 +582,7 @@ class Evaluator:
                     except SimtuneError:
                         raise
                     except Exception:  # the worker died (or the chunk could not run): find the faulty member alone
-                        for i in unit:
-                            schedule([i])
+                        feed([[i] for i in unit])
                         continue
                     for i, payload, score_or_error, wall_s in results:
                         if isinstance(score_or_error, str):
@@ -485,18 +591,17 @@ class Evaluator:
                             yield i, payload, Score.from_dict(score_or_error), wall_s
                     continue
                 yield unit[0], *self._single_result(future, time.perf_counter() - began)
-            if self.eval_timeout is None:
-                continue
-            for future in [f for f in still if f.running()]:
-                if now - started.setdefault(future, now) > self.eval_timeout and future.cancel():
-                    pending.discard(future)  # pebble stops its worker and starts another
-                    unit = futures.pop(future)
-                    if len(unit) > 1:  # each member ran the chunk's whole time: which one hung is not known
-                        for i in unit:
-                            schedule([i])
-                        continue
-                    reason = f"{TIMEOUT_REASON}{self.eval_timeout:g} s; worker replaced"
-                    yield unit[0], None, self._failed(reason), time.perf_counter() - began
+            if self.eval_timeout is not None:
+                for future in [f for f in still if f.running()]:
+                    if now - started.setdefault(future, now) > self.eval_timeout and future.cancel():
+                        pending.discard(future)  # pebble stops its worker and starts another
+                        unit = futures.pop(future)
+                        if len(unit) > 1:  # each member ran the chunk's whole time: which one hung is not known
+                            feed([[i] for i in unit])
+                            continue
+                        reason = f"{TIMEOUT_REASON}{self.eval_timeout:g} s; worker replaced"
+                        yield unit[0], None, self._failed(reason), time.perf_counter() - began
+            feed()
 
     def _single_result(self, future: Future, waited_s: float) -> tuple[object, Score, float]:
         """``(payload, score, wall_s)`` of a worker's one evaluation; a dead worker, a cancelled or a failed
@@ -554,7 +659,8 @@ class Evaluator:
             # its time, shared out over the workers' threads, is the first pace to judge the rest of the batch by
             if self._need_pool(len(jobs), (time.perf_counter() - start) / self.workers):
                 self._start_pool()
-        yield from self._run(work, jobs)
+        if not self._cut:
+            yield from self._run(work, jobs)
         self.simulated_seconds += time.perf_counter() - start
         self.simulated_jobs += count
 
@@ -586,9 +692,12 @@ class Evaluator:
         self.requested += 1
         known = self.store.lookup(x)
         if known is not None:
+            self.answered += 1
             if self.on_evaluation:
                 self.on_evaluation(known, True)
             return known.fitness
+        if self._deadline() and self._past_deadline(1):
+            self._stop_at_deadline([], [], 1)
         for _, _, score, wall_s in self._run(_score, {0: (x, None)}):
             self._record(x, score, wall_s)
             return score.fitness
@@ -620,11 +729,17 @@ class Evaluator:
                 jobs[i] = (x, bound)
                 continue
             fitness[i] = known.fitness
+            self.answered += 1
             if self.on_evaluation:
                 self.on_evaluation(known, True)
+        simulated = set()
         for i, _, score, wall_s in self._simulate(_score, jobs):
             self._record(vectors[i], score, wall_s)
             fitness[i] = score.fitness
+            simulated.add(i)
+        if self._cut:
+            have = [i for i in range(len(vectors)) if i not in twins and (i in simulated or i not in jobs)]
+            self._stop_at_deadline([vectors[i] for i in have], [fitness[i] for i in have], len(vectors))
         for i, first in twins.items():
             fitness[i] = fitness[first]
         self._end_batch(len(jobs))
@@ -652,6 +767,7 @@ class Evaluator:
                 jobs[i] = (x,)
                 continue
             results[i] = (residuals, known)
+            self.answered += 1
             if self.on_evaluation:
                 self.on_evaluation(known, True)
         for i, payload, score, wall_s in self._simulate(_residuals, jobs):
@@ -666,7 +782,18 @@ class Evaluator:
                 score = known  # simulated again only for its residuals: the stored evaluation stands
                 self.store.record_residuals(vectors[i], residuals)
             results[i] = (residuals, score)
+        if self._cut:
+            have = [(vectors[i], result[1].fitness) for i, result in enumerate(results) if result is not None]
+            self._stop_at_deadline([x for x, _ in have], [f for _, f in have], len(vectors))
         for i, first in twins.items():
             results[i] = results[first]
         self._end_batch(len(jobs))
         return results  # type: ignore[return-value]
+
+    def _stop_at_deadline(self, vectors: list[np.ndarray], fitness: list[float], asked: int) -> None:
+        """Hand a batch cut at the deadline to :attr:`on_cut` (which stops the search): its ``vectors`` that have
+        their ``fitness``, of ``asked``."""
+        self._cut = False
+        assert self.on_cut is not None, "a deadline comes with what to do at it"
+        self.on_cut(vectors, fitness, asked)
+        raise AssertionError("on_cut stops the search")

@@ -5,15 +5,28 @@ from __future__ import annotations
 import time
 
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
+from rich.progress import BarColumn, Progress, ProgressBar, Task, TaskID, TextColumn, TimeElapsedColumn
 
 from simtune.fitness import Score
+
+
+class _ClockBar(BarColumn):
+    """A bar that a time budget fills with the seconds elapsed at each of Rich's refreshes, not those of the last
+    evaluation: a long evaluation (one candidate's many episodes, 9 s) left the bar standing still (probe 5)."""
+
+    def render(self, task: Task) -> ProgressBar:
+        bar = super().render(task)
+        if task.total is not None and task.elapsed is not None:
+            bar.completed = min(max(bar.completed, task.elapsed), task.total)
+        return bar
 
 
 class TuneProgress:
     """Rich progress bar (on stderr) fed by the tuner's per-evaluation and per-generation callbacks.
 
-    With a time budget the bar fills with elapsed time; otherwise it only counts.  Its evaluation count is the
+    With a time budget the bar fills with elapsed time, as the clock runs (:class:`_ClockBar`); otherwise it only
+    counts.  The counts move with every evaluation that finishes (with a time budget the Evaluator's slices give
+    results every few seconds: :data:`simtune.optimize.evaluator.SLICE_S`).  Its evaluation count is the
     run store's, as the summary after it says: the evaluations stored by earlier sessions (``stored``, a resumed run)
     plus those simulated in this one.  A point the search asks for again is taken from the store and is no new
     evaluation (the opening's best point in the first population, a least-squares point in a Jacobian's replay).
@@ -30,7 +43,7 @@ class TuneProgress:
         self._start = time.perf_counter()
         self._progress = Progress(
             TextColumn("[bold]tuning[/]"),
-            BarColumn(),
+            _ClockBar(),
             TextColumn(
                 "gen {task.fields[gen]:>4}  best {task.fields[best]}  {task.fields[rate]} eval/s"
                 "  {task.fields[evals]} evals{task.fields[reused]}"

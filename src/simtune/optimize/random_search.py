@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from simtune.objective import Objective
-from simtune.optimize.base import BatchSearch
+from simtune.optimize.base import BatchSearch, BudgetSpent
 from simtune.optimize.evaluator import TuneResult, TuneSettings
 from simtune.store import RunStore
 
@@ -21,14 +21,17 @@ def random_search_tune(objective: Objective, store: RunStore, settings: TuneSett
     rng = np.random.default_rng(settings.seed)
     search = BatchSearch(objective, store, settings, generation_size=dim)
     with search:
-        first = search.initial_batch()
-        if first is not None and first[2]:
-            return search.result()
-        while True:
-            left = search.remaining()
-            size = dim if left is None else min(dim, left)
-            u = rng.random((dim, dim))[:size]  # always draw a full batch: the stream does not depend on the budget
-            batch = search.from_unit(u)
-            if search.checkpoint(batch, search.evaluate(batch)):
-                break
+        try:
+            first = search.initial_batch()
+            if first is not None and first[2]:
+                return search.result()
+            while True:
+                left = search.remaining()
+                size = dim if left is None else min(dim, left)
+                u = rng.random((dim, dim))[:size]  # always draw a full batch: the stream does not depend on the budget
+                batch = search.from_unit(u)
+                if search.checkpoint(batch, search.evaluate(batch)):
+                    break
+        except BudgetSpent:  # the time cap cut a batch
+            pass
         return search.result()
