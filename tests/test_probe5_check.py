@@ -203,3 +203,15 @@ def test_the_real_single_onset_and_delay_are_not_carried_by_single0010(capsys):
     printed = _printed(capsys, summary)
     assert "left out of the onset's mean and std: Single0010_6D.tsv moves at 0.040 s" in printed
     assert "(median; mean" in printed
+
+
+def test_an_onset_that_could_not_be_measured_is_said_in_words_not_printed_as_a_dash(capsys):
+    """Probe 5: a check whose recordings never leave their rest printed "motion onset - s" and "delay about - s"."""
+    from simtune.cli.check_output import _print_onset
+
+    part = {"repeats": [{}], "onset_median_s": None, "onset_mean_s": None, "onset_std_s": None}
+    _print_onset({**part, "simulated_onset_s": None, "implied_command_delay_s": None})
+    printed = " ".join(capsys.readouterr().out.split())
+    assert "- s" not in printed
+    assert "motion onset: none found" in printed and "the generic simulation does not move" in printed
+    assert "no command delay estimated from it" in printed

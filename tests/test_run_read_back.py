@@ -51,45 +51,77 @@ def own_project(tmp_path_factory) -> Path:
     project = root / "arm"
     init_project(root / "arm.urdf", project)
     reach = (project / "tasks" / "reach.toml").read_text()
-    (project / "tasks" / "back.toml").write_text(
-        reach.replace('name = "reach"', 'name = "back"').replace("targets_deg = [20, 20]", "targets_deg = [-15, 25]")
-    )
+    for name, targets in (("back", "[-15, 25]"), ("side", "[10, -20]")):
+        (project / "tasks" / f"{name}.toml").write_text(
+            reach.replace('name = "reach"', f'name = "{name}"').replace(
+                "targets_deg = [20, 20]", f"targets_deg = {targets}"
+            )
+        )
     toml = project / "simtune.toml"
-    toml.write_text(
-        toml.read_text().replace('tasks = ["tasks/reach.toml"]', 'tasks = ["tasks/reach.toml", "tasks/back.toml"]')
-    )
-    st.synth("mujoco", "reach,back", out=project / "recordings", project=project, repeats=2)
+    files = '"tasks/reach.toml", "tasks/back.toml", "tasks/side.toml"'
+    toml.write_text(toml.read_text().replace('tasks = ["tasks/reach.toml"]', f"tasks = [{files}]"))
+    st.synth("mujoco", "reach,back,side", out=project / "recordings", project=project, repeats=2)
     return project
 
 
-def read_back(run: Path, tasks: list[str], tmp_path: Path, project: Path | None, data: Path | None) -> None:
-    """The run's best_params.json scored on each of ``tasks`` (the one tuned on, then another), exported, reported."""
+def read_back(run: Path, tasks: list[str], tmp_path: Path, project: Path | None, data: Path | None) -> list[str]:
+    """The run's best_params.json scored on each of ``tasks`` (those tuned on, through the API, to its stored
+    fitness; then others, held out, through `simtune evaluate --params-file` as a user runs it), exported, reported.
+
+    Returns:
+        What `simtune evaluate` printed for each held-out task.
+    """
+    from typer.testing import CliRunner
+
+    from simtune.cli import app
+
     best = run / "best_params.json"
     stored = json.loads(best.read_text())
-    for task in tasks:
-        score = st.evaluate("mujoco", task, params=best, project=project, data=data)
-        if task == tasks[0]:
-            assert score.fitness == pytest.approx(stored["fitness"], rel=1e-9, abs=1e-12)
+    score = st.evaluate("mujoco", tasks[0], params=best, project=project, data=data)
+    assert score.fitness == pytest.approx(stored["fitness"], rel=1e-9, abs=1e-12)
+    where = ["--project", str(project)] if project else ["--data", str(data)]
+    printed = []
+    for task in tasks[1:]:
+        done = CliRunner().invoke(app, ["evaluate", "--task", task, "--params-file", str(best), *where])
+        assert done.exit_code == 0 and f"{task} " in done.output, done.output
+        printed.append(" ".join(done.output.split()))
     exports, _ = st.export(run, tmp_path / "export")
     assert exports and (tmp_path / "export" / "provenance.json").is_file()
+    first = tasks[0].split(",")[0]  # a run of several tasks exports a scene of each
     loaded = subprocess.run(
-        [sys.executable, "load_mujoco.py", tasks[0]], cwd=tmp_path / "export", capture_output=True, text=True
+        [sys.executable, "load_mujoco.py", first], cwd=tmp_path / "export", capture_output=True, text=True
     )
-    assert loaded.returncode == 0 and loaded.stdout.startswith(f"{tasks[0]} wrist at"), loaded.stderr
+    assert loaded.returncode == 0 and loaded.stdout.startswith(f"{first} wrist at"), loaded.stderr
+    unknown = subprocess.run(
+        [sys.executable, "load_mujoco.py", tasks[0] + "x"], cwd=tmp_path / "export", capture_output=True, text=True
+    )
+    assert unknown.returncode == 1 and "(this export has: " in unknown.stderr and "Traceback" not in unknown.stderr
     assert st.report(run, tmp_path / "report").is_file()
+    return printed
 
 
 #: the default tier reads back the default space; the slow tier every other (the default tier's 4 minutes)
 QUICK = ("calibrated",)
+#: every kind of run tune makes of an own robot: each space, a selection (--only), and several tasks tuned together,
+#: each with its own command delay (issue 70: `evaluate --params-file` refused such a run's best_params.json)
+RUNS = {
+    **{space: {"space": space} for space in SPACES},
+    "only": {"space": "extended", "only": "armature_joint_1,joint_damping_2,command_delay"},
+    "two-tasks": {"space": "calibrated", "tasks": "reach,back"},
+}
 
 
-@pytest.mark.parametrize("space", [s if s in QUICK else pytest.param(s, marks=pytest.mark.slow) for s in SPACES])
-def test_an_own_robots_run_reads_back_in_every_space(space, own_project, tmp_path):
+@pytest.mark.parametrize("kind", [k if k in QUICK else pytest.param(k, marks=pytest.mark.slow) for k in RUNS])
+def test_an_own_robots_run_reads_back_in_every_space(kind, own_project, tmp_path):
+    """Read back on the tasks tuned on and on `side`, held out: its shared parameters apply, the tuned tasks' own
+    delays do not (said in a line), and its clock is aligned from its recordings."""
+    settings = dict(RUNS[kind])
+    tuned = settings.pop("tasks", "reach")
     run = tmp_path / "run"
-    st.tune(
-        "mujoco", "reach", project=own_project, space=space, out=run, optimizer="random", max_evaluations=2, workers=1
-    )
-    read_back(run, ["reach", "back"], tmp_path, own_project, None)
+    st.tune("mujoco", tuned, project=own_project, out=run, optimizer="random", max_evaluations=2, workers=1, **settings)
+    (held,) = read_back(run, [tuned, "side"], tmp_path, own_project, None)
+    assert "clock aligned: side's command delay" in held
+    assert ("not applied: command_delay_reach, command_delay_back (each the clock" in held) == (kind == "two-tasks")
 
 
 @pytest.mark.slow

@@ -83,13 +83,22 @@ def _print_onset(part: dict) -> None:
     odd = part.get("onset_outliers") or []
     median = part.get("onset_median_s", part["onset_mean_s"])  # a check stored before the median was: its mean
     kept = f" of the {len(part['repeats']) - len(odd)} near it" if odd else ""
-    out.print(
-        f"  motion onset {fmt_g(median)} s (median; mean {fmt_g(part['onset_mean_s'])} s, std "
-        f"{fmt_g(part['onset_std_s'])} s{kept}); the generic simulation moves at {fmt_g(part['simulated_onset_s'])} "
-        f"s: command delay about {fmt_g(part['implied_command_delay_s'])} s",
-        highlight=False,
-        soft_wrap=True,
+    # a value that could not be measured is said in words, never printed as "- s" (issue 70)
+    std = "" if part["onset_std_s"] is None else f", std {fmt_g(part['onset_std_s'])} s"
+    recorded = (
+        "  motion onset: none found (no repeat's track leaves its rest)"
+        if median is None
+        else f"  motion onset {fmt_g(median)} s (median; mean {fmt_g(part['onset_mean_s'])} s{std}{kept})"
     )
+    simulated = part["simulated_onset_s"]
+    moves = (
+        "the generic simulation does not move"
+        if simulated is None
+        else f"the generic simulation moves at {fmt_g(simulated)} s"
+    )
+    delay = part["implied_command_delay_s"]
+    implied = "no command delay estimated from it" if delay is None else f"command delay about {fmt_g(delay)} s"
+    out.print(f"{recorded}; {moves}: {implied}", highlight=False, soft_wrap=True)
     for row in odd:
         out.print(
             f"  left out of the onset's mean and std: {escape(row['file'])} moves at {row['onset_s']:.3f} s, "

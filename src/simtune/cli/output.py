@@ -278,6 +278,7 @@ def delay_lines(score) -> list[str]:
     """Which command delay each task not aligned ran with, where parameters were given: a held-out task scored with
     a parameter file that times no clock of it runs at delay 0 (probe 5: a generic score, without a word)."""
     from simtune.engines.controller import given_delay
+    from simtune.params.kinds import TASK_DELAY_PREFIX
 
     if not score.x:
         return []
@@ -294,6 +295,14 @@ def delay_lines(score) -> list[str]:
             )
         else:
             lines.append(f"command delay: {task} ran at {delay:.3g} s, the parameters' own")
+    # a run tuned on several tasks times each one's recordings with its own delay: a clock of those recordings, not
+    # a property of the robot, so it times no other task (its shared parameters apply to every task)
+    others = [n for n in score.x if n.startswith(TASK_DELAY_PREFIX) and n[len(TASK_DELAY_PREFIX) :] not in score.parts]
+    if others:
+        lines.append(
+            f"not applied: {', '.join(others)} (each the clock of its own task's recordings, not of "
+            f"{', '.join(score.parts)}'s); every other parameter given applies"
+        )
     return lines
 
 

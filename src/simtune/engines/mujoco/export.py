@@ -166,6 +166,9 @@ HERE = pathlib.Path(__file__).resolve().parent
 def load(task):
     """The tuned model of ``task`` and a data for it at the model's reference pose: (model, data)."""
     xml, mjb = HERE / f"scene_{task}.xml", HERE / f"scene_{task}.mjb"
+    if not xml.is_file() and not mjb.is_file():
+        known = sorted(p.stem[len("scene_"):] for p in HERE.glob("scene_*.*") if p.suffix in (".xml", ".mjb"))
+        raise SystemExit(f"{HERE}: no scene of task {task!r} (this export has: {', '.join(known)})")
     model = mujoco.MjModel.from_xml_path(str(xml)) if xml.is_file() else mujoco.MjModel.from_binary_path(str(mjb))
     return model, mujoco.MjData(model)
 
