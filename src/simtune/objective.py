@@ -40,7 +40,7 @@ from simtune.fitness import (
 )
 from simtune.fitness import residuals as task_residuals
 from simtune.params import ParameterSpace
-from simtune.params.kinds import MARKER, applied_outside, kind_of, outside_generics, prior_width
+from simtune.params.kinds import JOINT_OFFSET_RANGE, MARKER, applied_outside, kind_of, outside_generics, prior_width
 from simtune.tasks import TaskSpec
 from simtune.tasks.lerobot import reading_for
 
@@ -126,7 +126,8 @@ def generic_score(objective: Objective) -> Score:
 
 def joint_ranges(task: TaskSpec) -> dict[str, JointRange]:
     """What each driven joint's logged angles should fit [rad]: the task's start angle, the range its schedule
-    commands (start pose and every target) and the joint's limits (the units check of joint logs)."""
+    commands (start pose and every target), the joint's limits (the units check of joint logs), its velocity limit and
+    the encoder offset the calibrated space tunes (the ingest's clock and offset checks, :mod:`simtune.data.ingest`)."""
     _, table = task.schedule
     angles = np.radians(table)
     ranges = {}
@@ -135,7 +136,13 @@ def joint_ranges(task: TaskSpec) -> dict[str, JointRange]:
         if joint.kind in ("revolute", "continuous"):
             column = angles[:, k]
             ranges[name] = JointRange(
-                float(column[0]), float(column.min()), float(column.max()), joint.lower, joint.upper
+                float(column[0]),
+                float(column.min()),
+                float(column.max()),
+                joint.lower,
+                joint.upper,
+                velocity=joint.velocity or None,  # 0: not given, as a URDF's missing limit reads
+                tuned_offset=math.radians(JOINT_OFFSET_RANGE),
             )
     return ranges
 

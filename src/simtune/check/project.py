@@ -15,13 +15,14 @@ import sys
 import time
 import warnings
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from simtune.common.spawn_guard import adopt_environment, check_main_guarded, sigint_blocked, worker_context
 from simtune.data import TaskData
+from simtune.data.ingest import data_check_entry
 from simtune.engines import ENGINES, engine_class
 from simtune.errors import EngineUnavailable, SimtuneError
 from simtune.fitness import reference_floor
@@ -41,6 +42,9 @@ LEVELS = ("problem", "warning", "note")
 class Finding:
     level: str  # one of LEVELS
     message: str
+    #: what ``simtune check DIR --json`` adds to the line: a named data check's parts
+    #: (:func:`simtune.data.ingest.data_check_entry`, ``data_check``), a task's ``floor_fitness`` (None: one repeat)
+    fields: dict | None = field(default=None, compare=False)
 
     def __str__(self) -> str:
         return f"{self.level}: {self.message}"
@@ -85,6 +89,29 @@ def check_project(
         findings += _check_recordings(project, name, root)
     findings += _check_engines(project, engines or tuple(ENGINES))
     return findings
+
+
+def findings_json(findings: list[Finding]) -> dict:
+    """``simtune check DIR --json``: the findings, each with its level, message and fields, and what they say per
+    task.
+
+    Args:
+        findings: :func:`check_project`'s.
+    Returns:
+        ``findings`` (each ``level``, ``message`` and its fields), ``problems`` (how many), ``data_checks`` (each
+        warning of a named data check: its ``task``, ``check``, ``source``, ``episode``, ``channel`` and
+        ``message``) and ``floors`` (per task with recordings: its ``repeats`` and ``floor_fitness``, None where one
+        repeat gives no floor).
+    """
+    fields = [f.fields or {} for f in findings]
+    return {
+        "findings": [{"level": f.level, "message": f.message, **x} for f, x in zip(findings, fields)],
+        "problems": sum(f.level == "problem" for f in findings),
+        "data_checks": [{"task": x["task"], **x["data_check"]} for x in fields if "data_check" in x],
+        "floors": {
+            x["task"]: {"repeats": x["repeats"], "floor_fitness": x["floor_fitness"]} for x in fields if "repeats" in x
+        },
+    }
 
 
 def _check_masses(robot) -> list[Finding]:
@@ -134,7 +161,9 @@ def _check_recordings(project: Project, name: str, root: Path | None = None) -> 
             data = load_task_recordings(folder, task, reference="aligned")
         except SimtuneError as exc:
             return [Finding("problem", f"{where}: recordings: {exc}")]
-    findings = [Finding("warning", f"{where}: recordings: {w.message}") for w in caught]
+    findings = [
+        Finding("warning", f"{where}: recordings: {w.message}", _check_fields(name, str(w.message))) for w in caught
+    ]
     holds = []
     if data.wrist_repeats is not None:
         holds.append(f"marker body {task.wrist_body!r}")
@@ -143,7 +172,10 @@ def _check_recordings(project: Project, name: str, root: Path | None = None) -> 
     if data.joint_names:
         holds.append(f"{len(data.joint_names)} joint angles")
     findings.append(Finding("note", f"task {name}: {len(data.sources)} recordings in {folder} ({', '.join(holds)})"))
-    findings.append(Finding("note", _floor_line(name, data)))
+    floor = reference_floor(data).floor
+    findings.append(
+        Finding("note", _floor_line(name, data), {"task": name, "repeats": len(data.sources), "floor_fitness": floor})
+    )
     if data.wrist_repeats is not None:
         start, _ = task.robot.forward_kinematics(np.radians(task.start_pose_deg))
         first = data.wrist_repeats[0, 0]
@@ -171,6 +203,12 @@ def _check_recordings(project: Project, name: str, root: Path | None = None) -> 
             else:
                 findings.append(Finding("note", line))
     return findings
+
+
+def _check_fields(task: str, message: str) -> dict | None:
+    """A recording warning's fields for the JSON: its task and, where a named check raised it, that check's parts."""
+    entry = data_check_entry(message)
+    return {"task": task} if entry is None else {"task": task, "data_check": entry}
 
 
 def _floor_line(name: str, data: TaskData) -> str:

@@ -41,6 +41,7 @@ from simtune.activity import active_space, inactive_parameters
 from simtune.alignment import PROBE_DELAY_S
 from simtune.data import TaskData, load_recording
 from simtune.data.clock import outlying_shifts
+from simtune.data.ingest import data_check_entries
 from simtune.data.onset import motion_onset
 from simtune.data.orientation import RecordedRotations
 from simtune.engines import engine_class, make_engine
@@ -594,6 +595,8 @@ def task_quality(
         "repeats": rows,
         # each warning once: both references are read, and each read warns alike
         "left_out": list(dict.fromkeys(str(w.message) for w in caught)),
+        # the same warnings of named checks (the ingest's, the sanity stage's), each read into its parts
+        "data_checks": data_check_entries([str(w.message) for w in caught]),
         "repeat_check_left_out": [Path(source).name for source in aligned.left_out],
         "repeat_spread_m": chosen.repeat_spread,
         "repeat_spread_aligned_m": floor.spread_aligned_m,

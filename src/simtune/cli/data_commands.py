@@ -101,7 +101,7 @@ def check(
             raise SimtuneError(
                 "check: name a project folder (simtune check DIR) or the tasks to check (--task T --data ROOT)"
             )
-        _check_project(project_dir, data)
+        _check_project(project_dir, data, as_json)
         return
     result = api.check(
         engine or "mujoco",
@@ -144,14 +144,19 @@ def _print_written_task(result: dict) -> None:
         out.print(f"  note: {escape(note)}", highlight=False, soft_wrap=True)
 
 
-def _check_project(project_dir: Path, data: Path | None) -> None:
-    """``simtune check DIR [--data ROOT]``: one line per finding (problems on stderr); exit 2 if any is a problem."""
+def _check_project(project_dir: Path, data: Path | None, as_json: bool = False) -> None:
+    """``simtune check DIR [--data ROOT] [--json]``: one line per finding (problems on stderr), or the findings as
+    JSON (:func:`simtune.check.project.findings_json`); exit 2 if any is a problem."""
     from simtune import api
+    from simtune.check.project import findings_json
 
     findings = api.check_project(project_dir, data=data)
-    for finding in findings:
-        stream = err if finding.level == "problem" else out
-        stream.print(escape(str(finding)), highlight=False, soft_wrap=True)
+    if as_json:
+        print_json(findings_json(findings))
+    else:
+        for finding in findings:
+            stream = err if finding.level == "problem" else out
+            stream.print(escape(str(finding)), highlight=False, soft_wrap=True)
     if any(f.level == "problem" for f in findings):
         raise typer.Exit(2)
 

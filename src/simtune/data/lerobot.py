@@ -32,6 +32,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from simtune.data._table import read_bytes
+from simtune.data.ingest import copied_commands, warn_of_copied_commands
 from simtune.data.recording import MAX_ABS_JOINT_RAD, Recording, finish_recording
 from simtune.data.sanity import (
     ANGLE_FACTORS,
@@ -516,14 +517,34 @@ def read_lerobot_dataset(
     if ranges:
         warn_of_still_joints(root, episodes, columns, [rec.joints for rec in recordings], ranges)
         warn_of_small_motion(root, episodes, columns, ranges, str(reading.units))
-    if commanded and len(episodes) > 1:  # after the states' own checks, which name a wrong unit first
+    actions = None
+    if commanded:  # after the states' own checks, which name a wrong unit first
         try:
             actions = pick_columns(root, info, ACTION, joint_names, reading)
         except RecordingError:
             actions = None  # commands of other joints (or names) than the state's: nothing to compare
-        if actions is not None and actions.picked:
+    if actions is not None and actions.picked:
+        _check_commands(root, episodes, columns, actions, factor, to_radians(root, reading, f"features.{ACTION}"))
+        if len(episodes) > 1:
             check_one_commanded_motion(root, episodes, actions, to_radians(root, reading, f"features.{ACTION}"))
     return recordings
+
+
+def _check_commands(root: Path, episodes: Sequence[Episode], state: Columns, action: Columns, *factors: float) -> None:
+    """The command check (:func:`simtune.data.ingest.copied_commands`) of the joints both features name."""
+    shared = [joint for _, joint in state.picked if joint in {j for _, j in action.picked}]
+    if not shared:
+        return
+    measured, commands = [], []
+    for episode in episodes:
+        try:
+            q, u = _angles(episode, state, factors[0], root), _angles(episode, action, factors[1], root)
+        except RecordingError:
+            return  # commands that are no angles in the stated unit are not the state's: a warning has nothing to say
+        measured.append(np.column_stack([q[j] for j in shared]))
+        commands.append(np.column_stack([u[j] for j in shared]))
+    same = copied_commands(measured, commands, [e.index for e in episodes])
+    warn_of_copied_commands(_shown(root), f"{ACTION} vs {STATE}", same, len(episodes))
 
 
 #: A joint the task commands over :data:`~simtune.data.sanity.MIN_COMMANDED_SPAN_RAD` or more whose logged state

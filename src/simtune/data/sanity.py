@@ -176,14 +176,19 @@ DEGREES_FIT_SHARE = 0.1
 @dataclass(frozen=True)
 class JointRange:
     """What one joint's logged angles [rad] should fit, from the task and the arm (passed as plain numbers:
-    data/ knows neither): the task's start angle, the range it commands (start angle and every target) and
-    the joint's limits (None: unlimited)."""
+    data/ knows neither): the task's start angle, the range it commands (start angle and every target), the
+    joint's limits (None: unlimited), its velocity limit and the encoder offset the calibration tunes."""
 
     start: float
     low: float
     high: float
     lower: float | None = None
     upper: float | None = None
+    #: the joint's velocity limit [rad/s] (None: not given), which the ingest's clock check holds a log's speed to
+    velocity: float | None = None
+    #: how far [rad] either side of zero the calibration tunes the joint's encoder offset (None: not known), which
+    #: the ingest's offset check names
+    tuned_offset: float | None = None
 
     def beyond_limits(self, angles: np.ndarray) -> tuple[float, int, str]:
         """How far [rad] ``angles`` lie beyond the joint's limits and their margin (0: not at all), at which frame,
@@ -207,6 +212,44 @@ class JointRange:
         commanded = f"beyond what the task commands ({self.low:.4g} to {self.high:.4g} rad)"
         worst = max(worst, (self.low - JOINT_MARGIN_RAD - angles[low], low, commanded), key=lambda w: w[0])
         return max(worst, (angles[high] - self.high - JOINT_MARGIN_RAD, high, commanded), key=lambda w: w[0])
+
+
+def zero_offset(angles: np.ndarray, limits: JointRange) -> float | None:
+    """The least shift [rad] that puts ``angles`` within the joint's limits, where their span fits inside them (a log
+    whose zero is not the robot model's); 0 where they lie within; None where they span more than the joint's range
+    or the joint has no limits."""
+    if limits.lower is None or limits.upper is None:
+        return None
+    low, high = float(np.min(angles)), float(np.max(angles))
+    if high - low > limits.upper - limits.lower:
+        return None
+    return max(limits.lower - low, 0.0) - max(high - limits.upper, 0.0)
+
+
+def offset_words(angles: np.ndarray, limits: JointRange, lerobot: bool = True) -> str:
+    """What a log past the joint's limits says of its zero (for the units and offset checks' messages): where its
+    motion fits inside the limits, a zero offset of so many degrees, one the calibrated space's encoder offset tunes
+    (:attr:`JointRange.tuned_offset`) or more; empty where it does not fit (a unit, another robot's joint)."""
+    shift = zero_offset(angles, limits)
+    if shift is None or shift == 0.0:
+        return ""
+    words = (
+        f"; its motion fits inside the joint's limits shifted by {math.degrees(shift):+.3g} deg: a zero offset, not a "
+        "unit"
+    )
+    if lerobot:
+        words += (
+            " (a LeRobot dataset's degrees are measured from the middle of the calibrated range, not the model's zero)"
+        )
+    tuned = limits.tuned_offset
+    if tuned is not None and abs(shift) <= tuned:
+        return words + (
+            f", which the calibrated space's encoder offset already tunes (joint_offset_<n>, +-{math.degrees(tuned):g} "
+            "deg: --space calibrated)"
+        )
+    if tuned is not None:
+        return words + f", more than the +-{math.degrees(tuned):g} deg the calibration tunes: correct the log's zero"
+    return words
 
 
 def check_joint_units(rec: Recording, ranges: Mapping[str, JointRange], display: str) -> None:
@@ -361,6 +404,7 @@ def declared_units_problem(
             )
             return UnitsProblem(joint, frame, text, other)
         text = f"reads {_reads(value, unit)}, {what}; {read} it fits no better: neither unit fits the robot model"
+        text += offset_words(declared[joint], ranges[joint])  # only the limits lead here: perhaps a zero, not a unit
         return UnitsProblem(joint, frame, text, None)
     return _small_motion(values, declared, alternative, ranges, unit, other_stray)
 
@@ -451,7 +495,8 @@ def schedule_units_problem(
                 f"it looks like {UNIT_WORDS[other]}"
             )
             return UnitsProblem(joint, frame, text, other)
-        return UnitsProblem(joint, frame, f"reads {_reads(value, unit)}, {what}, in either unit", None)
+        text = f"reads {_reads(value, unit)}, {what}, in either unit"
+        return UnitsProblem(joint, frame, text + offset_words(raw[joint] * ANGLE_FACTORS[unit], ranges[joint]), None)
     if unit != "deg" or other_beyond > 0:
         return None
     largest = max(float(np.max(np.abs(q))) for q in raw.values())

@@ -15,7 +15,8 @@ from simtune.data._table import display_name
 from simtune.data.clock import ClockAlignment, align_clocks, check_reference, read_later, spread, warn_outliers
 from simtune.data.fingerprint import task_files
 from simtune.data.formats import recording_kinds
-from simtune.data.lerobot import LeRobotReading
+from simtune.data.ingest import warn_of_ingest
+from simtune.data.lerobot import LeRobotReading, is_lerobot_dataset
 from simtune.data.loaders import load_recordings
 from simtune.data.onset import motion_onset
 from simtune.data.recording import Recording
@@ -573,6 +574,10 @@ def load_task_data(
     their clocks are aligned and they are averaged: ``all``, ``even`` (indices 0, 2, 4 ...) or ``odd`` (1, 3 ...);
     the ones left out are :attr:`TaskData.held_out`.  A selection of none is a RecordingError.
 
+    The ingest checks (:mod:`simtune.data.ingest`: excitation, clock and offset of joint logs, and a LeRobot
+    dataset's command check) warn, one RecordingWarning each, of data that can be used but may not say what its
+    user thinks.
+
     Before the selection, a repeat far from the others by the aligned floor (:mod:`simtune.data.screen`: a marker
     glitch, a mirrored or body-swapped take, an object never touched) is left out with a RecordingWarning naming
     its file, and listed in :attr:`TaskData.left_out`; ``keep_repeats`` keeps every repeat.
@@ -589,6 +594,8 @@ def load_task_data(
     recordings, bodies, joints = _sane_recordings(
         sources, wrist_body, object_body, base_body, duration_s, reach_m, ranges
     )
+    # what the logs say against themselves and the robot, whatever their unit's source (simtune.data.ingest)
+    warn_of_ingest(recordings, joint_ranges, [is_lerobot_dataset(rec.source.parent) for rec in recordings])
     kept = _bridge_gaps(recordings, bodies, max_gap_s)
     lost = len(recordings) - len(kept)
     kept, short, reason = _drop_short(kept, duration_s)
