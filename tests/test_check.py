@@ -74,6 +74,7 @@ def test_check_reports_quality_onsets_and_what_the_task_informs():
     # the floor: the repeats agree better on one clock; the reference checked against is the aligned one
     assert 0 < cube["repeat_spread_aligned_m"] <= cube["repeat_spread_unaligned_m"]
     assert cube["reference"] == result["reference"] == "aligned" and cube["floor_fitness"] > 0
+    assert cube["data_checks"] == []  # the shipped reference meets every named check (simtune.data.ingest's too)
     # the shipped repeats rest where each phase's targets put the arm, but for the marker's offset
     assert [r["stretch"] for r in cube["rest_poses"]] == ["phase 1", "phase 2", "phase 3"]
     assert all(0 < r["distance_m"] < 0.03 and not r["far"] for r in cube["rest_poses"])

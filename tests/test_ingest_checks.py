@@ -2,7 +2,10 @@
 its fault, and stays silent on the same recording without it and on the shipped reference; `simtune check DIR
 --json` lists them (``data_checks``) and gives a task of one repeat no floor (null)."""
 
+import json
 import math
+import subprocess
+import sys
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -214,6 +217,22 @@ def test_check_dir_json_names_the_checks_and_gives_one_repeat_no_floor(tmp_path,
     assert entry["task"] == "wave" and entry["check"] == "command check" and entry["episode"] == 0
     assert any("no floor: one repeat" in f["message"] for f in result["findings"])
     assert not any("floor (the aligned mean" in f["message"] for f in result["findings"])
+
+
+@pytest.mark.slow  # 5 s: the engines load the robot
+def test_check_dir_json_on_the_command_line(tmp_path, logs):
+    root = tmp_path / "proj"
+    (root / "tasks").mkdir(parents=True)
+    (root / "simtune.toml").write_text('robot = "mico"\ntasks = ["tasks/wave.toml"]\ndata = "recordings"\n')
+    (root / "tasks" / "wave.toml").write_text(TASK_FILE)
+    _dataset(root / "recordings" / "wave", logs[:1])  # one clean episode: no floor, no warning
+    proc = subprocess.run(
+        [sys.executable, "-m", "simtune.cli", "check", str(root), "--json"], capture_output=True, text=True, timeout=600
+    )
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout)
+    assert result["problems"] == 0 and result["data_checks"] == []
+    assert result["floors"]["wave"]["floor_fitness"] is None
 
 
 def test_every_check_is_listed_in_the_docs():

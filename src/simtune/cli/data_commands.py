@@ -81,11 +81,12 @@ def check(
 ) -> None:
     """Before tuning: a project's files (simtune check DIR), or a task's data and what it can inform (--task).
 
-    simtune check DIR (or --project DIR): robot, joints and links, recordings, start pose, engines; one line
-    per finding, exit 2 if any is a problem.  With --task T (and --data ROOT, or DIR's recordings): per task,
-    lost marker frames and the longest gap of each recording, how well the repeats agree, how far each starts
-    from the simulated arm, each repeat's motion onset (and the command delay it implies), each phase's rest
-    against where its targets put the arm, in position and (where the recordings give it) orientation, with
+    simtune check DIR (or --project DIR): robot, joints and links, recordings (and the ingest checks' warnings),
+    start pose, engines; one line per finding (--json: one object), exit 2 if any is a problem.  With --task T
+    (and --data ROOT, or DIR's recordings): per task, lost marker frames and the longest gap of each recording,
+    how well the repeats agree, how far each starts from the simulated arm, each repeat's motion onset (and the
+    command delay it implies), each phase's rest against where its targets put the arm, in position and (where
+    the recordings give it) orientation, with
     proposed targets where it lies far off; then the rank
     and singular values of the residuals' Jacobian at the generic point (or --params-file's) and, per active
     parameter, whether the recordings can inform it; and the combinations of parameters they cannot tell apart,

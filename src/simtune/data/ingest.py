@@ -163,14 +163,13 @@ def _commanded(span: float) -> str:
     return " (the task holds it)" if span < math.radians(0.05) else f" (commanded over {math.degrees(span):.2g})"
 
 
-def _speeds(rec: Recording) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """Each frame's time and each joint's speed [rad/s] over :data:`SPEED_WINDOW_S` ending there (the first
-    frames' from the first frame)."""
+def _speeds(rec: Recording) -> dict[str, np.ndarray]:
+    """Each joint's speed [rad/s] at each frame, over the :data:`SPEED_WINDOW_S` ending there (the first frames':
+    from the first frame; the first frame's: 0)."""
     t = rec.time
-    before = np.searchsorted(t, t - SPEED_WINDOW_S, side="right") - 1
-    before = np.clip(before, 0, None)
+    before = np.clip(np.searchsorted(t, t - SPEED_WINDOW_S, side="right") - 1, 0, None)
     span = np.where(t - t[before] > 0, t - t[before], np.inf)
-    return span, {j: np.abs(q - q[before]) / span for j, q in rec.joints.items()}
+    return {j: np.abs(q - q[before]) / span for j, q in rec.joints.items()}
 
 
 def _clock_check(rec: Recording, ranges: Mapping[str, JointRange]) -> None:
@@ -185,7 +184,7 @@ def _clock_check(rec: Recording, ranges: Mapping[str, JointRange]) -> None:
         if nominal
         else "its timestamps are not the readings' own"
     )
-    _, speed = _speeds(rec)
+    speed = _speeds(rec)
     moving = np.max(np.column_stack(list(speed.values())), axis=1)
     angles = np.column_stack(list(rec.joints.values()))
     repeated = np.flatnonzero(np.all(angles[1:] == angles[:-1], axis=1)) + 1
