@@ -196,6 +196,29 @@ def test_a_unit_error_past_the_limits_says_when_it_is_a_zero_offset():
     assert "more than the +-3 deg the calibration tunes" in problem.text
 
 
+def test_an_episode_too_short_for_the_task_is_the_duration_checks(tmp_path, logs):
+    # the ingest owes no check of its own here: the sanity stage leaves it out, naming the episode
+    short = [
+        *logs,
+        Recording(source=Path("cut"), time=logs[0].time[:45], joints={j: q[:45] for j, q in logs[0].joints.items()}),
+    ]
+    ranges = _ranges()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        data = load_task_data(
+            _dataset(tmp_path / "ds", short),
+            "wave",
+            "hand",
+            joint_names=ARM_JOINTS,
+            duration_s=3.0,
+            lerobot=LeRobotReading(units="deg", ranges=tuple(ranges.items())),
+            joint_ranges=ranges,
+        )
+    (entry,) = [e for e in (data_check_entry(str(w.message)) for w in caught) if e is not None]
+    assert entry["check"] == "duration check" and entry["episode"] == 2 and "left out" in entry["message"]
+    assert len(data.sources) == 2
+
+
 def test_the_shipped_reference_passes_every_ingest_check():
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
