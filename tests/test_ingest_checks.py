@@ -17,7 +17,7 @@ from simtune.check.project import _check_recordings, findings_json
 from simtune.data import load_task_data, write_lerobot_dataset
 from simtune.data.csvformat import write_csv
 from simtune.data.ingest import CHECKS, NAMES, data_check_entry
-from simtune.data.lerobot import LeRobotReading
+from simtune.data.lerobot import STILL_SHARE, LeRobotReading
 from simtune.data.recording import Recording
 from simtune.data.sanity import declared_units_problem
 from simtune.errors import RecordingWarning
@@ -142,8 +142,23 @@ def _still_joint_6(time, joints):
     return time, joints
 
 
+def _barely_joint_1(k, time, state, action):
+    # commanded over 30 deg, it moves 0.8: above the still-joint warning's 2 % (0.6 deg), below 1 deg
+    state = state.copy()
+    state[:, 0] = 0.8 * np.sin(time)  # [deg]: time runs 0-3 s, sin spans 1
+    return time, state, action
+
+
 #: fault -> (format, how, the joint ranges, the check and channel that name it, its source)
 FAULTS = {
+    "weak excitation in a dataset": (
+        "lerobot",
+        _barely_joint_1,
+        {},
+        "excitation check",
+        "joint 'joint_1'",
+        "ds/episode_000000 (and 1",
+    ),
     "weak excitation": ("csv", _still_joint_6, {}, "excitation check", "joint 'joint_6'", "ds/wave0000.csv (and 1"),
     "commands logged as the state": (
         "lerobot",
@@ -262,6 +277,7 @@ def test_every_check_is_listed_in_the_docs():
     docs = (Path(__file__).resolve().parents[1] / "docs" / "recordings.md").read_text()
     for check in CHECKS:
         assert f"| {check.name} | {check.finds} | {check.rule} |" in docs, check.name  # docs match the table
+    assert f"under {STILL_SHARE:.0%} of it" in CHECKS[0].rule  # the still-joint warning's share, as it is
     assert data_check_entry("wave/episode_000002: duration check: left out: holds 1 frame") == {
         "check": "duration check",
         "source": "wave/episode_000002",

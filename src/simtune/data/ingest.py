@@ -72,9 +72,9 @@ CHECKS = (
     IngestCheck(
         "excitation check",
         "a joint that barely moves (weak excitation)",
-        f"a driven joint spanning less than {math.degrees(WEAK_SPAN_RAD):g} deg in every repeat (joints of a "
-        f"LeRobot dataset the task commands over {math.degrees(MIN_COMMANDED_SPAN_RAD):g} deg are the still-joint "
-        "warning's)",
+        f"a driven joint spanning less than {math.degrees(WEAK_SPAN_RAD):g} deg in every repeat (a joint of a "
+        f"LeRobot dataset the task commands over {math.degrees(MIN_COMMANDED_SPAN_RAD):g} deg that stays under 2% "
+        "of it in every episode is the still-joint warning's)",
     ),
     IngestCheck(
         "command check",
@@ -124,6 +124,8 @@ def warn_of_ingest(
         lerobot: per recording, whether it is an episode of a LeRobot dataset (whose still joints are warned of
             by :func:`simtune.data.lerobot.warn_of_still_joints`); empty: none is.
     """
+    from simtune.data.lerobot import STILL_SHARE  # on use: the LeRobot reader imports this module
+
     logs = [rec for rec in recordings if rec.joints and len(rec.time) >= 2]
     if not logs:
         return
@@ -135,8 +137,9 @@ def warn_of_ingest(
         commanded = ranges[joint].high - ranges[joint].low if joint in ranges else None
         if not spans or max(spans) >= WEAK_SPAN_RAD:
             continue
-        if from_dataset and commanded is not None and commanded >= MIN_COMMANDED_SPAN_RAD:
-            continue  # never moves where it is told to: the still-joint warning says so
+        told = from_dataset and commanded is not None and commanded >= MIN_COMMANDED_SPAN_RAD
+        if told and commanded is not None and max(spans) < STILL_SHARE * commanded:
+            continue  # never moves where it is told to, in any episode: the still-joint warning says so
         weak[joint] = (max(spans), commanded)
     if weak:
         # one line for them all: a task that holds some joints still on purpose gets one line, not one per joint
