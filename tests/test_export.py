@@ -131,6 +131,46 @@ def test_round_trip_of_a_calibrated_run(tmp_path_factory, tmp_path, engine, monk
     assert np.abs(np.subtract(cube["start_angles_deg"], cube["start_pose_deg"])).max() > 0.1
 
 
+#: runs the export's own driver in a fresh interpreter that cannot import simtune: the user's machine
+_DRIVE = """
+import json, sys
+sys.modules["simtune"] = None  # the export must not need simtune
+sys.path.insert(0, sys.argv[1])
+import load_mujoco
+times, angles, wrists = load_mujoco.drive("cube")
+new = [(0.5, [20.0, 10.0, 100.0, 70.0, -20.0, 30.0]), (2.0, [-10.0, 25.0, 90.0, 100.0, 10.0, -15.0])]
+_, new_angles, new_wrists = load_mujoco.drive("cube", new, duration_s=12.0)  # a 3-s delay
+print(json.dumps({"wrists": wrists.tolist(), "angles": angles.tolist(), "new_angles": new_angles.tolist(),
+                  "new_wrists": new_wrists.tolist()}))
+"""
+
+
+@pytest.mark.slow  # a calibrated MuJoCo run of cube, shared with test_round_trip_of_a_calibrated_run: about 15 s
+def test_an_export_drives_its_task_and_a_new_motion_without_simtune(tmp_path_factory, tmp_path):
+    """load_mujoco.drive runs controller.yaml's law (delay, phase, clamps, encoder offsets and compliance) in plain
+    MuJoCo: the task's own schedule reproduces the run's simulation, and a new schedule is driven to its targets."""
+    engine_or_skip("mujoco")
+    run_dir = tuned_run(tmp_path_factory, "mujoco", space="calibrated")
+    best = json.loads((run_dir / "best_params.json").read_text())
+    export_run(run_dir, tmp_path / "export", engine="mujoco")
+    moved = tmp_path / "elsewhere"  # the folder travels: nothing in it points back
+    shutil.copytree(tmp_path / "export", moved)
+    shutil.rmtree(tmp_path / "export")
+    done = subprocess.run([sys.executable, "-c", _DRIVE, str(moved)], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    driven = json.loads(done.stdout)
+    engine = make_engine("mujoco", get_task("cube"))
+    try:
+        tuned = engine.rollout(best["params"], len(driven["wrists"]))
+    finally:
+        engine.close()
+    np.testing.assert_allclose(driven["wrists"], tuned.wrist_pos, atol=1e-9)
+    np.testing.assert_allclose(np.radians(driven["angles"]), tuned.joint_angles, atol=1e-9)
+    reached = np.array(driven["new_angles"][-1])  # the encoders read the last phase's targets, within a degree
+    assert np.abs(reached - [-10.0, 25.0, 90.0, 100.0, 10.0, -15.0]).max() < 1.0
+    assert np.isfinite(driven["new_wrists"]).all()
+
+
 @pytest.mark.slow
 def test_round_trip_of_a_drive_train_run(tmp_path_factory, tmp_path, monkeypatch):
     """The MJCF carries the drive train the run simulated (armature, frictionloss, each servo's kv) and

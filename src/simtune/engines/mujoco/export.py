@@ -153,12 +153,20 @@ def _quat_to_matrix(quat, out) -> None:
 
 
 _SCRIPT = '''"""Load the tuned MuJoCo scene of one task (scene_<task>.xml, or scene_<task>.mjb for a robot read from
-an MJCF file) to drive as controller.yaml says; run it to let the arm stand one second and print where its wrist is."""
+an MJCF file) and drive it as controller.yaml says, with MuJoCo, NumPy and PyYAML only.
 
+    python load_mujoco.py TASK           # let the arm stand one second at its start pose; print where its wrist is
+    python load_mujoco.py TASK --drive   # run the task's own schedule; print the wrist at its end
+
+From Python, ``drive(task, schedule)`` runs any new motion: ``schedule`` a list of (start_s, targets_deg).
+"""
+
+import math
 import pathlib
 import sys
 
 import mujoco
+import numpy as np
 
 HERE = pathlib.Path(__file__).resolve().parent
 
@@ -173,15 +181,97 @@ def load(task):
     return model, mujoco.MjData(model)
 
 
-if __name__ == "__main__":
+def controller():
+    """controller.yaml, read."""
     import yaml
 
-    control = yaml.safe_load((HERE / "controller.yaml").read_text())
+    return yaml.safe_load((HERE / "controller.yaml").read_text())
+
+
+def drive(task, schedule=None, duration_s=None):
+    """Run ``task``'s scene under the run's controller: every 0.05 s (shifted by the command delay's remainder) each
+    joint's velocity servo is commanded kp * (target - encoder reading), clamped to the joint's velocity limit, the
+    targets those in force a command delay earlier; the encoders read the joint angles plus their zero offsets, less
+    each joint's compliance times the gravity torque on it.
+
+    Args:
+        task: a task of this export (controller.yaml's ``tasks``).
+        schedule: the motion, a list of (start_s, targets_deg) phases (the arm holds its start pose before the
+            first); None: the task's own schedule.
+        duration_s: how long to run; None: the task's duration, or for a new schedule its last phase's start + 5 s.
+
+    Returns:
+        (times [s], joint readings [deg], wrist positions [m]), one row per control period, as simtune samples them.
+    """
+    control = controller()
+    c, t = control["control"], control["tasks"][task]
+    model, data = load(task)
+    joints = c["joints"]
+    qpos = np.array([model.joint(j).qposadr[0] for j in joints])
+    dofs = np.array([model.joint(j).dofadr[0] for j in joints])
+    servos = np.array([model.actuator(j).id for j in joints])
+    wrist = model.body(control["tracking"]["link"]).id
+    encoders = c.get("encoders") or {}
+    offset = np.radians(encoders.get("zero_offset_deg", [0.0] * len(joints)))
+    compliance = np.array(encoders.get("compliance_rad_per_n_m", [0.0] * len(joints)))
+    kp = np.array(t["kp_joint_per_s"], dtype=float)
+    v_max = np.radians(t["max_velocity_deg_s"])
+    delay, phase, period = float(t["command_delay_s"]), float(t["update_phase_s"]), float(c["period_s"])
+    own = schedule is None
+    phases = [(p["start_s"], p["targets_deg"]) for p in t["schedule"]] if own else list(schedule)
+    if duration_s is None:
+        duration_s = t["duration_s"] if own else phases[-1][0] + 5.0
+    starts = np.array([start for start, _ in phases], dtype=float)
+    table = np.radians([t["start_pose_deg"], *(targets for _, targets in phases)])
+    still = mujoco.MjData(model)  # the gravity torques: the bias forces of the pose at rest
+
+    def reading():
+        q = data.qpos[qpos]
+        if not compliance.any():
+            return q + offset
+        still.qpos[:] = data.qpos
+        still.qvel[:] = 0.0
+        mujoco.mj_forward(model, still)
+        return q + offset + compliance * still.qfrc_bias[dofs]  # bias = minus gravity's torque
+
+    mujoco.mj_resetData(model, data)
+    data.qpos[qpos] = np.radians(t["start_angles_deg"])
+    mujoco.mj_forward(model, data)
+    n = int(round(duration_s / period)) + 1
+    dt = model.opt.timestep
+    times = np.arange(n) * period
+    angles, wrists = np.zeros((n, len(joints))), np.zeros((n, 3))
+    t_sim = 0.0
+    for k in range(n):
+        q = reading()
+        angles[k], wrists[k] = q, data.xpos[wrist]
+        if k == n - 1:
+            break
+        if phase:  # on to the controller's update instant, which reads the state there
+            steps = int(round((k * period + phase - t_sim) / dt))
+            if steps > 0:
+                mujoco.mj_step(model, data, nstep=steps)
+                t_sim += steps * dt
+                q = reading()
+        target = table[np.searchsorted(starts, k * period + phase - delay + 1e-12, side="right")]
+        data.ctrl[servos] = np.clip(kp * (target - q), -v_max, v_max)
+        steps = max(1, int(round(((k + 1) * period - t_sim) / dt)))
+        mujoco.mj_step(model, data, nstep=steps)
+        t_sim += steps * dt
+    return times, np.degrees(angles), wrists
+
+
+if __name__ == "__main__":
+    control = controller()
     task = sys.argv[1] if len(sys.argv) > 1 else next(iter(control["tasks"]))
+    if "--drive" in sys.argv[2:]:
+        times, angles, wrists = drive(task)
+        print(task, "driven for", times[-1], "s; wrist at", wrists[-1])
+        sys.exit(0)
     model, data = load(task)
     start = control["tasks"][task]["start_pose_deg"]
     for joint, angle in zip(control["control"]["joints"], start):
-        data.joint(joint).qpos[0] = angle * 3.141592653589793 / 180.0
+        data.joint(joint).qpos[0] = math.radians(angle)
     # the velocity servos (actuators named after their joints) hold the start pose: zero commanded velocity
     for _ in range(round(1.0 / model.opt.timestep)):
         mujoco.mj_step(model, data)
