@@ -85,6 +85,28 @@ def test_a_csv_schedule_is_the_same_as_its_phases(tmp_path):
     assert load_task_file(tmp_path / "csv.toml", robot).phases == load_task_file(tmp_path / "phases.toml", robot).phases
 
 
+def test_a_linear_schedule_ramps_between_its_set_points_and_hold_keeps_the_fingerprint(tmp_path):
+    """[controller] interpolation = "linear": the target moves from each set-point to the next over the time
+    between them (a logged stream a trajectory controller ramped through); the default, hold, is the task as
+    before, fingerprint and all."""
+    import numpy as np
+
+    from simtune.engines.controller import JointController
+    from simtune.runs import task_fingerprint
+
+    (tmp_path / "hold.toml").write_text(CUBE)
+    (tmp_path / "stated.toml").write_text(CUBE.replace("gain = 10.0", 'gain = 10.0\ninterpolation = "hold"'))
+    (tmp_path / "linear.toml").write_text(CUBE.replace("gain = 10.0", 'gain = 10.0\ninterpolation = "linear"'))
+    robot = bundled_project().robot
+    hold, stated, linear = (load_task_file(tmp_path / f"{n}.toml", robot) for n in ("hold", "stated", "linear"))
+    assert hold == stated and task_fingerprint(hold) == task_fingerprint(stated) != task_fingerprint(linear)
+    times = [0.2, 2.7, 5.2, 9.0]  # with a 0.2 s delay: the first set-point, halfway, the last, after it
+    ramped = np.degrees(JointController(linear, {"command_delay": 0.2}).targets(times))
+    np.testing.assert_allclose(ramped[:, 1:3], [[30, 120], [-15, 92.5], [-60, 65], [-60, 65]], atol=1e-9)
+    held = np.degrees(JointController(hold, {"command_delay": 0.2}).targets(times))
+    np.testing.assert_allclose(held[:, 1:3], [[30, 120], [30, 120], [-60, 65], [-60, 65]], atol=1e-9)
+
+
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
@@ -109,6 +131,10 @@ def test_a_csv_schedule_is_the_same_as_its_phases(tmp_path):
         (('body = "wrist"', ""), "push.toml: mocap.body: missing (required)"),
         (("duration = 10.0", "duration = 4.0"), "push.toml: phases[1].start: starts at 5 s, not before the task's end"),
         (("[[phases]]\nstart = 0.0", "[[phase]]\nstart = 0.0"), "push.toml: phase: unknown key"),
+        (
+            ("gain = 10.0", 'gain = 10.0\ninterpolation = "spline"'),
+            "push.toml: controller.interpolation: unknown interpolation 'spline' (known: hold, linear)",
+        ),
     ],
 )
 def test_bad_task_files_are_one_line_naming_file_and_key(tmp_path, edit, message):

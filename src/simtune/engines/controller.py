@@ -124,8 +124,15 @@ class JointController:
     def targets(self, times: npt.ArrayLike) -> np.ndarray:
         """Joint targets [rad] in force at each simulated time of ``times`` (one row per time)."""
         starts, table = self.task.schedule
-        rows = np.searchsorted(starts, np.asarray(times, dtype=float) - self.delay + 1e-12, side="right")
-        return np.radians(table[rows])
+        sent = np.asarray(times, dtype=float) - self.delay
+        rows = np.searchsorted(starts, sent + 1e-12, side="right")
+        if self.task.interpolation == "hold" or len(starts) < 2:
+            return np.radians(table[rows])
+        # linear: between set-point k (row k + 1) and the next, the share of the time between them that has passed
+        ramping = (rows >= 1) & (rows < len(starts))
+        k = np.clip(rows - 1, 0, len(starts) - 2)
+        share = np.where(ramping, (sent - starts[k]) / (starts[k + 1] - starts[k]), 0.0)
+        return np.radians(table[rows] + share[:, None] * (table[np.minimum(rows + 1, len(starts))] - table[rows]))
 
     def velocity(self, target: np.ndarray, angles_rad: np.ndarray) -> np.ndarray:
         """Joint velocity targets [rad/s] towards ``target`` [rad] from ``angles_rad``."""

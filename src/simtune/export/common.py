@@ -122,6 +122,8 @@ def _task_control(ctx: ExportContext, task: TaskSpec, samples: int | None) -> di
         "schedule": [
             {"start_s": float(s), "targets_deg": [float(v) for v in row]} for s, row in zip(starts, table[1:])
         ],
+        # hold: each set-point until the next; linear: ramped from each to the next (the task's interpolation)
+        "interpolation": task.interpolation,
         "object": None
         if task.object is None
         else {
@@ -150,6 +152,8 @@ _CONTROLLER_NOTES = [
     "- The arm starts at rest at the task's start_angles_deg, where the encoders read start_pose_deg",
     "  (the same angles without an encoder model).  Phase i of the schedule is in force from",
     "  the task's command_delay_s + start_s on; before the first phase the target is the start pose.",
+    "  A task's interpolation says what lies between: hold (each phase's targets until the next) or",
+    "  linear (ramped from each phase's targets to the next's over the time between their starts).",
     "- Samples are taken at k * period_s (k = 0 .. samples - 1); update k happens update_phase_s later,",
     "  at k * period_s + update_phase_s, from the joint angles at that instant, with the targets in force",
     "  then.  Physics steps are counted so that simulated time stays within half a step of both clocks.",

@@ -32,6 +32,7 @@ def task_from_controller(folder: Path, name: str, like: TaskSpec) -> TaskSpec:
         t["kp_per_s"],
         object=like.object,
         start_pose_deg=tuple(t["start_pose_deg"]),
+        interpolation=t.get("interpolation", "hold"),  # exports from before the key held every set-point
         robot=like.robot,  # the encoders' gravity torques are the robot's
     )
 

@@ -21,7 +21,7 @@ from simtune.robot.description import RobotDescription
 from simtune.robot.mico import MICO
 from simtune.tasks.keys import Keys, kind_of
 from simtune.tasks.lerobot import SCHEDULE_KEYS, lerobot_schedule, recordings_key
-from simtune.tasks.spec import MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
+from simtune.tasks.spec import INTERPOLATIONS, MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
 from simtune.tasks.yamlfile import load_yaml
 
 #: The joint control laws a task file may name (``controller.law``); simtune.engines.controller runs them.
@@ -101,7 +101,7 @@ TASK_KEYS = (
     "schedule_lerobot",
     "schedule_episode",
 )
-CONTROLLER_KEYS = ("law", "gain", "max_velocity_deg")
+CONTROLLER_KEYS = ("law", "gain", "max_velocity_deg", "interpolation")
 PHASE_KEYS = ("start", "targets_deg", "published_targets_deg")
 OBJECT_KEYS = ("shape", "material", "mass", "size", "xy", "rpy", "mocap_body")
 MOCAP_KEYS = ("link", "body", "base_body")
@@ -132,7 +132,7 @@ def load_task_file(
     recordings, lerobot = recordings_key(keys, project_dir or path.parent)
     # the robot the task carries (TaskSpec's default: the bundled MICO)
     description = MICO if robot is None or robot.description is None else robot.description
-    kp, max_velocity = _controller(keys)
+    kp, max_velocity, interpolation = _controller(keys)
     offset = keys.numbers("target_offset_deg", len(joints), per_joint)
     published: tuple[Phase, ...] | None = None
     if keys.has("schedule_lerobot") or keys.has("schedule_episode"):
@@ -166,6 +166,7 @@ def load_task_file(
         phases=phases,
         kp=kp,
         max_velocity_deg=max_velocity,
+        interpolation=interpolation,
         object=obj,
         wrist_body=body or "",
         start_pose_deg=start_pose,
@@ -262,7 +263,8 @@ def _check_limits(
                 )
 
 
-def _controller(keys: Keys) -> tuple[float, float]:
+def _controller(keys: Keys) -> tuple[float, float, str]:
+    """The ``[controller]`` table: its gain, velocity clamp and interpolation between set-points."""
     controller = keys.table("controller", CONTROLLER_KEYS, required=True)
     assert controller is not None
     law = controller.string("law", default=CONTROL_LAWS[0])
@@ -270,7 +272,12 @@ def _controller(keys: Keys) -> tuple[float, float]:
         raise controller.error("law", f"unknown control law {law!r} (known: {', '.join(CONTROL_LAWS)})")
     gain = controller.number("gain", required=True, above=0.0)
     max_velocity = controller.number("max_velocity_deg", default=30.0, above=0.0)
-    return gain, max_velocity
+    interpolation = controller.string("interpolation", default=INTERPOLATIONS[0])
+    if interpolation not in INTERPOLATIONS:
+        raise controller.error(
+            "interpolation", f"unknown interpolation {interpolation!r} (known: {', '.join(INTERPOLATIONS)})"
+        )
+    return gain, max_velocity, interpolation
 
 
 def _schedule(

@@ -24,6 +24,8 @@ WRIST_BODY = "RB1(Orange)"
 
 SHAPES = ("cube", "cylinder", "cone", "cuboid")
 MATERIALS = ("plastic", "wood")
+#: How a task's target moves between its schedule's set-points (:attr:`TaskSpec.interpolation`).
+INTERPOLATIONS = ("hold", "linear")
 #: The surfaces with contact parameters of their own (``lateral_friction_<group>`` and the like): the
 #: gripper, the floor and each object material.  Their order is those parameters' order in a space.
 CONTACT_GROUPS = ("gripper", "floor", "wood", "plastic")
@@ -150,10 +152,20 @@ class TaskSpec:
     #: how the engines load the robot (:data:`LOADINGS`): a run setting (``RunConfig.loading``) the task carries to
     #: every engine built for it; :meth:`loaded_as` sets it
     loading: str = field(default="description", metadata={FINGERPRINT: "run"})
+    #: how the controller's target moves between the schedule's set-points (:data:`INTERPOLATIONS`): ``hold``
+    #: each until the next (phases, the paper's), or ``linear`` from each to the next over the time between them
+    #: (a logged stream of set-points a trajectory controller ramped through); the start pose is held before the
+    #: first, the last held after it
+    interpolation: str = field(default="hold", metadata={FINGERPRINT: "default"})
 
     def __post_init__(self) -> None:
         if self.loading not in LOADINGS:
             raise ConfigError(f"task {self.name!r}: loading must be one of {', '.join(LOADINGS)}, got {self.loading!r}")
+        if self.interpolation not in INTERPOLATIONS:
+            raise ConfigError(
+                f"task {self.name!r}: interpolation must be one of {', '.join(INTERPOLATIONS)}, got "
+                f"{self.interpolation!r}"
+            )
         robot = self.robot
         n = robot.n_joints
         # the MICO's names are the fields' defaults: for another robot, left at them, they follow the robot

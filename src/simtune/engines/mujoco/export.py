@@ -253,7 +253,12 @@ def drive(task, schedule=None, duration_s=None):
                 mujoco.mj_step(model, data, nstep=steps)
                 t_sim += steps * dt
                 q = reading()
-        target = table[np.searchsorted(starts, k * period + phase - delay + 1e-12, side="right")]
+        sent = k * period + phase - delay  # when the targets in force now were sent
+        row = int(np.searchsorted(starts, sent + 1e-12, side="right"))
+        target = table[row]
+        if t.get("interpolation") == "linear" and 1 <= row < len(starts):  # ramped towards the next set-point
+            share = (sent - starts[row - 1]) / (starts[row] - starts[row - 1])
+            target = target + share * (table[row + 1] - target)
         data.ctrl[servos] = np.clip(kp * (target - q), -v_max, v_max)
         steps = max(1, int(round(((k + 1) * period - t_sim) / dt)))
         mujoco.mj_step(model, data, nstep=steps)
