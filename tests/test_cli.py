@@ -45,6 +45,7 @@ COMMANDS = [
     "transfer",
     "generalise",
     "sensitivity",
+    "design",
     "export",
     "report",
 ]

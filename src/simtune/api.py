@@ -47,7 +47,7 @@ from simtune.params import get_space, read_params_file, validate_params
 from simtune.project import Project, get_project
 from simtune.project import load_project as _load_project
 from simtune.reference import REFERENCE_DIR, run_demo
-from simtune.run_config import COMPARE_DEFAULTS, COMPARE_SETS, TRANSFER_DEFAULTS
+from simtune.run_config import COMPARE_DEFAULTS, COMPARE_SETS, DEFAULT_SPACE, TRANSFER_DEFAULTS
 from simtune.run_config import DEFAULTS as RUN_DEFAULTS
 from simtune.run_plan import RunConfig, new_run_config
 from simtune.runs import read_run_record, resume_run, run_uncertainty, start_run
@@ -1220,3 +1220,97 @@ __all__ = [
     "tune",
     "uncertainty",
 ]
+
+
+def design(
+    engine: str = "mujoco",
+    *,
+    out: Path | str,
+    project: Path | str | Project | None = None,
+    task: str | Collection[str] | None = None,
+    space: str = DEFAULT_SPACE,
+    only: str | Collection[str] | None = None,
+    duration: float = 30.0,
+    signals: str | Collection[str] = "marker,joints",
+    repeats: int = 10,
+    workers: int = 1,
+    seed: int = 0,
+    name: str | None = None,
+    on_progress: Callable[[str, int, int], None] | None = None,
+) -> dict:
+    """``simtune design``: the motion a lab should record so that its recordings identify the parameters.
+
+    Writes the designed task file at ``out`` (TOML), and beside it the same schedule as a CSV of targets at the
+    controller's rate (``<stem>.csv``), as a ROS 2 ``JointTrajectory`` in YAML (``<stem>.trajectory.yaml``) and
+    what the design found (``<stem>.design.json``: each parameter's predicted 95 % interval width on the design and
+    on the project's current tasks, the combinations still not told apart, the checks in simulation).
+
+    Args:
+        engine: the physics engine the parameters are the ones of.
+        out: the task file to write (``.toml``).
+        project: a project folder or :class:`Project`; None: the bundled MICO project.
+        task: the project's task(s) (comma-separated or a list) the design is set beside; the first one's robot,
+            start pose, gain and tracked marker the design keeps (default: the project's first task).
+        space: the parameter space designed for.
+        only: these parameters of the space alone (comma-separated or a list).
+        duration: the designed task's length [s].
+        signals: what the lab records: ``marker`` (the tracked link's marker), ``joints`` (the joint angles), or
+            both joined by a comma.
+        repeats: how many repeats the lab records (their mean's noise narrows the intervals).
+        workers: threads (MuJoCo) or processes for the Jacobians' rollouts.
+        seed: seed of the library's every-joint excursions.
+        name: the designed task's name (default: the file's stem).
+        on_progress: called with (what, done, total) as the design goes on.
+
+    Returns:
+        The design's summary (``<stem>.design.json``'s content), with ``files``: the paths written.
+    """
+    import json
+
+    from simtune.design import SIGNALS, Noise, design_experiment
+    from simtune.tasks.files import load_task_file
+
+    engine_class(engine)  # an unknown engine is one line before any work
+    target = _path("out", out)
+    if target.suffix != ".toml":
+        raise ConfigError(f"out: {target}: the designed task is written as a TOML task file (name it *.toml)")
+    chosen = _project(project)
+    names = chosen.task_names()[:1] if task is None else _names("task", task, "reach")
+    if not names:
+        raise ConfigError(f"project {chosen.root}: has no task to take the robot's start pose and gain from")
+    tasks = [chosen.task(n) for n in names]
+    template = tasks[0]
+    recorded = tuple(_names("signals", signals, "marker,joints"))
+    unknown = [s for s in recorded if s not in SIGNALS]
+    if unknown:
+        raise ConfigError(f"signals: unknown signal {unknown[0]!r} (known: {', '.join(SIGNALS)})")
+    duration = checks.positive("duration", duration, " seconds")
+    noise = Noise(recorded, 0.002, math.radians(DEFAULT_JOINT_NOISE_DEG), checks.count("repeats", repeats, 1, 1000))
+    result = design_experiment(
+        engine,
+        template,
+        tasks,
+        duration=duration,
+        name=name or target.stem,
+        space_name=space,
+        only=None if only is None else _names("only", only, "command_delay"),
+        noise=noise,
+        workers=_workers(workers),
+        seed=checks.count("seed", seed, 0, MAX_SEED),
+        progress=on_progress,
+    )
+    stem = target.with_suffix("")
+    files = {
+        "task": target,
+        "csv": stem.with_name(stem.name + ".csv"),
+        "trajectory": stem.with_name(stem.name + ".trajectory.yaml"),
+        "summary": stem.with_name(stem.name + ".design.json"),
+    }
+    target.parent.mkdir(parents=True, exist_ok=True)
+    files["task"].write_text(result.toml)
+    files["csv"].write_text(result.csv)
+    files["trajectory"].write_text(result.yaml)
+    summary = {**result.summary, "files": {k: str(v) for k, v in files.items()}}
+    files["summary"].write_text(json.dumps(summary, indent=1, default=float) + "\n")
+    load_task_file(target, chosen.robot, chosen.root)  # the file written reads back as a task of the project
+    return summary

@@ -19,6 +19,7 @@ from rich.markup import escape
 
 from simtune.cli import (
     data_commands,
+    design_command,
     export_command,
     grid_command,
     info_commands,
@@ -58,6 +59,7 @@ COMMANDS = (
     study_commands.transfer,
     study_commands.generalise,
     study_commands.sensitivity,
+    design_command.design,
     export_command.export,
     report_command.report,
 )
