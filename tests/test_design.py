@@ -16,6 +16,7 @@ from robot_corpus import CORPUS, init_args
 from simtune.design.schedule import targets_csv, trajectory_yaml
 from simtune.engines import make_engine
 from simtune.engines.contact import floor_touches, rollout_samples
+from simtune.errors import ConfigError
 from simtune.project import bundled_project, load_project
 from simtune.tasks.files import load_task_file
 from simtune.tasks.spec import Phase
@@ -37,18 +38,28 @@ def one_line(done: subprocess.CompletedProcess, message: str) -> None:
 
 
 @pytest.mark.parametrize(
-    ("args", "message"),
+    ("kwargs", "message"),
     [
-        (["--engine", "mujoko"], "mujoko"),
-        (["--out", "designed.yaml"], "written as a TOML task file"),
-        (["--signals", "marker,torque"], "unknown signal 'torque'"),
-        (["--only", "no_such_parameter"], "no_such_parameter"),
-        (["--task", "no_such_task"], "no_such_task"),
+        ({"engine": "mujoko"}, "mujoko"),
+        ({"out": "designed.yaml"}, "written as a TOML task file"),
+        ({"signals": "marker,torque"}, "unknown signal 'torque'"),
+        ({"only": "no_such_parameter"}, "no_such_parameter"),
+        ({"task": "no_such_task"}, "no_such_task"),
+        ({"duration": -3.0}, "duration"),
     ],
 )
-def test_bad_input_is_one_line(tmp_path, args, message):
-    """Each refused before any simulation: one line naming what is wrong, exit 2."""
-    one_line(simtune("design", "--out", str(tmp_path / "d.toml"), *args, cwd=tmp_path), message)
+def test_bad_input_is_refused_before_any_simulation(tmp_path, kwargs, message):
+    """Each a ConfigError naming what is wrong (the command line prints it as one line, exit 2)."""
+    from simtune import api
+
+    kwargs = {"out": tmp_path / "d.toml", **kwargs}
+    with pytest.raises(ConfigError) as info:
+        api.design(kwargs.pop("engine", "mujoco"), **kwargs)
+    assert message in str(info.value) and "\n" not in str(info.value)
+
+
+def test_the_command_line_says_a_bad_argument_in_one_line(tmp_path):
+    one_line(simtune("design", "--signals", "torque", "--out", str(tmp_path / "d.toml")), "unknown signal 'torque'")
 
 
 def test_the_lab_files_hold_the_schedule_at_the_controllers_rate():
