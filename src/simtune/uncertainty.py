@@ -91,7 +91,12 @@ class Jacobian:
 
 
 def jacobian(
-    objective: Objective, x: np.ndarray, workers: int = 1, step: float = STEP, known: RunStore | None = None
+    objective: Objective,
+    x: np.ndarray,
+    workers: int = 1,
+    step: float = STEP,
+    known: RunStore | None = None,
+    one_sided: bool = False,
 ) -> Jacobian:
     """Central-difference Jacobian of ``objective``'s residuals at ``x`` (its space's vector), one batch of rollouts.
 
@@ -102,6 +107,8 @@ def jacobian(
         step: the finite-difference step, as a fraction of each parameter's range.
         known: the run's own store: a point it holds bit for bit, stable and with its residuals (in practice the
             best point; see the module's notes) is read from it, not simulated again.
+        one_sided: a forward difference (backward at a parameter's upper bound), half the rollouts, for a screen
+            that ranks motions (``simtune design``'s library); no kink is then judged.
     Returns:
         The :class:`Jacobian`.
     """
@@ -112,9 +119,10 @@ def jacobian(
     u = (x - low) / width
     up = np.minimum(u + step, 1.0)
     down = np.maximum(u - step, 0.0)
+    side = np.where(up > u, up, down)  # one_sided: the one step of each parameter, into its range
     points = [x]
     for i in range(len(x)):
-        for v in (up[i], down[i]):
+        for v in (side[i],) if one_sided else (up[i], down[i]):
             p = x.copy()
             p[i] = low[i] + v * width[i]
             points.append(p)
@@ -136,6 +144,12 @@ def jacobian(
     kinked = np.zeros(len(x), dtype=bool)
     stable = score0.stable
     for i in range(len(x)):
+        if one_sided:
+            r_side, s_side = done[1 + i]
+            stable = stable and s_side.stable
+            span = side[i] - u[i]
+            columns.append((r_side - r0) / span if span != 0 else np.zeros_like(r0))
+            continue
         (r_up, s_up), (r_down, s_down) = done[1 + 2 * i], done[2 + 2 * i]
         stable = stable and s_up.stable and s_down.stable
         span = up[i] - down[i]

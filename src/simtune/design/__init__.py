@@ -6,7 +6,8 @@
    range below and above it) simulates it once; an excursion during which the arm touches the floor or itself, or
    leaves a joint's limits (:mod:`simtune.design.checks`) is halved, twice at the most, then dropped.
 2. At each point the noise-weighted Jacobian of the library's rollout residuals over the parameters
-   (:func:`simtune.uncertainty.jacobian`: one batch of rollouts, MuJoCo's on threads), against a reference of the
+   (:func:`simtune.uncertainty.jacobian`, one-sided: a screen that ranks excursions needs no second side, and the
+   library's rollouts are most of the design's time; one batch, MuJoCo's on threads), against a reference of the
    signals the lab records (the wrist marker and/or the joint angles) with the noise it records them with; each
    excursion's rows give its information (:mod:`simtune.design.search`).
 3. The chain of excursions that fills the duration with the largest smallest-over-the-points log det of its
@@ -274,7 +275,7 @@ def design_experiment(
     delays = [given_delay(lib_task.name, values) or 0.0 for _, values, _ in points]
     budget = duration - 2 * REST_S - max(delays)
     d = len(space)
-    total = 3 * len(points) + len(points) * (2 * d + 1) + 2 * (2 * d + 1)
+    total = 3 * len(points) + len(points) * (d + 1) + 2 * (2 * d + 1)
     done = 0
 
     def step(what: str, units: int) -> None:
@@ -324,10 +325,10 @@ def design_experiment(
     infos = []
     signals = noise.widths(robot.n_joints)
     for (label, _, x), delay in zip(points, delays):
-        jac = jacobian(objective, x, workers)
+        jac = jacobian(objective, x, workers, one_sided=True)  # a screen: forward differences, half the rollouts
         rows = [sample_rows((a + delay, b + delay), n, 1.0 / CONTROL_PERIOD, signals) for a, b in spans]
         infos.append(np.stack([information(jac.unit, r, sigma2) for r in rows]))
-        step(f"library Jacobian at the {label} point", 2 * d + 1)
+        step(f"library Jacobian at the {label} point", d + 1)
     objective.close()
     # 3. the chain, checked at every point
     banned: set[int] = set()
