@@ -1029,6 +1029,7 @@ def synth(
     fmt: str = "tsv",
     joint_noise_rad: float = math.radians(DEFAULT_JOINT_NOISE_DEG),
     force: bool = False,
+    episodes: int | None = None,
 ) -> SynthResult:
     """Recordings with a known ground truth (``simtune synth``).
 
@@ -1047,6 +1048,8 @@ def synth(
         fmt: what each recording holds: a key of :data:`simtune.data.formats.WRITERS` (``tsv``: Qualisys 6D).
         joint_noise_rad: the encoder noise of joint logs [rad] per sample.
         force: replace the truth files of an earlier synth into ``out`` that holds another truth.
+        episodes: with a dataset ``fmt``, this many different episodes per task (each its own seeded command
+            stream, one clock: no jitter) instead of ``repeats``; None: repeats.
 
     Returns:
         The SynthResult: the data root, the truth and the recordings written per task.
@@ -1066,6 +1069,7 @@ def synth(
         "fmt": fmt,
         "joint_noise_rad": checks.number("joint_noise_rad", joint_noise_rad),
         "force": _flag("force", force),
+        "episodes": None if episodes is None else checks.count("episodes", episodes, 1, MAX_SYNTH_REPEATS),
     }
     return run_synth(
         engine,

@@ -244,6 +244,17 @@ def synth(
     delay_s: DelayOpt = None,
     jitter_s: JitterOpt = 0.05,
     repeats: Annotated[int, typer.Option(min=1, max=MAX_SYNTH_REPEATS, help="Recordings per task.")] = 10,
+    episodes: Annotated[
+        int | None,
+        typer.Option(
+            min=1,
+            max=MAX_SYNTH_REPEATS,
+            help="With a dataset --format (lerobot): N different episodes per task instead of repeats, each its "
+            "own seeded command stream within the robot's limits, clear of the floor, all on one clock (the "
+            'truth\'s delay, no jitter; --repeats unused). A task file reads them with schedule_episode = "each".',
+            show_default=False,
+        ),
+    ] = None,
     seed: Annotated[int, seed_option("Seed of the noise (same seed, same files).")] = 0,
     fmt: FormatOpt = "tsv",
     joint_noise_deg: JointNoiseOpt = None,
@@ -279,18 +290,22 @@ def synth(
         fmt=fmt,
         joint_noise_rad=math.radians(DEFAULT_JOINT_NOISE_DEG if joint_noise_deg is None else joint_noise_deg),
         force=force,
+        episodes=episodes,
     )
     writes = WRITERS[fmt]
     dataset = next(f.folder for f in FORMATS if writes in f.writers)  # what a dataset writer's folder is
     for name, files in result.files.items():
         held = f"{repeats} episodes of a {dataset}" if writes.dataset else f"{len(files)} recordings"
+        held = held if episodes is None else f"{episodes} different episodes of a {dataset}"
         out.print(f"{name}: {held} in {out_dir / name}")
     shown = ", ".join(f"{k}={v:g}" for k, v in result.truth.items())
     noises = [f"{noise_mm:g} mm"] * writes.markers + [f"{math.degrees(result.joint_noise_rad):g} deg"] * writes.joints
     noise = " and ".join(noises)
     written = ", ".join(str(out_dir / truth_file(name)) for name in result.files)
     out.print(
-        f"truth ({engine}): {shown}; noise {noise}, jitter +-{jitter_s:g} s -> {written} and {out_dir / TRUTH_FILE}",
+        f"truth ({engine}): {shown}; noise {noise}, "
+        + (f"jitter +-{jitter_s:g} s" if episodes is None else "one clock (no jitter)")
+        + f" -> {written} and {out_dir / TRUTH_FILE}",
         highlight=False,
         soft_wrap=True,
     )

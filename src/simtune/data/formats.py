@@ -52,6 +52,9 @@ class ReadOptions:
 Reader = Callable[[Path, ReadOptions], list[Recording]]
 #: a writer: the task's folder, the repeats of the task and the task -> the files or folders written
 WriteRepeats = Callable[[Path, Sequence[Recording], WrittenTask], list[Path]]
+#: a writer of different episodes: the task's folder, the recordings and, per recording, the task whose schedule it
+#: ran (``synth --episodes``) -> the dataset written
+WriteEpisodes = Callable[[Path, Sequence[Recording], Sequence[WrittenTask]], list[Path]]
 
 
 @dataclass(frozen=True)
@@ -67,6 +70,7 @@ class Writer:
     rate: float | None = None  # samples per second written (None: synth's own)
     dataset: bool = False  # each task's repeats one dataset, OUT/<task>/ (each repeat an episode)
     check: Callable[[WrittenTask], object] | None = None  # refuses a task before anything is simulated
+    episodes: WriteEpisodes | None = None  # a dataset writer's different episodes, each its own commands
 
 
 @dataclass(frozen=True)
@@ -137,6 +141,7 @@ def _dataset_writer(name: str, description: str, version: str) -> Writer:
         rate=SYNTH_FPS,
         dataset=True,
         check=stated_units,
+        episodes=lambda folder, recordings, ran: [write_task_dataset(folder, ran[0], recordings, version, ran)],
     )
 
 

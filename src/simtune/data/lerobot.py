@@ -1062,7 +1062,13 @@ def stated_units(task: WrittenTask) -> str:
     return task.lerobot.units
 
 
-def write_task_dataset(root: Path, task: WrittenTask, recordings: Sequence[Recording], version: str) -> Path:
+def write_task_dataset(
+    root: Path,
+    task: WrittenTask,
+    recordings: Sequence[Recording],
+    version: str,
+    schedules: Sequence[WrittenTask] | None = None,
+) -> Path:
     """``recordings`` (repeats of ``task`` logging its driven joints, sampled at :data:`SYNTH_FPS`) as a LeRobot
     dataset in ``root``: ``observation.state`` their angles, ``action`` the task's targets in force at each frame,
     in the unit the task states, named as its ``[recordings.joints]`` maps them (else ``<joint>.pos``).
@@ -1072,19 +1078,22 @@ def write_task_dataset(root: Path, task: WrittenTask, recordings: Sequence[Recor
         task: the task the repeats are of (its joints, schedule, stated unit and names).
         recordings: the repeats, each one episode.
         version: the layout, one of :data:`WRITE_VERSIONS`.
+        schedules: per recording, the task whose schedule it ran (``synth --episodes``: each episode its own
+            commands); None: every recording ran ``task``'s.
 
     Returns:
         ``root``.
     """
     reading = task.lerobot or LeRobotReading()
     factor = ANGLE_UNITS[stated_units(task)]
-    starts, table = task.schedule
-    # the command in force at each frame's timestamp as written (float32): a schedule read from a dataset starts
-    # its phases at float32 timestamps, which lie above or below the float64 frame time in about half the frames;
-    # compared in float32, the phase that starts at a frame's own timestamp is in force there, never one frame late
-    phase_starts = np.asarray(starts, dtype=np.float32)
     episodes = []
-    for rec in recordings:
+    for rec, ran in zip(recordings, schedules or [task] * len(recordings)):
+        starts, table = ran.schedule
+        # the command in force at each frame's timestamp as written (float32): a schedule read from a dataset
+        # starts its phases at float32 timestamps, which lie above or below the float64 frame time in about half
+        # the frames; compared in float32, the phase that starts at a frame's own timestamp is in force there,
+        # never one frame late
+        phase_starts = np.asarray(starts, dtype=np.float32)
         state = np.column_stack([rec.joints[j] for j in task.joints]) / factor
         stamps = np.asarray(rec.time, dtype=np.float32)
         action = np.radians(table[np.searchsorted(phase_starts, stamps, side="right")]) / factor

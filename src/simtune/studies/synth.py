@@ -22,21 +22,25 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+
+import numpy as np
 
 import simtune
 from simtune.common.limits import MAX_SYNTH_REPEATS
 from simtune.data.fingerprint import task_files
-from simtune.data.formats import writer
-from simtune.engines import engine_class
+from simtune.data.formats import WRITERS, writer
+from simtune.engines import engine_class, make_engine
+from simtune.engines.contact import floor_touches
 from simtune.errors import ConfigError, SimtuneError
 from simtune.fitness import rollout_joint_names
 from simtune.params import read_params_file, validate_params
 from simtune.project import Project, get_project
 from simtune.reference.make import RATE, synthesize
 from simtune.robot.description import RobotDescription
-from simtune.tasks import parse_tasks
+from simtune.tasks import TaskSpec, parse_tasks
+from simtune.tasks.episodes import check_stream, command_stream, episode_task_name
 
 TRUTH_FILE = "truth.json"
 #: the most marker noise [m] and encoder noise [deg] synth writes: beyond them the recordings' own checks (a
@@ -54,6 +58,7 @@ OPTION_NAMES = {
     "joint_noise_rad": "--joint-noise-deg",
     "repeats": "--repeats",
     "delay_s": "--delay-s",
+    "episodes": "--episodes",
 }
 API_NAMES = {key: key for key in OPTION_NAMES}
 
@@ -126,6 +131,7 @@ def make_synthetic(
     project: Project | Path | str | None = None,
     force: bool = False,
     names: Mapping[str, str] = OPTION_NAMES,
+    episodes: int | None = None,
 ) -> SynthResult:
     """Write ``repeats`` synthetic recordings of each task in ``tasks`` (names, groups, comma-separated) of
     ``project`` (default: the bundled MICO project), and each task's truth (:func:`truth_file`).
@@ -133,10 +139,16 @@ def make_synthetic(
     ``fmt`` is a key of :data:`simtune.data.formats.WRITERS`; joint angles get Gaussian noise of
     ``joint_noise_rad`` per sample.  ``OUT/truth.json`` holding another truth is refused unless ``force``.
     A setting out of range is a ConfigError naming it as ``names`` does (default: the command line's options).
+    With ``episodes`` (a dataset format) each task's dataset holds that many different episodes instead of
+    repeats: each its own seeded command stream (:func:`episode_tasks`), one recording each, all on one clock (the
+    truth's command delay, no start jitter).
     """
     specs = parse_tasks(tasks, project)
     write = writer(fmt)  # a known --format, checked first
     _check_settings(joint_noise_rad, repeats, noise_m, jitter_s, names)
+    if episodes is not None:
+        _check_episodes(episodes, fmt, write.episodes is not None, names)
+        jitter_s = 0.0  # the episodes of one log share its clock: one delay, the robot's
     for spec in specs:
         _check_delay(spec.name, spec.duration, truth.get("command_delay", 0.0), jitter_s, names)
     out = Path(out)
@@ -148,6 +160,7 @@ def make_synthetic(
         "format": fmt,
         "joint_noise_rad": joint_noise_rad if write.joints else None,
         "repeats": repeats,
+        **({} if episodes is None else {"episodes": episodes}),
         "seed": seed,
         "simtune": simtune.__version__,
         "parameters": list(truth),
@@ -170,8 +183,32 @@ def make_synthetic(
             folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise SimtuneError(f"--out {out}: cannot create {folder} ({exc.strerror})") from None
-        # each task its own noise stream, so adding a task leaves the others' recordings unchanged
         delays: list[float] = []
+        if episodes is not None:
+            ran = episode_tasks(engine, spec, truth, episodes, hash_seed(seed, spec.name), write.rate or RATE)
+            recordings = [
+                synthesize(
+                    engine,
+                    ep,
+                    truth,
+                    repeats=1,
+                    noise_m=noise_m,
+                    jitter_s=0.0,
+                    seed=hash_seed(seed, ep.name),
+                    suffix=write.ending,
+                    rate=write.rate or RATE,
+                    joint_names=rollout_joint_names(ep),
+                    joint_noise_rad=joint_noise_rad,
+                    delays=delays,
+                )[0]
+                for ep in ran
+            ]
+            assert write.episodes is not None, "checked by _check_episodes"
+            files[spec.name] = write.episodes(folder, recordings, ran)
+            episode_names = [f"episode_{k:06d}" for k in range(len(recordings))]
+            starts[spec.name] = repeat_starts(episode_names, delays, truth.get("command_delay", 0.0))
+            continue
+        # each task its own noise stream, so adding a task leaves the others' recordings unchanged
         recordings = synthesize(
             engine,
             spec,
@@ -191,6 +228,68 @@ def make_synthetic(
         starts[spec.name] = repeat_starts(repeat_names, delays, truth.get("command_delay", 0.0))
     _write_truths(out, meta, force, starts)
     return SynthResult(out, truth, files, joint_noise_rad)
+
+
+def _check_episodes(episodes: int, fmt: str, writes_episodes: bool, names: Mapping[str, str]) -> None:
+    """One line for an episode count out of range, or a format that cannot hold different episodes."""
+    option = names.get("episodes", "--episodes")
+    if not writes_episodes:
+        known = ", ".join(w.name for w in WRITERS.values() if w.episodes is not None)
+        raise ConfigError(f"{option}: format {fmt!r} holds repeats, not different episodes: choose one of {known}")
+    if not 1 <= episodes <= MAX_SYNTH_REPEATS:
+        raise ConfigError(f"{option} must be from 1 to {MAX_SYNTH_REPEATS}, got {episodes}")
+
+
+#: how many command streams an episode draws before giving up on one clear of the floor
+FLOOR_DRAWS = 20
+
+
+def episode_tasks(
+    engine: str, task: TaskSpec, truth: Mapping[str, float], count: int, seed: int, fps: float
+) -> list[TaskSpec]:
+    """``count`` different episodes of ``task``: each ``task`` with its own drawn command stream
+    (:func:`simtune.tasks.episodes.command_stream`, seeded by ``seed`` and the episode), named
+    :func:`~simtune.tasks.episodes.episode_task_name`.
+
+    Args:
+        engine: the engine whose simulation with ``truth`` must keep the arm clear of the floor (a stream that
+            touches it is drawn again; an engine that cannot tell, or a task with an object, is not asked).
+        task: the task whose robot, joints, start pose, duration and controller the episodes keep.
+        truth: the true parameter values.
+        count: how many episodes.
+        seed: the stream's seed (same seed, same episodes).
+        fps: the frame rate of the dataset the commands are written at.
+
+    Returns:
+        The episodes' tasks, in order.
+
+    Raises:
+        SimtuneError: no stream of :data:`FLOOR_DRAWS` keeps an episode clear of the floor.
+    """
+    rng = np.random.default_rng(seed)
+    ran = []
+    for k in range(count):
+        for _ in range(FLOOR_DRAWS):
+            ep = replace(task, name=episode_task_name(task.name, k), phases=command_stream(task, rng, fps))
+            check_stream(ep, ep.phases)
+            if task.object is not None:
+                break
+            sim = make_engine(engine, ep)
+            try:
+                touches = floor_touches(sim, dict(truth))
+            except NotImplementedError:
+                touches = []
+            finally:
+                sim.close()
+            if not touches:
+                break
+        else:
+            raise SimtuneError(
+                f"task {task.name}: episode {k}: none of {FLOOR_DRAWS} drawn command streams keeps the arm clear of "
+                "the floor: start the task from a pose further from it"
+            )
+        ran.append(ep)
+    return ran
 
 
 def _check_settings(
