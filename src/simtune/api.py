@@ -21,7 +21,7 @@ import math
 import os
 import time
 from collections.abc import Callable, Collection, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import date
 from pathlib import Path
 from typing import Any
@@ -1198,34 +1198,6 @@ def read_run(run_dir: Path | str) -> Result:
     )
 
 
-__all__ = [
-    "Project",
-    "Result",
-    "check",
-    "check_project",
-    "compare",
-    "demo",
-    "evaluate",
-    "export",
-    "generalise",
-    "grid",
-    "grid_spec",
-    "init_project",
-    "load_project",
-    "plan_grid",
-    "read_run",
-    "resume",
-    "run_config",
-    "sensitivity",
-    "sensitivity_evaluations",
-    "start",
-    "synth",
-    "transfer",
-    "tune",
-    "uncertainty",
-]
-
-
 def design(
     engine: str = "mujoco",
     *,
@@ -1271,7 +1243,7 @@ def design(
     """
     import json
 
-    from simtune.design import SIGNALS, Noise, design_experiment
+    from simtune.design import DEFAULT_NOISE, SIGNALS, design_experiment
     from simtune.tasks.files import load_task_file
 
     engine_class(engine)  # an unknown engine is one line before any work
@@ -1289,7 +1261,7 @@ def design(
     if unknown:
         raise ConfigError(f"signals: unknown signal {unknown[0]!r} (known: {', '.join(SIGNALS)})")
     duration = checks.positive("duration", duration, " seconds")
-    noise = Noise(recorded, 0.002, math.radians(DEFAULT_JOINT_NOISE_DEG), checks.count("repeats", repeats, 1, 1000))
+    noise = replace(DEFAULT_NOISE, signals=recorded, repeats=checks.count("repeats", repeats, 1, 1000))
     result = design_experiment(
         engine,
         template,
@@ -1318,3 +1290,32 @@ def design(
     files["summary"].write_text(json.dumps(summary, indent=1, default=float) + "\n")
     load_task_file(target, chosen.robot, chosen.root)  # the file written reads back as a task of the project
     return summary
+
+
+__all__ = [
+    "Project",
+    "Result",
+    "check",
+    "check_project",
+    "compare",
+    "demo",
+    "design",
+    "evaluate",
+    "export",
+    "generalise",
+    "grid",
+    "grid_spec",
+    "init_project",
+    "load_project",
+    "plan_grid",
+    "read_run",
+    "resume",
+    "run_config",
+    "sensitivity",
+    "sensitivity_evaluations",
+    "start",
+    "synth",
+    "transfer",
+    "tune",
+    "uncertainty",
+]

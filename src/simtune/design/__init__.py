@@ -151,6 +151,11 @@ class Noise:
         return NOISE_UNIT_M / math.sqrt(self.repeats * samples)
 
 
+#: What a lab records where the design is told nothing else: both signals, the marker to 2 mm and the encoders to
+#: 0.05 deg (``simtune synth``'s defaults), ten repeats.
+DEFAULT_NOISE = Noise(SIGNALS, 0.002, math.radians(0.05), 10)
+
+
 def _objective(engine: str, tasks: list[TaskSpec], space: ParameterSpace, noise: Noise, params) -> Objective:
     """The noise-weighted objective of ``tasks`` against references of the recorded signals (see
     :func:`_reference`), each signal weighed by the noise the lab records it with."""
@@ -223,7 +228,7 @@ def design_experiment(
     name: str,
     space_name: str = "extended",
     only: list[str] | None = None,
-    noise: Noise = Noise(SIGNALS, 0.002, math.radians(0.05), 10),
+    noise: Noise = DEFAULT_NOISE,
     clamp: float | None = None,
     workers: int = 1,
     seed: int = 0,
