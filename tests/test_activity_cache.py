@@ -133,8 +133,10 @@ def test_two_checkouts_of_a_project_share_the_key(two_checkouts):
         ("tasks/reach.toml", "targets_deg = [20, 20]", "targets_deg = [20, 25]"),  # a target
         ("tasks/reach.toml", "duration = 8.0", "duration = 9.0"),
         ("meshes/hand.obj", "v -0.03 -0.03 -0.03", "v -0.04 -0.03 -0.03"),  # the mesh's shape, same file name
+        # a field added after the probes were shipped: left out of the key at its default, in it when set
+        ("tasks/reach.toml", "max_velocity_deg = 30.0", 'max_velocity_deg = 30.0\ninterpolation = "linear"'),
     ],
-    ids=["mass", "effort", "target", "duration", "mesh"],
+    ids=["mass", "effort", "target", "duration", "mesh", "interpolation"],
 )
 def test_what_changes_a_rollout_changes_the_key(two_checkouts, file, old, new):
     first, second = two_checkouts

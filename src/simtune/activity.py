@@ -309,8 +309,9 @@ def cache_key(engine: str, task: TaskSpec, space: ParameterSpace, points: int, e
 def task_content(task: TaskSpec, engine: str) -> dict:
     """The task as the engine runs it, as plain values: its fields without the catalogue entries that change no
     simulation (description, recordings folder ...: ``tasks.spec.FINGERPRINT`` "never") and without the run
-    settings it carries ("run": its loading) where ``engine`` does not read them, its robot by content
-    (:func:`robot_content`).
+    settings it carries ("run": its loading) where ``engine`` does not read them and without the fields added since
+    the shipped probes were measured while they hold their default ("added": so those probes still answer), its
+    robot by content (:func:`robot_content`).
 
     Args:
         task: any task.
@@ -323,7 +324,8 @@ def task_content(task: TaskSpec, engine: str) -> dict:
     reads_loading = engine_class(engine).reads_loading
     for f in fields(task):
         kind = f.metadata.get(FINGERPRINT)
-        if kind == "never" or (kind == "run" and not reads_loading):
+        at_default = getattr(task, f.name) == f.default
+        if kind == "never" or (kind == "run" and not reads_loading) or (kind == "added" and at_default):
             content.pop(f.name)
     content["robot"] = robot_content(task.robot)
     return content

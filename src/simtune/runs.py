@@ -90,7 +90,7 @@ def task_fingerprint(task: TaskSpec) -> str:
     for f in fields(task):
         omit = f.metadata.get(FINGERPRINT)
         # a run setting the task carries (its loading) is the run's fingerprint's, beside the tasks
-        if omit in ("never", "run") or (omit == "default" and getattr(task, f.name) == f.default):
+        if omit in ("never", "run") or (omit in ("default", "added") and getattr(task, f.name) == f.default):
             spec.pop(f.name)
     return _digest(spec)
 

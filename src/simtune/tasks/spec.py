@@ -105,7 +105,9 @@ class Phase:
 #: Field metadata of what a task's fingerprint (``simtune.runs.task_fingerprint``) leaves out: ``"never"``
 #: (catalogue entries that change no simulation), ``"default"`` (fields added after runs were stored: left out
 #: at their default value, so that those runs still resume), ``"run"`` (a run setting the task carries to the
-#: engines: the run's configuration and fingerprint record it, a probe's key where the engine reads it).
+#: engines: the run's configuration and fingerprint record it, a probe's key where the engine reads it), ``"added"``
+#: (fields added after probes were shipped, ``simtune.activity``: left out at their default of a run's fingerprint
+#: and of a probe's key alike, so that stored runs resume and shipped probes answer).
 FINGERPRINT = "fingerprint"
 
 #: How an engine loads the robot (:attr:`TaskSpec.loading`, ``RunConfig.loading``): ``description``, as its
@@ -156,7 +158,7 @@ class TaskSpec:
     #: each until the next (phases, the paper's), or ``linear`` from each to the next over the time between them
     #: (a logged stream of set-points a trajectory controller ramped through); the start pose is held before the
     #: first, the last held after it
-    interpolation: str = field(default="hold", metadata={FINGERPRINT: "default"})
+    interpolation: str = field(default="hold", metadata={FINGERPRINT: "added"})
 
     def __post_init__(self) -> None:
         if self.loading not in LOADINGS:
