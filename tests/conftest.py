@@ -97,3 +97,21 @@ def kill_when(cmd: list[str], run_dir: Path, at_count: int, limit_s: float = 120
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     return stored_evaluations(run_dir)
+
+
+def cli_in_process(*args: str, capsys) -> tuple[int, str, str]:
+    """The command line run in this process, as a user runs it (warnings as `warning:` lines): exit status, stdout,
+    stderr."""
+    import sys
+
+    from simtune.cli import main
+
+    argv = sys.argv
+    sys.argv = ["simtune", *args]
+    try:
+        with pytest.raises(SystemExit) as info:
+            main()
+    finally:
+        sys.argv = argv
+    captured = capsys.readouterr()
+    return int(info.value.code or 0), captured.out, captured.err

@@ -152,6 +152,7 @@ def _record(seed: int, values: dict[str, float], inactive: dict[str, str]) -> Re
         stop_reason=None,
         verdict=None,
         uncertainty=None,
+        validation=None,
         evaluations=1,
         outcomes={},
         generations=[],

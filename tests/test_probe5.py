@@ -4,27 +4,17 @@ there (tests/test_run_read_back.py, test_export.py, test_grid.py, test_run_safet
 test_mjcf_projects.py, test_tune.py)."""
 
 import json
-import sys
 from pathlib import Path
 
 import pytest
+from conftest import cli_in_process
 
 from simtune.reference import REFERENCE_DIR
 
 
 def main(*args: str, capsys) -> tuple[int, str, str]:
     """The CLI in this process, as a user runs it (warnings as `warning:` lines): exit status, stdout, stderr."""
-    from simtune.cli import main as simtune_main
-
-    argv = sys.argv
-    sys.argv = ["simtune", *args]
-    try:
-        with pytest.raises(SystemExit) as info:
-            simtune_main()
-    finally:
-        sys.argv = argv
-    captured = capsys.readouterr()
-    return int(info.value.code or 0), captured.out, captured.err
+    return cli_in_process(*args, capsys=capsys)
 
 
 # --- 4, 9: evaluate says which delay each task ran with, and never prints a number it lacks -------------------

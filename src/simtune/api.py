@@ -283,6 +283,8 @@ def init_project(
     loaded: list | None = None,
     density: float | None = None,
     total_mass: float | None = None,
+    dataset: Path | str | None = None,
+    made: list | None = None,
 ) -> Path:
     """A new project for a robot given as a URDF or an MJCF file (``simtune init``; docs/own-robot.md).
 
@@ -297,6 +299,10 @@ def init_project(
         loaded: a list that receives the robot as loaded (its ``choices`` say what was chosen and why).
         density: [kg/m^3] of the links without an ``<inertial>`` (default aluminium's).
         total_mass: [kg] spread over those links by volume instead (not with ``density``).
+        dataset: a LeRobot dataset folder: the project's task is every episode of it, each its own task
+            (``schedule_episode = "each"``; joints mapped by name, the angle unit checked against the limits, a
+            duration every episode covers) instead of the example ``reach`` (``simtune init --dataset``).
+        made: a list that receives what was read from ``dataset`` (its task's name, episodes, unit, joints).
 
     Returns:
         The project file (``OUT/simtune.toml``).
@@ -309,6 +315,8 @@ def init_project(
         raise ConfigError(f"tracked_link: expected a link name (a string) or None, got {checks.shown(tracked_link)}")
     if loaded is not None and not isinstance(loaded, list):
         raise ConfigError(f"loaded: expected a list to receive the robot, or None, got {checks.shown(loaded)}")
+    if made is not None and not isinstance(made, list):
+        raise ConfigError(f"made: expected a list to receive the dataset's task, or None, got {checks.shown(made)}")
     return _init_project(
         _path("urdf", urdf),
         _path("out", out),
@@ -319,6 +327,8 @@ def init_project(
         # their range is init's own check (naming the command line's --density, which calls this)
         density=None if density is None else checks.number("density", density),
         total_mass=None if total_mass is None else checks.number("total_mass", total_mass),
+        dataset=None if dataset is None else _path("dataset", dataset),
+        made=made,
     )
 
 

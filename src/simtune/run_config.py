@@ -118,6 +118,10 @@ class RunConfig:
     #: (PyBullet: inertias from the collision shapes, link damping 0.04); left empty: description, or paper with
     #: paper_exact.  Runs stored before this setting loaded as the paper did.
     loading: str = ""
+    #: tasks held out of the search and scored with its best parameters afterwards (:func:`simtune.tasks.held_out`):
+    #: ``N``, the last N of the tasks named (episodes of a dataset: the last N episodes), or a comma-separated list
+    #: of task names or episode numbers; empty: none.  Runs stored before this setting held none out
+    validate: str = ""
 
     def __post_init__(self) -> None:
         if self.space == "":
@@ -144,7 +148,7 @@ class RunConfig:
         ``weights``, ``joint_topic`` and ``prior`` at their defaults (None), ``threads`` when off, ``repeats`` when
         ``all``, ``targets`` when ``published`` and ``loading`` when ``paper``, so that the stores of runs made
         before projects, joint logs, the batch path, the choice of repeats, the corrected targets and the loading
-        and of new MICO runs compare equal."""
+        and of new MICO runs compare equal (``validate`` left out when empty)."""
         values = asdict(self)
         for key in ("project", "weights", "joint_topic", "prior"):
             if values[key] is None:
@@ -160,6 +164,8 @@ class RunConfig:
             del values["residuals"]
         if values["loading"] == "paper":
             del values["loading"]
+        if values["validate"] == "":
+            del values["validate"]
         return values
 
     @classmethod
@@ -205,7 +211,7 @@ class RunConfig:
         def bad(key: str, what: str) -> ConfigError:
             return ConfigError(f"{at}{key} must be {what}, got {checks.shown(getattr(self, key))}")
 
-        for key in ("engine", "tasks", "space", "optimizer"):
+        for key in ("engine", "tasks", "space", "optimizer", "validate"):
             if not isinstance(getattr(self, key), str):
                 raise bad(key, "a string")
         for key in ("data", "project"):

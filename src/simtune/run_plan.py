@@ -29,7 +29,7 @@ from simtune.run_config import (  # noqa: F401 (run_plan is its public home too:
     RunConfig,
     default_space,
 )
-from simtune.tasks import TaskSpec, select_tasks
+from simtune.tasks import TaskSpec, held_out, select_tasks
 
 
 def new_run_config(
@@ -73,6 +73,8 @@ class RunPlan:
     engine: type[Engine]
     #: the run's space before inactive parameters are left out: the engine's (or the paper's whole list)
     full_space: ParameterSpace
+    #: the tasks held out of the search (``config.validate``), scored with its best parameters afterwards
+    validation: tuple[TaskSpec, ...] = ()
 
     @property
     def keeps_inactive(self) -> bool:
@@ -151,6 +153,58 @@ class RunPlan:
             prior_strength=self.config.prior,
         )
 
+    def validation_score(self, params: dict[str, float], fitted: float) -> dict | None:
+        """The held-out tasks (:attr:`validation`) scored with ``params``, the run's best: what a tuned simulator
+        does on motions it was not tuned on.
+
+        A held-out task whose commands share its recordings' clock takes the run's shared ``command_delay``; one
+        whose capture started on its own has no tuned delay, and its clock is aligned first (its delay estimated
+        with the physics of ``params`` held fixed, :func:`simtune.alignment.estimate_delay`), as ``evaluate
+        --align-clock`` does.
+
+        Args:
+            params: the parameter values to score (the run's best).
+            fitted: the run's best fitness over its own tasks (the data's fit, summed over them).
+
+        Returns:
+            None without held-out tasks; else ``tasks`` (their names), ``parts`` (task -> fitness), ``fitness``
+            (the mean per held-out task: ``validation_fitness``), ``fitted`` (the run's best fitness per tuned
+            task, the same measure), ``ratio`` (the first over the second) and ``clock_aligned`` (task -> the delay
+            [s] its clock was aligned with).
+        """
+        if not self.validation:
+            return None
+        from simtune.alignment import aligned, estimate_delay
+        from simtune.params.kinds import DELAY, task_delay_name
+
+        held = list(self.validation)
+        data = None if self.config.data is None else Path(self.config.data)
+        config = self.config
+        references = load_references(
+            data, held, config.joint_topic, config.reference, config.repeats, config.keep_repeats
+        )
+        weights = None if config.weights is None else FitnessWeights.from_mapping(config.weights, "weights")
+        objective = Objective(config.engine, held, references, weights=weights)
+        try:
+            values = {k: v for k, v in params.items() if k != DELAY or any(t.shared_clock for t in held)}
+            own = [
+                t for t in held if not (t.shared_clock and DELAY in params) and task_delay_name(t.name) not in values
+            ]
+            estimates = [estimate_delay(objective, t, values) for t in own]
+            score = objective.score(aligned(values, estimates) if estimates else values)
+        finally:
+            objective.close()
+        per_task = score.data_fitness / len(held)
+        per_tuned = fitted / max(len(self.tasks), 1)
+        return {
+            "tasks": [t.name for t in held],
+            "parts": {t.task: t.fitness for t in score.tasks},
+            "fitness": per_task,
+            "fitted": per_tuned,
+            "ratio": per_task / per_tuned if per_tuned > 0 else None,
+            "clock_aligned": {e.task: e.delay_s for e in estimates},
+        }
+
     def stored_space(self, space: ParameterSpace, stored: list[str]) -> ParameterSpace:
         """The parameters a stored run was made with, as this simtune defines them.
 
@@ -177,10 +231,12 @@ def plan_run(config: RunConfig) -> RunPlan:
     """Resolve ``config`` once: its project, its tasks (of that project), their robot, the engine class and the full
     space."""
     selected = select_tasks(config.tasks, config.project, config.targets, config.loading)
-    tasks, robot = selected.tasks, selected.robot
+    tasks, held = held_out(selected.tasks, config.validate)
+    robot = selected.robot
     engine = engine_class(config.engine)
     # the paper's runs varied every parameter of its list in every engine, whether the engine used it or not
     supported = None if config.paper_exact else engine.supported(robot)
     names = [t.name for t in tasks] if config.task_delays else None
-    space = get_space(config.space, supported, config.only, robot=robot, tasks=names)
-    return RunPlan(config, selected.project, tasks, robot, engine, space)
+    shared = [t.name for t in tasks if t.shared_clock]
+    space = get_space(config.space, supported, config.only, robot=robot, tasks=names, shared_clock=shared)
+    return RunPlan(config, selected.project, tasks, robot, engine, space, tuple(held))

@@ -644,6 +644,11 @@ def _run(objective: Objective, plan: RunPlan, store: RunStore, show_progress: bo
             store.set(verdict=verdict(objective, plan.references, result.params, result.score.data_fitness, summary))
         except SimtuneError as exc:  # the run stands without it
             store.set(verdict={"error": str(exc), "floor": None, "over_floor": None, "moved": []})
+    if plan.validation and store.get("validation") is None:  # the held-out tasks (--validate), with the best
+        try:
+            store.set(validation=plan.validation_score(dict(result.params), result.score.data_fitness))
+        except SimtuneError as exc:  # the run stands without it, saying why
+            store.set(validation={"error": str(exc), "tasks": [t.name for t in plan.validation]})
     store.close()
     return result
 

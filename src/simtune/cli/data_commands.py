@@ -1,5 +1,5 @@
-"""Data commands: ``check`` (a project or a task's recordings), ``synth`` (recordings with a known truth) and
-``init`` (a project for a new robot), each a call into :mod:`simtune.api`."""
+"""Data commands: ``check`` (a project or a task's recordings) and ``synth`` (recordings with a known truth), each a
+call into :mod:`simtune.api` (``init``, a project for a new robot: :mod:`simtune.cli.init_command`)."""
 
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ from simtune.cli.options import (
     path,
     seed_option,
 )
-from simtune.cli.output import err, out, print_json, split
+from simtune.cli.output import err, out, print_json
 from simtune.common.limits import MAX_SYNTH_REPEATS
 from simtune.data.formats import FORMATS, WRITERS
 from simtune.errors import SimtuneError
@@ -309,90 +309,3 @@ def synth(
         highlight=False,
         soft_wrap=True,
     )
-
-
-RobotOpt = Annotated[
-    Path,
-    typer.Option(
-        "--robot",
-        help="The robot's URDF (meshes beside it) or MJCF file (MuJoCo Menagerie's layout), used in place.",
-        callback=path,
-    ),
-]
-InitOutOpt = Annotated[Path, out_option("The new project folder (must not exist, or be empty).")]
-TrackedLinkOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--tracked-link",
-        help="The link the motion capture follows (default: the end of the longest chain of arm joints).",
-    ),
-]
-DrivenJointsOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--driven-joints",
-        help="The joints the controller drives, in order, joined by commas (default: the arm joints up to "
-        "the tracked link; gripper joints are held).",
-    ),
-]
-PackagePathOpt = Annotated[
-    list[str] | None,
-    typer.Option(
-        "--package-path",
-        help="A folder where the URDF's package:// names are found (a package, or a folder of packages), or "
-        "NAME=DIR: package NAME is folder DIR (whatever DIR is called); repeat for several. Also read: "
-        "$SIMTUNE_PACKAGE_PATH, $ROS_PACKAGE_PATH.",
-    ),
-]
-DensityOpt = Annotated[
-    float | None,
-    typer.Option(
-        "--density",
-        help="[kg/m^3] Links without an `<inertial>` get the mass and inertia of their collision (else visual) "
-        "geometry as solids of this density (default 2700, aluminium).",
-    ),
-]
-TotalMassOpt = Annotated[
-    float | None,
-    typer.Option("--total-mass", help="[kg] Instead of --density: spread this mass over those links by volume."),
-]
-
-
-def init(
-    robot: RobotOpt,
-    out_dir: InitOutOpt,
-    tracked_link: TrackedLinkOpt = None,
-    driven_joints: DrivenJointsOpt = None,
-    package_path: PackagePathOpt = None,
-    density: DensityOpt = None,
-    total_mass: TotalMassOpt = None,
-) -> None:
-    """Start a project for your robot: a commented simtune.toml and an example task `reach`.
-
-    Prints what it chose (tracked link, driven and held joints) and why.
-    Example: simtune init --robot arm.urdf --out myproject (or --robot panda.xml, an MJCF); then simtune check
-    myproject
-    """
-    from simtune import api
-
-    joints = None if driven_joints is None else split(driven_joints)
-    if joints is not None and not joints:
-        raise SimtuneError("init: --driven-joints names no joint (joint names joined by commas)")
-    loaded: list = []
-    file = api.init_project(
-        robot,
-        out_dir,
-        tracked_link=tracked_link,
-        driven_joints=joints,
-        package_path=package_path or (),
-        loaded=loaded,
-        density=density,
-        total_mass=total_mass,
-    )
-    description = loaded[0]
-    out.print(f"robot {description.name!r} from {robot}:", highlight=False, soft_wrap=True)
-    out.print(f"  driven joints: {', '.join(description.arm_joints)}", highlight=False, soft_wrap=True)
-    for note in description.choices:
-        out.print(f"  {note}", highlight=False, soft_wrap=True, markup=False)
-    out.print(f"wrote {file} and {out_dir / 'tasks' / 'reach.toml'}", highlight=False, soft_wrap=True)
-    out.print(f"next: simtune check {out_dir}", highlight=False, soft_wrap=True)

@@ -350,6 +350,30 @@ def print_evaluation(score, title: str) -> None:
             )
 
 
+def _listed_names(names: Sequence[str], most: int = 4) -> str:
+    """Names joined by commas, the first ``most`` of them and how many more."""
+    shown = ", ".join(names[:most])
+    return shown + (f" and {len(names) - most} more" if len(names) > most else "")
+
+
+def print_validation(validation: dict | None) -> None:
+    """The held-out tasks' line (``--validate``): their fitness per task against the tuned tasks'; nothing without
+    them."""
+    if validation is None:
+        return
+    tasks = validation.get("tasks") or []
+    if "error" in validation:
+        _say(f"held out {len(tasks)} task(s) ({_listed_names(tasks)}): not scored: {validation['error']}")
+        return
+    ratio = validation.get("ratio")
+    aligned = validation.get("clock_aligned") or {}
+    clock = f"; the clocks of {_listed_names(list(aligned))} aligned first (no tuned delay)" if aligned else ""
+    _say(
+        f"held out {len(tasks)} task(s) ({_listed_names(tasks)}): fitness {fmt(validation['fitness'])} per task "
+        f"against {fmt(validation['fitted'])} per tuned task" + ("" if ratio is None else f" ({ratio:.2f} x)") + clock
+    )
+
+
 def print_verdict(verdict: dict | None) -> None:
     """After a tune: how close to the data's floor, and which parameters moved far and whether they are pinned."""
     if not verdict:

@@ -38,6 +38,7 @@ from simtune.cli.output import (
     print_evaluation,
     print_json,
     print_uncertainty,
+    print_validation,
     print_verdict,
 )
 from simtune.cli.run_options import run_options
@@ -179,6 +180,10 @@ def report_tune(result, run_dir: Path, config, as_json: bool, command_s: float |
         "inactive_parameters": inactive,
         "verdict": record.verdict,
     }
+    if record.validation is not None:
+        # the held-out tasks (--validate): their mean fitness per task, beside the tuned tasks' (the same measure)
+        payload["validation_fitness"] = record.validation.get("fitness")
+        payload["validation"] = record.validation
     if as_json:
         print_json(payload)
         return
@@ -203,6 +208,7 @@ def report_tune(result, run_dir: Path, config, as_json: bool, command_s: float |
             f"{config.max_seconds:g} caps the search), the rest before and after it (reading the recordings, the "
             "probe of which parameters act, the uncertainty)"
         )
+    print_validation(record.validation)
     print_verdict(record.verdict)
     if record.uncertainty:
         print_uncertainty(record.uncertainty, short=True, run_dir=run_dir)

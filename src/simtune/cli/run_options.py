@@ -109,6 +109,17 @@ PriorOpt = Annotated[
         show_default=False,
     ),
 ]
+ValidateOpt = Annotated[
+    str,
+    typer.Option(
+        "--validate",
+        help="Hold tasks out of the search and score them with its best parameters afterwards: N, the last N of "
+        "the tasks named (the last N episodes of a dataset's), or a comma-separated list of task names or episode "
+        "numbers. The held-out fitness per task is printed beside the tuned tasks' and stored (--json: "
+        "validation_fitness).",
+        show_default=False,
+    ),
+]
 PaperExactOpt = Annotated[
     bool,
     typer.Option(
@@ -148,6 +159,7 @@ def _run_settings(
     targets: TargetsOpt,
     prior: PriorOpt,
     loading: LoadingOpt,
+    validate: ValidateOpt,
 ) -> None:
     """Every run setting's option, in the order ``--help`` lists them (the signature is the table)."""
 

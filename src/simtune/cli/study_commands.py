@@ -25,7 +25,7 @@ from simtune.cli.options import (
     seed_option,
 )
 from simtune.cli.output import err, fmt, only_names, out, print_json, print_whole_table, split
-from simtune.cli.run_options import run_options
+from simtune.cli.run_options import run_options, setting_options
 from simtune.common.console import text_table
 from simtune.run_config import COMPARE_DEFAULTS, TRANSFER_DEFAULTS
 
@@ -226,7 +226,8 @@ GeneraliseOutOpt = Annotated[
 ]
 
 
-@run_options(defaults={"tasks": "single,cube"})
+# every run setting but --validate: the study holds tasks out itself (leave-one-task-out)
+@run_options(*(name for name in setting_options() if name != "validate"), defaults={"tasks": "single,cube"})
 def generalise(
     out_dir: GeneraliseOutOpt = Path("runs/generalise"),
     quiet: QuietOpt = False,

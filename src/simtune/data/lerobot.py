@@ -322,13 +322,26 @@ def read_episodes(
         if missing:
             raise RecordingError(
                 f"{_shown(root)}: {key}: no episode {missing[0]} (the dataset's episodes: "
-                f"{_index_ranges(sorted(found))})"
+                f"{index_ranges(sorted(found))})"
             )
         return [found[k] for k in episodes]
     return [found[k] for k in sorted(found)]
 
 
-def _index_ranges(indices: list[int]) -> str:
+def episode_indices(root: Path | str) -> list[int]:
+    """The episode numbers of the dataset in ``root``, in order (read from its frames, checked as
+    :func:`read_episodes` checks them: every problem one RecordingError naming the file).
+
+    Args:
+        root: a LeRobot dataset folder.
+
+    Returns:
+        Its episodes' ``episode_index`` values, ascending.
+    """
+    return [episode.index for episode in read_episodes(Path(root), [ACTION])]
+
+
+def index_ranges(indices: list[int]) -> str:
     """``0-4, 7`` for messages."""
     parts: list[str] = []
     start = prev = indices[0]
@@ -586,7 +599,7 @@ def warn_of_still_joints(
         still = [episode.index for episode, m in zip(episodes, moved) if m < STILL_SHARE * span]
         if not still:
             continue
-        which = f"episode {still[0]}" if len(still) == 1 else f"episodes {_index_ranges(still)}"
+        which = f"episode {still[0]}" if len(still) == 1 else f"episodes {index_ranges(still)}"
         warnings.warn(
             f"{_shown(root)}: {STATE}[{entry}] ({columns.names[entry]!r}, joint {joint!r}) never moves in {which} "
             f"(spans {math.degrees(max(m for e, m in zip(episodes, moved) if e.index in still)):.3g} deg at most) "

@@ -272,7 +272,8 @@ def _local_phase(search: BatchSearch, start: np.ndarray, diagnose: bool = False)
 
 
 def aligned_generic_start(objective: Objective) -> np.ndarray:
-    """The generic point of ``objective``'s space with each task's command delay aligned to its recordings.
+    """The generic point of ``objective``'s space with each task's command delay aligned to its recordings (a delay
+    tasks share: the median of theirs).
 
     A parameter without a generic value (none of the engine's, the controller's or the task's) starts mid-range.
 
@@ -283,11 +284,14 @@ def aligned_generic_start(objective: Objective) -> np.ndarray:
     """
     space = objective.vector_space()
     values = generic_values(objective, space.names)
+    estimates: dict[str, list[float]] = {}
     for task in objective.tasks:
         for name in delay_names(task.name):
             if name in space.names:
-                values[name] = cached_delay(objective, task, values).delay_s
+                estimates.setdefault(name, []).append(cached_delay(objective, task, values).delay_s)
                 break
+    # a delay several tasks share (commands logged on one clock: one robot's) starts at their estimates' median
+    values.update({name: float(np.median(found)) for name, found in estimates.items()})
     return space.vector_within_bounds(values)
 
 

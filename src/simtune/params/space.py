@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -249,13 +249,16 @@ def get_space(
     *,
     robot: RobotDescription | None = None,
     tasks: list[str] | None = None,
+    shared_clock: Collection[str] = (),
 ) -> ParameterSpace:
     """The space ``name`` for ``robot`` (default the MICO), restricted to the parameters in ``supported``
     (an engine's, :meth:`Engine.supported` for the same robot) and to ``only``.
 
     With several ``tasks`` (tuned together), ``command_delay`` becomes one delay per task
     (``command_delay_<task>``, in its place): the delay is a property of each recording's clock,
-    not of the physics.  ``--only command_delay`` then names all of them.
+    not of the physics.  ``--only command_delay`` then names all of them.  The tasks in ``shared_clock``
+    (commands logged on their recordings' clock: ``TaskSpec.shared_clock``) get none of their own: they share
+    ``command_delay``, the robot's, which stays where any of them is tuned.
     """
     known = robot_parameters(robot) if robot is not None else PARAMETERS
     try:
@@ -272,7 +275,9 @@ def get_space(
                 raise ConfigError(f"--only: {wanted!r}: {why} (see `simtune params`)")
         params = tuple(p for p in params if p.name in only)
     if tasks is not None and len(tasks) > 1:
-        params = tuple(q for p in params for q in ([task_delay(t) for t in tasks] if p.name == DELAY else [p]))
+        own = [task_delay(t) for t in tasks if t not in shared_clock]
+        shared = [p for p in params if p.name == DELAY and any(t in shared_clock for t in tasks)]
+        params = tuple(q for p in params for q in ([*own, *shared] if p.name == DELAY else [p]))
     return ParameterSpace(name, params)
 
 

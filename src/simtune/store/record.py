@@ -16,7 +16,7 @@ from typing import Generic, Protocol, TypeVar
 
 from simtune.errors import SimtuneError
 from simtune.store.runstore import STORE_FILE, RunStore
-from simtune.tasks import TaskSpec, parse_tasks
+from simtune.tasks import TaskSpec, held_out, parse_tasks
 
 
 class StoredConfig(Protocol):
@@ -85,6 +85,9 @@ class RunRecord(Generic[ConfigT]):
     verdict: dict | None
     #: the Gauss-Newton uncertainty at the best point (``simtune uncertainty``), if computed
     uncertainty: dict | None
+    #: the held-out tasks scored with the best parameters (``--validate``: simtune.run_plan.RunPlan.validation_score);
+    #: None without them
+    validation: dict | None
     evaluations: int
     #: evaluations that blew up or failed, and those pruned
     outcomes: dict
@@ -135,10 +138,11 @@ class RunRecord(Generic[ConfigT]):
         return self.resolve_tasks()
 
     def resolve_tasks(self, project: str | None = None) -> list[TaskSpec]:
-        """The run's tasks, with its targets and loading, from ``project`` where given (its project moved since),
-        else from the run's own project."""
+        """The run's tasks (those it tuned on: not the ones ``--validate`` held out), with its targets and loading,
+        from ``project`` where given (its project moved since), else from the run's own project."""
         config = self.settings
-        return parse_tasks(config.tasks, project or config.project, config.targets, config.loading)
+        tasks = parse_tasks(config.tasks, project or config.project, config.targets, config.loading)
+        return held_out(tasks, getattr(config, "validate", ""))[0]  # those it tuned on, not those it held out
 
     @property
     def data_fingerprint(self) -> dict | None:
@@ -249,6 +253,7 @@ def read_record(run_dir: Path | str, check: Callable[[object, str], ConfigT]) ->
             stop_reason=store.get("search_stop_reason"),
             verdict=store.get("verdict"),
             uncertainty=store.get("uncertainty"),
+            validation=store.get("validation"),
             evaluations=store.count_evaluations(),
             outcomes=store.count_outcomes(),
             generations=store.generations(),

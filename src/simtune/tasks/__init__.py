@@ -112,6 +112,52 @@ def select_tasks(
     return TaskSelection(resolved, tasks, common_robot(tasks))
 
 
+def held_out(tasks: list[TaskSpec], validate: str, option: str = "--validate") -> tuple[list[TaskSpec], list[TaskSpec]]:
+    """The tasks a run tunes on and those it holds out (``--validate``), split once.
+
+    Args:
+        tasks: the tasks named (``--task``), in order.
+        validate: empty (none held out); ``N``, the last N of ``tasks``; or a comma-separated list, each a task
+            name or an episode number (``3``: the task of episode 3, ``<file>.ep3``, among ``tasks``).
+        option: the option's name in messages.
+
+    Returns:
+        The tasks to tune on and those held out, each in the order of ``tasks``.
+
+    Raises:
+        ConfigError: a count or name that holds out no task, one not among ``tasks``, or all of them.
+    """
+    from simtune.tasks.episodes import episode_task_name
+
+    text = validate.strip()
+    if not text:
+        return list(tasks), []
+    names = [t.name for t in tasks]
+    if text.isdigit():
+        count = int(text)
+        if not 1 <= count < len(tasks):
+            raise ConfigError(
+                f"{option} {text}: holds out the last N of the {len(tasks)} tasks named, N from 1 to {len(tasks) - 1} "
+                "(at least one is left to tune on)"
+            )
+        held = names[-count:]
+    else:
+        held = []
+        for part in (p.strip() for p in text.split(",")):
+            by_episode = [n for n in names if part.isdigit() and n.endswith(episode_task_name("", int(part)))]
+            found = [part] if part in names else by_episode
+            if len(found) != 1:
+                raise ConfigError(
+                    f"{option}: {part!r} is not one of the tasks named ({', '.join(names)}): name a task, or an "
+                    "episode's number"
+                )
+            if found[0] not in held:
+                held.append(found[0])
+        if len(held) == len(tasks):
+            raise ConfigError(f"{option}: holds out every task named: leave at least one to tune on")
+    return [t for t in tasks if t.name not in held], [t for t in tasks if t.name in held]
+
+
 def __getattr__(name: str) -> Any:
     # read on first use: importing simtune.tasks reads no file
     if name == "TASKS":
@@ -136,6 +182,7 @@ __all__ = [
     "check_loading",
     "check_targets",
     "get_task",
+    "held_out",
     "parse_tasks",
     "select_tasks",
     "with_loading",

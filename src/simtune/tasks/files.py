@@ -10,17 +10,19 @@ from __future__ import annotations
 import csv
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from simtune.data.lerobot import LeRobotReading
 from simtune.errors import ProjectError
 from simtune.robot.description import RobotDescription
 from simtune.robot.mico import MICO
+from simtune.tasks.episodes import EACH, episode_task_name
 from simtune.tasks.keys import Keys, kind_of
-from simtune.tasks.lerobot import SCHEDULE_KEYS, lerobot_schedule, recordings_key
+from simtune.tasks.lerobot import SCHEDULE_KEYS, lerobot_schedule, recordings_clock, recordings_key, schedule_episode
 from simtune.tasks.spec import INTERPOLATIONS, MATERIALS, SHAPES, ObjectSpec, Phase, TaskSpec
 from simtune.tasks.yamlfile import load_yaml
 
@@ -107,14 +109,59 @@ OBJECT_KEYS = ("shape", "material", "mass", "size", "xy", "rpy", "mocap_body")
 MOCAP_KEYS = ("link", "body", "base_body")
 
 
+def load_task_files(path: Path, robot: RobotNames | None = None, project_dir: Path | None = None) -> list[TaskSpec]:
+    """The tasks that the TOML or YAML file ``path`` describes: one, or with ``schedule_episode = "each"`` one per
+    episode of its LeRobot dataset (those its ``[recordings] episodes`` lists; default all), each named
+    :func:`~simtune.tasks.episodes.episode_task_name` (``train.ep3``), driven by its episode's actions and compared
+    with its episode's observations alone (docs/task-files.md).
+
+    Args:
+        path: the task file.
+        robot: the names (and robot) the file is checked against, as :func:`load_task_file`'s.
+        project_dir: the folder ``recordings`` is relative to (default: the file's folder).
+
+    Returns:
+        The tasks, in episode order.
+    """
+    path = Path(path)
+    keys = Keys(path, read_document(path), TASK_KEYS)
+    if schedule_episode(keys) != EACH:
+        return [load_task_file(path, robot, project_dir)]
+    from simtune.data.lerobot import episode_indices, index_ranges
+    from simtune.errors import RecordingError
+
+    if not keys.has("schedule_lerobot"):
+        raise keys.error("schedule_episode", "names an episode of schedule_lerobot, which the file does not give")
+    _, reading = recordings_key(keys, project_dir or path.parent)
+    folder = str(keys.string("schedule_lerobot"))
+    try:
+        found = episode_indices(path.parent / folder)
+    except RecordingError as exc:
+        raise ProjectError(f"{path}: schedule_lerobot: {exc}") from None
+    wanted = found if reading is None or reading.episodes is None else list(reading.episodes)
+    missing = [k for k in wanted if k not in found]
+    if missing:
+        raise keys.error(
+            "recordings.episodes",
+            f"no episode {missing[0]} in {folder} (the dataset's episodes: {index_ranges(found)})",
+        )
+    return [load_task_file(path, robot, project_dir, episode=k) for k in wanted]
+
+
 def load_task_file(
-    path: Path, robot: RobotNames | None = None, project_dir: Path | None = None, reaimed: bool = True
+    path: Path,
+    robot: RobotNames | None = None,
+    project_dir: Path | None = None,
+    reaimed: bool = True,
+    episode: int | None = None,
 ) -> TaskSpec:
     """The task that the TOML or YAML file ``path`` describes (docs/task-files.md).
 
     ``robot``: check joint and link names against it (and use its joints when the file names none).
     ``project_dir``: the folder ``recordings`` is relative to (default: the file's folder).
     ``reaimed=False`` leaves out ``target_offset_deg`` (the schedule as first written).
+    ``episode``: of a file whose ``schedule_episode`` is ``"each"``, the episode whose task to read (its name
+    :func:`~simtune.tasks.episodes.episode_task_name`'s; :func:`load_task_files` reads them all).
     """
     path = Path(path)
     keys = Keys(path, read_document(path), TASK_KEYS)
@@ -122,6 +169,13 @@ def load_task_file(
     assert name is not None
     if not name or name.strip() != name or any(c in name for c in "/\\,+") or name in (".", ".."):
         raise keys.error("name", f"{name!r} cannot name a task (it names the recordings' folder: no / \\ , +)")
+    each = schedule_episode(keys) == EACH
+    if each and episode is None:
+        raise keys.error(
+            "schedule_episode", f'"{EACH}" stands for one task per episode: read them with load_task_files'
+        )
+    if episode is not None and not each:
+        raise keys.error("schedule_episode", f'reading episode {episode} of a file that is not "{EACH}"')
     duration = keys.number("duration", required=True)
     if duration <= 0:
         raise keys.error("duration", f"must be above 0 seconds, got {duration:g}")
@@ -130,13 +184,14 @@ def load_task_file(
 
     start_pose = keys.numbers("start_pose_deg", len(joints), per_joint)
     recordings, lerobot = recordings_key(keys, project_dir or path.parent)
+    clock = recordings_clock(keys)
     # the robot the task carries (TaskSpec's default: the bundled MICO)
     description = MICO if robot is None or robot.description is None else robot.description
     kp, max_velocity, interpolation = _controller(keys)
     offset = keys.numbers("target_offset_deg", len(joints), per_joint)
     published: tuple[Phase, ...] | None = None
     if keys.has("schedule_lerobot") or keys.has("schedule_episode"):
-        phases, start_pose = lerobot_schedule(keys, path, joints, lerobot, description, start_pose, duration)
+        phases, start_pose = lerobot_schedule(keys, path, joints, lerobot, description, start_pose, duration, episode)
     else:
         phases, published = _schedule(keys, joints, per_joint, path)
     start_pose = start_pose or (0.0,) * len(joints)
@@ -159,9 +214,22 @@ def load_task_file(
     if start_from_recordings and obj is None:
         raise keys.error("start_from_recordings", "the task has no object to start where the recordings put it")
     carried: dict[str, Any] = {} if robot is None or robot.description is None else {"robot": robot.description}
+    description_text = keys.string("description", default="") or ""
+    group = None
+    if episode is not None:
+        group, name = name, episode_task_name(name, episode)
+        description_text = f"episode {episode} of {group}" + (f": {description_text}" if description_text else "")
+        # compared with its own episode's observations, from the dataset it replays unless the file names another
+        lerobot = replace(lerobot or LeRobotReading(), episodes=(episode,))
+        recordings = recordings or str((path.parent / str(keys.string("schedule_lerobot"))).resolve())
+    if clock is None:
+        # a schedule of a LeRobot episode's actions compared with that dataset's observations: one clock, logged
+        schedule_folder = keys.string("schedule_lerobot")
+        same = schedule_folder is not None and recordings == str((path.parent / schedule_folder).resolve())
+        clock = "shared" if same else "own"
     return TaskSpec(
         name=name,
-        description=keys.string("description", default="") or "",
+        description=description_text,
         duration=duration,
         phases=phases,
         kp=kp,
@@ -178,6 +246,8 @@ def load_task_file(
         start_from_recordings=start_from_recordings,
         lerobot=lerobot,
         published_phases=published,
+        shared_clock=clock == "shared",
+        episode_of=group,
         **carried,
     )
 

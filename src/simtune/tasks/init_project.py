@@ -268,13 +268,16 @@ def _lowest_carried(robot: RobotDescription, q: np.ndarray) -> float:
     return min(float(robot.forward_kinematics(q, link)[0][2]) for link in carried)
 
 
-def project_text(robot: RobotDescription, urdf: Path, package_path: Sequence[str | Path] = ()) -> str:
+def project_text(
+    robot: RobotDescription, urdf: Path, package_path: Sequence[str | Path] = (), tasks: Sequence[str] = ("reach",)
+) -> str:
     """The commented ``simtune.toml`` of a new project.
 
     Args:
         robot: the robot as loaded from ``urdf``.
         urdf: the robot's file (a URDF, or an MJCF when ``robot.mjcf`` is set), named in place.
         package_path: folders for a URDF's ``package://`` names.
+        tasks: the names of the task files in ``tasks/`` it lists.
 
     Returns:
         The file's text.
@@ -287,7 +290,7 @@ def project_text(robot: RobotDescription, urdf: Path, package_path: Sequence[str
         f"name = {_toml(robot.name)}",
         f'description = "{robot.name}, from {urdf.name}"',
         "# task files, relative to this folder; add one per motion you recorded",
-        'tasks = ["tasks/reach.toml"]',
+        f"tasks = {_toml([f'tasks/{name}.toml' for name in tasks])}",
         "# the data root: recordings/<task name>/ holds each task's recordings (motion capture: "
         f"{recording_kinds('markers')};",
         f"# joint logs: {recording_kinds('joints')}).",
@@ -405,6 +408,8 @@ def init_project(
     loaded: list[RobotDescription] | None = None,
     density: float | None = None,
     total_mass: float | None = None,
+    dataset: Path | str | None = None,
+    made: list | None = None,
 ) -> Path:
     """Write a project for the robot of ``urdf`` (a URDF or an MJCF file) into the new (or empty) folder ``out``.
 
@@ -420,6 +425,10 @@ def init_project(
         density: [kg/m^3] of the links without an ``<inertial>``, whose masses come from their geometry
             (default aluminium's); written into the project where a link is so estimated.
         total_mass: [kg] spread over those links by volume instead (not with ``density``).
+        dataset: a LeRobot dataset folder: the project's task is then every episode of it, each its own task
+            (:func:`simtune.tasks.dataset_task.dataset_task`: joints mapped by name, the unit checked), instead of
+            the example ``reach``.
+        made: a list that receives the dataset's :class:`~simtune.tasks.dataset_task.DatasetTask`.
 
     Returns:
         The project file.
@@ -454,9 +463,20 @@ def init_project(
     parent = out.resolve().parent
     if not parent.is_dir():
         raise ProjectError(f"{out}: its folder {parent} does not exist")
+    if dataset is None:
+        tasks = {"reach": reach_text(robot)}
+    else:
+        from simtune.tasks.dataset_task import dataset_task
+
+        found = dataset_task(robot, Path(dataset), out.resolve() / "tasks", out.resolve())
+        if made is not None:
+            made.append(found)
+        tasks = {found.name: found.text}
     texts = {
-        "simtune.toml": _with_mass_keys(project_text(robot, urdf, package_path), robot, density, total_mass),
-        "tasks/reach.toml": reach_text(robot),
+        "simtune.toml": _with_mass_keys(
+            project_text(robot, urdf, package_path, list(tasks)), robot, density, total_mass
+        ),
+        **{f"tasks/{name}.toml": text for name, text in tasks.items()},
         ".gitignore": GITIGNORE,
     }
     where = out if out.is_dir() else parent

@@ -25,14 +25,19 @@ if TYPE_CHECKING:
     from simtune.tasks.keys import Keys
 
 #: keys of a task file's ``[recordings]`` table (``recordings = "folder"`` is the short form of ``folder``)
-RECORDINGS_KEYS = ("folder", "units", "joints", "episodes")
+RECORDINGS_KEYS = ("folder", "units", "joints", "episodes", "clock")
+#: ``[recordings] clock``: ``shared``, the commands were logged on the recordings' own clock (a LeRobot episode's
+#: actions beside its observations): one command delay, the robot's, shared with every such task tuned with it;
+#: ``own``, the capture started on its own (motion capture of a replayed schedule): the task's own delay
+CLOCKS = ("shared", "own")
 #: the schedule keys of a task file (exactly one of the first three)
 SCHEDULE_KEYS = ("phases", "schedule_csv", "schedule_lerobot")
 
 
 def recordings_key(keys: Keys, base: Path) -> tuple[str | None, LeRobotReading | None]:
     """The task file's ``recordings``: a folder (relative to ``base``), or a table with the folder and how
-    LeRobot datasets are read; returns the absolute folder (or None) and the reading (None: no table)."""
+    LeRobot datasets are read; returns the absolute folder (or None) and the reading (None: no table).  Its
+    ``clock`` is :func:`recordings_clock`'s."""
     value = keys.data.get("recordings")
     if value is None or isinstance(value, str):
         folder = keys.string("recordings")
@@ -71,6 +76,30 @@ def recordings_key(keys: Keys, base: Path) -> tuple[str | None, LeRobotReading |
         episodes=None if episodes is None else tuple(episodes),
     )
     return (None if folder is None else str((base / folder).resolve())), reading
+
+
+def recordings_clock(keys: Keys) -> str | None:
+    """The ``[recordings] clock`` the task file states (:data:`CLOCKS`), or None where it states none."""
+    value = keys.data.get("recordings")
+    if not isinstance(value, dict) or "clock" not in value:
+        return None
+    clock = value["clock"]
+    if clock not in CLOCKS:
+        raise keys.error("recordings.clock", f"expected one of {', '.join(map(repr, CLOCKS))}, got {clock!r}")
+    return str(clock)
+
+
+def schedule_episode(keys: Keys) -> int | str | None:
+    """The task file's ``schedule_episode``: an episode number, ``"each"`` (every episode its own task:
+    :mod:`simtune.tasks.episodes`) or None (the dataset's first)."""
+    from simtune.tasks.episodes import EACH
+
+    episode = keys.data.get("schedule_episode")
+    if episode is None or episode == EACH:
+        return episode
+    if not isinstance(episode, int) or isinstance(episode, bool) or episode < 0:
+        raise keys.error("schedule_episode", f'expected an episode number (0 or more) or "{EACH}", got {episode!r}')
+    return episode
 
 
 def undriven_joints(robot: RobotDescription, driven: Sequence[str]) -> tuple[str, ...]:
@@ -120,9 +149,11 @@ def lerobot_schedule(
     robot: RobotDescription,
     start_pose: tuple[float, ...] | None,
     duration: float,
+    episode: int | None = None,
 ) -> tuple[tuple[Phase, ...], tuple[float, ...]]:
     """The schedule of ``schedule_lerobot`` (a dataset folder, relative to the task file): one phase per frame of
-    the episode ``schedule_episode`` (default: the first), its ``action`` as the targets, up to ``duration``.
+    the episode ``schedule_episode`` (default: the first; ``episode`` where it says ``"each"``), its ``action`` as
+    the targets, up to ``duration``.
 
     Returns the phases and the start pose: ``start_pose`` when the file gives one, else the episode's first
     ``observation.state``.  A driven joint that the actions do not name is held at its start angle.
@@ -139,9 +170,10 @@ def lerobot_schedule(
         raise keys.error(given[0], f"give the schedule as {', '.join(SCHEDULE_KEYS)}: exactly one of them")
     folder = keys.string("schedule_lerobot")
     assert folder is not None
-    episode = keys.data.get("schedule_episode")
-    if episode is not None and (not isinstance(episode, int) or isinstance(episode, bool) or episode < 0):
-        raise keys.error("schedule_episode", f"expected an episode number (0 or more), got {episode!r}")
+    stated = schedule_episode(keys)
+    if isinstance(stated, int) or stated is None:
+        episode = stated
+    assert episode is not None or stated is None, "an episode task's episode is given by load_task_files"
     reading = replace(reading or LeRobotReading(), undriven=undriven_joints(robot, joints))
     try:
         actions = read_lerobot_actions(

@@ -18,7 +18,7 @@ from pathlib import Path
 from simtune.errors import ConfigError, ProjectError, RobotError
 from simtune.robot import mico
 from simtune.robot.description import RobotDescription
-from simtune.tasks.files import Keys, RobotNames, load_task_file, read_document
+from simtune.tasks.files import Keys, RobotNames, load_task_files, read_document
 from simtune.tasks.spec import TaskSpec
 
 #: The names a project file may have in its folder, in the order they are looked for.
@@ -250,17 +250,23 @@ def _read_project(file: Path) -> Project:
         raise keys.error("tasks", "name at least one task file")
     tasks: dict[str, TaskSpec] = {}
     task_files: dict[str, Path] = {}
+    episode_groups: dict[str, tuple[str, ...]] = {}
     for i, entry in enumerate(task_entries):
         task_file = folder / entry
         if not task_file.is_file():
             raise keys.error(f"tasks[{i}]", f"no task file {task_file}")
-        task = load_task_file(task_file, robot, project_dir=folder)
-        if task.recordings is None and data_root is not None:
-            task = replace(task, recordings=str(data_root / task.name))
-        if task.name in tasks:
-            raise keys.error(f"tasks[{i}]", f"task {task.name!r} is also defined in {task_files[task.name]}")
-        tasks[task.name] = task
-        task_files[task.name] = task_file
+        # one task, or one per episode of a dataset (schedule_episode = "each"), grouped under the file's name
+        episode_group: list[str] = []
+        for task in load_task_files(task_file, robot, project_dir=folder):
+            if task.recordings is None and data_root is not None:
+                task = replace(task, recordings=str(data_root / task.name))
+            if task.name in tasks:
+                raise keys.error(f"tasks[{i}]", f"task {task.name!r} is also defined in {task_files[task.name]}")
+            tasks[task.name] = task
+            task_files[task.name] = task_file
+            if task.episode_of is not None:
+                episode_group.append(task.name)
+                episode_groups[task.episode_of] = tuple(episode_group)
     groups: dict[str, tuple[str, ...]] = {}
     if keys.has("groups") and not isinstance(keys.data["groups"], dict):
         raise keys.error("groups", "expected a table: group name = [task names]")
@@ -269,14 +275,19 @@ def _read_project(file: Path) -> Project:
         if not isinstance(group, str) or not group or group.strip() != group or any(c in group for c in ",+"):
             # --task splits its names at commas (and grid joins tasks with +): such a group could not be named
             raise keys.error(where, f"{group!r} cannot name a group (no , or +, no spaces at its ends)")
-        if group in tasks:
-            raise keys.error(where, f"{group!r} already names a task")
+        if group in tasks or group in episode_groups:
+            raise keys.error(
+                where, f"{group!r} already names a task" + (" file's episodes" if group in episode_groups else "")
+            )
         if not isinstance(members, list) or not members or not all(isinstance(m, str) for m in members):
             raise keys.error(where, "expected a list of task names")
+        expanded: list[str] = []
         for m in members:
-            if m not in tasks:
-                raise keys.error(where, f"unknown task {m!r} (known: {', '.join(tasks)})")
-        groups[str(group)] = tuple(members)
+            if m not in tasks and m not in episode_groups:
+                raise keys.error(where, f"unknown task {m!r} (known: {', '.join([*tasks, *episode_groups])})")
+            expanded.extend(n for n in episode_groups.get(m, (m,)) if n not in expanded)
+        groups[str(group)] = tuple(expanded)
+    groups = {**episode_groups, **groups}
     return Project(
         file=file,
         name=keys.string("name", default=folder.name) or folder.name,

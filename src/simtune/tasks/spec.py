@@ -159,6 +159,13 @@ class TaskSpec:
     #: (a logged stream of set-points a trajectory controller ramped through); the start pose is held before the
     #: first, the last held after it
     interpolation: str = field(default="hold", metadata={FINGERPRINT: "added"})
+    #: whether the task's commands were logged on its recordings' own clock (``[recordings] clock = "shared"``; a
+    #: LeRobot episode's actions beside its observations): tuned with others, it shares the robot's one
+    #: ``command_delay`` with every such task instead of its own ``command_delay_<task>``
+    #: (not in the fingerprint: the task runs alike, the run's space names its delays)
+    shared_clock: bool = field(default=False, metadata={FINGERPRINT: "never"})
+    #: the task file's name of which this task is one episode (``schedule_episode = "each"``), else None
+    episode_of: str | None = field(default=None, metadata={FINGERPRINT: "never"})
 
     def __post_init__(self) -> None:
         if self.loading not in LOADINGS:
