@@ -427,3 +427,26 @@ def test_a_probe_of_an_own_task_says_it_was_never_measured_here(empty_cache, cap
     with announcing(True):
         task_activity("mujoco", get_task("cube"), get_space("shared", engine_class("mujoco").supported()))
     assert "not measured on this machine before" in capsys.readouterr().err
+
+
+def test_a_probe_past_its_deadline_measures_no_further_task_and_keeps_their_parameters(empty_cache):
+    """Under --max-seconds the probe stops measuring tasks it does not hold at its deadline: their parameters stay
+    in the search but those ruled out without a rollout, said in one warning; what it measured is cached."""
+    import time
+
+    from simtune.activity import declared_inactive, inactive_parameters
+    from simtune.errors import RecordingWarning
+    from simtune.tasks import get_task
+
+    single, cube = get_task("single"), get_task("cube")
+    space = get_space("shared", engine_class("mujoco").supported())
+    inactive_parameters("mujoco", [single], space)  # measured once (every parameter active: the fake probe's)
+    assert empty_cache == ["single"]
+    with pytest.warns(RecordingWarning, match=r"cut short by the time cap: 1 of 2 tasks not probed \(cube\)"):
+        found = inactive_parameters("mujoco", [single, cube], space, deadline=time.monotonic() - 1)
+    assert empty_cache == ["single"]  # cube was not measured, single read from the cache
+    assert found == {}  # single's fake probe found every parameter active
+    declared = declared_inactive("mujoco", [cube], space)
+    with pytest.warns(RecordingWarning):
+        alone = inactive_parameters("mujoco", [cube], space, deadline=time.monotonic() - 1)
+    assert alone == declared and empty_cache == ["single"]

@@ -43,6 +43,7 @@ import os
 import signal
 import sys
 import tempfile
+import time
 import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -64,7 +65,7 @@ from simtune.common.spawn_guard import (
 from simtune.engines import engine_class, make_engine
 from simtune.engines.base import Rollout
 from simtune.engines.controller import CONTROL_PERIOD
-from simtune.errors import EngineVersionWarning
+from simtune.errors import EngineVersionWarning, RecordingWarning
 from simtune.fitness import marker_positions
 from simtune.params import ParameterSpace
 from simtune.params.space import is_supported
@@ -697,7 +698,8 @@ def task_activity(
     points: int = PROBE_POINTS,
     use_cache: bool = True,
     workers: int = 1,
-) -> dict[str, Activity]:
+    measure: bool = True,
+) -> dict[str, Activity] | None:
     """:func:`measure_activity` (on ``workers`` processes), from the cache when it holds this engine x task x
     space (and into it after); a probe it runs says so first (:func:`probe_note`, see :func:`announcing`).
 
@@ -708,9 +710,10 @@ def task_activity(
         points: random base points besides the generic one.
         use_cache: read and write the cache (False: measure, and keep nothing).
         workers: worker processes for a probe that runs.
+        measure: run the probe where neither the cache nor the shipped probes hold it (False: None then).
 
     Returns:
-        Parameter name -> its :class:`Activity`, in the space's order.
+        Parameter name -> its :class:`Activity`, in the space's order; None where it was not held and not measured.
     """
     path = cache_root() / "activity" / cache_name(engine, task, space, points)
     if use_cache and path in _MEMORY:
@@ -728,6 +731,8 @@ def task_activity(
             _write_cache(path, {name: asdict(a) for name, a in shipped.items()})  # the next run reads it at once
             _MEMORY[path] = shipped
             return shipped
+    if not measure:
+        return None
     if _announces():
         print(probe_note(engine, task, space, points, workers, use_cache, why), file=sys.stderr, flush=True)
         found = _measured_with_a_bar(engine, task, space, points, workers)
@@ -780,12 +785,38 @@ def _write_cache(path: Path, data: dict) -> None:
 
 
 def inactive_parameters(
-    engine: str, tasks: list[TaskSpec], space: ParameterSpace, use_cache: bool = True, workers: int = 1
+    engine: str,
+    tasks: list[TaskSpec],
+    space: ParameterSpace,
+    use_cache: bool = True,
+    workers: int = 1,
+    deadline: float | None = None,
 ) -> dict[str, str]:
     """Parameters of ``space`` that change no rollout of any of ``tasks``: name -> why (per task where they differ).
 
-    A probe not cached yet runs on ``workers`` processes."""
-    per_task = {task.name: task_activity(engine, task, space, use_cache=use_cache, workers=workers) for task in tasks}
+    A probe not cached yet runs on ``workers`` processes, until ``deadline`` (``time.monotonic()``; None: none):
+    past it a task's probe that is not held is not run, and that task's parameters count as active but for those
+    the engine and its schedule rule out without a rollout (:func:`declared_inactive`), said in one warning.  A run
+    under ``--max-seconds`` so spends at most one task's probe past it; a later run reads the probes measured."""
+    per_task: dict[str, dict[str, Activity]] = {}
+    skipped: list[str] = []
+    for task in tasks:
+        measure = deadline is None or time.monotonic() < deadline
+        found = task_activity(engine, task, space, use_cache=use_cache, workers=workers, measure=measure)
+        if found is None:
+            declared = declared_inactive(engine, [task], space)
+            found = {n: Activity(n, n not in declared, 0.0, declared.get(n, "")) for n in space.names}
+            skipped.append(task.name)
+        per_task[task.name] = found
+    if skipped:
+        shown = ", ".join(skipped[:3]) + (f" and {len(skipped) - 3} more" if len(skipped) > 3 else "")
+        warnings.warn(
+            f"the probe of which parameters change a rollout was cut short by the time cap: {len(skipped)} of "
+            f"{len(tasks)} tasks not probed ({shown}); their parameters stay in the search (a later run reads the "
+            "probes measured, and probes the rest)",
+            RecordingWarning,
+            stacklevel=2,
+        )
     inactive = {}
     for name in space.names:
         if all(not found[name].active for found in per_task.values()):

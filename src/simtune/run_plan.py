@@ -75,6 +75,9 @@ class RunPlan:
     full_space: ParameterSpace
     #: the tasks held out of the search (``config.validate``), scored with its best parameters afterwards
     validation: tuple[TaskSpec, ...] = ()
+    #: when the inactive-parameter probe stops measuring tasks it does not hold (``time.monotonic()``; a run under
+    #: ``--max-seconds`` sets it: :func:`simtune.activity.inactive_parameters`); None: it measures every one
+    probe_deadline: float | None = None
 
     @property
     def keeps_inactive(self) -> bool:
@@ -89,7 +92,9 @@ class RunPlan:
         parameter either way, and the probe would only cost it rollouts."""
         if self.keeps_inactive:
             return declared_inactive(self.config.engine, self.tasks, self.full_space)
-        return inactive_parameters(self.config.engine, self.tasks, self.full_space, workers=self.config.workers)
+        return inactive_parameters(
+            self.config.engine, self.tasks, self.full_space, workers=self.config.workers, deadline=self.probe_deadline
+        )
 
     @cached_property
     def references(self) -> dict[str, TaskData]:

@@ -61,6 +61,9 @@ from simtune.tasks.spec import FINGERPRINT
 from simtune.uncertainty import uncertainty, verdict
 
 BEST_PARAMS_FILE = "best_params.json"
+#: the share of a --max-seconds cap the inactive-parameter probe may take before the search (then it stops
+#: measuring tasks it does not hold: :attr:`simtune.run_plan.RunPlan.probe_deadline`)
+PROBE_SHARE = 0.5
 #: where ``resume --rescore`` keeps the run it replaces
 SUPERSEDED_DIR = "superseded"
 STORE_FILES = (STORE_FILE, STORE_FILE + "-wal", STORE_FILE + "-shm")
@@ -367,6 +370,9 @@ def start_run(config: RunConfig, run_dir: Path, show_progress: bool = True) -> T
         check_main_guarded(f"{config.workers} workers")
         start_worker_server()  # its imports run while this process reads the recordings
     plan = plan_run(config)
+    if config.max_seconds is not None:
+        # the probe may take half the cap: past it, a task it does not hold yet keeps its parameters in the search
+        plan.probe_deadline = time.monotonic() - (time.perf_counter() - started) + PROBE_SHARE * config.max_seconds
     announce(f"reading and aligning the recordings of {config.tasks} ({config.reference} reference) ...")
     objective = plan.objective()  # checks engine, tasks, space and data before any folder is made
     announce(f"scoring {config.engine}'s generic parameters, then tuning {len(objective.vector_space())} parameter(s)")
