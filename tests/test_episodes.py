@@ -133,6 +133,10 @@ def test_each_reads_one_task_per_episode_grouped_under_the_files_name(dataset, t
         assert task.phases[0].targets_deg == pytest.approx(np.degrees(first))
     # each task its own schedule, and the recordings of its own episode only
     assert project.task(names[0]).phases != project.task(names[1]).phases
+    # the set-points at their frames' times, not at LeRobot's float32 timestamps (0.1 s stored as 0.10000000149 s):
+    # a target switching a hair after the controller's tick on a frame time would lag it by a frame there
+    starts = [p.start for p in project.task(names[0]).phases]
+    assert starts == [k / 30 for k in range(len(starts))]
 
 
 def test_a_list_of_episodes_and_a_project_group_of_an_episode_file(dataset, tmp_path):

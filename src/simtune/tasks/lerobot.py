@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from simtune.data.lerobot import ANGLE_UNITS, LeRobotReading, read_lerobot_actions
+from simtune.data.lerobot import ANGLE_UNITS, LeRobotReading, read_info, read_lerobot_actions
 from simtune.data.sanity import JointRange
 from simtune.errors import ProjectError, RecordingError
 from simtune.robot.description import RobotDescription
@@ -141,6 +141,34 @@ def joint_limits(robot: RobotDescription, joints: Sequence[str]) -> dict[str, tu
     return {j.name: (j.lower, j.upper) for j in angular}
 
 
+#: how far [s] a stored timestamp may lie from its frame's ``index / fps`` and still be that frame's time, rounded
+#: (LeRobot stores ``frame_index / fps`` as float32: 0.1 s is stored as 0.10000000149 s)
+FRAME_TIME_TOLERANCE_S = 1e-4
+
+
+def on_frame_grid(time: np.ndarray, fps: float | None) -> np.ndarray:
+    """An episode's timestamps as the frame times they stand for: each ``k / fps`` exactly where every one lies within
+    :data:`FRAME_TIME_TOLERANCE_S` of it, else as stored.
+
+    LeRobot synthesises timestamps as ``frame_index / fps`` and stores them as float32, a little off the frame's
+    time.  A schedule of set-points at those times would switch a hair after the controller's tick that falls on a
+    frame's time (every third tick at 30 fps against 20 Hz), a target one frame late there, which a tuned delay
+    then makes up for (5 ms in a synthesised SO-101 dataset).
+
+    Args:
+        time: the timestamps [s], the episode's first at 0.
+        fps: the dataset's frame rate (``meta/info.json``); None: the timestamps stay as stored.
+
+    Returns:
+        The timestamps, on the frame grid where they are on it.
+    """
+    if not fps or len(time) == 0:
+        return time
+    frames = np.round(np.asarray(time, dtype=float) * fps)
+    grid = frames / float(fps)
+    return grid if float(np.max(np.abs(grid - time))) < FRAME_TIME_TOLERANCE_S else time
+
+
 def lerobot_schedule(
     keys: Keys,
     path: Path,
@@ -184,7 +212,7 @@ def lerobot_schedule(
     if start_pose is None:
         start_pose = tuple(math.degrees(actions.start.get(j, 0.0)) for j in joints)
     held = dict(zip(joints, np.radians(start_pose)))
-    time = actions.time - actions.time[0]
+    time = on_frame_grid(actions.time - actions.time[0], read_info(path.parent / folder).get("fps"))
     keep = np.flatnonzero((time < duration) & np.concatenate([[True], np.diff(time) > 0]))
     targets = np.degrees(np.column_stack([actions.targets.get(j, np.full(len(time), held[j])) for j in joints]))
     phases = tuple(Phase(float(time[i]), tuple(float(v) for v in targets[i])) for i in keep)
