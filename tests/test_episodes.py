@@ -312,6 +312,9 @@ def test_validate_holds_the_last_episodes_out_and_scores_them_with_the_best(data
     code, text, _ = cli_in_process("resume", str(run), capsys=capsys)
     text = " ".join(text.split())  # wrapped at the terminal's width
     assert code == 0 and "held out 1 task(s) (train.ep2): fitness" in text and "per tuned task (" in text
+    assert result.validation == validation  # the API reads it back too
+    page = st.report(run, tmp_path / "report").read_text()
+    assert "train.ep2 (held out)" in page  # the report's headline shows it beside the tuned tasks
 
 
 @pytest.mark.parametrize(
@@ -345,3 +348,39 @@ def test_validate_by_episode_number():
     assert [t.name for t in held] == ["t.ep1", "t.ep3"] and [t.name for t in train] == ["t.ep0", "t.ep2"]
     assert [t.name for t in held_out(tasks, "2")[1]] == ["t.ep2", "t.ep3"]
     assert held_out(tasks, "") == (tasks, [])
+
+
+@pytest.mark.slow  # about a minute: 8 SO-101 episodes synthesised, a project from the dataset, tuned
+def test_so101_from_a_dataset_of_different_episodes_to_one_delay_and_held_out_episodes(tmp_path):
+    """Issue 70's journey: a dataset of different teleoperation-like episodes (synth --episodes, a known truth),
+    a project started from it in one init, tuned by one command with episodes held out."""
+    from test_lerobot import so101_urdf
+
+    from simtune.tasks.init_project import init_project
+
+    urdf = so101_urdf()
+    stand_in = tmp_path / "so101"
+    init_project(urdf, stand_in)  # its `reach`: the start pose and controller the drawn episodes keep
+    reach = stand_in / "tasks" / "reach.toml"
+    reach.write_text(reach.read_text().replace("[mocap]", '[recordings]\nunits = "deg"\n\n[mocap]'))
+    truth = {"command_delay": 0.2, "kp_joint_2": 15.0}
+    st.synth("mujoco", "reach", out=tmp_path / "data", project=stand_in, fmt="lerobot", episodes=8,
+             truth=_truth_file(tmp_path, truth))  # fmt: skip
+    made: list = []
+    project = st.init_project(urdf, tmp_path / "proj", dataset=tmp_path / "data" / "reach", made=made)
+    assert made[0].episodes == 8 and made[0].units == "deg"
+    run = tmp_path / "run"
+    st.tune("mujoco", "reach", project=project.parent, out=run, only=["command_delay", "kp_joint_2"], validate=2,
+            workers=2, seed=0)  # fmt: skip
+    tuned = st.read_run(run)
+    assert tuned.x["command_delay"] == pytest.approx(0.2, abs=0.005), tuned.x
+    assert tuned.x["kp_joint_2"] == pytest.approx(15.0, abs=0.05 * 39), tuned.x  # 5 % of its range, 1-40
+    validation = tuned.validation
+    assert validation is not None and validation["tasks"] == ["reach.ep6", "reach.ep7"]
+    assert validation["ratio"] < 1.2, validation  # the held-out episodes within 20 % of the fitted score
+
+
+def _truth_file(folder: Path, truth: dict) -> Path:
+    path = folder / "truth.json"
+    path.write_text(json.dumps(truth))
+    return path

@@ -106,6 +106,9 @@ class Result:
     #: what a run's prior (``prior``: simtune.objective.Prior) added to the fitness it minimised; ``fitness`` is the
     #: data's fit without it.  0 without a prior, and for an evaluation
     prior_penalty: float = 0.0
+    #: a run's held-out tasks (``validate``) scored with its best parameters: ``tasks``, ``parts``, ``fitness`` (per
+    #: held-out task), ``fitted`` (per tuned task), ``ratio``, ``clock_aligned``; None without them
+    validation: dict | None = None
 
     @classmethod
     def from_score(cls, engine: str, x: Mapping[str, float], score: Score, generic: Score | dict, **more) -> Result:
@@ -490,7 +493,8 @@ def run_config(
         only: the parameters to tune (a comma-separated string or a list); None: the whole space.
         settings: any other field of :class:`~simtune.run_plan.RunConfig` by name (space, optimizer, seed,
             workers, max_seconds, max_evaluations, paper_exact, reference, repeats, targets, residuals ...), its
-            default where left out or None (calibrated and auto, or shared and de with ``paper_exact``).
+            default where left out or None (calibrated and auto, or shared and de with ``paper_exact``);
+            ``validate`` also as a count (``4``) or a list of task names or episode numbers.
 
     Returns:
         The checked configuration.
@@ -502,6 +506,11 @@ def run_config(
         if key not in RUN_DEFAULTS or key in ("engine", "tasks", "project", "data", "weights"):
             raise ConfigError(f"unknown run setting {key!r}; the settings are RunConfig's: {', '.join(RUN_DEFAULTS)}")
     given = _given(settings)
+    held = given.get("validate")
+    if isinstance(held, int) and not isinstance(held, bool):
+        given["validate"] = str(held)  # validate=4: the last 4 tasks, as --validate 4
+    elif isinstance(held, list | tuple) and all(isinstance(v, str | int) and not isinstance(v, bool) for v in held):
+        given["validate"] = ",".join(map(str, held))  # task names or episode numbers
     proj = _project(project)
     config = new_run_config(
         engine,
@@ -1205,6 +1214,7 @@ def read_run(run_dir: Path | str) -> Result:
         reference=config.reference,
         repeats=config.repeats,
         stop_reason=record.stop_reason,
+        validation=record.validation,
     )
 
 

@@ -50,6 +50,9 @@ def headline_table(groups: list[Group], floors: list[RepeatFloor]) -> Table:
                     None if not (floor and tuned_fit is not None) else tuned_fit / floor,
                 ]
             )
+        held = best.record.validation or {}
+        for task, fit in (held.get("parts") or {}).items():  # --validate: what the run did not see, with its best
+            rows.append([g.engine, g.space, f"{task} (held out)", len(g.runs), None, fit, None, None, None])
     return Table(
         "headline",
         "At a glance: the tuned simulation against the untuned one and the data's floor",
@@ -69,7 +72,8 @@ def headline_table(groups: list[Group], floors: list[RepeatFloor]) -> Table:
         "its engine, tasks and space (its tasks tuned together). Floor: the real arm's repeats against their own "
         "aligned mean, scored as a simulation is: a tuned fitness near it is as close as the recordings can tell "
         f"(tuned / floor = 1); '{NO_FLOOR}' where a task has one repeat, which scores 0 against itself; '-' where "
-        "its recordings could not be read.",
+        "its recordings could not be read. A task marked 'held out' was left out of the run's search (--validate) and "
+        "scored afterwards with its best parameters.",
     )
 
 
