@@ -86,8 +86,9 @@ def test_synths_actions_are_the_command_in_force_at_each_frames_timestamp(synthe
     time, episode, action = frames(source / "recordings" / "wave")
     for k in (0, 1):
         rows = episode == k
-        # the schedule's phases start at the source's float32 timestamps, as the written ones are
-        in_force = table[np.searchsorted(starts, time[rows], side="right")]
+        # the schedule's phases start at the source's frame times (index / fps, not its float32 timestamps);
+        # the writer compares them in float32, the written timestamps' type, so a frame's own phase is in force there
+        in_force = table[np.searchsorted(np.float32(starts), np.float32(time[rows]), side="right")]
         late = np.flatnonzero(np.any(np.abs(action[rows, :6] - in_force) > 1e-4, axis=1))
         assert late.size == 0, f"episode {k}: {late.size} of {rows.sum()} frames' actions are not in force there"
 
