@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The test suite from a fresh clone, the README's test command and CI's (.ci/run) alike.
 #
-#   scripts/test.sh              the default tier: python -m pytest on 2 processes (pytest-xdist), 4.0 minutes on 2 cores
+#   scripts/test.sh              the default tier: python -m pytest on 2 processes (pytest-xdist), 3.4 minutes on 2 cores
 #   scripts/test.sh -m slow      the slow tier: end-to-end tuning, kill -9 and hang tests, real data
 #   scripts/test.sh --ci         CI: ruff check, ruff format --check, mypy, the default tier, the slow tier
 #   scripts/test.sh --latest     the default tier (or ARGS) against the newest versions pyproject.toml allows, in
